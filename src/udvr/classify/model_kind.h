@@ -1,0 +1,33 @@
+#pragma once
+// The noise models of SPEC §3–4, by CLI name.
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace udvr {
+
+enum class ModelKind {
+    Mean,              // mean field
+    Uniform,           // box spline of 8 scaled uniforms
+    Gaussian,          // N(Σwμ, Σw²σ²)
+    GmmOrdered,        // rank-wise interpolated mixture
+    GmmMc,             // Monte Carlo realizations, averaged in screen space (render only)
+    QuantileRange,     // Athawale et al. 2021, Eq. 4
+    QuantileMean,      // Eq. 5, density weights
+    QuantileMeanMass,  // Eq. 5 with equal weights 1/q
+    Iqr,               // middle 50 %
+    QuartileLower,     // quantile-range over [0, .25]
+    QuartileMiddle,    // quantile-range over [.25, .75]
+    QuartileUpper,     // quantile-range over [.75, 1]
+};
+
+/// Parse a CLI model name ("quantile-mean"); throws UdvrError listing the valid names.
+ModelKind parseModelKind(std::string_view name);
+/// The CLI name of a model.
+std::string_view modelName(ModelKind kind);
+/// All models, in the order of SPEC §3–4.
+const std::vector<ModelKind>& allModelKinds();
+/// Whether a model needs the quantile boundaries array.
+bool needsQuantiles(ModelKind kind);
+
+}  // namespace udvr

@@ -1,0 +1,13 @@
+// udvr build (SPEC §8). Placeholder until its issue lands.
+#include "udvr/cmd/commands.h"
+#include "udvr/util/check.h"
+
+namespace udvr::cmd {
+
+void addBuildCommand(CLI::App& app) {
+    auto* sub = app.add_subcommand("build", "not implemented yet");
+    sub->allow_extras();
+    sub->callback([] { UDVR_FAIL("'udvr build' is not implemented yet"); });
+}
+
+}  // namespace udvr::cmd

@@ -1,0 +1,18 @@
+#pragma once
+// Small parsers for CLI values ("64", "64,64,32", "1.5,2,3", "512x512"); throw UdvrError.
+#include <array>
+#include <string>
+#include <vector>
+
+namespace udvr::cmd {
+
+/// "N" → {N,N,N}; "X,Y,Z" → {X,Y,Z}; each ≥ 1. `flag` names the option in errors.
+std::array<int, 3> parseDims(const std::string& text, const std::string& flag);
+/// "x,y,z" → three finite doubles.
+std::array<double, 3> parseVec3(const std::string& text, const std::string& flag);
+/// "WxH" (or "N" for N×N) → {W,H}, each in [1, 16384].
+std::array<int, 2> parseSize(const std::string& text, const std::string& flag);
+/// Comma-separated finite doubles.
+std::vector<double> parseDoubleList(const std::string& text, const std::string& flag);
+
+}  // namespace udvr::cmd

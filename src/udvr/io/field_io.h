@@ -1,0 +1,38 @@
+#pragma once
+// Scalar-field readers and writers (SPEC §7): raw, NRRD (.nrrd/.nhdr), VTK XML ImageData
+// (.vti), NetCDF (.nc). Every reader rejects truncated files, dims that do not match the data
+// and non-finite values with a UdvrError that names the file.
+#include <array>
+#include <filesystem>
+#include <string>
+
+#include "udvr/io/field.h"
+
+namespace udvr {
+
+/// Layout of a headerless raw file, given on the command line.
+struct RawLayout {
+    std::array<int, 3> dims{0, 0, 0};  // all > 0 when given
+    std::string type = "float32";       // uint8 int8 uint16 int16 uint32 int32 float32 float64
+    bool bigEndian = false;
+    std::array<double, 3> spacing{1.0, 1.0, 1.0};
+    std::array<double, 3> origin{0.0, 0.0, 0.0};
+    bool given() const { return dims[0] > 0 && dims[1] > 0 && dims[2] > 0; }
+};
+
+struct FieldReadOptions {
+    RawLayout raw;    // required for .raw files
+    std::string var;  // array (.vti) or variable (.nc) name; empty = the only/first scalar one
+};
+
+/// Read one scalar field; the format is chosen by extension (.raw .nrrd .nhdr .vti .nc).
+ScalarField readField(const std::filesystem::path& path, const FieldReadOptions& options = {});
+
+/// Write a field as VTK XML ImageData (point array named field.name or "scalars"), atomically.
+void writeFieldVti(const std::filesystem::path& path, const ScalarField& field);
+/// Write a field as NetCDF with dims z,y,x and CF coordinate variables x,y,z, atomically.
+void writeFieldNetcdf(const std::filesystem::path& path, const ScalarField& field);
+/// Write by extension (.vti or .nc).
+void writeField(const std::filesystem::path& path, const ScalarField& field);
+
+}  // namespace udvr

@@ -1,0 +1,31 @@
+#pragma once
+// Float RGBA images and their files (SPEC §5): PNG (8-bit, straight values), PFM and NPY
+// (float32 RGBA). Pixel (0,0) is the top-left; rows top to bottom.
+#include <filesystem>
+#include <vector>
+
+namespace udvr {
+
+struct ImageRgba {
+    int width = 0, height = 0;
+    std::vector<float> rgba;  // width*height*4, row-major from the top row
+
+    float* pixel(int x, int y) { return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x); }
+    const float* pixel(int x, int y) const {
+        return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x);
+    }
+};
+
+/// PNG, 8 bits per channel RGBA, values clamped to [0,1] and rounded; atomically.
+void writePng(const std::filesystem::path& path, const ImageRgba& image);
+/// Read an 8-bit or 16-bit PNG (gray, RGB or RGBA) into [0,1] floats.
+ImageRgba readPng(const std::filesystem::path& path);
+/// float32 image by extension: .npy (shape height×width×4, '<f4', RGBA) or .pfm (colour "PF",
+/// RGB only, rows bottom-to-top as the format requires); atomically.
+void writeFloatImage(const std::filesystem::path& path, const ImageRgba& image);
+/// Read .npy (h×w×4 or h×w×3 float32/float64) or .pfm back.
+ImageRgba readFloatImage(const std::filesystem::path& path);
+/// Read any image udvr writes, by extension (.png, .npy, .pfm).
+ImageRgba readImage(const std::filesystem::path& path);
+
+}  // namespace udvr

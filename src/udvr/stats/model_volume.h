@@ -1,0 +1,49 @@
+#pragma once
+// The model volume: per-voxel distribution models (SPEC §2, §7). Written by `udvr build`,
+// read by render/probe. Arrays are empty when the model was not built.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "udvr/util/grid.h"
+
+namespace udvr {
+
+struct ModelVolume {
+    Grid3 grid;  // the model's own (possibly reduced) grid, world units
+
+    std::vector<float> mean;    // μ per voxel
+    std::vector<float> stddev;  // σ per voxel, ddof = 1 (0 for a single sample)
+    std::vector<float> min;     // sample minimum per voxel
+    std::vector<float> max;     // sample maximum per voxel
+
+    int quantileCount = 0;        // q; quantiles holds q+1 boundaries per voxel (0 = absent)
+    std::vector<float> quantiles;  // b_0..b_q contiguous per voxel: quantiles[v*(q+1)+j]
+    std::vector<float> iqr;        // b(0.25), b(0.75) per voxel (empty = absent)
+
+    int gmmComponents = 0;   // K (0 = absent)
+    std::vector<float> gmm;  // 3K per voxel: π_1..π_K, μ_1..μ_K, σ_1..σ_K; sorted by μ
+
+    // Field data (SPEC §7).
+    std::string density = "empirical";  // "empirical" or "kde"
+    double bandwidth = 0.0;             // kde: median h over voxels (rule may vary per voxel)
+    std::string bandwidthRule;          // "silverman", "scott", a number, or "" (empirical)
+    double tailEps = 0.0;               // kde tail ε; 0 for empirical
+    int samplesPerVoxel = 0;
+    int downsample = 0;                  // brick size K, 0 for an ensemble
+    std::array<double, 6> bounds{};      // full-resolution world bounds
+    double fullResMinSpacing = 1.0;      // smallest spacing of the full-resolution grid
+    std::string source;                  // input description
+
+    std::size_t voxelCount() const { return grid.pointCount(); }
+    bool hasQuantiles() const { return quantileCount > 0 && !quantiles.empty(); }
+    bool hasGmm() const { return gmmComponents > 0 && !gmm.empty(); }
+    const float* quantilesAt(std::size_t v) const {
+        return quantiles.data() + v * static_cast<std::size_t>(quantileCount + 1);
+    }
+    const float* gmmAt(std::size_t v) const {
+        return gmm.data() + v * static_cast<std::size_t>(3 * gmmComponents);
+    }
+};
+
+}  // namespace udvr

@@ -1,0 +1,64 @@
+#pragma once
+// Checks and user-facing errors.
+//  - UdvrError: a user error (bad input, bad flag). The CLI prints what() on one line, exits 2.
+//  - UDVR_CHECK: an always-on invariant; throws InternalError with file:line.
+//  - UDVR_DCHECK: same, debug builds only.
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace udvr {
+
+/// A user error: the message says what was wrong and what was expected. One line.
+class UdvrError : public std::runtime_error {
+public:
+    explicit UdvrError(const std::string& message) : std::runtime_error(message) {}
+};
+
+/// A violated invariant (a bug, not bad input).
+class InternalError : public std::logic_error {
+public:
+    explicit InternalError(const std::string& message) : std::logic_error(message) {}
+};
+
+namespace detail {
+[[noreturn]] inline void checkFailed(const char* expr, const char* file, int line,
+                                     const std::string& message) {
+    std::ostringstream os;
+    os << "internal check failed: " << expr << " at " << file << ":" << line;
+    if (!message.empty()) os << " (" << message << ")";
+    throw InternalError(os.str());
+}
+}  // namespace detail
+
+}  // namespace udvr
+
+#define UDVR_CHECK(cond)                                                         \
+    do {                                                                         \
+        if (!(cond)) ::udvr::detail::checkFailed(#cond, __FILE__, __LINE__, ""); \
+    } while (0)
+#define UDVR_CHECK_MSG(cond, msg)                                                   \
+    do {                                                                            \
+        if (!(cond)) ::udvr::detail::checkFailed(#cond, __FILE__, __LINE__, (msg)); \
+    } while (0)
+#ifndef NDEBUG
+#define UDVR_DCHECK(cond) UDVR_CHECK(cond)
+#else
+#define UDVR_DCHECK(cond) \
+    do {                  \
+    } while (0)
+#endif
+
+/// Throw a UdvrError built with stream syntax: UDVR_FAIL("dims " << n << " do not match").
+#define UDVR_FAIL(stream_expr)                           \
+    do {                                                 \
+        std::ostringstream udvr_fail_os_;                \
+        udvr_fail_os_ << stream_expr;                    \
+        throw ::udvr::UdvrError(udvr_fail_os_.str());    \
+    } while (0)
+
+#ifdef __CUDACC__
+#define UDVR_CPU_GPU __host__ __device__
+#else
+#define UDVR_CPU_GPU
+#endif

@@ -1,0 +1,39 @@
+#pragma once
+// A progress bar on stderr, drawn only when stderr is a terminal (quiet otherwise).
+// Thread-safe: advance() may be called from worker threads.
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <mutex>
+#include <string>
+
+namespace udvr {
+
+class ProgressBar {
+public:
+    /// label: what is being done ("build"); total: units of work (voxels, rows, frames).
+    ProgressBar(std::string label, std::size_t total);
+    ~ProgressBar();
+    ProgressBar(const ProgressBar&) = delete;
+    ProgressBar& operator=(const ProgressBar&) = delete;
+
+    /// Add done units; redraws at most ~10 times per second.
+    void advance(std::size_t units = 1);
+    /// Draw 100 % and end the line (also done by the destructor).
+    void finish();
+    /// Whether bars are drawn at all (stderr is a tty and UDVR_NO_PROGRESS is unset).
+    static bool enabled();
+
+private:
+    void draw(std::size_t done);
+    std::string label_;
+    std::size_t total_;
+    std::atomic<std::size_t> done_{0};
+    std::atomic<long long> lastDrawNs_{0};
+    std::chrono::steady_clock::time_point start_;
+    std::mutex drawMutex_;
+    bool enabled_;
+    bool finished_ = false;
+};
+
+}  // namespace udvr
