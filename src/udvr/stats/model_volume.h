@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "udvr/io/field.h"
 #include "udvr/util/grid.h"
 
 namespace udvr {
@@ -45,5 +46,9 @@ struct ModelVolume {
         return gmm.data() + v * static_cast<std::size_t>(3 * gmmComponents);
     }
 };
+
+/// A deterministic field as a model: mean = min = max = the values, stddev = 0; no quantiles or
+/// GMM. Rendering it with model `mean` is the ground truth of SPEC §5.
+ModelVolume modelFromField(const ScalarField& field);
 
 }  // namespace udvr
