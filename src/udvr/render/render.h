@@ -1,0 +1,55 @@
+#pragma once
+// The CPU ray caster (SPEC §5): VTK-style camera, fixed step, opacity correction,
+// premultiplied front-to-back compositing, early termination, empty-space skipping.
+#include <array>
+#include <cstdint>
+#include <optional>
+
+#include "udvr/classify/model_kind.h"
+#include "udvr/classify/transfer_function.h"
+#include "udvr/io/image.h"
+#include "udvr/stats/model_volume.h"
+
+namespace udvr {
+
+/// A VTK-style camera in world units.
+struct Camera {
+    std::array<double, 3> position{0, 0, 1};
+    std::array<double, 3> focalPoint{0, 0, 0};
+    std::array<double, 3> viewUp{0, 1, 0};
+    double viewAngleDeg = 30.0;  // vertical field of view (perspective)
+    bool parallel = false;       // orthographic when true
+    double parallelScale = 1.0;  // half the viewport height in world units (orthographic)
+};
+
+/// The default camera of SPEC §5 / bench/peer/vtk_render.py: focal point at the box centre,
+/// on +z looking −z with up +y at the distance where the bounding sphere fits the vertical view
+/// angle, moved closer by `zoom` (distance / zoom), then VTK's Azimuth(about +y) and Elevation.
+Camera defaultCamera(const std::array<double, 6>& bounds, double azimuthDeg, double elevationDeg,
+                     double zoom = 1.0, double viewAngleDeg = 30.0);
+
+struct RenderSettings {
+    int width = 512, height = 512;
+    Camera camera;
+    double step = 0.0;          // world units; 0 = half the full-res grid's smallest spacing
+    double unitDistance = 0.0;  // TF opacity unit, world units; 0 = full-res smallest spacing
+    double earlyExit = 0.99;    // stop when accumulated α exceeds this; 1.0 disables
+    std::array<float, 3> background{1.f, 1.f, 1.f};
+    bool skipEmpty = true;           // empty-space skipping from per-brick support bounds
+    int realizations = 200;          // gmm-mc: realizations averaged in screen space
+    std::uint64_t seed = 1;          // gmm-mc realization seed
+    std::optional<std::uint64_t> jitterSeed;  // per-ray start jitter in [0, Δ) when set
+};
+
+struct RenderStats {
+    double milliseconds = 0.0;     // wall time of the frame (all realizations for gmm-mc)
+    std::uint64_t samples = 0;     // classified samples
+    std::uint64_t skippedSamples = 0;
+};
+
+/// Render one frame of `model` with noise model `kind`. The image holds straight (not
+/// premultiplied) RGB composited over the background, alpha = accumulated opacity.
+ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                       const RenderSettings& settings, RenderStats* stats = nullptr);
+
+}  // namespace udvr
