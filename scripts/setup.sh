@@ -6,7 +6,8 @@ cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake pkg-config libvtk9-dev libnetcdf-dev libtbb-dev nlohmann-json3-dev
           libcli11-dev libeigen3-dev libpng-dev zlib1g-dev libgtest-dev libbenchmark-dev
-          pybind11-dev python3-dev python3-numpy python3-scipy python3-pytest clang-format)
+          pybind11-dev python3-dev python3-numpy python3-scipy python3-pytest clang-format
+          libcairo2-dev)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
