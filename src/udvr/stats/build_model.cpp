@@ -1,0 +1,352 @@
+#include "udvr/stats/build_model.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <vector>
+
+#include "udvr/util/check.h"
+#include "udvr/util/parallel.h"
+#include "udvr/util/progress.h"
+
+namespace udvr {
+namespace {
+
+// Voxels per gather buffer: 256 voxels × 50 members of float = 50 KiB, inside L2.
+constexpr std::size_t kChunkVoxels = 256;
+
+/// Non-finite samples and the range of the finite ones, over the samples a build will use.
+struct InputScan {
+    std::size_t nonFinite = 0;
+    std::size_t firstVoxel = std::numeric_limits<std::size_t>::max();  // linear, input grid
+    int firstMember = -1;                                              // ensemble only
+    double min = std::numeric_limits<double>::infinity();
+    double max = -std::numeric_limits<double>::infinity();
+
+    void merge(const InputScan& o) {
+        nonFinite += o.nonFinite;
+        if (o.firstVoxel < firstVoxel) {
+            firstVoxel = o.firstVoxel;
+            firstMember = o.firstMember;
+        }
+        min = std::min(min, o.min);
+        max = std::max(max, o.max);
+    }
+    void add(float v, std::size_t voxel, int member) {
+        if (!std::isfinite(v)) {
+            ++nonFinite;
+            if (voxel < firstVoxel) {
+                firstVoxel = voxel;
+                firstMember = member;
+            }
+            return;
+        }
+        min = std::min(min, static_cast<double>(v));
+        max = std::max(max, static_cast<double>(v));
+    }
+};
+
+[[noreturn]] void failNonFinite(const InputScan& s, const Grid3& grid, bool ensemble) {
+    const auto X = static_cast<std::size_t>(grid.dims[0]);
+    const auto Y = static_cast<std::size_t>(grid.dims[1]);
+    const std::size_t i = s.firstVoxel % X, j = (s.firstVoxel / X) % Y, k = s.firstVoxel / (X * Y);
+    if (ensemble)
+        UDVR_FAIL("the ensemble has " << s.nonFinite << " NaN/Inf samples (first at voxel (" << i
+                                      << "," << j << "," << k << "), member " << s.firstMember
+                                      << "); build needs finite values and never averages NaN");
+    UDVR_FAIL("the field has " << s.nonFinite << " NaN/Inf values (first at point (" << i << ","
+                               << j << "," << k
+                               << ")); build needs finite values and never averages NaN");
+}
+
+/// The statistics of SPEC §2 for every voxel. gather(v0, v1, buf) writes voxel v's n samples to
+/// buf[(v − v0)·n …] for v in [v0, v1), v1 − v0 ≤ kChunkVoxels.
+template <class Gather>
+ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const BuildOptions& opt,
+                      const InputScan& scan, BuildReport* report) {
+    const auto start = std::chrono::steady_clock::now();
+    const std::size_t voxels = grid.pointCount();
+    const std::size_t un = static_cast<std::size_t>(n);
+    const int q = opt.quantiles;
+    const int K = opt.gmmComponents;
+    const bool kde = opt.density == DensityEstimate::Kde;
+    const double eps = opt.tailEps > 0.0 ? opt.tailEps : 0.5 / static_cast<double>(n);
+
+    ModelVolume m;
+    m.grid = grid;
+    m.mean.resize(voxels);
+    m.stddev.resize(voxels);
+    m.min.resize(voxels);
+    m.max.resize(voxels);
+    m.iqr.resize(2 * voxels);
+    m.quantileCount = q;
+    if (q > 0) m.quantiles.resize(voxels * static_cast<std::size_t>(q + 1));
+    m.gmmComponents = K;
+    if (K > 0) m.gmm.resize(voxels * static_cast<std::size_t>(3 * K));
+    std::vector<float> bandwidths;  // per voxel h (kde), NaN for constant voxels
+    if (kde) bandwidths.resize(voxels);
+
+    GmmOptions gmmOpt;
+    gmmOpt.components = std::max(K, 1);
+    gmmOpt.seed = opt.gmmSeed;
+    // σ floor 1e−3 of the data range (SPEC §2); an input that is constant everywhere uses 1e−3.
+    const double range = scan.max - scan.min;
+    gmmOpt.sigmaFloor = range > 0.0 ? 1e-3 * range : 1e-3;
+
+    std::atomic<std::size_t> constant{0}, notConverged{0}, fewerDistinct{0}, iterations{0};
+    parallelForChunks(voxels, kChunkVoxels, [&](std::size_t b, std::size_t e) {
+        std::vector<float> buf(kChunkVoxels * un);
+        GmmWorkspace ws;
+        std::size_t lConstant = 0, lNotConverged = 0, lFewer = 0, lIterations = 0;
+        for (std::size_t c0 = b; c0 < e; c0 += kChunkVoxels) {
+            const std::size_t c1 = std::min(e, c0 + kChunkVoxels);
+            gather(c0, c1, buf.data());
+            for (std::size_t v = c0; v < c1; ++v) {
+                float* s = buf.data() + (v - c0) * un;
+                std::sort(s, s + un);
+                const std::span<const float> sorted(s, un);
+                const SampleMoments mom = sampleMoments(sorted);
+                m.mean[v] = static_cast<float>(mom.mean);
+                m.stddev[v] = static_cast<float>(mom.stddev);
+                m.min[v] = s[0];
+                m.max[v] = s[un - 1];
+                float* qv =
+                    q > 0 ? m.quantiles.data() + v * static_cast<std::size_t>(q + 1) : nullptr;
+                float* iqr = m.iqr.data() + 2 * v;
+                if (s[0] == s[un - 1]) {
+                    // A point mass: every boundary is the common value (SPEC §2).
+                    ++lConstant;
+                    if (qv) std::fill(qv, qv + q + 1, s[0]);
+                    iqr[0] = iqr[1] = s[0];
+                    if (kde) bandwidths[v] = std::numeric_limits<float>::quiet_NaN();
+                } else if (!kde) {
+                    // numpy's linear quantile at j/q; b_0 = min and b_q = max exactly.
+                    for (int j = 0; qv && j <= q; ++j)
+                        qv[j] = static_cast<float>(
+                            empiricalQuantile(sorted, static_cast<double>(j) / q));
+                    iqr[0] = static_cast<float>(empiricalQuantile(sorted, 0.25));
+                    iqr[1] = static_cast<float>(empiricalQuantile(sorted, 0.75));
+                } else {
+                    // b_j = F⁻¹(j/q), tails at ε and 1 − ε; Newton from the sample quantile.
+                    const double h = kdeBandwidth(sorted, mom.stddev, opt.bandwidth);
+                    bandwidths[v] = static_cast<float>(h);
+                    auto inv = [&](double p) {
+                        return kdeQuantile(sorted, h, p, empiricalQuantile(sorted, p));
+                    };
+                    double prev = -std::numeric_limits<double>::infinity();
+                    for (int j = 0; qv && j <= q; ++j) {
+                        const double p = j == 0   ? eps
+                                         : j == q ? 1.0 - eps
+                                                  : static_cast<double>(j) / q;
+                        prev = std::max(prev, inv(p));  // monotone despite solver tolerance
+                        qv[j] = static_cast<float>(prev);
+                    }
+                    iqr[0] = static_cast<float>(inv(0.25));
+                    iqr[1] = static_cast<float>(std::max(inv(0.75), static_cast<double>(iqr[0])));
+                }
+                if (K > 0) {
+                    const std::span<float> out(m.gmm.data() + v * static_cast<std::size_t>(3 * K),
+                                               static_cast<std::size_t>(3 * K));
+                    const GmmFitInfo fi = fitGmm(sorted, gmmOpt, v, out, ws);
+                    lIterations += static_cast<std::size_t>(fi.iterations);
+                    if (!fi.converged) ++lNotConverged;
+                    if (fi.distinctComponents < K && s[0] != s[un - 1]) ++lFewer;
+                }
+            }
+            if (opt.progress) opt.progress->advance(c1 - c0);
+        }
+        constant += lConstant;
+        notConverged += lNotConverged;
+        fewerDistinct += lFewer;
+        iterations += lIterations;
+    });
+
+    m.density = kde ? "kde" : "empirical";
+    m.bandwidthRule = kde ? opt.bandwidthText : "";
+    m.tailEps = kde ? eps : 0.0;
+    m.bandwidth = 0.0;
+    if (kde && opt.bandwidth.rule == BandwidthRule::Fixed) {
+        m.bandwidth = opt.bandwidth.fixed;
+    } else if (kde) {
+        // Median h over the voxels that have one (constant voxels have none).
+        auto last = std::remove_if(bandwidths.begin(), bandwidths.end(),
+                                   [](float h) { return std::isnan(h); });
+        const auto count = static_cast<std::size_t>(last - bandwidths.begin());
+        if (count > 0) {
+            auto mid = bandwidths.begin() + static_cast<std::ptrdiff_t>(count / 2);
+            std::nth_element(bandwidths.begin(), mid, last);
+            double med = *mid;
+            if (count % 2 == 0) med = 0.5 * (med + *std::max_element(bandwidths.begin(), mid));
+            m.bandwidth = med;
+        }
+    }
+    m.samplesPerVoxel = n;
+    m.source = opt.source;
+
+    if (report) {
+        report->voxels = voxels;
+        report->samplesPerVoxel = n;
+        report->constantVoxels = constant;
+        report->gmmNotConverged = notConverged;
+        report->gmmFewerDistinct = fewerDistinct;
+        const std::size_t fitted = voxels - constant;
+        report->meanGmmIterations =
+            fitted > 0 ? static_cast<double>(iterations) / static_cast<double>(fitted) : 0.0;
+        report->dataMin = scan.min;
+        report->dataMax = scan.max;
+        report->seconds +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    return m;
+}
+
+}  // namespace
+
+void validateBuildOptions(const BuildOptions& o, int n) {
+    if (n < 2) UDVR_FAIL("build needs at least 2 samples per voxel, the input gives " << n);
+    if (o.quantiles < 0 || o.quantiles > 1024)
+        UDVR_FAIL("--quantiles " << o.quantiles
+                                 << " is out of range; expected 1..1024 (or 0 to skip quantiles)");
+    if (o.gmmComponents < 0 || o.gmmComponents > kMaxGmmComponents)
+        UDVR_FAIL("--gmm " << o.gmmComponents << " is out of range; expected 1.."
+                           << kMaxGmmComponents << " components (or 0 to skip the GMM)");
+    if (o.gmmComponents > n)
+        UDVR_FAIL("--gmm " << o.gmmComponents << " needs at least " << o.gmmComponents
+                           << " samples per voxel, the input has " << n << "; use --gmm " << n
+                           << " or fewer");
+    if (o.density == DensityEstimate::Kde) {
+        if (o.bandwidth.rule == BandwidthRule::Fixed &&
+            !(std::isfinite(o.bandwidth.fixed) && o.bandwidth.fixed > 0.0))
+            UDVR_FAIL("--bandwidth " << o.bandwidth.fixed << " is not a positive finite number");
+        if (o.tailEps != 0.0) {
+            if (!(o.tailEps > 0.0 && o.tailEps < 0.5))
+                UDVR_FAIL("--tail-eps " << o.tailEps << " is out of range; expected 0 < E < 0.5");
+            if (o.quantiles > 0 && o.tailEps > 1.0 / o.quantiles)
+                UDVR_FAIL("--tail-eps " << o.tailEps << " exceeds 1/q = " << 1.0 / o.quantiles
+                                        << "; the tail boundaries would cross b_1");
+        }
+    } else if (o.tailEps != 0.0) {
+        UDVR_FAIL("--tail-eps applies to --density kde only");
+    }
+}
+
+ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* report) {
+    if (e.members < 2)
+        UDVR_FAIL("the ensemble has " << e.members << " member(s); build needs at least 2");
+    const std::size_t P = e.grid.pointCount();
+    UDVR_CHECK(P > 0 && e.values.size() == static_cast<std::size_t>(e.members) * P);
+    validateBuildOptions(opt, e.members);
+    const auto start = std::chrono::steady_clock::now();
+
+    // Non-finite check and data range, member rows scanned in voxel chunks.
+    InputScan scan;
+    std::mutex scanMutex;
+    parallelForChunks(P, 1 << 16, [&](std::size_t b, std::size_t end) {
+        InputScan local;
+        for (int mIdx = 0; mIdx < e.members; ++mIdx) {
+            const float* row = e.member(mIdx);
+            for (std::size_t v = b; v < end; ++v) local.add(row[v], v, mIdx);
+        }
+        std::lock_guard<std::mutex> lock(scanMutex);
+        scan.merge(local);
+    });
+    if (scan.nonFinite > 0) failNonFinite(scan, e.grid, true);
+    if (report) {
+        *report = BuildReport{};
+        report->seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+
+    const int n = e.members;
+    // Transpose member-major rows into voxel-major sample runs: contiguous reads per member.
+    auto gather = [&](std::size_t v0, std::size_t v1, float* buf) {
+        for (int mIdx = 0; mIdx < n; ++mIdx) {
+            const float* row = e.member(mIdx);
+            for (std::size_t v = v0; v < v1; ++v)
+                buf[(v - v0) * static_cast<std::size_t>(n) + static_cast<std::size_t>(mIdx)] =
+                    row[v];
+        }
+    };
+    ModelVolume m = buildCore(e.grid, n, gather, opt, scan, report);
+    m.downsample = 0;
+    m.bounds = e.grid.bounds();
+    m.fullResMinSpacing = e.grid.minSpacing();
+    return m;
+}
+
+Grid3 downsampledGrid(const Grid3& full, int k) {
+    if (k < 2) UDVR_FAIL("--downsample " << k << " is too small; expected a brick size K >= 2");
+    for (int a = 0; a < 3; ++a)
+        if (k > full.dims[a])
+            UDVR_FAIL("--downsample " << k << " is larger than the grid (" << full.dims[0] << "x"
+                                      << full.dims[1] << "x" << full.dims[2]
+                                      << "); expected K <= every dimension");
+    Grid3 g;
+    for (int a = 0; a < 3; ++a) {
+        g.dims[a] = full.dims[a] / k;
+        g.spacing[a] = k * full.spacing[a];
+        g.origin[a] = full.origin[a] + 0.5 * (k - 1) * full.spacing[a];  // brick centre
+    }
+    return g;
+}
+
+ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOptions& opt,
+                                  BuildReport* report) {
+    const Grid3 g = downsampledGrid(f.grid, k);
+    UDVR_CHECK(f.values.size() == f.grid.pointCount());
+    const int n = k * k * k;
+    validateBuildOptions(opt, n);
+    const auto start = std::chrono::steady_clock::now();
+
+    // Scan only the points inside whole bricks (the trailing planes are left out).
+    const int usedX = g.dims[0] * k, usedY = g.dims[1] * k, usedZ = g.dims[2] * k;
+    InputScan scan;
+    std::mutex scanMutex;
+    parallelForChunks(static_cast<std::size_t>(usedZ), 1, [&](std::size_t z0, std::size_t z1) {
+        InputScan local;
+        for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
+            for (int y = 0; y < usedY; ++y) {
+                const std::size_t base = f.grid.index(0, y, z);
+                for (int x = 0; x < usedX; ++x)
+                    local.add(f.values[base + static_cast<std::size_t>(x)],
+                              base + static_cast<std::size_t>(x), -1);
+            }
+        std::lock_guard<std::mutex> lock(scanMutex);
+        scan.merge(local);
+    });
+    if (scan.nonFinite > 0) failNonFinite(scan, f.grid, false);
+    if (report) {
+        *report = BuildReport{};
+        report->seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        for (int a = 0; a < 3; ++a) report->droppedPlanes[a] = f.grid.dims[a] % k;
+    }
+
+    const auto X = static_cast<std::size_t>(g.dims[0]);
+    const auto Y = static_cast<std::size_t>(g.dims[1]);
+    const auto uk = static_cast<std::size_t>(k);
+    // A brick's samples: K rows of K contiguous values per z-plane, x fastest.
+    auto gather = [&](std::size_t v0, std::size_t v1, float* buf) {
+        for (std::size_t v = v0; v < v1; ++v) {
+            const int i = static_cast<int>(v % X), j = static_cast<int>((v / X) % Y),
+                      kz = static_cast<int>(v / (X * Y));
+            float* dst = buf + (v - v0) * static_cast<std::size_t>(n);
+            for (int c = 0; c < k; ++c)
+                for (int b = 0; b < k; ++b) {
+                    const float* src = f.values.data() + f.grid.index(i * k, j * k + b, kz * k + c);
+                    std::copy(src, src + uk, dst);
+                    dst += uk;
+                }
+        }
+    };
+    ModelVolume m = buildCore(g, n, gather, opt, scan, report);
+    m.downsample = k;
+    m.bounds = f.grid.bounds();
+    m.fullResMinSpacing = f.grid.minSpacing();
+    return m;
+}
+
+}  // namespace udvr

@@ -1,0 +1,58 @@
+#pragma once
+// `udvr build`'s library half (SPEC §2): per-voxel samples from an ensemble or from K³ bricks of
+// one field → a ModelVolume with moments, quantile boundaries, IQR and a GMM.
+#include <cstdint>
+#include <string>
+
+#include "udvr/io/field.h"
+#include "udvr/stats/gmm.h"
+#include "udvr/stats/model_volume.h"
+#include "udvr/stats/voxel_stats.h"
+
+namespace udvr {
+
+class ProgressBar;
+
+struct BuildOptions {
+    int quantiles = 8;      // q ≥ 1; 0 skips the quantile array
+    int gmmComponents = 4;  // K ≥ 1; 0 skips the GMM
+    DensityEstimate density = DensityEstimate::Empirical;
+    KdeBandwidth bandwidth;                   // kde only
+    std::string bandwidthText = "silverman";  // as given, for the field data
+    double tailEps = 0.0;                     // kde tail ε in (0, 0.5) and ≤ 1/q; 0 = 1/(2n)
+    std::uint64_t gmmSeed = 1;                // k-means++ seed
+    std::string source;                       // input description for the field data
+    ProgressBar* progress = nullptr;          // advanced by voxels done (may be null)
+};
+
+/// What a build did, for the summary line.
+struct BuildReport {
+    std::size_t voxels = 0;
+    int samplesPerVoxel = 0;
+    std::size_t constantVoxels = 0;    // all samples equal: point masses
+    std::size_t gmmNotConverged = 0;   // EM stopped at 100 iterations
+    std::size_t gmmFewerDistinct = 0;  // voxels with fewer distinct values than K
+    double meanGmmIterations = 0.0;
+    double dataMin = 0.0, dataMax = 0.0;        // over all samples
+    std::array<int, 3> droppedPlanes{0, 0, 0};  // downsampling: trailing N mod K planes per axis
+    double seconds = 0.0;                       // check + statistics
+};
+
+/// Check options against n samples per voxel; throws UdvrError (q < 0, K < 0 or K > n, K too
+/// large, ε out of range, bandwidth not positive).
+void validateBuildOptions(const BuildOptions& options, int samplesPerVoxel);
+
+/// Model from an ensemble: the members' values at a voxel are its samples. Throws UdvrError for
+/// fewer than 2 members or non-finite samples (with their count and the first voxel).
+ModelVolume buildModel(const Ensemble& ensemble, const BuildOptions& options,
+                       BuildReport* report = nullptr);
+
+/// The reduced grid of K³ bricks (SPEC §2): ⌊N/K⌋ points per axis, spacing K·spacing, origin
+/// + (K−1)/2·spacing. Throws UdvrError for K < 2 or K larger than a dimension.
+Grid3 downsampledGrid(const Grid3& full, int k);
+
+/// Model from one field, each K³ brick's values being the samples of its reduced voxel.
+ModelVolume buildModelDownsampled(const ScalarField& field, int k, const BuildOptions& options,
+                                  BuildReport* report = nullptr);
+
+}  // namespace udvr

@@ -1,0 +1,61 @@
+#pragma once
+// Fast standard normal CDF Φ and density φ, sharing one exp().
+// Φ(u) = ½·erfc(−u/√2), and for z ≥ 0 erfc(z) = t·e^(−z²)·Q(t) with t = 1/(1 + z/2), where Q is a
+// degree-12 polynomial fitted (Chebyshev least squares on t ∈ (0, 1], this project's own fit) to
+// erfcx(z)/t. Max |error| of erfc over z ≥ 0 is 7.2e−10, so |Φ error| < 4e−10; normal_cdf_test.cpp
+// checks |error| < 1e−9 against std::erfc.
+#include <cmath>
+
+#include "udvr/util/check.h"
+
+namespace udvr {
+
+/// Φ(u) and φ(u) of the standard normal distribution.
+struct NormalCdfPdf {
+    double cdf;
+    double pdf;
+};
+
+namespace detail {
+/// erfc(z)·e^(z²) for z ≥ 0 (the scaled complementary error function erfcx), |rel. err| < 2e−9.
+UDVR_CPU_GPU inline double erfcxNonNegative(double z) {
+    const double t = 1.0 / (1.0 + 0.5 * z);
+    double q = -0.034835435706290684;
+    q = q * t + 0.20629037933280478;
+    q = q * t - 0.49051169818528501;
+    q = q * t + 0.55717139941080052;
+    q = q * t - 0.25002314249156715;
+    q = q * t + 0.0053214629887724484;
+    q = q * t - 0.057358821500754352;
+    q = q * t - 0.0079980889492288418;
+    q = q * t + 0.084723131459079976;
+    q = q * t + 0.17619189480161779;
+    q = q * t + 0.24683946872731444;
+    q = q * t + 0.28209465716430537;
+    q = q * t + 0.28209479222970868;
+    return t * q;
+}
+}  // namespace detail
+
+/// Φ(u) and φ(u) = e^(−u²/2)/√(2π) with a single exp; |Φ error| < 1e−9 for all finite u.
+UDVR_CPU_GPU inline NormalCdfPdf normalCdfPdf(double u) {
+    constexpr double kInvSqrt2 = 0.70710678118654752440;
+    constexpr double kInvSqrt2Pi = 0.39894228040143267794;
+    const double g = std::exp(-0.5 * u * u);  // e^(−z²) with z = |u|/√2
+    const double tail = 0.5 * g * detail::erfcxNonNegative(std::fabs(u) * kInvSqrt2);  // Φ(−|u|)
+    return {u >= 0.0 ? 1.0 - tail : tail, kInvSqrt2Pi * g};
+}
+
+/// Standard normal CDF Φ(u), |error| < 1e−9.
+UDVR_CPU_GPU inline double normalCdf(double u) { return normalCdfPdf(u).cdf; }
+
+/// erfc(x) for any finite x, |error| < 1e−9.
+UDVR_CPU_GPU inline double fastErfc(double x) {
+    const double e = std::exp(-x * x) * detail::erfcxNonNegative(std::fabs(x));
+    return x >= 0.0 ? e : 2.0 - e;
+}
+
+/// erf(x) for any finite x, |error| < 1e−9.
+UDVR_CPU_GPU inline double fastErf(double x) { return 1.0 - fastErfc(x); }
+
+}  // namespace udvr
