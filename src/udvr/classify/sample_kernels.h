@@ -9,55 +9,306 @@
 //       before opacity correction.
 //   UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const;
 //       a value interval outside which the voxel's distribution has no (or negligible) mass;
-//       used to build empty-space-skipping tables.
+//       used to build empty-space-skipping tables. For every model the distribution at a point
+//       of a cell lies inside the hull of its 8 corners' supports (supports interpolate
+//       linearly: Σ w(μ ± kσ) ⊇ μ(p) ± kσ(p) since sqrt(Σw²σ²) ≤ Σwσ), so a cell whose hull
+//       has α = 0 can be skipped.
 // Kernels are plain structs of sizes and raw pointers into storage that outlives them (a
-// ModelVolume and a KernelTables), so the same code can later be compiled for CUDA.
-#include <memory>
+// ModelVolume and a TfTableStorage owned by withKernel), so the same code can later be compiled
+// for CUDA.
+#include <cmath>
+#include <cstddef>
 #include <utility>
 
+#include "udvr/classify/expected_tf.h"
 #include "udvr/classify/model_kind.h"
+#include "udvr/classify/tf_table.h"
 #include "udvr/classify/transfer_function.h"
+#include "udvr/reconstruct/box_spline.h"
+#include "udvr/reconstruct/gaussian_interp.h"
+#include "udvr/reconstruct/gmm_ordered.h"
+#include "udvr/reconstruct/quantile_interp.h"
 #include "udvr/reconstruct/trilinear.h"
 #include "udvr/stats/model_volume.h"
 
 namespace udvr {
 
-/// Mean field: TF(Σ w_c μ_c).
+/// Gaussian supports for skipping are μ ± kSupportSigmas·σ (mass outside: 2·Φ(−6) ≈ 2e−9).
+inline constexpr double kSupportSigmas = 6.0;
+/// Uniform widths ≤ this × data range are folded into the shift (SPEC §3 uniform).
+inline constexpr double kUniformTinyWidth = 1e-9;
+/// Quantile widths ≤ this × data range are zero widths for quantile-mean (SPEC §4).
+inline constexpr double kQuantileZeroWidth = 1e-12;
+
+namespace detail {
+UDVR_CPU_GPU inline Rgba toRgba(const double v[4]) {
+    return Rgba{static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]),
+                static_cast<float>(v[3])};
+}
+}  // namespace detail
+
+/// Mean field: TF(Σ w_c μ_c), exact TF evaluation through the piece table (O(1)).
 struct MeanKernel {
     int dims[3];
     const float* mean;
-    const TransferFunction1D* tf;  // host only for now; a table replaces it in the fast path
+    TfTable tf;
 
-    Rgba classifyAt(float x, float y, float z) const {
-        TrilinearCell cell = trilinearCell(dims, x, y, z);
-        float v = 0.f;
-        for (int c = 0; c < 8; ++c) v += cell.weight[c] * mean[cell.corner[c]];
-        return tf->classify(v);
+    UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
+        const TrilinearCell cell = trilinearCell(dims, x, y, z);
+        double v[4];
+        tf.eval(interpolateMean(cell, mean), v);
+        return detail::toRgba(v);
     }
-    void voxelSupport(std::size_t voxel, float& lo, float& hi) const { lo = hi = mean[voxel]; }
+    UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        lo = hi = mean[voxel];
+    }
+};
+
+/// Uniform: X = Σ w_c U[lo_c, hi_c] (box spline), exact expectation. lo/hi = μ ∓ √3σ
+/// (variance-matched, `first` = mean, `second` = stddev) or [min, max] (`minMax`).
+struct UniformKernel {
+    int dims[3];
+    const float* first;
+    const float* second;
+    bool minMax;
+    double tinyWidth;  // data units; widths at or below go into the shift
+    TfTable tf;
+
+    UDVR_CPU_GPU void interval(std::size_t voxel, double& lo, double& hi) const {
+        if (minMax) {
+            lo = first[voxel];
+            hi = second[voxel];
+        } else {
+            const double h = 1.7320508075688772 * static_cast<double>(second[voxel]);
+            lo = static_cast<double>(first[voxel]) - h;
+            hi = static_cast<double>(first[voxel]) + h;
+        }
+    }
+    UDVR_CPU_GPU UniformSum sumAt(const TrilinearCell& cell) const {
+        double lo[8], hi[8];
+        for (int c = 0; c < 8; ++c) interval(cell.corner[c], lo[c], hi[c]);
+        return makeUniformSum(lo, hi, cell.weight, tinyWidth);
+    }
+    UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
+        double v[4];
+        expectedTfUniformSum(tf, sumAt(trilinearCell(dims, x, y, z)), v);
+        return detail::toRgba(v);
+    }
+    UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        double l, h;
+        interval(voxel, l, h);
+        lo = static_cast<float>(l);
+        hi = static_cast<float>(h);
+    }
+};
+
+/// Gaussian: N(Σ w μ, Σ w² σ²), exact expectation (erf terms per TF piece).
+struct GaussianKernel {
+    int dims[3];
+    const float* mean;
+    const float* stddev;
+    TfTable tf;
+
+    UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
+        const GaussianParams g = interpolateGaussian(trilinearCell(dims, x, y, z), mean, stddev);
+        double v[4];
+        expectedTfGaussian(tf, g.mean, g.sigma, v);
+        return detail::toRgba(v);
+    }
+    UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);
+        lo = static_cast<float>(mean[voxel] - s);
+        hi = static_cast<float>(mean[voxel] + s);
+    }
+};
+
+/// GMM (ordered): Σ_k π_k E_k with rank-wise interpolated π, μ, σ (Σπ normalised to 1).
+struct GmmOrderedKernel {
+    int dims[3];
+    const float* gmm;  // 3K per voxel
+    int components;    // K ≤ kMaxGmmComponents
+    TfTable tf;
+
+    UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
+        double pi[kMaxGmmComponents], mu[kMaxGmmComponents], sigma[kMaxGmmComponents];
+        interpolateGmmOrdered(trilinearCell(dims, x, y, z), gmm, components, pi, mu, sigma);
+        double acc[4] = {0, 0, 0, 0};
+        for (int k = 0; k < components; ++k) {
+            if (pi[k] == 0.0) continue;
+            double v[4];
+            expectedTfGaussian(tf, mu[k], sigma[k], v);
+            for (int ch = 0; ch < 4; ++ch) acc[ch] += pi[k] * v[ch];
+        }
+        return detail::toRgba(acc);
+    }
+    UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* g = gmm + voxel * 3 * static_cast<std::size_t>(components);
+        double l = INFINITY, h = -INFINITY;
+        for (int k = 0; k < components; ++k) {
+            if (!(g[k] > 0.f)) continue;
+            const double s = kSupportSigmas * static_cast<double>(g[2 * components + k]);
+            l = std::fmin(l, g[components + k] - s);
+            h = std::fmax(h, g[components + k] + s);
+        }
+        if (l > h) l = h = g[components];  // all weights 0: any component mean
+        lo = static_cast<float>(l);
+        hi = static_cast<float>(h);
+    }
+};
+
+/// Quantile range (Eq. 4) over the population of quantiles j0+1 … j1 of boundaries stored with
+/// `stride` floats per voxel. Serves quantile-range (0…q), the quartile views (0…q/4, q/4…3q/4,
+/// 3q/4…q) and iqr (the 2-boundary iqr array, 0…1).
+struct QuantileRangeKernel {
+    int dims[3];
+    const float* boundaries;
+    int stride;  // boundaries per voxel
+    int j0, j1;  // population: quantiles j0+1 … j1
+    TfTable tf;
+
+    UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
+        const TrilinearCell cell = trilinearCell(dims, x, y, z);
+        const std::size_t s = static_cast<std::size_t>(stride);
+        auto boundary = [&](int j) { return interpolateBoundary(cell, boundaries, s, j); };
+        double v[4];
+        expectedTfQuantileRange(tf, boundary, j0, j1, v);
+        return detail::toRgba(v);
+    }
+    UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
+        lo = b[j0];
+        hi = b[j1];
+    }
+};
+
+/// Quantile mean (Eq. 5) with density weights p_j ∝ 1/w_j (`quantile-mean`) or equal weights
+/// (`quantile-mean-mass`).
+struct QuantileMeanKernel {
+    int dims[3];
+    const float* quantiles;
+    int q;
+    bool densityWeights;
+    double zeroWidth;  // data units
+    TfTable tf;
+
+    UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
+        const TrilinearCell cell = trilinearCell(dims, x, y, z);
+        const std::size_t s = static_cast<std::size_t>(q) + 1;
+        auto boundary = [&](int j) { return interpolateBoundary(cell, quantiles, s, j); };
+        double v[4];
+        expectedTfQuantileMean(tf, boundary, q, densityWeights, zeroWidth, v);
+        return detail::toRgba(v);
+    }
+    UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* b = quantiles + voxel * (static_cast<std::size_t>(q) + 1);
+        lo = b[0];
+        hi = b[q];
+    }
 };
 
 /// Options that change classification but are not part of the model file.
 struct ClassifyOptions {
-    int quartileDivisor = 4;  // quartile views need q divisible by this
+    int quartileDivisor = 4;     // quartile views need q divisible by this
+    bool uniformMinMax = false;  // `--uniform-width minmax`: U[min, max] instead of μ ± √3σ
 };
 
-/// Call f(kernel) with the kernel for `kind` built over `model` and `tf`. Throws UdvrError when
-/// the model file lacks an array the kind needs. gmm-mc has no per-sample kernel (render only).
+/// The model's data range (SPEC §4): [min b_0, max b_q] with quantiles, else [min of `min`,
+/// max of `max`], else the range of `mean`. Used to scale zero-width thresholds.
+std::pair<double, double> modelDataRange(const ModelVolume& model);
+
+/// Throws UdvrError unless `model` has the arrays `kind` needs (sizes checked too).
+void checkModelHasArrays(const ModelVolume& model, ModelKind kind,
+                         const ClassifyOptions& options = {});
+
+/// The quantile population [j0, j1] (boundary indices) of a quantile-range-family kind for q
+/// quantiles: quantile-range (0, q), quartile views (0, q/4), (q/4, 3q/4), (3q/4, q).
+std::pair<int, int> quantilePopulation(ModelKind kind, int q, const ClassifyOptions& options = {});
+
+/// Call f(kernel) with the kernel for `kind` built over `model` and `tf` (the TF table lives for
+/// the call). Throws UdvrError when the model file lacks an array the kind needs. gmm-mc has no
+/// per-sample kernel (render only: realizations are mean fields, see makeMeanKernel).
 template <class F>
-void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
+void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                const ClassifyOptions& options, F&& f) {
+    checkModelHasArrays(model, kind, options);
+    const TfTableStorage table(tf);
+    const int dims[3] = {model.grid.dims[0], model.grid.dims[1], model.grid.dims[2]};
+    const auto range = modelDataRange(model);
+    const double span = range.second - range.first;
     switch (kind) {
         case ModelKind::Mean: {
-            if (model.mean.empty()) UDVR_FAIL("model has no 'mean' array, needed by model 'mean'");
-            MeanKernel k{{model.grid.dims[0], model.grid.dims[1], model.grid.dims[2]},
-                         model.mean.data(),
-                         &tf};
+            MeanKernel k{{dims[0], dims[1], dims[2]}, model.mean.data(), table.table()};
             f(k);
             return;
         }
-        default:
-            UDVR_FAIL("model '" << modelName(kind) << "' is not implemented yet");
+        case ModelKind::Uniform: {
+            UniformKernel k{{dims[0], dims[1], dims[2]},
+                            options.uniformMinMax ? model.min.data() : model.mean.data(),
+                            options.uniformMinMax ? model.max.data() : model.stddev.data(),
+                            options.uniformMinMax,
+                            kUniformTinyWidth * span,
+                            table.table()};
+            f(k);
+            return;
+        }
+        case ModelKind::Gaussian: {
+            GaussianKernel k{
+                {dims[0], dims[1], dims[2]}, model.mean.data(), model.stddev.data(), table.table()};
+            f(k);
+            return;
+        }
+        case ModelKind::GmmOrdered: {
+            GmmOrderedKernel k{
+                {dims[0], dims[1], dims[2]}, model.gmm.data(), model.gmmComponents, table.table()};
+            f(k);
+            return;
+        }
+        case ModelKind::QuantileRange:
+        case ModelKind::QuartileLower:
+        case ModelKind::QuartileMiddle:
+        case ModelKind::QuartileUpper: {
+            const auto pop = quantilePopulation(kind, model.quantileCount, options);
+            QuantileRangeKernel k{{dims[0], dims[1], dims[2]},
+                                  model.quantiles.data(),
+                                  model.quantileCount + 1,
+                                  pop.first,
+                                  pop.second,
+                                  table.table()};
+            f(k);
+            return;
+        }
+        case ModelKind::Iqr: {
+            QuantileRangeKernel k{
+                {dims[0], dims[1], dims[2]}, model.iqr.data(), 2, 0, 1, table.table()};
+            f(k);
+            return;
+        }
+        case ModelKind::QuantileMean:
+        case ModelKind::QuantileMeanMass: {
+            QuantileMeanKernel k{{dims[0], dims[1], dims[2]}, model.quantiles.data(),
+                                 model.quantileCount,         kind == ModelKind::QuantileMean,
+                                 kQuantileZeroWidth * span,   table.table()};
+            f(k);
+            return;
+        }
+        case ModelKind::GmmMc:
+            UDVR_FAIL(
+                "model 'gmm-mc' has no per-sample kernel: it is rendered as the average of "
+                "mean-field realizations");
     }
+    UDVR_FAIL("model '" << modelName(kind) << "' has no kernel");
+}
+
+/// withKernel with default options.
+template <class F>
+void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
+    withKernel(model, kind, tf, ClassifyOptions{}, std::forward<F>(f));
+}
+
+/// A mean-field kernel over any per-voxel value array (e.g. one gmm-mc realization) with `dims`
+/// points; `table` must outlive the kernel.
+inline MeanKernel makeMeanKernel(const int dims[3], const float* values, const TfTable& table) {
+    return MeanKernel{{dims[0], dims[1], dims[2]}, values, table};
 }
 
 }  // namespace udvr
