@@ -21,7 +21,4 @@ ImageRgba readPng(const std::filesystem::path&) { UDVR_FAIL("not implemented"); 
 void writeFloatImage(const std::filesystem::path&, const ImageRgba&) { UDVR_FAIL("not implemented"); }
 ImageRgba readFloatImage(const std::filesystem::path&) { UDVR_FAIL("not implemented"); }
 ImageRgba readImage(const std::filesystem::path&) { UDVR_FAIL("not implemented"); }
-TransferFunction1D readTransferFunction(const std::filesystem::path&) { UDVR_FAIL("not implemented"); }
-TransferFunction1D parseTransferFunction(const std::string&, const std::string&) { UDVR_FAIL("not implemented"); }
-std::string transferFunctionToJson(const TransferFunction1D&, const std::string&) { UDVR_FAIL("not implemented"); }
 }  // namespace udvr
