@@ -35,8 +35,9 @@ UDVR_CPU_GPU inline double interpolateBoundary(const TrilinearCell& cell, const 
 }
 
 /// The paper's Eq. 2 written as in the paper: Pr(Q_j) at cell parameters (α, β, γ) from the
-/// corners' densities Pr_1…Pr_8 (corner order of the paper: Pr_1/Pr_2 across α, pairs across β,
-/// quadruples across γ). Kept as a reference for tests; equals (1/q)/w_j(p).
+/// corners' densities Pr_1…Pr_8 (the paper's order: Pr_1/Pr_2 across α, pairs across β,
+/// quadruples across γ; α weights the width of Pr_2's vertex, β of the (3,4) pair, γ of the
+/// (5..8) quadruple). Kept as a reference for tests; equals (1/q)/w_j(p).
 inline double paperQuantileDensity(double alpha, double beta, double gamma, const double pr[8]) {
     const double t1 = alpha * pr[0] + (1 - alpha) * pr[1];
     const double t2 = alpha * pr[2] + (1 - alpha) * pr[3];
