@@ -1,13 +1,34 @@
-// udvr compare (SPEC §8). Placeholder until its issue lands.
+// udvr compare model.png truth.png [--diff diff.png]   — prints the RMSE of SPEC §6
+#include <cstdio>
+#include <memory>
+#include <string>
+
 #include "udvr/cmd/commands.h"
-#include "udvr/util/check.h"
+#include "udvr/eval/image_metrics.h"
+#include "udvr/io/image.h"
 
 namespace udvr::cmd {
 
 void addCompareCommand(CLI::App& app) {
-    auto* sub = app.add_subcommand("compare", "not implemented yet");
-    sub->allow_extras();
-    sub->callback([] { UDVR_FAIL("'udvr compare' is not implemented yet"); });
+    auto* sub = app.add_subcommand(
+        "compare", "print the RMSE between a model image and the ground truth (SPEC §6)");
+    struct Opts {
+        std::string model, truth, diff;
+        double maxDiff = 0.0;
+    };
+    auto o = std::make_shared<Opts>();
+    sub->add_option("model", o->model, "model image (.png, .npy or .pfm)")->required();
+    sub->add_option("truth", o->truth, "ground-truth image (.png, .npy or .pfm)")->required();
+    sub->add_option("--diff", o->diff, "write the blue-yellow difference image (PNG)");
+    sub->add_option("--diff-max", o->maxDiff,
+                    "difference mapped to full yellow (default: the image's largest)");
+    sub->callback([o] {
+        const ImageRgba a = readImage(o->model);
+        const ImageRgba b = readImage(o->truth);
+        const double rmse = imageRmse(a, b);  // throws on a size mismatch
+        if (!o->diff.empty()) writePng(o->diff, differenceImage(a, b, o->maxDiff));
+        std::printf("%.8f\n", rmse);
+    });
 }
 
 }  // namespace udvr::cmd

@@ -1,13 +1,233 @@
-// udvr render (SPEC §8). Placeholder until its issue lands.
+// udvr render {field|model.vti} --model NAME --tf tf.json [--size WxH] [camera…] [--step S]
+//             [--unit-distance U] [--float img.npy|.pfm] [--frames N] -o img.png   (SPEC §8)
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "udvr/classify/model_kind.h"
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/parse_util.h"
+#include "udvr/io/field_io.h"
+#include "udvr/io/image.h"
+#include "udvr/io/model_io.h"
+#include "udvr/io/transfer_function_io.h"
+#include "udvr/render/render.h"
+#include "udvr/stats/model_volume.h"
 #include "udvr/util/check.h"
+#include "udvr/util/parallel.h"
 
 namespace udvr::cmd {
+namespace {
+
+struct RenderOpts {
+    std::string input, model = "mean", tf, size = "512x512", out, floatOut;
+    std::string position, focal, up, background, uniformWidth = "variance";
+    double viewAngle = 30.0, parallelScale = 0.0, azimuth = 30.0, elevation = 20.0, zoom = 1.0;
+    double step = 0.0, unit = 0.0, earlyExit = 0.99;
+    bool noSkip = false;
+    int realizations = 200, frames = 0;
+    std::uint64_t seed = 1, jitter = 0;
+    // Raw field layout (as `build`).
+    std::string dims, type = "float32", spacing, origin, var;
+    bool bigEndian = false;
+};
+
+std::string lowerExtension(const std::string& path) {
+    const auto dot = path.find_last_of('.');
+    std::string ext = dot == std::string::npos ? "" : path.substr(dot);
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return ext;
+}
+
+// A model .vti (has a `mean` array) or any scalar field, which becomes a mean-only model.
+ModelVolume loadVolume(const RenderOpts& o) {
+    FieldReadOptions fo;
+    fo.var = o.var;
+    if (!o.dims.empty()) {
+        fo.raw.dims = parseDims(o.dims, "--dims");
+        fo.raw.type = o.type;
+        fo.raw.bigEndian = o.bigEndian;
+        if (!o.spacing.empty()) {
+            const auto s = parseDoubleList(o.spacing, "--spacing");
+            if (s.size() != 1 && s.size() != 3) UDVR_FAIL("--spacing expects S or SX,SY,SZ");
+            for (int a = 0; a < 3; ++a) fo.raw.spacing[a] = s[s.size() == 1 ? 0 : a];
+        }
+        if (!o.origin.empty()) fo.raw.origin = parseVec3(o.origin, "--origin");
+    }
+    if (lowerExtension(o.input) == ".vti" && o.var.empty()) {
+        std::string modelError;
+        try {
+            ModelVolume m = readModelVti(o.input);
+            if (!m.mean.empty()) return m;
+            modelError = o.input + " has no 'mean' array";
+        } catch (const UdvrError& e) {
+            modelError = e.what();
+        }
+        try {
+            return modelFromField(readField(o.input, fo));
+        } catch (const UdvrError& e) {
+            UDVR_FAIL(o.input << " is neither a model (" << modelError << ") nor a field ("
+                              << e.what() << ")");
+        }
+    }
+    return modelFromField(readField(o.input, fo));
+}
+
+Camera cameraFromOptions(const RenderOpts& o, const ModelVolume& m) {
+    const auto& b = m.bounds;
+    if (o.position.empty()) {
+        if (!o.focal.empty() || !o.up.empty())
+            UDVR_FAIL("--focal-point/--view-up need --position (or use --azimuth/--elevation)");
+        Camera c = defaultCamera(b, o.azimuth, o.elevation, o.zoom, o.viewAngle);
+        if (o.parallelScale > 0.0) {
+            c.parallel = true;
+            c.parallelScale = o.parallelScale;
+        }
+        return c;
+    }
+    Camera c;
+    c.position = parseVec3(o.position, "--position");
+    c.focalPoint = o.focal.empty() ? std::array<double, 3>{0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]),
+                                                           0.5 * (b[4] + b[5])}
+                                   : parseVec3(o.focal, "--focal-point");
+    c.viewUp = o.up.empty() ? std::array<double, 3>{0.0, 1.0, 0.0} : parseVec3(o.up, "--view-up");
+    c.viewAngleDeg = o.viewAngle;
+    if (o.parallelScale > 0.0) {
+        c.parallel = true;
+        c.parallelScale = o.parallelScale;
+    }
+    return c;
+}
+
+void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
+    if (parallelGiven && !(o.parallelScale > 0.0))
+        UDVR_FAIL("--parallel-scale must be > 0, got " << o.parallelScale);
+    if (o.frames < 0) UDVR_FAIL("--frames must be >= 0, got " << o.frames);
+    const std::string outExt = lowerExtension(o.out);
+    if (outExt != ".png") UDVR_FAIL("-o must name a .png file, got '" << o.out << "'");
+    if (!o.floatOut.empty()) {
+        const std::string e = lowerExtension(o.floatOut);
+        if (e != ".npy" && e != ".pfm")
+            UDVR_FAIL("--float must name a .npy or .pfm file, got '" << o.floatOut << "'");
+    }
+    const ModelKind kind = parseModelKind(o.model);
+    const TransferFunction1D tf = readTransferFunction(o.tf);
+    const ModelVolume model = loadVolume(o);
+
+    RenderSettings s;
+    const auto size = parseSize(o.size, "--size");
+    s.width = size[0];
+    s.height = size[1];
+    s.camera = cameraFromOptions(o, model);
+    s.step = o.step;
+    s.unitDistance = o.unit;
+    s.earlyExit = o.earlyExit;
+    if (!o.background.empty()) {
+        const auto bg = parseVec3(o.background, "--background");
+        for (int c = 0; c < 3; ++c) s.background[c] = static_cast<float>(bg[c]);
+    }
+    s.skipEmpty = !o.noSkip;
+    if (o.uniformWidth != "variance" && o.uniformWidth != "minmax")
+        UDVR_FAIL("--uniform-width must be 'variance' or 'minmax', got '" << o.uniformWidth << "'");
+    s.uniformMinMax = o.uniformWidth == "minmax";
+    s.realizations = o.realizations;
+    s.seed = o.seed;
+    if (jitterGiven) s.jitterSeed = o.jitter;
+
+    const auto& cam = s.camera;
+    std::fprintf(stderr,
+                 "render: camera pos %.6g %.6g %.6g  focal %.6g %.6g %.6g  up %.6g %.6g %.6g  %s "
+                 "%.6g\n",
+                 cam.position[0], cam.position[1], cam.position[2], cam.focalPoint[0],
+                 cam.focalPoint[1], cam.focalPoint[2], cam.viewUp[0], cam.viewUp[1], cam.viewUp[2],
+                 cam.parallel ? "parallel-scale" : "view-angle",
+                 cam.parallel ? cam.parallelScale : cam.viewAngleDeg);
+
+    RenderStats stats;
+    ImageRgba image = renderVolume(model, kind, tf, s, &stats);
+    if (o.frames > 0) {
+        // The render above was the warm-up; time N more frames (loading is not counted).
+        std::vector<double> ms;
+        for (int f = 0; f < o.frames; ++f) {
+            image = renderVolume(model, kind, tf, s, &stats);
+            ms.push_back(stats.milliseconds);
+        }
+        std::vector<double> sorted = ms;
+        std::sort(sorted.begin(), sorted.end());
+        const std::size_t n = sorted.size();
+        const double median = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+        std::printf("frames      %zu: median %.1f ms  min %.1f ms  max %.1f ms  -> %.2f frames/s\n",
+                    n, median, sorted.front(), sorted.back(), 1000.0 / median);
+        std::printf(
+            "RESULT renderer=udvr model=%s dims=%dx%dx%d size=%dx%d threads=%d "
+            "sd=%.6g median_ms=%.2f min_ms=%.2f max_ms=%.2f fps=%.3f\n",
+            std::string(modelName(kind)).c_str(), model.grid.dims[0], model.grid.dims[1],
+            model.grid.dims[2], s.width, s.height, threadCount(),
+            s.step > 0 ? s.step : 0.5 * model.fullResMinSpacing, median, sorted.front(),
+            sorted.back(), 1000.0 / median);
+        std::fflush(stdout);
+    }
+    if (!o.floatOut.empty()) writeFloatImage(o.floatOut, image);
+    writePng(o.out, image);
+    std::fprintf(stderr, "render: %s %dx%d in %.1f ms, %llu samples (%llu skipped) -> %s\n",
+                 std::string(modelName(kind)).c_str(), s.width, s.height, stats.milliseconds,
+                 static_cast<unsigned long long>(stats.samples),
+                 static_cast<unsigned long long>(stats.skippedSamples), o.out.c_str());
+}
+
+}  // namespace
 
 void addRenderCommand(CLI::App& app) {
-    auto* sub = app.add_subcommand("render", "not implemented yet");
-    sub->allow_extras();
-    sub->callback([] { UDVR_FAIL("'udvr render' is not implemented yet"); });
+    auto* sub = app.add_subcommand(
+        "render", "ray-cast a field or a model volume with a transfer function (SPEC §5)");
+    auto o = std::make_shared<RenderOpts>();
+    sub->add_option("input", o->input, "model .vti from 'udvr build', or any scalar field")
+        ->required();
+    sub->add_option("--model", o->model,
+                    "mean | uniform | gaussian | gmm-ordered | gmm-mc | quantile-range | "
+                    "quantile-mean | quantile-mean-mass | iqr | quartile-lower|middle|upper "
+                    "(default mean)");
+    sub->add_option("--tf", o->tf, "ParaView transfer function JSON")->required();
+    sub->add_option("-o,--output", o->out, "output PNG")->required();
+    sub->add_option("--size", o->size, "image size WxH (default 512x512)");
+    sub->add_option("--float", o->floatOut, "also write float32 RGBA (.npy or .pfm)");
+    sub->add_option("--position", o->position, "camera position x,y,z (world units)");
+    sub->add_option("--focal-point", o->focal, "focal point x,y,z (default: box centre)");
+    sub->add_option("--view-up", o->up, "view-up x,y,z (default 0,1,0)");
+    sub->add_option("--view-angle", o->viewAngle, "vertical view angle, degrees (default 30)");
+    auto* ps = sub->add_option("--parallel-scale", o->parallelScale,
+                               "orthographic: half the view height, world units");
+    sub->add_option("--azimuth", o->azimuth, "default camera: degrees about +y (default 30)");
+    sub->add_option("--elevation", o->elevation, "default camera: degrees up (default 20)");
+    sub->add_option("--zoom", o->zoom, "default camera: distance / zoom (default 1)");
+    sub->add_option("--step", o->step,
+                    "ray step, world units (default: half the smallest "
+                    "full-resolution spacing)");
+    sub->add_option("--unit-distance", o->unit,
+                    "TF opacity unit distance, world units (default: smallest full-res spacing)");
+    sub->add_option("--early-exit", o->earlyExit,
+                    "stop a ray when accumulated alpha exceeds this (default 0.99; 1 disables)");
+    sub->add_option("--background", o->background, "background r,g,b in [0,1] (default 1,1,1)");
+    sub->add_option("--uniform-width", o->uniformWidth,
+                    "model uniform: variance (mu -/+ sqrt(3) sigma, default) or minmax");
+    sub->add_flag("--no-skip", o->noSkip, "disable empty-space skipping");
+    sub->add_option("--realizations", o->realizations, "gmm-mc: realizations (default 200)");
+    sub->add_option("--seed", o->seed, "gmm-mc: random seed (default 1)");
+    auto* jit = sub->add_option("--jitter", o->jitter, "jitter ray starts with this seed");
+    sub->add_option("--frames", o->frames,
+                    "time N frames after one warm-up; print median/min ms and frames/s");
+    sub->add_option("--dims", o->dims, "raw input: X,Y,Z (or N)");
+    sub->add_option("--type", o->type, "raw input: value type (default float32)");
+    sub->add_flag("--big-endian", o->bigEndian, "raw input: big-endian values");
+    sub->add_option("--spacing", o->spacing, "raw input: spacing S or SX,SY,SZ (default 1)");
+    sub->add_option("--origin", o->origin, "raw input: origin x,y,z (default 0,0,0)");
+    sub->add_option("--var", o->var, "array/variable name in the input");
+    sub->callback([o, jit, ps] { run(*o, jit->count() > 0, ps->count() > 0); });
 }
 
 }  // namespace udvr::cmd

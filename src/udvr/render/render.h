@@ -35,15 +35,16 @@ struct RenderSettings {
     double unitDistance = 0.0;  // TF opacity unit, world units; 0 = full-res smallest spacing
     double earlyExit = 0.99;    // stop when accumulated α exceeds this; 1.0 disables
     std::array<float, 3> background{1.f, 1.f, 1.f};
-    bool skipEmpty = true;           // empty-space skipping from per-brick support bounds
-    int realizations = 200;          // gmm-mc: realizations averaged in screen space
-    std::uint64_t seed = 1;          // gmm-mc realization seed
+    bool skipEmpty = true;                    // empty-space skipping from per-brick support bounds
+    int realizations = 200;                   // gmm-mc: realizations averaged in screen space
+    std::uint64_t seed = 1;                   // gmm-mc realization seed
     std::optional<std::uint64_t> jitterSeed;  // per-ray start jitter in [0, Δ) when set
+    bool uniformMinMax = false;  // model `uniform`: U[min, max] (`--uniform-width minmax`)
 };
 
 struct RenderStats {
-    double milliseconds = 0.0;     // wall time of the frame (all realizations for gmm-mc)
-    std::uint64_t samples = 0;     // classified samples
+    double milliseconds = 0.0;  // wall time of the frame (all realizations for gmm-mc)
+    std::uint64_t samples = 0;  // classified samples
     std::uint64_t skippedSamples = 0;
 };
 

@@ -1,0 +1,310 @@
+#pragma once
+// The ray loop of the CPU ray caster (SPEC §5), templated on the per-sample kernel (see
+// classify/sample_kernels.h) so classification inlines into it. Internal to render/.
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include "udvr/classify/transfer_function.h"
+#include "udvr/io/image.h"
+#include "udvr/render/camera.h"
+#include "udvr/render/fast_tf.h"
+#include "udvr/render/render.h"
+#include "udvr/util/grid.h"
+#include "udvr/util/parallel.h"
+#include "udvr/util/random.h"
+
+namespace udvr::detail {
+
+/// Cells per brick edge of the empty-space-skipping table (index space).
+inline constexpr int kBrickCells = 8;
+/// Pixels per tile edge; tiles are the unit of parallel work.
+inline constexpr int kTilePixels = 16;
+
+/// Mean field with the exact fast TF: TF(trilinear(values)), the kernel of `mean`, of plain
+/// fields (ground truth) and of each gmm-mc realization.
+struct FastMeanKernel {
+    const float* values = nullptr;  // one value per grid point, x fastest
+    const FastTransferFunction* tf = nullptr;
+    float maxIndex[3] = {0, 0, 0};  // dims − 1: index-space clamp (SPEC §3 clamps into the grid)
+    int maxBase[3] = {0, 0, 0};     // last cell's base index: max(dims − 2, 0)
+    std::size_t stride[3] = {0, 0, 0};  // linear stride per axis
+    std::size_t next[3] = {0, 0, 0};    // offset of the +1 neighbour (0 on a 1-point axis)
+
+    FastMeanKernel(const Grid3& grid, const float* v, const FastTransferFunction* t)
+        : values(v), tf(t) {
+        stride[0] = 1;
+        stride[1] = static_cast<std::size_t>(grid.dims[0]);
+        stride[2] = stride[1] * static_cast<std::size_t>(grid.dims[1]);
+        for (int a = 0; a < 3; ++a) {
+            maxIndex[a] = static_cast<float>(grid.dims[a] - 1);
+            maxBase[a] = std::max(grid.dims[a] - 2, 0);
+            next[a] = grid.dims[a] > 1 ? stride[a] : 0;
+        }
+    }
+
+    /// Trilinear value at an index-space point (clamped into the grid); SPEC §3 `mean`.
+    float valueAt(float x, float y, float z) const {
+        x = std::clamp(x, 0.f, maxIndex[0]);
+        y = std::clamp(y, 0.f, maxIndex[1]);
+        z = std::clamp(z, 0.f, maxIndex[2]);
+        const int ix = std::min(static_cast<int>(x), maxBase[0]);
+        const int iy = std::min(static_cast<int>(y), maxBase[1]);
+        const int iz = std::min(static_cast<int>(z), maxBase[2]);
+        const float fx = x - static_cast<float>(ix), fy = y - static_cast<float>(iy),
+                    fz = z - static_cast<float>(iz);
+        const float* q = values + static_cast<std::size_t>(ix) +
+                         static_cast<std::size_t>(iy) * stride[1] +
+                         static_cast<std::size_t>(iz) * stride[2];
+        const std::size_t ox = next[0], oy = next[1], oz = next[2];
+        const float c00 = q[0] + fx * (q[ox] - q[0]);
+        const float c10 = q[oy] + fx * (q[oy + ox] - q[oy]);
+        const float c01 = q[oz] + fx * (q[oz + ox] - q[oz]);
+        const float c11 = q[oz + oy] + fx * (q[oz + oy + ox] - q[oz + oy]);
+        const float c0 = c00 + fy * (c10 - c00);
+        const float c1 = c01 + fy * (c11 - c01);
+        return c0 + fz * (c1 - c0);
+    }
+    Rgba classifyAt(float x, float y, float z) const { return tf->classify(valueAt(x, y, z)); }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const { lo = hi = values[voxel]; }
+};
+
+/// Per-brick emptiness over the model grid's cells: a brick is empty when the hull of its
+/// corner voxels' supports misses every non-zero-opacity range of the TF, so every sample whose
+/// trilinear cell lies in it classifies to E[α] = 0.
+struct BrickTable {
+    int cells[3] = {1, 1, 1};   // cells per axis (≥ 1)
+    int bricks[3] = {1, 1, 1};  // bricks per axis
+    std::vector<std::uint8_t> empty;
+
+    std::size_t index(int bx, int by, int bz) const {
+        return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(bricks[1]) +
+                static_cast<std::size_t>(by)) *
+                   static_cast<std::size_t>(bricks[0]) +
+               static_cast<std::size_t>(bx);
+    }
+};
+
+template <class Kernel>
+BrickTable buildBrickTable(const Kernel& kernel, const Grid3& grid,
+                           const std::vector<std::pair<double, double>>& ranges) {
+    BrickTable t;
+    for (int a = 0; a < 3; ++a) {
+        t.cells[a] = std::max(grid.dims[a] - 1, 1);
+        t.bricks[a] = (t.cells[a] + kBrickCells - 1) / kBrickCells;
+    }
+    const std::size_t nBricks = static_cast<std::size_t>(t.bricks[0]) * t.bricks[1] * t.bricks[2];
+    t.empty.assign(nBricks, 0);
+    if (ranges.empty()) {  // the TF is transparent everywhere
+        std::fill(t.empty.begin(), t.empty.end(), std::uint8_t{1});
+        return t;
+    }
+    const int bx = t.bricks[0], by = t.bricks[1];
+    parallelForChunks(nBricks, 16, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t b = begin; b < end; ++b) {
+            const int brick[3] = {
+                static_cast<int>(b % static_cast<std::size_t>(bx)),
+                static_cast<int>((b / static_cast<std::size_t>(bx)) % static_cast<std::size_t>(by)),
+                static_cast<int>(b / (static_cast<std::size_t>(bx) * by))};
+            int lo[3], hi[3];  // corner voxels of the brick's cells, inclusive
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = brick[a] * kBrickCells;
+                hi[a] = std::min(lo[a] + kBrickCells, grid.dims[a] - 1);
+            }
+            float vmin = std::numeric_limits<float>::infinity();
+            float vmax = -std::numeric_limits<float>::infinity();
+            bool bad = false;
+            for (int k = lo[2]; k <= hi[2]; ++k)
+                for (int j = lo[1]; j <= hi[1]; ++j)
+                    for (int i = lo[0]; i <= hi[0]; ++i) {
+                        float l, h;
+                        kernel.voxelSupport(grid.index(i, j, k), l, h);
+                        if (!(l <= h)) bad = true;  // NaN or inverted: never skip
+                        vmin = std::min(vmin, l);
+                        vmax = std::max(vmax, h);
+                    }
+            // A float trilinear blend may round an ulp past its corners: pad the hull.
+            const double pad = 1e-6 * (std::abs(static_cast<double>(vmin)) +
+                                       std::abs(static_cast<double>(vmax)) + 1e-30);
+            const double l = static_cast<double>(vmin) - pad, h = static_cast<double>(vmax) + pad;
+            bool hit = bad;
+            for (const auto& r : ranges)
+                if (!(h < r.first || l > r.second)) hit = true;
+            t.empty[b] = hit ? 0 : 1;
+        }
+    });
+    return t;
+}
+
+/// Frame-constant parameters of the ray loop.
+struct MarchParams {
+    CameraFrame frame;
+    std::array<double, 6> bounds{};  // world box the rays sample (full-resolution bounds)
+    Grid3 grid;                      // the model's own grid: world → index space
+    double step = 0.0;               // Δ, world units
+    float opacityExponent = 1.f;     // Δ / u
+    float earlyExit = 0.99f;
+    std::array<float, 3> background{1.f, 1.f, 1.f};
+    bool skipEmpty = true;
+    bool jitter = false;
+    std::uint64_t jitterSeed = 0;
+};
+
+/// Counters summed over all rays of a frame.
+struct MarchCounters {
+    std::atomic<std::uint64_t> samples{0};
+    std::atomic<std::uint64_t> skipped{0};
+};
+
+/// α' = 1 − (1 − α)^(Δ/u) (SPEC §5 opacity correction), with the common exponents exact and
+/// cheap: 1 (Δ = u) and ½ (the default Δ = spacing/2, u = spacing).
+struct OpacityCorrection {
+    enum Mode { kIdentity, kHalf, kGeneral } mode = kGeneral;
+    float exponent = 1.f;
+    explicit OpacityCorrection(float e) : exponent(e) {
+        mode = e == 1.f ? kIdentity : (e == 0.5f ? kHalf : kGeneral);
+    }
+    float operator()(float a) const {
+        if (mode == kIdentity) return a;
+        const float t = 1.f - a;
+        if (mode == kHalf) return 1.f - std::sqrt(t);
+        return 1.f - std::pow(t, exponent);
+    }
+};
+
+/// March every pixel of `image` (already sized) through `kernel`. Writes straight RGB over the
+/// background and the accumulated α.
+template <class Kernel>
+void marchFrame(const Kernel& kernel, const BrickTable& bricks, const MarchParams& p,
+                ImageRgba& image, MarchCounters& counters) {
+    const int width = p.frame.width, height = p.frame.height;
+    const int tilesX = (width + kTilePixels - 1) / kTilePixels;
+    const int tilesY = (height + kTilePixels - 1) / kTilePixels;
+    const OpacityCorrection correct(p.opacityExponent);
+    const double step = p.step;
+    const std::array<double, 3> invSpacing{1.0 / p.grid.spacing[0], 1.0 / p.grid.spacing[1],
+                                           1.0 / p.grid.spacing[2]};
+    const float inf = std::numeric_limits<float>::infinity();
+
+    parallelForChunks(
+        static_cast<std::size_t>(tilesX) * tilesY, 1, [&](std::size_t t0, std::size_t t1) {
+            std::uint64_t nSamples = 0, nSkipped = 0;
+            for (std::size_t tile = t0; tile < t1; ++tile) {
+                const int tx = static_cast<int>(tile % static_cast<std::size_t>(tilesX));
+                const int ty = static_cast<int>(tile / static_cast<std::size_t>(tilesX));
+                const int x0 = tx * kTilePixels, y0 = ty * kTilePixels;
+                const int x1 = std::min(x0 + kTilePixels, width),
+                          y1 = std::min(y0 + kTilePixels, height);
+                for (int py = y0; py < y1; ++py)
+                    for (int px = x0; px < x1; ++px) {
+                        float* out = image.pixel(px, py);
+                        float accR = 0.f, accG = 0.f, accB = 0.f, accA = 0.f;
+                        std::array<double, 3> o, d;
+                        p.frame.ray(px, py, o, d);
+                        double tNear, tFar;
+                        std::int64_t n = 0;   // samples on this ray
+                        double offset = 0.5;  // first sample at t_entry + offset·Δ
+                        if (p.jitter) {
+                            CounterRng rng(p.jitterSeed, 0,
+                                           static_cast<std::uint64_t>(py) * width + px);
+                            offset = rng.uniform();
+                        }
+                        if (intersectBox(p.bounds, o, d, tNear, tFar)) {
+                            if (!p.frame.parallel) tNear = std::max(tNear, 0.0);
+                            const double span = (tFar - tNear) / step;  // path length in steps
+                            // Samples s = 0, 1, … with (s + offset)Δ ≤ t_exit − t_entry.
+                            if (span >= offset)
+                                n = static_cast<std::int64_t>(std::floor(span - offset)) + 1;
+                        }
+                        if (n > 0) {
+                            // Index-space position of sample s: a + s·b (not accumulated, so a
+                            // sample's position does not depend on which samples were skipped).
+                            float a[3], b[3], invB[3];
+                            const double t = tNear + offset * step;
+                            for (int ax = 0; ax < 3; ++ax) {
+                                a[ax] = static_cast<float>((o[ax] + t * d[ax] - p.grid.origin[ax]) *
+                                                           invSpacing[ax]);
+                                b[ax] = static_cast<float>(step * d[ax] * invSpacing[ax]);
+                                invB[ax] = b[ax] != 0.f ? 1.f / b[ax] : 0.f;
+                            }
+                            const float nf = static_cast<float>(n);
+                            std::int64_t s = 0;
+                            bool done = false;
+                            while (s < n && !done) {
+                                std::int64_t end = n;
+                                if (p.skipEmpty) {
+                                    // The brick of sample s (by its clamped trilinear cell) and the
+                                    // sample parameter where the ray leaves that brick's slab.
+                                    const float sf = static_cast<float>(s);
+                                    int br[3];
+                                    float sExit = inf;
+                                    for (int ax = 0; ax < 3; ++ax) {
+                                        const float v = a[ax] + sf * b[ax];
+                                        const float vc = std::clamp(
+                                            v, 0.f, static_cast<float>(bricks.cells[ax]));
+                                        const int cell =
+                                            std::min(static_cast<int>(vc), bricks.cells[ax] - 1);
+                                        br[ax] = cell / kBrickCells;
+                                        float edge;
+                                        if (b[ax] > 0.f) {
+                                            if (br[ax] == bricks.bricks[ax] - 1) continue;
+                                            edge = static_cast<float>((br[ax] + 1) * kBrickCells);
+                                        } else if (b[ax] < 0.f) {
+                                            if (br[ax] == 0) continue;
+                                            edge = static_cast<float>(br[ax] * kBrickCells);
+                                        } else {
+                                            continue;
+                                        }
+                                        sExit = std::min(sExit, (edge - a[ax]) * invB[ax]);
+                                    }
+                                    sExit = std::min(sExit, nf);
+                                    // Whole samples certainly inside the brick end at ⌊sExit⌋ (the
+                                    // one at ⌊sExit⌋ is re-checked when we land on it).
+                                    const std::int64_t last =
+                                        static_cast<std::int64_t>(std::floor(std::max(sExit, 0.f)));
+                                    if (bricks.empty[bricks.index(br[0], br[1], br[2])]) {
+                                        const std::int64_t next = std::max(s + 1, last);
+                                        nSkipped += static_cast<std::uint64_t>(next - s);
+                                        s = next;
+                                        continue;
+                                    }
+                                    end = std::min(n, std::max(s + 1, last + 1));
+                                }
+                                for (; s < end; ++s) {
+                                    const float sf = static_cast<float>(s);
+                                    const Rgba c = kernel.classifyAt(
+                                        a[0] + sf * b[0], a[1] + sf * b[1], a[2] + sf * b[2]);
+                                    ++nSamples;
+                                    if (!(c.a > 0.f)) continue;  // E[α] = 0 contributes nothing
+                                    const float ea = std::min(c.a, 1.f);
+                                    const float alpha = correct(ea);
+                                    const float w = (1.f - accA) * (alpha / ea);
+                                    accR += w * c.r;
+                                    accG += w * c.g;
+                                    accB += w * c.b;
+                                    accA += (1.f - accA) * alpha;
+                                    if (accA > p.earlyExit) {
+                                        done = true;
+                                        break;
+                                    }
+                                }
+                            }
+                        }
+                        const float rest = 1.f - accA;
+                        out[0] = accR + rest * p.background[0];
+                        out[1] = accG + rest * p.background[1];
+                        out[2] = accB + rest * p.background[2];
+                        out[3] = accA;
+                    }
+            }
+            counters.samples += nSamples;
+            counters.skipped += nSkipped;
+        });
+}
+
+}  // namespace udvr::detail

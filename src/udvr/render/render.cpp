@@ -1,0 +1,170 @@
+#include "udvr/render/render.h"
+
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "udvr/classify/sample_kernels.h"
+#include "udvr/render/ray_march.h"
+#include "udvr/util/check.h"
+#include "udvr/util/parallel.h"
+#include "udvr/util/progress.h"
+#include "udvr/util/random.h"
+
+namespace udvr {
+namespace {
+
+// The world box rays sample: the full-resolution bounds the model carries (SPEC §5), or its
+// own grid's box when a hand-made model left them unset.
+std::array<double, 6> renderBounds(const ModelVolume& model) {
+    const auto& b = model.bounds;
+    bool unset = true;
+    for (double v : b) unset = unset && v == 0.0;
+    if (unset) return model.grid.bounds();
+    for (int a = 0; a < 3; ++a)
+        if (!(b[2 * a] <= b[2 * a + 1]) || !std::isfinite(b[2 * a]) || !std::isfinite(b[2 * a + 1]))
+            UDVR_FAIL("model bounds must be finite with min <= max on every axis");
+    return b;
+}
+
+detail::MarchParams makeParams(const ModelVolume& model, const RenderSettings& s) {
+    if (s.width < 1 || s.height < 1 || s.width > 16384 || s.height > 16384)
+        UDVR_FAIL("image size must be in [1, 16384] per side, got " << s.width << "x" << s.height);
+    for (int a = 0; a < 3; ++a) {
+        if (model.grid.dims[a] < 1) UDVR_FAIL("model grid has an empty axis");
+        if (!(model.grid.spacing[a] > 0.0) || !std::isfinite(model.grid.spacing[a]))
+            UDVR_FAIL("model grid spacing must be positive, got " << model.grid.spacing[a]);
+    }
+    const double fullRes =
+        model.fullResMinSpacing > 0.0 ? model.fullResMinSpacing : model.grid.minSpacing();
+    detail::MarchParams p;
+    p.frame = makeCameraFrame(s.camera, s.width, s.height);
+    p.bounds = renderBounds(model);
+    p.grid = model.grid;
+    p.step = s.step > 0.0 ? s.step : 0.5 * fullRes;  // world units
+    if (s.step < 0.0 || !std::isfinite(s.step)) UDVR_FAIL("--step must be > 0, got " << s.step);
+    const double unit = s.unitDistance > 0.0 ? s.unitDistance : fullRes;  // world units
+    if (s.unitDistance < 0.0 || !std::isfinite(s.unitDistance))
+        UDVR_FAIL("--unit-distance must be > 0, got " << s.unitDistance);
+    // A frame of more than ~1e9 samples per ray is a mistake (a step far too small).
+    const double diag =
+        std::sqrt(std::pow(p.bounds[1] - p.bounds[0], 2) + std::pow(p.bounds[3] - p.bounds[2], 2) +
+                  std::pow(p.bounds[5] - p.bounds[4], 2));
+    if (diag / p.step > 1e9) UDVR_FAIL("--step " << p.step << " is too small for the volume");
+    p.opacityExponent = static_cast<float>(p.step / unit);
+    if (!(s.earlyExit > 0.0 && s.earlyExit <= 1.0))
+        UDVR_FAIL("--early-exit must be in (0, 1], got " << s.earlyExit);
+    p.earlyExit = static_cast<float>(s.earlyExit);
+    for (float c : s.background)
+        if (!(c >= 0.f && c <= 1.f)) UDVR_FAIL("--background values must lie in [0, 1]");
+    p.background = s.background;
+    p.skipEmpty = s.skipEmpty;
+    p.jitter = s.jitterSeed.has_value();
+    p.jitterSeed = s.jitterSeed.value_or(0);
+    return p;
+}
+
+ImageRgba blankImage(int width, int height) {
+    ImageRgba img;
+    img.width = width;
+    img.height = height;
+    img.rgba.assign(static_cast<std::size_t>(width) * height * 4, 0.f);
+    return img;
+}
+
+template <class Kernel>
+void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
+                  const std::vector<std::pair<double, double>>& ranges, ImageRgba& image,
+                  detail::MarchCounters& counters) {
+    detail::BrickTable bricks;
+    if (p.skipEmpty) bricks = detail::buildBrickTable(kernel, p.grid, ranges);
+    detail::marchFrame(kernel, bricks, p, image, counters);
+}
+
+// Draw one gmm-mc realization: every voxel independently from its own mixture (SPEC §3),
+// keyed by (seed, realization, voxel) so the field does not depend on the thread count.
+void drawRealization(const ModelVolume& model, std::uint64_t seed, std::uint64_t realization,
+                     std::vector<float>& out) {
+    const int k = model.gmmComponents;
+    const std::size_t n = model.voxelCount();
+    out.resize(n);
+    parallelForChunks(n, 4096, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t v = begin; v < end; ++v) {
+            const float* g = model.gmmAt(v);  // π_1..π_K, μ_1..μ_K, σ_1..σ_K
+            CounterRng rng(seed, realization, v);
+            double total = 0.0;
+            for (int c = 0; c < k; ++c) total += std::max(0.0, static_cast<double>(g[c]));
+            const double u = rng.uniform() * total;
+            int pick = k - 1;
+            double cum = 0.0;
+            for (int c = 0; c < k; ++c) {
+                cum += std::max(0.0, static_cast<double>(g[c]));
+                if (u < cum) {
+                    pick = c;
+                    break;
+                }
+            }
+            const double mu = g[k + pick],
+                         sigma = std::max(0.0, static_cast<double>(g[2 * k + pick]));
+            out[v] = static_cast<float>(mu + sigma * rng.normal());
+        }
+    });
+}
+
+}  // namespace
+
+ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                       const RenderSettings& settings, RenderStats* stats) {
+    const auto start = std::chrono::steady_clock::now();
+    const detail::MarchParams p = makeParams(model, settings);
+    tf.validate();
+    const auto ranges = tf.nonZeroOpacityRanges();
+    ImageRgba image = blankImage(settings.width, settings.height);
+    detail::MarchCounters counters;
+
+    if (kind == ModelKind::Mean) {
+        if (model.mean.size() != model.voxelCount())
+            UDVR_FAIL("model has no 'mean' array, needed by model 'mean'");
+        const FastTransferFunction fast(tf);
+        const detail::FastMeanKernel kernel(model.grid, model.mean.data(), &fast);
+        renderKernel(kernel, p, ranges, image, counters);
+    } else if (kind == ModelKind::GmmMc) {
+        if (!model.hasGmm() || model.gmm.size() != model.voxelCount() * 3 * model.gmmComponents)
+            UDVR_FAIL("model has no 'gmm' array, needed by model 'gmm-mc' (build with --gmm K)");
+        if (settings.realizations < 1)
+            UDVR_FAIL("--realizations must be >= 1, got " << settings.realizations);
+        const FastTransferFunction fast(tf);
+        std::vector<double> sum(image.rgba.size(), 0.0);
+        std::vector<float> values;
+        ImageRgba frame = blankImage(settings.width, settings.height);
+        ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
+        for (int r = 0; r < settings.realizations; ++r) {
+            drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
+            const detail::FastMeanKernel kernel(model.grid, values.data(), &fast);
+            renderKernel(kernel, p, ranges, frame, counters);
+            for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += frame.rgba[i];
+            bar.advance();
+        }
+        bar.finish();
+        // Screen-space average of the realizations' images (Liu et al. 2012).
+        const double inv = 1.0 / settings.realizations;
+        for (std::size_t i = 0; i < sum.size(); ++i)
+            image.rgba[i] = static_cast<float>(sum[i] * inv);
+    } else {
+        ClassifyOptions options;
+        options.uniformMinMax = settings.uniformMinMax;
+        withKernel(model, kind, tf, options,
+                   [&](const auto& kernel) { renderKernel(kernel, p, ranges, image, counters); });
+    }
+
+    if (stats) {
+        stats->milliseconds =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count();
+        stats->samples = counters.samples.load();
+        stats->skippedSamples = counters.skipped.load();
+    }
+    return image;
+}
+
+}  // namespace udvr
