@@ -1,13 +1,45 @@
-// udvr experiment (SPEC §8). Placeholder until its issue lands.
+// udvr experiment (SPEC §8): parse, run the library's experiment, print where the results are.
+#include <cstdio>
+#include <memory>
+#include <string>
+
 #include "udvr/cmd/commands.h"
+#include "udvr/eval/experiments.h"
 #include "udvr/util/check.h"
 
 namespace udvr::cmd {
 
 void addExperimentCommand(CLI::App& app) {
-    auto* sub = app.add_subcommand("experiment", "not implemented yet");
-    sub->allow_extras();
-    sub->callback([] { UDVR_FAIL("'udvr experiment' is not implemented yet"); });
+    auto* sub = app.add_subcommand(
+        "experiment",
+        "run one of the paper's experiments (figure, report, CSV/JSON table, images)");
+    struct Args {
+        std::string name;
+        std::string out;
+        bool quick = false;
+        std::string tfDir, dataDir;
+    };
+    auto args = std::make_shared<Args>();
+    std::string names;
+    for (const std::string& n : experimentNames()) names += n + "|";
+    sub->add_option("name", args->name, "experiment: " + names + "all")->required();
+    sub->add_option("-o,--output", args->out, "output directory (created)")->required();
+    sub->add_flag("--quick", args->quick,
+                  "smaller grids, images and realization counts (the whole set in minutes)");
+    sub->add_option("--tf-dir", args->tfDir,
+                    "folder of the transfer functions (default: the repository's data/tf)");
+    sub->add_option("--data-dir", args->dataDir,
+                    "folder of the real data sets (default: ../shared/data)");
+    sub->callback([args] {
+        ExperimentOptions o;
+        o.quick = args->quick;
+        o.tfDir = args->tfDir;
+        o.dataDir = args->dataDir;
+        const auto results = runExperiments(args->name, args->out, o);
+        for (const ExperimentResult& r : results)
+            std::printf("%s: %s/report.md (%.1f s)\n", r.name.c_str(), r.dir.string().c_str(),
+                        r.seconds);
+    });
 }
 
 }  // namespace udvr::cmd

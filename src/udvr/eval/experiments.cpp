@@ -1,0 +1,768 @@
+#include "udvr/eval/experiments.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <sstream>
+
+#include "udvr/classify/model_kind.h"
+#include "udvr/data/noise.h"
+#include "udvr/data/synthetic.h"
+#include "udvr/eval/figure.h"
+#include "udvr/eval/image_metrics.h"
+#include "udvr/eval/report.h"
+#include "udvr/io/field_io.h"
+#include "udvr/io/image.h"
+#include "udvr/io/transfer_function_io.h"
+#include "udvr/render/render.h"
+#include "udvr/stats/build_model.h"
+#include "udvr/util/atomic_file.h"
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::string fmt(const char* format, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, format, v);
+    return buf;
+}
+
+/// Largest thumbnail side in figure panels; full-size images are written separately.
+constexpr int kThumbMax = 256;
+/// The peer harness's default view (bench/peer/vtk_render.py).
+constexpr double kAzimuth = 30.0, kElevation = 20.0;
+/// Seed of every ensemble, so runs are reproducible and the sweep's member sets nest.
+constexpr std::uint64_t kNoiseSeed = 1;
+
+/// Sizes of one experiment after --quick and the test overrides.
+struct Sizes {
+    int dims = 64;
+    int members = 50;
+    int image = 512;
+    int realizations = 200;
+    std::vector<int> sweepMembers{5, 10, 20, 50};
+};
+
+Sizes resolveSizes(const std::string& name, const ExperimentOptions& o) {
+    Sizes s;
+    const bool q = o.quick;
+    if (name == "tangle" || name == "quartiles") {
+        s.dims = 64, s.members = 50, s.image = q ? 128 : 512, s.realizations = q ? 20 : 200;
+    } else if (name == "tangle-sweep") {
+        s.dims = q ? 32 : 64, s.image = q ? 96 : 256;
+    } else if (name == "teardrop") {
+        s.dims = q ? 48 : 64, s.members = 50, s.image = q ? 128 : 512;
+        s.realizations = q ? 20 : 200;
+    } else if (name == "spheres") {
+        s.dims = q ? 128 : 512, s.image = q ? 128 : 512, s.realizations = q ? 20 : 200;
+    } else if (name == "chest") {
+        s.image = q ? 128 : 512, s.realizations = q ? 20 : 200;
+    }
+    if (o.dims > 0) s.dims = o.dims;
+    if (o.members > 0) s.members = o.members;
+    if (o.imageSize > 0) s.image = o.imageSize;
+    if (o.realizations > 0) s.realizations = o.realizations;
+    if (!o.sweepMembers.empty()) s.sweepMembers = o.sweepMembers;
+    return s;
+}
+
+std::string slug(const std::string& label) {
+    std::string out;
+    for (char c : label) {
+        if (std::isalnum(static_cast<unsigned char>(c)))
+            out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        else if ((c == ' ' || c == '-' || c == '_' || c == '/') && !out.empty() &&
+                 out.back() != '-')
+            out += '-';
+    }
+    while (!out.empty() && out.back() == '-') out.pop_back();
+    return out;
+}
+
+std::string modelLabel(ModelKind kind, int q) {
+    std::string s(modelName(kind));
+    if (needsQuantiles(kind) && kind != ModelKind::QuartileLower &&
+        kind != ModelKind::QuartileMiddle && kind != ModelKind::QuartileUpper &&
+        kind != ModelKind::Iqr)
+        s += " q=" + std::to_string(q);
+    return s;
+}
+
+std::string densityName(DensityEstimate d) {
+    return d == DensityEstimate::Kde ? "kde" : "empirical";
+}
+
+/// Whether a model's classification reads the quantile boundaries (the IQR's come from them too).
+bool usesQuantiles(ModelKind kind) { return needsQuantiles(kind) || kind == ModelKind::Iqr; }
+
+/// A rendered image on its way into the panel.
+struct PanelItem {
+    std::string label;
+    std::vector<std::string> caption;
+    ImageRgba image;
+    ImageRgba diff;        // empty = no difference image under it
+    std::string diffFile;  // where the difference image goes; empty = none wanted
+};
+
+ImageRgba thumbnail(const ImageRgba& image) {
+    const int side = std::max(image.width, image.height);
+    const int factor = (side + kThumbMax - 1) / kThumbMax;
+    return factor <= 1 ? image : downsampleImage(image, factor);
+}
+
+/// Rows of `columns` images, each followed by the row of their difference images (if any).
+FigurePanel makePanel(const std::string& title, const std::vector<PanelItem>& items, int columns) {
+    FigurePanel panel;
+    panel.title = title;
+    panel.columns = columns;
+    for (std::size_t start = 0; start < items.size(); start += static_cast<std::size_t>(columns)) {
+        const std::size_t end = std::min(items.size(), start + static_cast<std::size_t>(columns));
+        bool anyDiff = false;
+        for (std::size_t i = start; i < end; ++i) {
+            panel.cells.push_back({thumbnail(items[i].image), items[i].caption});
+            anyDiff = anyDiff || items[i].diff.width > 0;
+        }
+        for (std::size_t i = end; i < start + static_cast<std::size_t>(columns); ++i)
+            panel.cells.push_back({});
+        if (!anyDiff) continue;
+        for (std::size_t i = start; i < end; ++i) {
+            FigureCell c;
+            if (items[i].diff.width > 0) {
+                c.image = thumbnail(items[i].diff);
+                c.caption = {"difference", items[i].label};
+            }
+            panel.cells.push_back(std::move(c));
+        }
+        for (std::size_t i = end; i < start + static_cast<std::size_t>(columns); ++i)
+            panel.cells.push_back({});
+    }
+    return panel;
+}
+
+/// Everything one experiment shares: its directory, log, TF, camera, truth and table.
+class Run {
+  public:
+    Run(std::string name, fs::path dir, const ExperimentOptions& options, Sizes sizes)
+        : options_(options), sizes_(std::move(sizes)), t0_(Clock::now()) {
+        result_.name = std::move(name);
+        result_.dir = std::move(dir);
+        std::error_code ec;
+        fs::create_directories(result_.dir / "images", ec);
+        if (ec)
+            UDVR_FAIL("cannot create output directory " << (result_.dir / "images").string() << ": "
+                                                        << ec.message());
+    }
+
+    const Sizes& sizes() const { return sizes_; }
+    const ExperimentOptions& options() const { return options_; }
+    ExperimentResult& result() { return result_; }
+
+    void log(const std::string& message) const {
+        if (options_.log)
+            std::fprintf(stderr, "udvr experiment %s: %s\n", result_.name.c_str(), message.c_str());
+    }
+
+    /// Load data/tf/<file>, keep a copy beside the results (tf.json) and draw it.
+    void loadTf(const std::string& file) {
+        const fs::path dir = options_.tfDir.empty() ? locateTfDir() : options_.tfDir;
+        const fs::path path = dir / file;
+        if (!fs::exists(path))
+            UDVR_FAIL("transfer function " << path.string() << " not found (set UDVR_TF_DIR)");
+        tf_ = readTransferFunction(path);
+        std::ifstream in(path, std::ios::binary);
+        std::ostringstream os;
+        os << in.rdbuf();
+        writeFile("tf.json", os.str());
+        tfFile_ = file;
+    }
+    const TransferFunction1D& tf() const { return tf_; }
+    const std::string& tfFile() const { return tfFile_; }
+
+    /// Camera and image settings for everything rendered in this run (from the truth's bounds).
+    void setView(const std::array<double, 6>& bounds, double azimuth = kAzimuth,
+                 double elevation = kElevation, double zoom = 1.0) {
+        settings_.width = settings_.height = sizes_.image;
+        settings_.camera = defaultCamera(bounds, azimuth, elevation, zoom);
+        settings_.realizations = sizes_.realizations;
+    }
+    void setCamera(const Camera& camera) { settings_.camera = camera; }
+    const RenderSettings& settings() const { return settings_; }
+
+    /// Render one image with its time; one line on stderr.
+    ImageRgba render(const ModelVolume& model, ModelKind kind, const std::string& label,
+                     double* ms) {
+        RenderStats stats;
+        ImageRgba img = renderVolume(model, kind, tf_, settings_, &stats);
+        *ms = stats.milliseconds;
+        log("rendered " + label + " (" + std::to_string(settings_.width) + "x" +
+            std::to_string(settings_.height) + ") in " + fmt("%.1f", stats.milliseconds) + " ms");
+        return img;
+    }
+
+    /// Render the ground truth (a mean model of the deterministic field) and record it.
+    void renderTruth(const ModelVolume& truthModel, int memberCount, double memory) {
+        double ms = 0;
+        truth_ = render(truthModel, ModelKind::Mean, "ground truth", &ms);
+        ResultRow row;
+        row.experiment = result_.name;
+        row.label = "ground truth";
+        row.model = "ground-truth";
+        row.members = memberCount;
+        row.rmse = imageRmse(truth_, truth_);
+        row.renderMs = ms;
+        row.memoryRatio = memory;
+        row.image = "images/ground-truth.png";
+        writeImage(row.image, truth_);
+        result_.rows.push_back(row);
+        items_.push_back({row.label, {row.label, "RMSE " + fmt("%.4f", row.rmse)}, truth_, {}, {}});
+    }
+    const ImageRgba& truth() const { return truth_; }
+
+    /// Render `kind` of `model`, compare with the truth, write the image and its difference.
+    ResultRow add(const ModelVolume& model, ModelKind kind, int memberCount,
+                  const std::string& labelSuffix = "", bool inPanel = true, bool withDiff = true) {
+        const int q = usesQuantiles(kind) ? model.quantileCount : 0;
+        const int k =
+            (kind == ModelKind::GmmMc || kind == ModelKind::GmmOrdered) ? model.gmmComponents : 0;
+        ResultRow row;
+        row.experiment = result_.name;
+        row.label = modelLabel(kind, q) + labelSuffix;
+        row.model = std::string(modelName(kind));
+        row.quantiles = q;
+        row.gmmComponents = k;
+        row.density = usesQuantiles(kind) ? model.density : "";
+        row.members = memberCount;
+        ImageRgba img = render(model, kind, row.label, &row.renderMs);
+        row.rmse = imageRmse(img, truth_);
+        row.memoryRatio = memoryRatio(kind, q, k);
+        const std::string base = "images/" + slug(row.label);
+        row.image = base + ".png";
+        writeImage(row.image, img);
+        log(row.label + ": RMSE " + fmt("%.5f", row.rmse));
+        result_.rows.push_back(row);
+        if (inPanel) {
+            std::string line2 = "RMSE " + fmt("%.4f", row.rmse);
+            std::string line3 =
+                fmt("%.0f ms", row.renderMs) + ", mem " + fmt("%g", row.memoryRatio) + "x";
+            items_.push_back({row.label,
+                              {row.label, line2, line3},
+                              std::move(img),
+                              {},
+                              withDiff ? base + "-diff.png" : std::string()});
+        }
+        return row;
+    }
+
+    /// Difference images of the panel's items, on one colour scale (the largest per-pixel
+    /// difference of any of them) so they compare at a glance; written beside the images.
+    double writeDifferenceImages() {
+        double scale = 0.0;
+        for (const PanelItem& it : items_)
+            if (!it.diffFile.empty())
+                for (float d : pixelDifferences(it.image, truth_))
+                    scale = std::max(scale, static_cast<double>(d));
+        if (scale <= 0.0) scale = 1.0;
+        for (PanelItem& it : items_)
+            if (!it.diffFile.empty()) {
+                it.diff = differenceImage(it.image, truth_, scale);
+                writeImage(it.diffFile, it.diff);
+            }
+        diffScale_ = scale;
+        return scale;
+    }
+    double diffScale() const { return diffScale_; }
+
+    /// An extra panel cell (e.g. the transfer function).
+    void addPanelItem(PanelItem item) { items_.push_back(std::move(item)); }
+    std::vector<PanelItem>& items() { return items_; }
+
+    void writeImage(const std::string& rel, const ImageRgba& img) {
+        writePng(result_.dir / rel, img);
+        result_.files.emplace_back(rel);
+    }
+    void writeFigure(const std::string& rel, const ImageRgba& img) {
+        writeFigurePng(result_.dir / rel, img);
+        result_.files.emplace_back(rel);
+    }
+    void writeFile(const std::string& rel, const std::string& text) {
+        writeFileAtomically(result_.dir / rel, text);
+        result_.files.emplace_back(rel);
+    }
+
+    /// Write results.csv/json, claims and report.md; returns the result.
+    ExperimentResult finish(const std::string& title, std::vector<std::string> setup,
+                            const std::vector<std::string>& figures) {
+        result_.claims = checkClaims(result_.name, result_.rows);
+        writeResultsCsv(result_.dir / "results.csv", result_.rows);
+        result_.files.emplace_back("results.csv");
+        writeResultsJson(result_.dir / "results.json", result_.rows);
+        result_.files.emplace_back("results.json");
+        result_.files.emplace_back("report.md");
+        result_.seconds = secondsSince(t0_);
+        const Camera& c = settings_.camera;
+        setup.push_back(
+            "Images " + std::to_string(settings_.width) + "×" + std::to_string(settings_.height) +
+            ", camera at (" + fmt("%.3g", c.position[0]) + ", " + fmt("%.3g", c.position[1]) +
+            ", " + fmt("%.3g", c.position[2]) + ") looking at (" + fmt("%.3g", c.focalPoint[0]) +
+            ", " + fmt("%.3g", c.focalPoint[1]) + ", " + fmt("%.3g", c.focalPoint[2]) +
+            "), view angle " + fmt("%g", c.viewAngleDeg) + "°; white background.");
+        if (!tfFile_.empty())
+            setup.push_back("Transfer function `data/tf/" + tfFile_ + "` (copied to `tf.json`).");
+        writeFileAtomically(result_.dir / "report.md",
+                            experimentReport(result_, title, setup, figures));
+        for (const ClaimCheck& cl : result_.claims) log(cl.verdict + ": " + cl.claim);
+        log("done in " + fmt("%.1f", result_.seconds) + " s → " + result_.dir.string());
+        return result_;
+    }
+
+    ModelVolume build(const Ensemble& ensemble, int q, int gmm, DensityEstimate density) {
+        BuildOptions bo;
+        bo.quantiles = q;
+        bo.gmmComponents = gmm;
+        bo.density = density;
+        bo.source = result_.name + " ensemble";
+        BuildReport rep;
+        ModelVolume m = buildModel(ensemble, bo, &rep);
+        log("built " + describeBuild(q, gmm, density) + " from " +
+            std::to_string(ensemble.members) + " members in " + fmt("%.2f", rep.seconds) + " s");
+        return m;
+    }
+    ModelVolume buildBricks(const ScalarField& field, int k, int q, int gmm) {
+        BuildOptions bo;
+        bo.quantiles = q;
+        bo.gmmComponents = gmm;
+        bo.source = result_.name + " " + std::to_string(k) + "^3 bricks";
+        BuildReport rep;
+        ModelVolume m = buildModelDownsampled(field, k, bo, &rep);
+        log("built " + describeBuild(q, gmm, DensityEstimate::Empirical) + " from " +
+            std::to_string(k) + "³ bricks (" + std::to_string(m.grid.dims[0]) + "×" +
+            std::to_string(m.grid.dims[1]) + "×" + std::to_string(m.grid.dims[2]) + ") in " +
+            fmt("%.2f", rep.seconds) + " s");
+        return m;
+    }
+
+  private:
+    static std::string describeBuild(int q, int gmm, DensityEstimate density) {
+        std::string s = "model (q=" + std::to_string(q) + ", " + densityName(density);
+        if (gmm > 0) s += ", gmm " + std::to_string(gmm);
+        return s + ")";
+    }
+
+    const ExperimentOptions& options_;
+    Sizes sizes_;
+    Clock::time_point t0_;
+    ExperimentResult result_;
+    TransferFunction1D tf_;
+    std::string tfFile_;
+    RenderSettings settings_;
+    ImageRgba truth_;
+    std::vector<PanelItem> items_;
+    double diffScale_ = 0.0;
+};
+
+PanelItem tfItem(const TransferFunction1D& tf, int side) {
+    PanelItem item;
+    item.label = "transfer function";
+    item.caption = {"transfer function", "opacity (line), colour (bar)"};
+    item.image = renderTransferFunction(tf, side, side);
+    return item;
+}
+
+std::string noiseLine(int members) {
+    const NoiseParams p;
+    return std::to_string(members) + " members = truth + bimodal noise (seed " +
+           std::to_string(kNoiseSeed) + "): 80 % N(0, (" + fmt("%g", p.sigma) +
+           "R)²), 20 % outliers N(+" + fmt("%g", p.outlierOffset) + "R, (" +
+           fmt("%g", p.outlierSigma) + "R)²), R the field's value range (Athawale et al. 2021 §5).";
+}
+
+/// Render the deterministic field as the ground truth and aim the camera at it.
+void renderTruthOf(Run& run, const ScalarField& truthField) {
+    const ModelVolume truthModel = modelFromField(truthField);
+    run.setView(truthModel.bounds);
+    run.renderTruth(truthModel, 1, 1.0);
+}
+
+Ensemble makeEnsemble(const ScalarField& truth, int members) {
+    NoiseParams p;
+    p.seed = kNoiseSeed;
+    return perturbField(truth, members, p);
+}
+
+// ---- tangle (Fig. 4) and teardrop (teaser a) -------------------------------------------------
+
+ExperimentResult runEnsembleExperiment(const std::string& name, const fs::path& dir,
+                                       const ExperimentOptions& options) {
+    const bool tangle = name == "tangle";
+    Run run(name, dir, options, resolveSizes(name, options));
+    const Sizes& s = run.sizes();
+    run.loadTf(tangle ? "tangle.json" : "teardrop.json");
+    const ScalarField truthField = makeSyntheticField(name, s.dims, s.dims, s.dims);
+    run.log("generated " + name + " " + std::to_string(s.dims) + "³");
+    const Ensemble ensemble = makeEnsemble(truthField, s.members);
+    run.log("perturbed: " + std::to_string(s.members) + " members, bimodal noise");
+    renderTruthOf(run, truthField);
+
+    // One build with q = 8 and the GMM serves every model but the smaller q's.
+    const ModelVolume m8 = run.build(ensemble, 8, 4, DensityEstimate::Empirical);
+    for (ModelKind k : {ModelKind::Mean, ModelKind::Uniform, ModelKind::Gaussian, ModelKind::GmmMc,
+                        ModelKind::GmmOrdered})
+        run.add(m8, k, s.members);
+    run.addPanelItem(tfItem(run.tf(), std::min(kThumbMax, s.image)));
+    if (tangle) {
+        const ModelVolume m2 = run.build(ensemble, 2, 0, DensityEstimate::Empirical);
+        const ModelVolume m4 = run.build(ensemble, 4, 0, DensityEstimate::Empirical);
+        for (ModelKind k : {ModelKind::QuantileRange, ModelKind::QuantileMean}) {
+            run.add(m2, k, s.members);
+            run.add(m4, k, s.members);
+            run.add(m8, k, s.members);
+        }
+    } else {
+        run.add(m8, ModelKind::QuantileRange, s.members);
+        run.add(m8, ModelKind::QuantileMean, s.members);
+    }
+    run.add(m8, ModelKind::Iqr, s.members);
+
+    const std::string title =
+        tangle ? "Tangle " + std::to_string(s.dims) + "³, " + std::to_string(s.members) +
+                     " members, bimodal noise (Athawale et al. 2021, Fig. 4)"
+               : "Teardrop " + std::to_string(s.dims) + "³, " + std::to_string(s.members) +
+                     " members, bimodal noise (Athawale et al. 2021, teaser a)";
+    const double scale = run.writeDifferenceImages();
+    run.writeFigure("figure.png", renderPanel(makePanel(title, run.items(), 7)));
+    std::vector<std::string> setup = {
+        std::string(tangle ? "Tangle" : "Teardrop") + " field on " + std::to_string(s.dims) +
+            "³ grid points (`udvr generate " + name +
+            "`); ground truth = the field rendered as a mean model.",
+        noiseLine(s.members),
+        "Models built with empirical quantiles (q = 8 and, for the tangle, 2 and 4), GMM K = 4 "
+        "(EM); gmm-mc averages " +
+            std::to_string(s.realizations) + " realizations.",
+        "Difference images: per-pixel |Δ mean RGB| against the ground truth, blue (0) to yellow (" +
+            fmt("%.3f", scale) + ", the largest difference of any model)."};
+    return run.finish(title, setup, {"figure.png"});
+}
+
+// ---- tangle-sweep (Fig. 5a) ------------------------------------------------------------------
+
+ExperimentResult runSweep(const fs::path& dir, const ExperimentOptions& options) {
+    Run run("tangle-sweep", dir, options, resolveSizes("tangle-sweep", options));
+    const Sizes& s = run.sizes();
+    run.loadTf("tangle.json");
+    const ScalarField truthField = makeTangle(s.dims, s.dims, s.dims);
+    renderTruthOf(run, truthField);
+    const int maxMembers = *std::max_element(s.sweepMembers.begin(), s.sweepMembers.end());
+    // Members are deterministic in (seed, member, voxel): the first m members of the largest
+    // ensemble are the m-member ensemble, so the sets nest as the sample size grows.
+    const Ensemble full = makeEnsemble(truthField, maxMembers);
+    const std::vector<int> qs = {2, 4, 8};
+    const std::vector<DensityEstimate> densities = {DensityEstimate::Empirical,
+                                                    DensityEstimate::Kde};
+    for (int m : s.sweepMembers) {
+        Ensemble e;
+        e.grid = full.grid;
+        e.members = m;
+        e.name = full.name;
+        e.values.assign(full.values.begin(), full.values.begin() + static_cast<std::ptrdiff_t>(m) *
+                                                                       static_cast<std::ptrdiff_t>(
+                                                                           full.grid.pointCount()));
+        const std::string suffix = ", " + std::to_string(m) + " members";
+        bool parametricDone = false;
+        for (DensityEstimate d : densities)
+            for (int q : qs) {
+                const ModelVolume model = run.build(e, q, 0, d);
+                if (!parametricDone) {
+                    run.add(model, ModelKind::Mean, m, suffix, false, false);
+                    run.add(model, ModelKind::Gaussian, m, suffix, false, false);
+                    parametricDone = true;
+                }
+                const std::string ds = ", " + densityName(d) + suffix;
+                run.add(model, ModelKind::QuantileRange, m, ds, false, false);
+                run.add(model, ModelKind::QuantileMean, m, ds, false, false);
+            }
+    }
+    // The plot: one set of axes per density, RMSE vs members, one line per (model, q).
+    const std::array<std::array<double, 3>, 3> qColour = {
+        {{0.85, 0.37, 0.01}, {0.11, 0.62, 0.47}, {0.46, 0.44, 0.70}}};
+    std::vector<PlotAxes> axes;
+    for (DensityEstimate d : densities) {
+        PlotAxes ax;
+        ax.title = "tangle " + std::to_string(s.dims) + "³: " + densityName(d) + " quantiles";
+        ax.xLabel = "ensemble members";
+        ax.yLabel = "RMSE";
+        ax.logX = true;
+        for (const char* model : {"quantile-range", "quantile-mean"})
+            for (std::size_t qi = 0; qi < qs.size(); ++qi) {
+                PlotSeries ser;
+                ser.label = std::string(model == std::string("quantile-range") ? "QR" : "QM") +
+                            " q=" + std::to_string(qs[qi]);
+                ser.color = qColour[qi];
+                ser.dashed = model == std::string("quantile-mean");
+                for (int m : s.sweepMembers)
+                    for (const ResultRow& r : run.result().rows)
+                        if (r.model == model && r.quantiles == qs[qi] && r.members == m &&
+                            r.density == densityName(d)) {
+                            ser.x.push_back(m);
+                            ser.y.push_back(r.rmse);
+                        }
+                ax.series.push_back(std::move(ser));
+            }
+        for (const char* model : {"mean", "gaussian"}) {
+            PlotSeries ser;
+            ser.label = model;
+            ser.color = model == std::string("mean") ? std::array<double, 3>{0.2, 0.2, 0.2}
+                                                     : std::array<double, 3>{0.6, 0.6, 0.6};
+            ser.dashed = true;
+            for (int m : s.sweepMembers)
+                for (const ResultRow& r : run.result().rows)
+                    if (r.model == model && r.members == m) {
+                        ser.x.push_back(m);
+                        ser.y.push_back(r.rmse);
+                    }
+            ax.series.push_back(std::move(ser));
+        }
+        axes.push_back(std::move(ax));
+    }
+    run.writeFigure("figure.png", renderLinePlots(axes, 1100, 440));
+    const std::string title =
+        "Tangle sweep: RMSE vs quantiles × members (Athawale et al. 2021, Fig. 5a)";
+    std::string memberList;
+    for (int m : s.sweepMembers) memberList += (memberList.empty() ? "" : ", ") + std::to_string(m);
+    std::vector<std::string> setup = {
+        "Tangle on " + std::to_string(s.dims) + "³ grid points; members ∈ {" + memberList +
+            "} (nested: the first m members of one seeded ensemble); bimodal noise as in `tangle`.",
+        "q ∈ {2, 4, 8} for both density estimates of SPEC §2: empirical (numpy-linear sample "
+        "quantiles) and KDE (Silverman's robust bandwidth, tails at ε = 1/(2n)).",
+        "QR = quantile-range (Eq. 4, solid), QM = quantile-mean (Eq. 5, dashed); mean and "
+        "gaussian for reference."};
+    return run.finish(title, setup, {"figure.png"});
+}
+
+// ---- quartiles (Fig. 6) ----------------------------------------------------------------------
+
+ExperimentResult runQuartiles(const fs::path& dir, const ExperimentOptions& options) {
+    Run run("quartiles", dir, options, resolveSizes("quartiles", options));
+    const Sizes& s = run.sizes();
+    run.loadTf("tangle.json");
+    const ScalarField truthField = makeTangle(s.dims, s.dims, s.dims);
+    const Ensemble ensemble = makeEnsemble(truthField, s.members);
+    renderTruthOf(run, truthField);
+    const ModelVolume m8 = run.build(ensemble, 8, 0, DensityEstimate::Empirical);
+    for (ModelKind k :
+         {ModelKind::QuartileLower, ModelKind::QuartileMiddle, ModelKind::QuartileUpper})
+        run.add(m8, k, s.members, "", true, false);
+    run.add(m8, ModelKind::QuantileRange, s.members, "", true, false);
+    const std::string title = "Quartile view of the tangle, " + std::to_string(s.members) +
+                              " members, q = 8 (Athawale et al. 2021, Fig. 6)";
+    run.writeFigure("figure.png", renderPanel(makePanel(title, run.items(), 5)));
+    std::vector<std::string> setup = {
+        "Tangle on " + std::to_string(s.dims) + "³ grid points, " + noiseLine(s.members),
+        "Empirical quantiles, q = 8: quartile-lower integrates the TF over quantiles 1–2 "
+        "([0, .25]), quartile-middle over 3–6, quartile-upper over 7–8 (SPEC §4)."};
+    return run.finish(title, setup, {"figure.png"});
+}
+
+// ---- downsampling: spheres (Fig. 8), chest (teaser b / Fig. 9) --------------------------------
+
+ExperimentResult runDownsampled(const std::string& name, const fs::path& dir, ScalarField field,
+                                const ExperimentOptions& options, const std::string& tfFile,
+                                const std::string& title, std::vector<std::string> setup,
+                                const Camera* camera) {
+    constexpr int kBrick = 4;
+    Run run(name, dir, options, resolveSizes(name, options));
+    const Sizes& s = run.sizes();
+    run.loadTf(tfFile);
+    ModelVolume reduced = run.buildBricks(field, kBrick, 8, 4);
+    {
+        // The full-resolution truth: a mean model of the field, without the arrays it does not
+        // need for rendering (σ), to keep a 512³ run within a few GiB.
+        ModelVolume truthModel = modelFromField(field);
+        truthModel.stddev = {};
+        field.values = {};
+        field.values.shrink_to_fit();
+        run.setView(truthModel.bounds);
+        if (camera) run.setCamera(*camera);
+        run.renderTruth(truthModel, 1, kBrick * kBrick * kBrick);
+    }
+    const int samples = kBrick * kBrick * kBrick;
+    for (ModelKind k :
+         {ModelKind::Mean, ModelKind::Uniform, ModelKind::Gaussian, ModelKind::GmmMc,
+          ModelKind::GmmOrdered, ModelKind::QuantileRange, ModelKind::QuantileMean, ModelKind::Iqr})
+        run.add(reduced, k, samples);
+    run.addPanelItem(tfItem(run.tf(), std::min(kThumbMax, s.image)));
+    const double scale = run.writeDifferenceImages();
+    run.writeFigure("figure.png", renderPanel(makePanel(title, run.items(), 5)));
+    setup.push_back(
+        "Difference images: per-pixel |Δ mean RGB| against the ground truth, blue (0) "
+        "to yellow (" +
+        fmt("%.3f", scale) + ", the largest difference of any model).");
+    setup.push_back("Reduced by " + std::to_string(kBrick) + "³ bricks to " +
+                    std::to_string(reduced.grid.dims[0]) + "×" +
+                    std::to_string(reduced.grid.dims[1]) + "×" +
+                    std::to_string(reduced.grid.dims[2]) +
+                    " voxels of 64 samples each (SPEC §2); empirical quantiles q = 8, GMM K = 4; "
+                    "gmm-mc averages " +
+                    std::to_string(s.realizations) + " realizations.");
+    setup.push_back(
+        "Ground-truth memory is the full-resolution field relative to the reduced mean "
+        "field (64).");
+    return run.finish(title, setup, {"figure.png"});
+}
+
+ExperimentResult runSpheres(const fs::path& dir, const ExperimentOptions& options) {
+    const Sizes s = resolveSizes("spheres", options);
+    if (options.log)
+        std::fprintf(stderr, "udvr experiment spheres: generating nested spheres %d³\n", s.dims);
+    ScalarField field = makeNestedSpheres(s.dims, s.dims, s.dims);
+    const std::string title = "Nested spheres " + std::to_string(s.dims) +
+                              "³ reduced by 4³ bricks (Athawale et al. 2021, Fig. 8)";
+    return runDownsampled("spheres", dir, std::move(field), options, "spheres.json", title,
+                          {"Nested spheres (shells valued 25, 50, 75, 100 from the inside out, 0 "
+                           "between) on " +
+                           std::to_string(s.dims) +
+                           "³ grid points; ground truth "
+                           "rendered at full resolution."},
+                          nullptr);
+}
+
+fs::path chestPath(const ExperimentOptions& options) {
+    const fs::path dir = options.dataDir.empty() ? locateDataDir() : options.dataDir;
+    return dir.empty() ? fs::path() : dir / "chest-ct" / "chest.nhdr";
+}
+
+ExperimentResult runChest(const fs::path& dir, const ExperimentOptions& options) {
+    const fs::path path = chestPath(options);
+    if (path.empty() || !fs::exists(path))
+        UDVR_FAIL(
+            "experiment 'chest' needs the chest CT at "
+            << (path.empty() ? std::string("<shared data>/chest-ct/chest.nhdr") : path.string())
+            << ", which is absent; set UDVR_DATA_DIR to the folder holding chest-ct/");
+    ScalarField field = readField(path);
+    if (options.log)
+        std::fprintf(stderr, "udvr experiment chest: read %s (%d×%d×%d)\n", path.string().c_str(),
+                     field.grid.dims[0], field.grid.dims[1], field.grid.dims[2]);
+    // A frontal view: looking along +y (anterior to posterior in this scan) with the body
+    // axis (z, head up) vertical.
+    const auto b = field.grid.bounds();
+    Camera cam;
+    cam.focalPoint = {(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2};
+    const double radius =
+        0.5 * std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) +
+                        (b[5] - b[4]) * (b[5] - b[4]));
+    const double dist = radius / std::sin(cam.viewAngleDeg * std::numbers::pi / 360.0);
+    cam.position = {cam.focalPoint[0], cam.focalPoint[1] - dist, cam.focalPoint[2]};
+    cam.viewUp = {0, 0, 1};
+    const std::string title =
+        "Chest CT reduced by 4³ bricks: bone (gray) and soft tissue (red) "
+        "(Athawale et al. 2021, teaser b / Fig. 9)";
+    return runDownsampled(
+        "chest", dir, std::move(field), options, "chest-ct.json", title,
+        {"Chest CT (LIDC, 8-bit) from `" + path.string() +
+         "`, 256×256×133, spacing 1.40625×1.40625×2.5 mm; plays the paper's OBELIX torso."},
+        &cam);
+}
+
+ExperimentResult runOne(const std::string& name, const fs::path& dir,
+                        const ExperimentOptions& options) {
+    if (name == "tangle" || name == "teardrop") return runEnsembleExperiment(name, dir, options);
+    if (name == "tangle-sweep") return runSweep(dir, options);
+    if (name == "quartiles") return runQuartiles(dir, options);
+    if (name == "spheres") return runSpheres(dir, options);
+    if (name == "chest") return runChest(dir, options);
+    std::string names;
+    for (const std::string& n : experimentNames()) names += n + ", ";
+    UDVR_FAIL("unknown experiment '" << name << "' (expected one of " << names << "all)");
+}
+
+fs::path executableDir() {
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    return ec ? fs::path() : exe.parent_path();
+}
+
+}  // namespace
+
+const std::vector<std::string>& experimentNames() {
+    static const std::vector<std::string> names = {"tangle",    "tangle-sweep", "teardrop",
+                                                   "quartiles", "spheres",      "chest"};
+    return names;
+}
+
+fs::path locateTfDir() {
+    if (const char* env = std::getenv("UDVR_TF_DIR"); env && *env) {
+        if (fs::is_directory(env)) return env;
+        UDVR_FAIL("UDVR_TF_DIR=" << env << " is not a directory");
+    }
+    std::vector<fs::path> candidates;
+    const fs::path exe = executableDir();
+    if (!exe.empty())
+        for (fs::path p = exe; !p.empty() && p != p.root_path(); p = p.parent_path())
+            candidates.push_back(p / "data" / "tf");
+    // The source tree this library was built from (src/udvr/eval/ → repo root).
+    candidates.push_back(
+        fs::path(__FILE__).parent_path().parent_path().parent_path().parent_path() / "data" / "tf");
+    candidates.push_back(fs::current_path() / "data" / "tf");
+    for (const fs::path& c : candidates)
+        if (fs::exists(c / "tangle.json")) return c;
+    UDVR_FAIL(
+        "cannot find the transfer functions (data/tf/tangle.json) beside the executable, in "
+        "the source tree or the working directory; set UDVR_TF_DIR");
+}
+
+fs::path locateDataDir() {
+    if (const char* env = std::getenv("UDVR_DATA_DIR"); env && *env) return env;
+    std::vector<fs::path> candidates;
+    const fs::path exe = executableDir();
+    if (!exe.empty())
+        for (fs::path p = exe; !p.empty() && p != p.root_path(); p = p.parent_path())
+            candidates.push_back(p.parent_path() / "shared" / "data");
+    candidates.push_back(
+        fs::path(__FILE__).parent_path().parent_path().parent_path().parent_path().parent_path() /
+        "shared" / "data");
+    candidates.push_back(fs::current_path().parent_path() / "shared" / "data");
+    for (const fs::path& c : candidates)
+        if (fs::is_directory(c)) return c;
+    return {};
+}
+
+std::vector<ExperimentResult> runExperiments(const std::string& name, const fs::path& outDir,
+                                             const ExperimentOptions& options) {
+    if (name != "all") return {runOne(name, outDir, options)};
+    std::vector<ExperimentResult> results;
+    std::vector<std::string> skipped;
+    for (const std::string& n : experimentNames()) {
+        if (n == "chest") {
+            const fs::path p = chestPath(options);
+            if (p.empty() || !fs::exists(p)) {
+                const std::string why = "chest (no chest CT at " +
+                                        (p.empty() ? std::string("<shared data>") : p.string()) +
+                                        ")";
+                if (options.log)
+                    std::fprintf(stderr, "udvr experiment: skipping %s\n", why.c_str());
+                skipped.push_back(why);
+                continue;
+            }
+        }
+        results.push_back(runOne(n, outDir / n, options));
+    }
+    writeFileAtomically(outDir / "report.md", summaryReport(results, skipped));
+    return results;
+}
+
+}  // namespace udvr

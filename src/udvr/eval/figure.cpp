@@ -1,0 +1,468 @@
+#include "udvr/eval/figure.h"
+
+#include <cairo.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <numbers>
+
+#include "udvr/util/atomic_file.h"
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace {
+
+// Panel geometry, pixels.
+constexpr int kMargin = 12;
+constexpr int kGap = 10;
+constexpr int kTitleBand = 30;
+constexpr int kLineHeight = 16;
+constexpr double kCaptionFont = 12.5;
+constexpr double kTitleFont = 16.0;
+const char* const kFont = "DejaVu Sans";
+
+struct SurfaceDeleter {
+    void operator()(cairo_surface_t* s) const { cairo_surface_destroy(s); }
+};
+struct ContextDeleter {
+    void operator()(cairo_t* c) const { cairo_destroy(c); }
+};
+using SurfacePtr = std::unique_ptr<cairo_surface_t, SurfaceDeleter>;
+using ContextPtr = std::unique_ptr<cairo_t, ContextDeleter>;
+
+SurfacePtr makeSurface(cairo_format_t format, int width, int height) {
+    SurfacePtr s(cairo_image_surface_create(format, width, height));
+    if (cairo_surface_status(s.get()) != CAIRO_STATUS_SUCCESS)
+        UDVR_FAIL("cannot create a " << width << "x" << height << " figure surface: "
+                                     << cairo_status_to_string(cairo_surface_status(s.get())));
+    return s;
+}
+
+std::uint8_t toByte(float v) {
+    if (!(v > 0.f)) return 0;  // also NaN
+    if (v >= 1.f) return 255;
+    return static_cast<std::uint8_t>(std::lround(v * 255.f));
+}
+
+/// Paste straight RGB (opaque) into an ARGB32/RGB24 surface at (x0, y0).
+void pasteImage(cairo_surface_t* surface, const ImageRgba& image, int x0, int y0) {
+    cairo_surface_flush(surface);
+    unsigned char* data = cairo_image_surface_get_data(surface);
+    const int stride = cairo_image_surface_get_stride(surface);
+    const int sw = cairo_image_surface_get_width(surface);
+    const int sh = cairo_image_surface_get_height(surface);
+    for (int y = 0; y < image.height; ++y) {
+        const int py = y0 + y;
+        if (py < 0 || py >= sh) continue;
+        auto* row =
+            reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(py) * stride);
+        for (int x = 0; x < image.width; ++x) {
+            const int px = x0 + x;
+            if (px < 0 || px >= sw) continue;
+            const float* p = image.pixel(x, y);
+            row[px] = 0xFF000000u | (std::uint32_t{toByte(p[0])} << 16) |
+                      (std::uint32_t{toByte(p[1])} << 8) | std::uint32_t{toByte(p[2])};
+        }
+    }
+    cairo_surface_mark_dirty(surface);
+}
+
+/// Read an opaque ARGB32 surface back into [0,1] floats (alpha 1).
+ImageRgba surfaceToImage(cairo_surface_t* surface) {
+    cairo_surface_flush(surface);
+    ImageRgba out;
+    out.width = cairo_image_surface_get_width(surface);
+    out.height = cairo_image_surface_get_height(surface);
+    out.rgba.resize(static_cast<std::size_t>(out.width) * out.height * 4);
+    const unsigned char* data = cairo_image_surface_get_data(surface);
+    const int stride = cairo_image_surface_get_stride(surface);
+    for (int y = 0; y < out.height; ++y) {
+        const auto* row =
+            reinterpret_cast<const std::uint32_t*>(data + static_cast<std::ptrdiff_t>(y) * stride);
+        for (int x = 0; x < out.width; ++x) {
+            const std::uint32_t v = row[x];
+            const float a = static_cast<float>((v >> 24) & 0xFF);
+            float* p = out.pixel(x, y);
+            for (int c = 0; c < 3; ++c) {
+                const float byte = static_cast<float>((v >> (16 - 8 * c)) & 0xFF);
+                // ARGB32 is premultiplied; figures are opaque, but un-premultiply to be safe.
+                p[c] = a > 0.f ? std::min(1.f, byte / a) : 0.f;
+            }
+            p[3] = 1.f;
+        }
+    }
+    return out;
+}
+
+void setFont(cairo_t* cr, double size, bool bold) {
+    cairo_select_font_face(cr, kFont, CAIRO_FONT_SLANT_NORMAL,
+                           bold ? CAIRO_FONT_WEIGHT_BOLD : CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr, size);
+}
+
+/// Draw text with its horizontal centre at cx and baseline at y, shrunk to fit maxWidth.
+void textCentred(cairo_t* cr, const std::string& text, double cx, double y, double maxWidth,
+                 double size, bool bold) {
+    setFont(cr, size, bold);
+    cairo_text_extents_t ext;
+    cairo_text_extents(cr, text.c_str(), &ext);
+    if (ext.x_advance > maxWidth && ext.x_advance > 0) {
+        setFont(cr, size * maxWidth / ext.x_advance, bold);
+        cairo_text_extents(cr, text.c_str(), &ext);
+    }
+    cairo_move_to(cr, cx - ext.x_advance / 2, y);
+    cairo_show_text(cr, text.c_str());
+}
+
+void textAt(cairo_t* cr, const std::string& text, double x, double y, double size, bool bold,
+            double alignX = 0.0) {
+    setFont(cr, size, bold);
+    cairo_text_extents_t ext;
+    cairo_text_extents(cr, text.c_str(), &ext);
+    cairo_move_to(cr, x - alignX * ext.x_advance, y);
+    cairo_show_text(cr, text.c_str());
+}
+
+std::string formatTick(double v, double step) {
+    char buf[64];
+    const int decimals =
+        step >= 1.0 ? 0 : std::min(8, static_cast<int>(std::ceil(-std::log10(step) - 1e-9)));
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+    return buf;
+}
+
+}  // namespace
+
+PanelLayout panelLayout(const FigurePanel& panel) {
+    UDVR_CHECK(panel.columns >= 1);
+    PanelLayout l;
+    std::size_t lines = 0;
+    for (const FigureCell& c : panel.cells) {
+        l.cellWidth = std::max(l.cellWidth, c.image.width);
+        l.cellHeight = std::max(l.cellHeight, c.image.height);
+        lines = std::max(lines, c.caption.size());
+    }
+    l.cellWidth = std::max(l.cellWidth, 1);
+    l.cellHeight = std::max(l.cellHeight, 1);
+    l.captionHeight = lines > 0 ? static_cast<int>(lines) * kLineHeight + 8 : 0;
+    const int n = static_cast<int>(panel.cells.size());
+    const int cols = std::max(1, std::min(panel.columns, n));
+    const int rows = n == 0 ? 0 : (n + cols - 1) / cols;
+    const int top = kMargin + (panel.title.empty() ? 0 : kTitleBand);
+    l.width = 2 * kMargin + cols * l.cellWidth + (cols - 1) * kGap;
+    l.height =
+        top + kMargin + rows * (l.cellHeight + l.captionHeight) + std::max(0, rows - 1) * kGap;
+    for (int i = 0; i < n; ++i) {
+        const int col = i % cols, row = i / cols;
+        const int x = kMargin + col * (l.cellWidth + kGap) +
+                      (l.cellWidth - panel.cells[static_cast<std::size_t>(i)].image.width) / 2;
+        const int y = top + row * (l.cellHeight + l.captionHeight + kGap);
+        l.imageOrigin.push_back({x, y});
+    }
+    return l;
+}
+
+ImageRgba renderPanel(const FigurePanel& panel) {
+    const PanelLayout l = panelLayout(panel);
+    SurfacePtr surface = makeSurface(CAIRO_FORMAT_ARGB32, l.width, l.height);
+    ContextPtr cr(cairo_create(surface.get()));
+    cairo_set_source_rgb(cr.get(), 1, 1, 1);
+    cairo_paint(cr.get());
+    cairo_set_source_rgb(cr.get(), 0, 0, 0);
+    if (!panel.title.empty())
+        textCentred(cr.get(), panel.title, l.width / 2.0, kMargin + kTitleFont,
+                    l.width - 2.0 * kMargin, kTitleFont, true);
+    const int cols =
+        std::max(1, std::min<int>(panel.columns, static_cast<int>(panel.cells.size())));
+    for (std::size_t i = 0; i < panel.cells.size(); ++i) {
+        const FigureCell& cell = panel.cells[i];
+        const int col = static_cast<int>(i) % cols;
+        const double cx = kMargin + col * (l.cellWidth + kGap) + l.cellWidth / 2.0;
+        double y = l.imageOrigin[i][1] + l.cellHeight + kLineHeight;
+        for (std::size_t k = 0; k < cell.caption.size(); ++k) {
+            textCentred(cr.get(), cell.caption[k], cx, y, l.cellWidth + kGap - 2.0, kCaptionFont,
+                        k == 0);
+            y += kLineHeight;
+        }
+    }
+    cr.reset();
+    for (std::size_t i = 0; i < panel.cells.size(); ++i)
+        pasteImage(surface.get(), panel.cells[i].image, l.imageOrigin[i][0], l.imageOrigin[i][1]);
+    return surfaceToImage(surface.get());
+}
+
+std::vector<double> niceTicks(double lo, double hi, int maxTicks) {
+    UDVR_CHECK(std::isfinite(lo) && std::isfinite(hi) && maxTicks >= 1);
+    if (hi < lo) std::swap(lo, hi);
+    double span = hi - lo;
+    if (span <= 0) span = lo != 0 ? std::abs(lo) : 1.0;
+    const double raw = span / maxTicks;
+    const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+    double step = 10 * mag;
+    for (double m : {1.0, 2.0, 5.0, 10.0})
+        if (m * mag >= raw) {
+            step = m * mag;
+            break;
+        }
+    std::vector<double> ticks;
+    const double first = std::ceil(lo / step - 1e-9) * step;
+    for (double t = first; t <= hi + 1e-9 * span; t += step)
+        ticks.push_back(std::abs(t) < 1e-12 * step ? 0.0 : t);
+    return ticks;
+}
+
+ImageRgba renderLinePlots(const std::vector<PlotAxes>& plots, int width, int height) {
+    UDVR_CHECK(!plots.empty() && width > 0 && height > 0);
+    // Shared y range over every finite value.
+    double ylo = std::numeric_limits<double>::infinity(), yhi = -ylo;
+    for (const PlotAxes& p : plots)
+        for (const PlotSeries& s : p.series) {
+            UDVR_CHECK(s.x.size() == s.y.size());
+            for (double v : s.y)
+                if (std::isfinite(v)) ylo = std::min(ylo, v), yhi = std::max(yhi, v);
+        }
+    if (!std::isfinite(ylo)) ylo = 0, yhi = 1;
+    if (yhi - ylo <= 0) {
+        const double pad = ylo != 0 ? 0.1 * std::abs(ylo) : 1.0;
+        ylo -= pad, yhi += pad;
+    }
+    {
+        const double pad = 0.08 * (yhi - ylo);
+        ylo -= pad, yhi += pad;
+    }
+    const std::vector<double> yTicks = niceTicks(ylo, yhi, 6);
+    const double yStep = yTicks.size() >= 2 ? yTicks[1] - yTicks[0] : (yhi - ylo);
+
+    SurfacePtr surface = makeSurface(CAIRO_FORMAT_ARGB32, width, height);
+    ContextPtr crp(cairo_create(surface.get()));
+    cairo_t* cr = crp.get();
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+
+    const double plotW = static_cast<double>(width) / static_cast<double>(plots.size());
+    const double font = std::clamp(height / 32.0, 9.0, 14.0);
+    for (std::size_t pIndex = 0; pIndex < plots.size(); ++pIndex) {
+        const PlotAxes& p = plots[pIndex];
+        const double pi = static_cast<double>(pIndex);
+        const double left = pi * plotW + 5.5 * font, right = (pi + 1) * plotW - font;
+        const double top = 2.6 * font, bottom = height - 3.6 * font;
+        if (right - left < 10 || bottom - top < 10) continue;
+        // x range over the union of x values (log-transformed when asked).
+        auto tx = [&](double x) { return p.logX ? std::log(std::max(x, 1e-300)) : x; };
+        std::vector<double> xs;
+        for (const PlotSeries& s : p.series) xs.insert(xs.end(), s.x.begin(), s.x.end());
+        std::sort(xs.begin(), xs.end());
+        xs.erase(std::unique(xs.begin(), xs.end()), xs.end());
+        double xlo = xs.empty() ? 0.0 : tx(xs.front()), xhi = xs.empty() ? 1.0 : tx(xs.back());
+        if (xhi - xlo <= 0) xlo -= 1, xhi += 1;
+        const double xpad = 0.06 * (xhi - xlo);
+        xlo -= xpad, xhi += xpad;
+        auto px = [&](double x) { return left + (tx(x) - xlo) / (xhi - xlo) * (right - left); };
+        auto py = [&](double y) { return bottom - (y - ylo) / (yhi - ylo) * (bottom - top); };
+
+        // Grid lines and y tick labels.
+        cairo_set_line_width(cr, 1.0);
+        for (double t : yTicks) {
+            cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
+            cairo_move_to(cr, left, std::round(py(t)) + 0.5);
+            cairo_line_to(cr, right, std::round(py(t)) + 0.5);
+            cairo_stroke(cr);
+            cairo_set_source_rgb(cr, 0, 0, 0);
+            textAt(cr, formatTick(t, yStep), left - 0.4 * font, py(t) + 0.35 * font, font, false,
+                   1.0);
+        }
+        for (double x : xs) {
+            cairo_set_source_rgb(cr, 0, 0, 0);
+            char buf[32];
+            std::snprintf(buf, sizeof buf, "%g", x);
+            textAt(cr, buf, px(x), bottom + 1.3 * font, font, false, 0.5);
+            cairo_move_to(cr, std::round(px(x)) + 0.5, bottom);
+            cairo_line_to(cr, std::round(px(x)) + 0.5, bottom + 0.3 * font);
+            cairo_stroke(cr);
+        }
+        // Frame.
+        cairo_set_source_rgb(cr, 0, 0, 0);
+        cairo_rectangle(cr, std::round(left) + 0.5, std::round(top) + 0.5, std::round(right - left),
+                        std::round(bottom - top));
+        cairo_stroke(cr);
+        // Labels.
+        textAt(cr, p.title, (left + right) / 2, 1.6 * font, font * 1.1, true, 0.5);
+        textAt(cr, p.xLabel, (left + right) / 2, height - 0.8 * font, font, false, 0.5);
+        cairo_save(cr);
+        cairo_translate(cr, pi * plotW + 1.3 * font, (top + bottom) / 2);
+        cairo_rotate(cr, -std::numbers::pi / 2);
+        textAt(cr, p.yLabel, 0, 0, font, false, 0.5);
+        cairo_restore(cr);
+
+        // Series, clipped to the frame.
+        cairo_save(cr);
+        cairo_rectangle(cr, left, top, right - left, bottom - top);
+        cairo_clip(cr);
+        for (const PlotSeries& s : p.series) {
+            cairo_set_source_rgb(cr, s.color[0], s.color[1], s.color[2]);
+            cairo_set_line_width(cr, 2.0);
+            if (s.dashed) {
+                const double dash[] = {6.0, 4.0};
+                cairo_set_dash(cr, dash, 2, 0);
+            } else {
+                cairo_set_dash(cr, nullptr, 0, 0);
+            }
+            bool penDown = false;
+            for (std::size_t i = 0; i < s.x.size(); ++i) {
+                if (!std::isfinite(s.y[i])) {
+                    penDown = false;
+                    continue;
+                }
+                if (penDown)
+                    cairo_line_to(cr, px(s.x[i]), py(s.y[i]));
+                else
+                    cairo_move_to(cr, px(s.x[i]), py(s.y[i]));
+                penDown = true;
+            }
+            cairo_stroke(cr);
+            cairo_set_dash(cr, nullptr, 0, 0);
+            for (std::size_t i = 0; i < s.x.size(); ++i) {
+                if (!std::isfinite(s.y[i])) continue;
+                cairo_arc(cr, px(s.x[i]), py(s.y[i]), 3.2, 0, 2 * std::numbers::pi);
+                cairo_fill(cr);
+            }
+        }
+        cairo_restore(cr);
+
+        // Legend, top right inside the frame.
+        double legendW = 0;
+        setFont(cr, font, false);
+        for (const PlotSeries& s : p.series) {
+            cairo_text_extents_t ext;
+            cairo_text_extents(cr, s.label.c_str(), &ext);
+            legendW = std::max(legendW, ext.x_advance);
+        }
+        if (!p.series.empty()) {
+            const double lineW = 2.2 * font;
+            const double boxW = legendW + lineW + 1.5 * font;
+            const double boxH = static_cast<double>(p.series.size()) * 1.3 * font + 0.6 * font;
+            const double bx = right - boxW - 0.5 * font, by = top + 0.5 * font;
+            cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
+            cairo_rectangle(cr, bx, by, boxW, boxH);
+            cairo_fill_preserve(cr);
+            cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
+            cairo_set_line_width(cr, 1.0);
+            cairo_stroke(cr);
+            for (std::size_t i = 0; i < p.series.size(); ++i) {
+                const PlotSeries& s = p.series[i];
+                const double ly = by + 0.3 * font + (static_cast<double>(i) + 0.5) * 1.3 * font;
+                cairo_set_source_rgb(cr, s.color[0], s.color[1], s.color[2]);
+                cairo_set_line_width(cr, 2.0);
+                if (s.dashed) {
+                    const double dash[] = {6.0, 4.0};
+                    cairo_set_dash(cr, dash, 2, 0);
+                }
+                cairo_move_to(cr, bx + 0.5 * font, ly);
+                cairo_line_to(cr, bx + 0.5 * font + lineW, ly);
+                cairo_stroke(cr);
+                cairo_set_dash(cr, nullptr, 0, 0);
+                cairo_set_source_rgb(cr, 0, 0, 0);
+                textAt(cr, s.label, bx + lineW + 1.0 * font, ly + 0.35 * font, font, false);
+            }
+        }
+    }
+    crp.reset();
+    return surfaceToImage(surface.get());
+}
+
+ImageRgba downsampleImage(const ImageRgba& image, int factor) {
+    UDVR_CHECK(factor >= 1);
+    if (factor == 1) return image;
+    ImageRgba out;
+    out.width = (image.width + factor - 1) / factor;
+    out.height = (image.height + factor - 1) / factor;
+    out.rgba.assign(static_cast<std::size_t>(out.width) * out.height * 4, 0.f);
+    for (int y = 0; y < out.height; ++y)
+        for (int x = 0; x < out.width; ++x) {
+            double sum[4] = {0, 0, 0, 0};
+            int n = 0;
+            for (int yy = y * factor; yy < std::min(image.height, (y + 1) * factor); ++yy)
+                for (int xx = x * factor; xx < std::min(image.width, (x + 1) * factor); ++xx) {
+                    const float* p = image.pixel(xx, yy);
+                    for (int c = 0; c < 4; ++c) sum[c] += p[c];
+                    ++n;
+                }
+            float* o = out.pixel(x, y);
+            for (int c = 0; c < 4; ++c) o[c] = static_cast<float>(sum[c] / n);
+        }
+    return out;
+}
+
+ImageRgba renderTransferFunction(const TransferFunction1D& tf, int width, int height) {
+    UDVR_CHECK(width > 0 && height > 0);
+    SurfacePtr surface = makeSurface(CAIRO_FORMAT_ARGB32, width, height);
+    ContextPtr crp(cairo_create(surface.get()));
+    cairo_t* cr = crp.get();
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+    auto [lo, hi] = tf.domain();
+    if (!(hi > lo)) hi = lo + 1.0;
+    const double font = std::clamp(height / 18.0, 8.0, 12.0);
+    const double left = 0.06 * width, right = width - 0.06 * width;
+    const double barTop = height - 2.6 * font - 0.12 * height, barBottom = height - 2.6 * font;
+    const double top = 0.08 * height, bottom = barTop - 0.04 * height;
+    double maxAlpha = 0;
+    for (double a : tf.opacity) maxAlpha = std::max(maxAlpha, a);
+    if (maxAlpha <= 0) maxAlpha = 1;
+    // Colour bar: one column per pixel.
+    for (int px = static_cast<int>(left); px < static_cast<int>(right); ++px) {
+        const double x = lo + (px + 0.5 - left) / (right - left) * (hi - lo);
+        const auto c = tf.colorAt(x);
+        cairo_set_source_rgb(cr, c[0], c[1], c[2]);
+        cairo_rectangle(cr, px, barTop, 1, barBottom - barTop);
+        cairo_fill(cr);
+    }
+    // Opacity, scaled to its largest value (printed).
+    cairo_set_source_rgb(cr, 0.93, 0.93, 0.93);
+    cairo_rectangle(cr, left, top, right - left, bottom - top);
+    cairo_fill(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1.5);
+    const int steps = std::max(2, static_cast<int>(right - left) * 2);
+    for (int i = 0; i <= steps; ++i) {
+        const double x = lo + (hi - lo) * i / steps;
+        const double px = left + (right - left) * i / steps;
+        const double py = bottom - tf.opacityAt(x) / maxAlpha * (bottom - top);
+        if (i == 0)
+            cairo_move_to(cr, px, py);
+        else
+            cairo_line_to(cr, px, py);
+    }
+    cairo_stroke(cr);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%g", lo);
+    textAt(cr, buf, left, height - 0.9 * font, font, false, 0.0);
+    std::snprintf(buf, sizeof buf, "%g", hi);
+    textAt(cr, buf, right, height - 0.9 * font, font, false, 1.0);
+    std::snprintf(buf, sizeof buf, "max alpha %.3g", maxAlpha);
+    textAt(cr, buf, right - 0.3 * font, top + 1.2 * font, font, false, 1.0);
+    crp.reset();
+    return surfaceToImage(surface.get());
+}
+
+void writeFigurePng(const std::filesystem::path& path, const ImageRgba& image) {
+    UDVR_CHECK(image.width > 0 && image.height > 0 &&
+               image.rgba.size() == static_cast<std::size_t>(image.width) * image.height * 4);
+    SurfacePtr surface = makeSurface(CAIRO_FORMAT_RGB24, image.width, image.height);
+    pasteImage(surface.get(), image, 0, 0);
+    std::string bytes;
+    auto append = [](void* closure, const unsigned char* data, unsigned int length) {
+        static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+        return CAIRO_STATUS_SUCCESS;
+    };
+    const cairo_status_t st = cairo_surface_write_to_png_stream(surface.get(), append, &bytes);
+    if (st != CAIRO_STATUS_SUCCESS)
+        UDVR_FAIL("cannot encode PNG " << path.string() << ": " << cairo_status_to_string(st));
+    writeFileAtomically(path, bytes);
+}
+
+}  // namespace udvr
