@@ -12,29 +12,64 @@
 namespace udvr {
 namespace {
 
-// e^x for x ≤ 0, relative error < 1e−14 down to x = −708 (clamped there: e^−708 ≈ 3e−308 is
-// negligible next to the row maximum's e^0 = 1). Branch-free so that the E-step loops vectorise:
-// x = n·ln2 + r with |r| ≤ ln2/2, e^r by its degree-11 Taylor polynomial, 2^n from the bits.
-inline double expNonPositive(double x) {
-    x = x < -708.0 ? -708.0 : x;
-    const double n = std::floor(x * 1.4426950408889634 + 0.5);
-    const double r = (x - n * 0.693147180369123816490) - n * 1.90821492927058770002e-10;
-    double p = 1.0 / 39916800.0;
-    p = p * r + 1.0 / 3628800.0;
-    p = p * r + 1.0 / 362880.0;
-    p = p * r + 1.0 / 40320.0;
-    p = p * r + 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
-    // n + 1023 ∈ [2, 1023] sits in the low mantissa bits of n + (2^52 + 1023).
-    const std::uint64_t biased = std::bit_cast<std::uint64_t>(n + (0x1p52 + 1023.0));
-    return p * std::bit_cast<double>(biased << 52);
+// 8-lane float vectors (GCC/Clang vector extensions; AVX where the target has it). The EM pass
+// below is written on them because GCC does not vectorise floating-point reductions by itself.
+// Float suffices inside one pass: samples are taken relative to the voxel mean, the M-step sums
+// relative to each component's current mean, and the log-likelihood is summed in double.
+using V8f = float __attribute__((vector_size(32)));
+using V8i = std::int32_t __attribute__((vector_size(32)));
+
+V8f splat(float v) { return V8f{v, v, v, v, v, v, v, v}; }
+
+// e^x for x ≤ 0, relative error < 3e−7 down to x = −87 (clamped there: e^−87 ≈ 2e−38 is nothing
+// next to the row maximum's e^0 = 1). x = n·ln2 + r, |r| ≤ ln2/2, e^r by its degree-6 Taylor
+// polynomial (error r⁷/7! < 1.2e−7), 2^n from the bits of the rounding shifter.
+inline V8f expNonPositive(V8f x) {
+    x = x < splat(-87.f) ? splat(-87.f) : x;
+    const V8f shifter = splat(0x1.8p23f);            // adding it rounds to an integer
+    const V8f t = x * splat(1.44269504f) + shifter;  // low mantissa bits: 2^22 + n
+    const V8f n = t - shifter;
+    const V8f r = (x - n * splat(0.693145752f)) - n * splat(1.42860677e-6f);  // ln2 = hi + lo
+    V8f p = splat(1.f / 720.f);
+    p = p * r + splat(1.f / 120.f);
+    p = p * r + splat(1.f / 24.f);
+    p = p * r + splat(1.f / 6.f);
+    p = p * r + splat(0.5f);
+    p = p * r + splat(1.f);
+    p = p * r + splat(1.f);
+    // (2^22 + n + 127) << 23 keeps the low 9 bits, n + 127 ∈ [1, 127]: the exponent of 2^n.
+    const V8i bits = (std::bit_cast<V8i>(t) + 127) << 23;
+    return p * std::bit_cast<V8f>(bits);
 }
+
+// log(s) for s ≥ 1 (finite): s = 2^e·f with f ∈ [√½, √2), log f = 2·atanh(t), t = (f−1)/(f+1),
+// |t| ≤ 0.172, series to t⁹ (error < 1e−9, below float resolution).
+inline V8f logAtLeastOne(V8f s) {
+    const V8i bits = std::bit_cast<V8i>(s);
+    const V8i expo = (bits >> 23) - 127;  // ≥ 0 for s ≥ 1
+    const V8i mant = (bits & 0x007FFFFF) | 0x3F800000;
+    V8f f = std::bit_cast<V8f>(mant);
+    V8f e = std::bit_cast<V8f>(expo + 0x4B000000) - splat(0x1p23f);  // 2^23 + e as a float
+    const auto big = f > splat(1.41421356f);
+    f = big ? f * splat(0.5f) : f;
+    e = big ? e + splat(1.f) : e;
+    const V8f t = (f - splat(1.f)) / (f + splat(1.f));
+    const V8f t2 = t * t;
+    V8f p = splat(1.f / 9.f);
+    p = p * t2 + splat(1.f / 7.f);
+    p = p * t2 + splat(1.f / 5.f);
+    p = p * t2 + splat(1.f / 3.f);
+    p = p * t2 + splat(1.f);
+    return e * splat(0.693147181f) + splat(2.f) * t * p;
+}
+
+using V8d = double __attribute__((vector_size(64)));
+
+// Tree sums of the lanes (short dependency chains).
+double sum8(V8f v) {
+    return static_cast<double>(((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7])));
+}
+double sum8(V8d v) { return ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7])); }
 
 struct Component {
     double pi, mu, sigma;
@@ -116,92 +151,78 @@ GmmFitInfo fitGmm(std::span<const float> sorted, const GmmOptions& options, std:
             begin = end;
         }
 
-        // EM (Dempster et al. 1977) on d components; responsibilities stored component-major.
-        const std::size_t dn = static_cast<std::size_t>(d) * n;
-        ws.logp.resize(dn);
-        ws.resp.resize(dn);
-        ws.rowMax.resize(n);
-        ws.rowInv.resize(n);
-        double* logp = ws.logp.data();
-        double* resp = ws.resp.data();
-        double* rowMax = ws.rowMax.data();
-        double* rowInv = ws.rowInv.data();
-
-        // E-step: responsibilities for the current parameters; returns the mean log-likelihood
-        // per sample without the constant −½·log(2π).
-        auto eStep = [&]() {
+        // EM (Dempster et al. 1977) on d components, one fused pass per iteration: the E-step's
+        // responsibilities for the current parameters are folded straight into the M-step's
+        // weighted sums, 8 samples per vector. Samples are padded to a multiple of 8 with weight
+        // 0 and taken relative to the sample mean.
+        const std::size_t blocks = (n + 7) / 8;
+        ws.xPadded.resize(8 * blocks);
+        ws.weight.resize(8 * blocks);
+        for (std::size_t i = 0; i < 8 * blocks; ++i) {
+            ws.xPadded[i] = static_cast<float>((i < n ? x[i] : x[n - 1]) - sampleMean);
+            ws.weight[i] = i < n ? 1.f : 0.f;
+        }
+        std::array<Component, kMaxGmmComponents> next{};
+        // Returns the mean log-likelihood per sample of `comp` (without −½·log(2π)) and writes
+        // the M-step's parameters to `next`.
+        auto pass = [&]() {
+            std::array<V8f, kMaxGmmComponents> a, b, mu, nk, s1, s2, e, dx;
             for (int k = 0; k < d; ++k) {
-                const double a = std::log(std::max(comp[k].pi, 1e-300)) - std::log(comp[k].sigma);
-                const double b = -0.5 / (comp[k].sigma * comp[k].sigma);
-                const double mu = comp[k].mu;
-                double* row = logp + static_cast<std::size_t>(k) * n;
-                for (std::size_t i = 0; i < n; ++i) {
-                    const double dx = x[i] - mu;
-                    row[i] = a + b * dx * dx;
+                a[k] = splat(static_cast<float>(std::log(std::max(comp[k].pi, 1e-300)) -
+                                                std::log(comp[k].sigma)));
+                b[k] = splat(static_cast<float>(-0.5 / (comp[k].sigma * comp[k].sigma)));
+                mu[k] = splat(static_cast<float>(comp[k].mu - sampleMean));
+                nk[k] = s1[k] = s2[k] = splat(0.f);
+            }
+            V8d ll{};  // per-lane sums in double: the convergence test needs ~1e−7 accuracy
+            for (std::size_t blk = 0; blk < blocks; ++blk) {
+                V8f xv, w;
+                __builtin_memcpy(&xv, ws.xPadded.data() + 8 * blk, sizeof(V8f));
+                __builtin_memcpy(&w, ws.weight.data() + 8 * blk, sizeof(V8f));
+                V8f m = splat(-3e38f);
+                for (int k = 0; k < d; ++k) {
+                    dx[k] = xv - mu[k];
+                    e[k] = a[k] + b[k] * dx[k] * dx[k];  // log(π_k·N(x | μ_k, σ_k)) + ½·log(2π)
+                    m = e[k] > m ? e[k] : m;
+                }
+                V8f sum = splat(0.f);
+                for (int k = 0; k < d; ++k) {
+                    e[k] = expNonPositive(e[k] - m);
+                    sum += e[k];
+                }
+                ll += __builtin_convertvector(w * (m + logAtLeastOne(sum)), V8d);  // sum ∈ [1, d]
+                const V8f inv = w / sum;
+                for (int k = 0; k < d; ++k) {
+                    const V8f r = e[k] * inv;
+                    nk[k] += r;
+                    s1[k] += r * dx[k];  // about the current μ_k: little cancellation in s2
+                    s2[k] += r * dx[k] * dx[k];
                 }
             }
-            for (std::size_t i = 0; i < n; ++i) rowMax[i] = logp[i];
-            for (int k = 1; k < d; ++k) {
-                const double* row = logp + static_cast<std::size_t>(k) * n;
-                for (std::size_t i = 0; i < n; ++i) rowMax[i] = std::max(rowMax[i], row[i]);
-            }
-            for (std::size_t i = 0; i < n; ++i) rowInv[i] = 0.0;
             for (int k = 0; k < d; ++k) {
-                const double* row = logp + static_cast<std::size_t>(k) * n;
-                double* r = resp + static_cast<std::size_t>(k) * n;
-                for (std::size_t i = 0; i < n; ++i) {
-                    r[i] = expNonPositive(row[i] - rowMax[i]);
-                    rowInv[i] += r[i];
-                }
-            }
-            // Σ log(row sums): each sum is in [1, d], so products of 32 stay below 2^160.
-            double ll = 0.0;
-            for (std::size_t i0 = 0; i0 < n; i0 += 32) {
-                const std::size_t i1 = std::min(n, i0 + 32);
-                double prod = 1.0;
-                for (std::size_t i = i0; i < i1; ++i) {
-                    ll += rowMax[i];
-                    prod *= rowInv[i];
-                }
-                ll += std::log(prod);
-            }
-            for (std::size_t i = 0; i < n; ++i) rowInv[i] = 1.0 / rowInv[i];
-            for (int k = 0; k < d; ++k) {
-                double* r = resp + static_cast<std::size_t>(k) * n;
-                for (std::size_t i = 0; i < n; ++i) r[i] *= rowInv[i];
-            }
-            return ll * invN;
-        };
-        // M-step: weighted moments; a component that lost all its samples keeps its mean.
-        auto mStep = [&]() {
-            for (int k = 0; k < d; ++k) {
-                const double* r = resp + static_cast<std::size_t>(k) * n;
-                double nk = 0.0, sx = 0.0;
-                for (std::size_t i = 0; i < n; ++i) {
-                    nk += r[i];
-                    sx += r[i] * x[i];
-                }
-                if (!(nk > 1e-12)) {
-                    comp[k] = {0.0, comp[k].mu, floorSigma};
+                const double nkS = sum8(nk[k]);
+                if (!(nkS > 1e-6)) {  // a component that lost its samples keeps its mean
+                    next[k] = {0.0, comp[k].mu, floorSigma};
                     continue;
                 }
-                const double mu = sx / nk;
-                double ss = 0.0;
-                for (std::size_t i = 0; i < n; ++i) ss += r[i] * (x[i] - mu) * (x[i] - mu);
-                comp[k] = {nk * invN, mu, std::max(std::sqrt(ss / nk), floorSigma)};
+                const double shift = sum8(s1[k]) / nkS;
+                const double var = sum8(s2[k]) / nkS - shift * shift;
+                next[k] = {nkS * invN, sampleMean + static_cast<double>(mu[k][0]) + shift,
+                           std::max(std::sqrt(std::max(var, 0.0)), floorSigma)};
             }
+            return sum8(ll) * invN;
         };
 
         double prev = 0.0;
         for (;;) {
-            const double ll = eStep();
+            const double ll = pass();
             info.meanLogLikelihood = ll - 0.91893853320467274178;  // −½·log(2π)
             if (info.iterations > 0 && std::fabs(ll - prev) < options.tolerance) break;
             if (info.iterations >= options.maxIterations) {
                 info.converged = false;
                 break;
             }
-            mStep();
+            std::copy(next.begin(), next.begin() + d, comp.begin());
             ++info.iterations;
             prev = ll;
         }

@@ -30,7 +30,8 @@ struct GmmFitInfo {
 
 /// Scratch buffers reused across voxels by one thread.
 struct GmmWorkspace {
-    std::vector<double> x, logp, resp, d2, rowMax, rowInv;
+    std::vector<double> x, d2;
+    std::vector<float> xPadded, weight;
 };
 
 /// Fit a K-component mixture to `sorted` (ascending, n ≥ K) and write 3K floats to `out`:

@@ -50,6 +50,17 @@ TEST(Gmm, RecoversAWellSeparatedThreeComponentMixture) {
         EXPECT_NEAR(out[3 + k], t.mu, 5.0 * t.sigma / std::sqrt(nk)) << k;
         EXPECT_NEAR(out[6 + k], t.sigma, 5.0 * t.sigma / std::sqrt(2.0 * nk)) << k;
     }
+    // The reported log-likelihood (vectorised exp/log inside) against a direct evaluation.
+    double ll = 0.0;
+    for (float v : s) {
+        double p = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            const double z = (v - out[3 + k]) / out[6 + k];
+            p += out[k] * std::exp(-0.5 * z * z) / (out[6 + k] * std::sqrt(2.0 * M_PI));
+        }
+        ll += std::log(p);
+    }
+    EXPECT_NEAR(info.meanLogLikelihood, ll / n, 1e-5);
 }
 
 TEST(Gmm, OutputIsSortedNormalisedFlooredAndDeterministic) {
