@@ -1,0 +1,133 @@
+// Ensembles from one NetCDF variable with a member dimension, or from ≥2 member files (SPEC §7).
+#include "udvr/io/ensemble_io.h"
+
+#include <glob.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <string_view>
+
+#include "udvr/io/io_detail.h"
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace fs = std::filesystem;
+
+namespace {
+
+bool isGlobPattern(const std::string& s) { return s.find_first_of("*?[") != std::string::npos; }
+
+/// Natural order: digit runs compare as numbers, so member_2 sorts before member_10.
+bool naturalLess(std::string_view a, std::string_view b) {
+    std::size_t i = 0, j = 0;
+    auto isDigit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; };
+    while (i < a.size() && j < b.size()) {
+        if (isDigit(a[i]) && isDigit(b[j])) {
+            std::size_t ie = i, je = j;
+            while (ie < a.size() && isDigit(a[ie])) ++ie;
+            while (je < b.size() && isDigit(b[je])) ++je;
+            std::string_view da = a.substr(i, ie - i), db = b.substr(j, je - j);
+            da.remove_prefix(std::min(da.find_first_not_of('0'), da.size()));
+            db.remove_prefix(std::min(db.find_first_not_of('0'), db.size()));
+            if (da.size() != db.size()) return da.size() < db.size();
+            if (da != db) return da < db;
+            i = ie;
+            j = je;
+        } else {
+            if (a[i] != b[j]) return a[i] < b[j];
+            ++i;
+            ++j;
+        }
+    }
+    if (a.size() - i != b.size() - j) return a.size() - i < b.size() - j;
+    return a < b;  // equal up to leading zeros: fall back to plain order
+}
+
+std::vector<std::string> expandGlob(const std::string& pattern) {
+    glob_t g{};
+    int status = ::glob(pattern.c_str(), 0, nullptr, &g);
+    std::vector<std::string> out;
+    if (status == 0) {
+        for (std::size_t i = 0; i < g.gl_pathc; ++i) out.emplace_back(g.gl_pathv[i]);
+    }
+    globfree(&g);
+    if (status == GLOB_NOMATCH || (status == 0 && out.empty())) {
+        UDVR_FAIL("pattern '" << pattern << "' matches no files");
+    }
+    if (status != 0) UDVR_FAIL("cannot expand pattern '" << pattern << "'");
+    return out;
+}
+
+bool sameGrid(const Grid3& a, const Grid3& b) {
+    if (a.dims != b.dims) return false;
+    for (int i = 0; i < 3; ++i) {
+        double tol = 1e-6 * std::max(a.spacing[i], b.spacing[i]);
+        if (std::abs(a.spacing[i] - b.spacing[i]) > tol) return false;
+        if (std::abs(a.origin[i] - b.origin[i]) > tol) return false;
+    }
+    return true;
+}
+
+std::string gridText(const Grid3& g) {
+    std::ostringstream os;
+    os << g.dims[0] << "x" << g.dims[1] << "x" << g.dims[2] << " origin (" << g.origin[0] << ","
+       << g.origin[1] << "," << g.origin[2] << ") spacing (" << g.spacing[0] << "," << g.spacing[1]
+       << "," << g.spacing[2] << ")";
+    return os.str();
+}
+
+}  // namespace
+
+Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleReadOptions& options) {
+    std::vector<std::string> files;
+    for (const auto& in : inputs) {
+        if (isGlobPattern(in) && !fs::exists(in)) {
+            auto matches = expandGlob(in);
+            files.insert(files.end(), matches.begin(), matches.end());
+        } else {
+            files.push_back(in);
+        }
+    }
+    if (files.empty()) UDVR_FAIL("no ensemble input given (one .nc file or at least 2 members)");
+    if (files.size() == 1) {
+        std::string ext = detail::lowerExtension(files[0]);
+        if (ext == ".nc" || ext == ".nc4" || ext == ".cdf") {
+            return detail::readEnsembleNetcdf(files[0], options);
+        }
+        detail::requireFile(files[0]);
+        UDVR_FAIL("an ensemble needs at least 2 member files, got 1 (" << files[0] << ")");
+    }
+    std::sort(files.begin(), files.end(),
+              [](const std::string& a, const std::string& b) { return naturalLess(a, b); });
+    for (std::size_t i = 1; i < files.size(); ++i) {
+        if (fs::path(files[i]).lexically_normal() == fs::path(files[i - 1]).lexically_normal()) {
+            UDVR_FAIL("member file " << files[i] << " is given twice");
+        }
+    }
+
+    FieldReadOptions fieldOptions;
+    fieldOptions.raw = options.raw;
+    fieldOptions.var = options.var;
+    Ensemble e;
+    e.members = static_cast<int>(files.size());
+    std::size_t n = 0;
+    for (std::size_t m = 0; m < files.size(); ++m) {
+        ScalarField f = detail::readFieldImpl(files[m], fieldOptions, m == 0);
+        if (m == 0) {
+            e.grid = f.grid;
+            e.name = f.name;
+            n = f.grid.pointCount();
+            e.values.resize(n * files.size());
+        } else if (!sameGrid(f.grid, e.grid)) {
+            UDVR_FAIL("ensemble members on different grids: "
+                      << files[m] << " is " << gridText(f.grid) << ", " << files[0] << " is "
+                      << gridText(e.grid));
+        }
+        std::copy(f.values.begin(), f.values.end(),
+                  e.values.begin() + static_cast<std::ptrdiff_t>(m * n));
+    }
+    return e;
+}
+
+}  // namespace udvr

@@ -1,0 +1,37 @@
+#pragma once
+// Internals shared by the io translation units; not part of the public API. The VTK code lives
+// in vti_io.cpp and the NetCDF code in netcdf_io.cpp so their heavy headers stay there.
+#include <cstddef>
+#include <filesystem>
+#include <span>
+#include <string>
+
+#include "udvr/io/ensemble_io.h"
+#include "udvr/io/field.h"
+
+namespace udvr::detail {
+
+/// Throw a UdvrError naming `path` if any value is NaN or Inf: how many of each and the first
+/// voxel (i,j,k). `components` values per voxel; `what` names the array or member ("" = none).
+void checkFinite(const std::filesystem::path& path, const Grid3& grid,
+                 std::span<const float> values, int components = 1, const std::string& what = "");
+
+/// Throw a UdvrError unless `path` names an existing regular file.
+void requireFile(const std::filesystem::path& path);
+
+/// Lower-case extension with the dot (".nhdr").
+std::string lowerExtension(const std::filesystem::path& path);
+
+/// readField with control over the one-line stderr note about missing NetCDF coordinates.
+ScalarField readFieldImpl(const std::filesystem::path& path, const FieldReadOptions& options,
+                          bool noteMissingGeometry);
+
+/// .vti through VTK's XML reader (vti_io.cpp).
+ScalarField readFieldVti(const std::filesystem::path& path, const std::string& var);
+/// .nc with a 3D variable (netcdf_io.cpp).
+ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string& var,
+                            bool noteMissingGeometry);
+/// .nc with a member dimension (netcdf_io.cpp).
+Ensemble readEnsembleNetcdf(const std::filesystem::path& path, const EnsembleReadOptions& options);
+
+}  // namespace udvr::detail

@@ -1,0 +1,604 @@
+// NetCDF fields and ensembles (SPEC §7) through the netCDF-C library. Geometry travels as CF
+// coordinate variables x, y, z (grid point positions, evenly spaced).
+#include <netcdf.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "udvr/io/ensemble_io.h"
+#include "udvr/io/field_io.h"
+#include "udvr/io/io_detail.h"
+#include "udvr/util/atomic_file.h"
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kMemberDimNames[] = {"member", "ensemble", "realization", "number"};
+
+void ncCheck(int status, const fs::path& path, const std::string& what) {
+    if (status != NC_NOERR) {
+        UDVR_FAIL(path.string() << ": " << what << ": " << nc_strerror(status));
+    }
+}
+
+/// Closes the file on scope exit (also when an error unwinds).
+struct NcFile {
+    int id = -1;
+    ~NcFile() {
+        if (id >= 0) nc_close(id);
+    }
+    int close() {
+        int status = nc_close(id);
+        id = -1;
+        return status;
+    }
+};
+
+struct VarInfo {
+    int id = -1;
+    std::string name;
+    std::vector<int> dims;
+    std::vector<std::size_t> lengths;
+    std::vector<std::string> dimNames;
+};
+
+VarInfo varInfo(const fs::path& path, int nc, int varid) {
+    VarInfo v;
+    v.id = varid;
+    char name[NC_MAX_NAME + 1];
+    int ndims = 0;
+    ncCheck(nc_inq_varname(nc, varid, name), path, "variable name");
+    v.name = name;
+    ncCheck(nc_inq_varndims(nc, varid, &ndims), path, "variable dims");
+    v.dims.resize(static_cast<std::size_t>(ndims));
+    if (ndims > 0) ncCheck(nc_inq_vardimid(nc, varid, v.dims.data()), path, "variable dims");
+    for (int d : v.dims) {
+        std::size_t len = 0;
+        ncCheck(nc_inq_dim(nc, d, name, &len), path, "dimension");
+        v.lengths.push_back(len);
+        v.dimNames.push_back(name);
+    }
+    return v;
+}
+
+std::vector<VarInfo> allVars(const fs::path& path, int nc) {
+    int nvars = 0;
+    ncCheck(nc_inq_nvars(nc, &nvars), path, "variables");
+    std::vector<VarInfo> vars;
+    for (int i = 0; i < nvars; ++i) vars.push_back(varInfo(path, nc, i));
+    return vars;
+}
+
+bool isNumeric(int nc, int varid) {
+    nc_type t;
+    if (nc_inq_vartype(nc, varid, &t) != NC_NOERR) return false;
+    return t == NC_BYTE || t == NC_UBYTE || t == NC_SHORT || t == NC_USHORT || t == NC_INT ||
+           t == NC_UINT || t == NC_INT64 || t == NC_UINT64 || t == NC_FLOAT || t == NC_DOUBLE;
+}
+
+bool isCoordinateVar(const VarInfo& v) { return v.dims.size() == 1 && v.dimNames[0] == v.name; }
+
+std::string describe(const VarInfo& v) {
+    std::string s = v.name + "(";
+    for (std::size_t d = 0; d < v.dims.size(); ++d) {
+        s += (d ? "," : "") + v.dimNames[d] + "=" + std::to_string(v.lengths[d]);
+    }
+    return s + ")";
+}
+
+std::string describeAll(const std::vector<VarInfo>& vars) {
+    std::string s;
+    for (const auto& v : vars) s += (s.empty() ? "" : ", ") + describe(v);
+    return s.empty() ? "none" : s;
+}
+
+/// netCDF-C reads the data of a cut classic-format file as zeros, without an error, so compare
+/// where the header says the data end with the file size (CDF-1, CDF-2 and CDF-5 layouts).
+void checkClassicSize(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::size_t fileSize = static_cast<std::size_t>(fs::file_size(path));
+    auto fail = [&]() {
+        UDVR_FAIL(path.string() << ": truncated NetCDF header (file of " << fileSize << " bytes)");
+    };
+    auto be = [&](std::size_t n) {
+        unsigned char b[8];
+        if (!in.read(reinterpret_cast<char*>(b), static_cast<std::streamsize>(n))) fail();
+        std::uint64_t v = 0;
+        for (std::size_t i = 0; i < n; ++i) v = (v << 8) | b[i];
+        return v;
+    };
+    char magic[4];
+    if (!in.read(magic, 4) || magic[0] != 'C' || magic[1] != 'D' || magic[2] != 'F') return;
+    int version = magic[3];
+    std::size_t countSize = version == 5 ? 8 : 4;   // nelems, dim lengths, vsize
+    std::size_t offsetSize = version == 1 ? 4 : 8;  // begin
+    auto skip = [&](std::uint64_t n) {
+        if (n > fileSize) fail();
+        in.seekg(static_cast<std::streamoff>(n), std::ios::cur);
+    };
+    auto skipName = [&]() { skip((be(countSize) + 3) / 4 * 4); };
+    auto typeSize = [](std::uint64_t t) -> std::uint64_t {
+        switch (t) {
+            case NC_BYTE:
+            case NC_CHAR:
+            case NC_UBYTE:
+                return 1;
+            case NC_SHORT:
+            case NC_USHORT:
+                return 2;
+            case NC_INT:
+            case NC_UINT:
+            case NC_FLOAT:
+                return 4;
+            default:
+                return 8;
+        }
+    };
+    auto skipAttributes = [&]() {
+        be(4);  // NC_ATTRIBUTE or ABSENT
+        std::uint64_t n = be(countSize);
+        for (std::uint64_t a = 0; a < n; ++a) {
+            skipName();
+            std::uint64_t type = be(4);
+            skip((be(countSize) * typeSize(type) + 3) / 4 * 4);
+        }
+    };
+    std::uint64_t numrecs = be(countSize);
+    if (numrecs == (version == 5 ? ~0ull : 0xffffffffull)) return;  // streaming: unknown
+    be(4);                                                          // NC_DIMENSION or ABSENT
+    std::vector<std::uint64_t> dimLengths(be(countSize));
+    for (auto& len : dimLengths) {
+        skipName();
+        len = be(countSize);
+    }
+    skipAttributes();
+    be(4);  // NC_VARIABLE or ABSENT
+    std::uint64_t nvars = be(countSize);
+    struct Var {
+        bool record;
+        std::uint64_t bytes, begin;
+    };
+    std::vector<Var> vars;
+    std::uint64_t recordSize = 0;
+    for (std::uint64_t v = 0; v < nvars; ++v) {
+        skipName();
+        std::uint64_t ndims = be(countSize);
+        bool record = false;
+        std::uint64_t count = 1;
+        for (std::uint64_t d = 0; d < ndims; ++d) {
+            std::uint64_t id = be(countSize);
+            if (id >= dimLengths.size()) fail();
+            if (d == 0 && dimLengths[id] == 0) {
+                record = true;
+            } else {
+                count *= dimLengths[id];
+            }
+        }
+        skipAttributes();
+        std::uint64_t bytes = count * typeSize(be(4));
+        std::uint64_t vsize = be(countSize);
+        std::uint64_t begin = be(offsetSize);
+        if (record) recordSize += vsize;
+        vars.push_back({record, bytes, begin});
+    }
+    std::uint64_t needed = 0;
+    std::size_t recordVars = static_cast<std::size_t>(
+        std::count_if(vars.begin(), vars.end(), [](const Var& v) { return v.record; }));
+    for (const Var& v : vars) {
+        std::uint64_t end = v.begin + v.bytes;
+        if (v.record) {
+            if (numrecs == 0) continue;
+            // A lone record variable is not padded per record.
+            std::uint64_t stride = recordVars == 1 ? v.bytes : recordSize;
+            end = v.begin + (numrecs - 1) * stride + v.bytes;
+        }
+        needed = std::max(needed, end);
+    }
+    if (needed > fileSize) {
+        UDVR_FAIL(path.string() << ": truncated NetCDF data: expected " << needed
+                                << " bytes, found " << fileSize);
+    }
+}
+
+int openForRead(const fs::path& path) {
+    detail::requireFile(path);
+    int nc = -1;
+    int status = nc_open(path.c_str(), NC_NOWRITE, &nc);
+    if (status != NC_NOERR) {
+        UDVR_FAIL(path.string() << ": cannot open as NetCDF: " << nc_strerror(status));
+    }
+    int format = 0;
+    if (nc_inq_format(nc, &format) == NC_NOERR &&
+        (format == NC_FORMAT_CLASSIC || format == NC_FORMAT_64BIT_OFFSET ||
+         format == NC_FORMAT_CDF5)) {
+        try {
+            checkClassicSize(path);
+        } catch (...) {
+            nc_close(nc);
+            throw;
+        }
+    }
+    return nc;
+}
+
+/// Geometry from the CF coordinate variables of the last three dims (z, y, x order in the file).
+/// Absent ones give origin 0, spacing 1 with one note on stderr; an uneven axis is an error.
+Grid3 gridFromCoordinates(const fs::path& path, int nc, const VarInfo& var, std::size_t first,
+                          bool noteMissing) {
+    Grid3 g;
+    std::string missing;
+    for (int a = 0; a < 3; ++a) {
+        std::size_t d = first + static_cast<std::size_t>(2 - a);  // x is the fastest (last) dim
+        std::size_t len = var.lengths[d];
+        if (len > static_cast<std::size_t>(INT32_MAX)) UDVR_FAIL(path.string() << ": dim too big");
+        g.dims[a] = static_cast<int>(len);
+        const std::string& dimName = var.dimNames[d];
+        int cid = -1;
+        int ndims = 0, cdim = -1;
+        if (nc_inq_varid(nc, dimName.c_str(), &cid) != NC_NOERR ||
+            nc_inq_varndims(nc, cid, &ndims) != NC_NOERR || ndims != 1 ||
+            nc_inq_vardimid(nc, cid, &cdim) != NC_NOERR || cdim != var.dims[d]) {
+            missing += (missing.empty() ? "" : ", ") + dimName;
+            continue;
+        }
+        std::vector<double> c(len);
+        ncCheck(nc_get_var_double(nc, cid, c.data()), path, "coordinate variable " + dimName);
+        for (double v : c) {
+            if (!std::isfinite(v)) {
+                UDVR_FAIL(path.string()
+                          << ": coordinate variable " << dimName << " holds a non-finite value");
+            }
+        }
+        g.origin[a] = c[0];
+        if (len < 2) continue;
+        double s = (c[len - 1] - c[0]) / static_cast<double>(len - 1);
+        if (!(s > 0.0)) {
+            UDVR_FAIL(path.string()
+                      << ": coordinate variable " << dimName << " must increase (first " << c[0]
+                      << ", last " << c[len - 1] << ")");
+        }
+        // Float-stored coordinates round at about 1e-7 of their magnitude.
+        double tol = 1e-4 * s + 1e-6 * std::max(std::abs(c[0]), std::abs(c[len - 1]));
+        for (std::size_t i = 0; i < len; ++i) {
+            double want = c[0] + static_cast<double>(i) * s;
+            if (std::abs(c[i] - want) > tol) {
+                UDVR_FAIL(path.string()
+                          << ": coordinate variable " << dimName << " is unevenly spaced (value "
+                          << i << " is " << c[i] << ", an even axis has " << want
+                          << "); expected a regular grid");
+            }
+        }
+        g.spacing[a] = s;
+    }
+    if (!missing.empty() && noteMissing) {
+        std::fprintf(stderr,
+                     "udvr: note: %s has no coordinate variables for %s; using origin 0 and "
+                     "spacing 1 there\n",
+                     path.string().c_str(), missing.c_str());
+    }
+    return g;
+}
+
+/// CF packing (scale_factor, add_offset) and fill values of a variable.
+struct Packing {
+    double scale = 1.0, offset = 0.0;
+    std::vector<double> fills;  // _FillValue, missing_value
+};
+
+Packing packingOf(int nc, int varid) {
+    Packing p;
+    auto attr = [&](const char* name, std::vector<double>& out) {
+        std::size_t len = 0;
+        nc_type t;
+        if (nc_inq_att(nc, varid, name, &t, &len) != NC_NOERR || len == 0 || t == NC_CHAR ||
+            t == NC_STRING) {
+            return;
+        }
+        std::vector<double> v(len);
+        if (nc_get_att_double(nc, varid, name, v.data()) == NC_NOERR) {
+            out.insert(out.end(), v.begin(), v.end());
+        }
+    };
+    std::vector<double> scale, offset;
+    attr("scale_factor", scale);
+    attr("add_offset", offset);
+    attr("_FillValue", p.fills);
+    attr("missing_value", p.fills);
+    if (!scale.empty()) p.scale = scale[0];
+    if (!offset.empty()) p.offset = offset[0];
+    return p;
+}
+
+/// Read `count` values of a hyperslab, rejecting fill values and applying CF packing.
+void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vector<size_t>& start,
+              const std::vector<size_t>& count, std::span<float> out, const std::string& what) {
+    Packing p = packingOf(nc, var.id);
+    bool raw = p.scale == 1.0 && p.offset == 0.0 && p.fills.empty();
+    if (raw) {
+        int status = nc_get_vara_float(nc, var.id, start.data(), count.data(), out.data());
+        if (status != NC_ERANGE) {
+            ncCheck(status, path, "reading variable " + var.name + what);
+            return;
+        }
+        // NC_ERANGE: Inf (reported by the caller with its position) or finite values too large
+        // for float32.
+    }
+    std::vector<double> v(out.size());
+    ncCheck(nc_get_vara_double(nc, var.id, start.data(), count.data(), v.data()), path,
+            "reading variable " + var.name + what);
+    std::size_t filled = 0, firstFilled = 0, tooLarge = 0;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+        double scaled = v[i] * p.scale + p.offset;
+        if (std::isfinite(scaled) && std::abs(scaled) > std::numeric_limits<float>::max()) {
+            ++tooLarge;
+        }
+        if (std::find(p.fills.begin(), p.fills.end(), v[i]) != p.fills.end()) {
+            if (filled++ == 0) firstFilled = i;
+        }
+        out[i] = static_cast<float>(scaled);
+    }
+    if (tooLarge > 0) {
+        UDVR_FAIL(path.string() << ": variable " << var.name << what << " has " << tooLarge
+                                << " values outside the float32 range");
+    }
+    if (filled > 0) {
+        UDVR_FAIL(path.string() << ": variable " << var.name << what << " has " << filled
+                                << " missing (fill) values, the first at linear index "
+                                << firstFilled << "; expected a complete field");
+    }
+}
+
+/// Leading dims of length 1 (e.g. a single time step) are allowed before z, y, x.
+bool isGridded(const VarInfo& v, std::size_t extraDims) {
+    if (v.dims.size() < 3 + extraDims) return false;
+    for (std::size_t d = extraDims; d + 3 < v.dims.size(); ++d) {
+        if (v.lengths[d] != 1) return false;
+    }
+    return true;
+}
+
+std::string safeName(const std::string& name, const char* fallback) {
+    std::string s = name.empty() ? fallback : name;
+    for (char& c : s) {
+        if (c == '/' || static_cast<unsigned char>(c) < 32) c = '_';
+    }
+    if (s == "x" || s == "y" || s == "z" || s == "member") s += "_value";
+    return s;
+}
+
+/// Define dims (member,) z, y, x, the coordinate variables and the data variable; write the
+/// coordinates. Returns the data variable's id.
+int defineGrid(const fs::path& path, int nc, const Grid3& grid, const std::string& varName,
+               int members) {
+    std::vector<int> dimIds;
+    auto defDim = [&](const char* name, std::size_t len) {
+        int id = -1;
+        ncCheck(nc_def_dim(nc, name, len, &id), path, std::string("defining dimension ") + name);
+        return id;
+    };
+    if (members > 0) dimIds.push_back(defDim("member", static_cast<std::size_t>(members)));
+    const char* axisNames[3] = {"x", "y", "z"};
+    const char* axisAttr[3] = {"X", "Y", "Z"};
+    int axisDims[3];
+    for (int a = 2; a >= 0; --a) {
+        axisDims[a] = defDim(axisNames[a], static_cast<std::size_t>(grid.dims[a]));
+        dimIds.push_back(axisDims[a]);
+    }
+    int coordIds[3];
+    for (int a = 0; a < 3; ++a) {
+        ncCheck(nc_def_var(nc, axisNames[a], NC_DOUBLE, 1, &axisDims[a], &coordIds[a]), path,
+                "defining coordinate variable");
+        ncCheck(nc_put_att_text(nc, coordIds[a], "axis", 1, axisAttr[a]), path, "attribute");
+        std::string longName = std::string(axisNames[a]) + " position of the grid points";
+        ncCheck(nc_put_att_text(nc, coordIds[a], "long_name", longName.size(), longName.c_str()),
+                path, "attribute");
+    }
+    int varId = -1;
+    ncCheck(nc_def_var(nc, varName.c_str(), NC_FLOAT, static_cast<int>(dimIds.size()),
+                       dimIds.data(), &varId),
+            path, "defining variable " + varName);
+    const std::string conventions = "CF-1.8";
+    ncCheck(nc_put_att_text(nc, NC_GLOBAL, "Conventions", conventions.size(), conventions.c_str()),
+            path, "attribute");
+    const std::string source = "udvr";
+    ncCheck(nc_put_att_text(nc, NC_GLOBAL, "source", source.size(), source.c_str()), path,
+            "attribute");
+    ncCheck(nc_enddef(nc), path, "writing header");
+    for (int a = 0; a < 3; ++a) {
+        std::vector<double> c(static_cast<std::size_t>(grid.dims[a]));
+        for (std::size_t i = 0; i < c.size(); ++i) {
+            c[i] = grid.world(a, static_cast<double>(i));
+        }
+        ncCheck(nc_put_var_double(nc, coordIds[a], c.data()), path, "writing coordinates");
+    }
+    return varId;
+}
+
+/// Classic 64-bit-offset format: readable by every NetCDF tool, no HDF5 needed.
+void writeNetcdf(const fs::path& path, const Grid3& grid, const std::string& name, int members,
+                 const std::vector<float>& values) {
+    writeAtomically(path, [&](const fs::path& tmp) {
+        NcFile file;
+        ncCheck(nc_create(tmp.c_str(), NC_CLOBBER | NC_64BIT_OFFSET, &file.id), path,
+                "cannot create");
+        int varId = defineGrid(path, file.id, grid, name, members);
+        std::size_t n = grid.pointCount();
+        int slabs = std::max(members, 1);
+        for (int m = 0; m < slabs; ++m) {
+            std::vector<std::size_t> start, count;
+            if (members > 0) {
+                start.push_back(static_cast<std::size_t>(m));
+                count.push_back(1);
+            }
+            for (int a = 2; a >= 0; --a) {
+                start.push_back(0);
+                count.push_back(static_cast<std::size_t>(grid.dims[a]));
+            }
+            ncCheck(nc_put_vara_float(file.id, varId, start.data(), count.data(),
+                                      values.data() + static_cast<std::size_t>(m) * n),
+                    path, "writing data");
+        }
+        ncCheck(file.close(), path, "closing (disk full?)");
+    });
+}
+
+}  // namespace
+
+ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
+                                    bool noteMissingGeometry) {
+    NcFile file;
+    file.id = openForRead(path);
+    std::vector<VarInfo> vars = allVars(path, file.id);
+    const VarInfo* var = nullptr;
+    if (!varName.empty()) {
+        for (const auto& v : vars) {
+            if (v.name == varName) var = &v;
+        }
+        if (var == nullptr) {
+            UDVR_FAIL(path.string() << ": no variable '" << varName
+                                    << "' (variables: " << describeAll(vars) << ")");
+        }
+        if (!isGridded(*var, 0)) {
+            UDVR_FAIL(path.string()
+                      << ": variable " << describe(*var) << " is not a 3D field with dims z,y,x"
+                      << " (an ensemble? read it with 'build')");
+        }
+    } else {
+        std::vector<const VarInfo*> candidates;
+        for (const auto& v : vars) {
+            if (isGridded(v, 0) && !isCoordinateVar(v) && isNumeric(file.id, v.id)) {
+                candidates.push_back(&v);
+            }
+        }
+        if (candidates.empty()) {
+            UDVR_FAIL(path.string() << ": no 3D variable with dims z,y,x (variables: "
+                                    << describeAll(vars) << ")");
+        }
+        if (candidates.size() > 1) {
+            UDVR_FAIL(path.string() << ": several 3D variables (" << describeAll(vars)
+                                    << "); choose one with --var");
+        }
+        var = candidates[0];
+    }
+    if (!isNumeric(file.id, var->id)) {
+        UDVR_FAIL(path.string() << ": variable " << var->name << " is not numeric");
+    }
+    std::size_t first = var->dims.size() - 3;
+    ScalarField f;
+    f.grid = gridFromCoordinates(path, file.id, *var, first, noteMissingGeometry);
+    f.name = var->name;
+    f.values.resize(f.grid.pointCount());
+    std::vector<std::size_t> start(var->dims.size(), 0), count(var->lengths);
+    readSlab(path, file.id, *var, start, count, f.values, "");
+    return f;
+}
+
+Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOptions& options) {
+    NcFile file;
+    file.id = openForRead(path);
+    std::vector<VarInfo> vars = allVars(path, file.id);
+    // Index of the member dimension of v, or -1.
+    auto memberDimOf = [&](const VarInfo& v) -> int {
+        for (std::size_t d = 0; d < v.dims.size(); ++d) {
+            const std::string& n = v.dimNames[d];
+            bool named = options.memberDim.empty()
+                             ? std::find(std::begin(kMemberDimNames), std::end(kMemberDimNames),
+                                         n) != std::end(kMemberDimNames)
+                             : n == options.memberDim;
+            if (named) return static_cast<int>(d);
+        }
+        return -1;
+    };
+    auto usable = [&](const VarInfo& v) {
+        return v.dims.size() == 4 && memberDimOf(v) >= 0 && isNumeric(file.id, v.id);
+    };
+    const VarInfo* var = nullptr;
+    if (!options.var.empty()) {
+        for (const auto& v : vars) {
+            if (v.name == options.var) var = &v;
+        }
+        if (var == nullptr) {
+            UDVR_FAIL(path.string() << ": no variable '" << options.var
+                                    << "' (variables: " << describeAll(vars) << ")");
+        }
+        if (!usable(*var)) {
+            UDVR_FAIL(path.string()
+                      << ": variable " << describe(*var)
+                      << " does not have 4 dims with a member dimension ("
+                      << (options.memberDim.empty() ? "member, ensemble, realization or number"
+                                                    : options.memberDim)
+                      << ")");
+        }
+    } else {
+        std::vector<const VarInfo*> candidates;
+        for (const auto& v : vars) {
+            if (usable(v)) candidates.push_back(&v);
+        }
+        if (candidates.empty()) {
+            UDVR_FAIL(path.string()
+                      << ": no variable with a member dimension ("
+                      << (options.memberDim.empty() ? "member, ensemble, realization or number"
+                                                    : options.memberDim)
+                      << ") and 3 grid dims; variables: " << describeAll(vars));
+        }
+        if (candidates.size() > 1) {
+            UDVR_FAIL(path.string() << ": several ensemble variables (" << describeAll(vars)
+                                    << "); choose one with --var");
+        }
+        var = candidates[0];
+    }
+
+    // The grid dims are the other three, in file order (z, y, x). View them as a 3D variable.
+    std::size_t md = static_cast<std::size_t>(memberDimOf(*var));
+    VarInfo gridView = *var;
+    gridView.dims.erase(gridView.dims.begin() + static_cast<std::ptrdiff_t>(md));
+    gridView.lengths.erase(gridView.lengths.begin() + static_cast<std::ptrdiff_t>(md));
+    gridView.dimNames.erase(gridView.dimNames.begin() + static_cast<std::ptrdiff_t>(md));
+    std::size_t members = var->lengths[md];
+    if (members < 2) {
+        UDVR_FAIL(path.string() << ": variable " << var->name << " has " << members
+                                << " member(s); an ensemble needs at least 2");
+    }
+    Ensemble e;
+    e.grid = gridFromCoordinates(path, file.id, gridView, 0, true);
+    e.members = static_cast<int>(members);
+    e.name = var->name;
+    std::size_t n = e.grid.pointCount();
+    e.values.resize(members * n);
+    for (std::size_t m = 0; m < members; ++m) {
+        std::vector<std::size_t> start(4, 0), count(var->lengths);
+        start[md] = m;
+        count[md] = 1;
+        std::string what = " (member " + std::to_string(m) + ")";
+        std::span<float> out(e.values.data() + m * n, n);
+        readSlab(path, file.id, *var, start, count, out, what);
+        checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
+    }
+    return e;
+}
+
+void writeFieldNetcdf(const fs::path& path, const ScalarField& field) {
+    UDVR_CHECK_MSG(field.values.size() == field.grid.pointCount(), "field size vs grid");
+    writeNetcdf(path, field.grid, safeName(field.name, "value"), 0, field.values);
+}
+
+void writeEnsembleNetcdf(const fs::path& path, const Ensemble& ensemble) {
+    UDVR_CHECK_MSG(ensemble.members >= 1 &&
+                       ensemble.values.size() ==
+                           static_cast<std::size_t>(ensemble.members) * ensemble.grid.pointCount(),
+                   "ensemble size vs grid");
+    writeNetcdf(path, ensemble.grid, safeName(ensemble.name, "value"), ensemble.members,
+                ensemble.values);
+}
+
+}  // namespace udvr

@@ -1,0 +1,249 @@
+// NetCDF fields and ensembles: files written with the netCDF C API here, our writers read back,
+// geometry from CF coordinate variables, and bad input.
+#include <gtest/gtest.h>
+#include <netcdf.h>
+
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "udvr/io/ensemble_io.h"
+#include "udvr/io/field_io.h"
+#include "udvr/io/io_test_util.h"
+
+namespace udvr {
+namespace {
+
+using testing::expectUdvrError;
+using testing::TempDir;
+
+#define NC_OK(call)                                                 \
+    do {                                                            \
+        int nc_status_ = (call);                                    \
+        ASSERT_EQ(nc_status_, NC_NOERR) << nc_strerror(nc_status_); \
+    } while (0)
+
+struct NcSpec {
+    std::vector<std::string> dimNames{"z", "y", "x"};
+    std::vector<std::size_t> dimLengths{2, 3, 4};
+    std::string var = "temperature";
+    nc_type type = NC_DOUBLE;
+    std::vector<double> values;  // empty: v = i + 10j + 100k (+ 1000·member for 4D)
+    // Coordinates per dim name written as a coordinate variable (absent = not written).
+    std::vector<std::pair<std::string, std::vector<double>>> coords;
+    bool secondVar = false;
+};
+
+std::vector<double> rampValues(const NcSpec& s) {
+    std::vector<double> v;
+    std::size_t total = 1;
+    for (auto l : s.dimLengths) total *= l;
+    std::size_t nx = s.dimLengths.back(), ny = s.dimLengths[s.dimLengths.size() - 2];
+    std::size_t nz = s.dimLengths[s.dimLengths.size() - 3];
+    for (std::size_t p = 0; p < total; ++p) {
+        std::size_t i = p % nx, j = (p / nx) % ny, k = (p / (nx * ny)) % nz, m = p / (nx * ny * nz);
+        v.push_back(double(i + 10 * j + 100 * k + 1000 * m));
+    }
+    return v;
+}
+
+void writeNc(const std::filesystem::path& path, const NcSpec& s) {
+    int nc = -1;
+    NC_OK(nc_create(path.c_str(), NC_CLOBBER | NC_NETCDF4, &nc));
+    std::vector<int> dims;
+    for (std::size_t d = 0; d < s.dimNames.size(); ++d) {
+        int id;
+        NC_OK(nc_def_dim(nc, s.dimNames[d].c_str(), s.dimLengths[d], &id));
+        dims.push_back(id);
+    }
+    std::vector<std::pair<int, const std::vector<double>*>> coordVars;
+    for (const auto& [name, values] : s.coords) {
+        int d = -1, id = -1;
+        NC_OK(nc_inq_dimid(nc, name.c_str(), &d));
+        NC_OK(nc_def_var(nc, name.c_str(), NC_FLOAT, 1, &d, &id));
+        coordVars.emplace_back(id, &values);
+    }
+    int var = -1;
+    NC_OK(nc_def_var(nc, s.var.c_str(), s.type, int(dims.size()), dims.data(), &var));
+    int var2 = -1;
+    if (s.secondVar) {
+        NC_OK(nc_def_var(nc, "pressure", s.type, int(dims.size()), dims.data(), &var2));
+    }
+    NC_OK(nc_enddef(nc));
+    for (const auto& [id, values] : coordVars) NC_OK(nc_put_var_double(nc, id, values->data()));
+    std::vector<double> v = s.values.empty() ? rampValues(s) : s.values;
+    NC_OK(nc_put_var_double(nc, var, v.data()));
+    if (s.secondVar) {
+        NC_OK(nc_put_var_double(nc, var2, v.data()));
+    }
+    NC_OK(nc_close(nc));
+}
+
+TEST(IoNetcdf, ReadsFieldWithCoordinates) {
+    TempDir dir;
+    NcSpec s;
+    s.coords = {{"x", {1.0, 1.5, 2.0, 2.5}}, {"y", {-3, -1, 1}}, {"z", {0.1f, 0.4f}}};
+    s.type = NC_SHORT;
+    writeNc(dir / "f.nc", s);
+    ScalarField f = readField(dir / "f.nc");
+    EXPECT_EQ(f.name, "temperature");
+    ASSERT_EQ(f.grid.dims, (std::array<int, 3>{4, 3, 2}));
+    EXPECT_EQ(f.values[f.grid.index(3, 2, 1)], 123.f);
+    EXPECT_DOUBLE_EQ(f.grid.origin[0], 1.0);
+    EXPECT_DOUBLE_EQ(f.grid.spacing[0], 0.5);
+    EXPECT_DOUBLE_EQ(f.grid.origin[1], -3.0);
+    EXPECT_DOUBLE_EQ(f.grid.spacing[1], 2.0);
+    EXPECT_NEAR(f.grid.spacing[2], 0.3, 1e-6);
+}
+
+TEST(IoNetcdf, MissingCoordinatesGiveUnitGridWithANote) {
+    TempDir dir;
+    NcSpec s;
+    s.dimNames = {"time", "lev", "lat", "lon"};  // any names; a length-1 leading dim is fine
+    s.dimLengths = {1, 2, 3, 4};
+    writeNc(dir / "f.nc", s);
+    ::testing::internal::CaptureStderr();
+    ScalarField f = readField(dir / "f.nc");
+    std::string err = ::testing::internal::GetCapturedStderr();
+    EXPECT_NE(err.find("no coordinate variables for lon, lat, lev"), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1);
+    EXPECT_EQ(f.grid.origin, (std::array<double, 3>{0, 0, 0}));
+    EXPECT_EQ(f.grid.spacing, (std::array<double, 3>{1, 1, 1}));
+    EXPECT_EQ(f.values[f.grid.index(3, 2, 1)], 123.f);
+}
+
+TEST(IoNetcdf, FieldWriterRoundTrip) {
+    TempDir dir;
+    ScalarField f;
+    f.grid.dims = {5, 3, 2};
+    f.grid.origin = {-2.5, 0.0, 10.0};
+    f.grid.spacing = {0.1, 0.7, 3.0};
+    f.name = "x";  // clashes with the coordinate variable: written under another name
+    for (std::size_t i = 0; i < f.grid.pointCount(); ++i) f.values.push_back(float(i) * 0.25f);
+    writeField(dir / "f.nc", f);
+    EXPECT_EQ(testing::fileCount(dir.path()), 1u);
+    ScalarField g = readField(dir / "f.nc");
+    EXPECT_EQ(g.name, "x_value");
+    EXPECT_EQ(g.grid.dims, f.grid.dims);
+    EXPECT_EQ(g.values, f.values);
+    for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(g.grid.origin[a], f.grid.origin[a], 1e-12);
+        EXPECT_NEAR(g.grid.spacing[a], f.grid.spacing[a], 1e-12);
+    }
+}
+
+TEST(IoNetcdf, RejectsBadInput) {
+    TempDir dir;
+    NcSpec s;
+    s.coords = {{"x", {0, 1, 3, 4}}};
+    writeNc(dir / "uneven.nc", s);
+    expectUdvrError([&] { readField(dir / "uneven.nc"); }, {"uneven.nc", "x", "unevenly spaced"});
+
+    NcSpec two;
+    two.secondVar = true;
+    writeNc(dir / "two.nc", two);
+    expectUdvrError([&] { readField(dir / "two.nc"); }, {"two.nc", "several", "--var"});
+    FieldReadOptions o;
+    o.var = "pressure";
+    EXPECT_EQ(readField(dir / "two.nc", o).name, "pressure");
+    o.var = "wind";
+    expectUdvrError([&] { readField(dir / "two.nc", o); }, {"two.nc", "no variable 'wind'"});
+
+    NcSpec nan;
+    nan.values = rampValues(nan);
+    nan.values[13] = std::numeric_limits<double>::quiet_NaN();
+    nan.values[14] = std::numeric_limits<double>::infinity();
+    writeNc(dir / "nan.nc", nan);
+    expectUdvrError([&] { readField(dir / "nan.nc"); }, {"nan.nc", "1 NaN and 1 Inf", "(1,0,1)"});
+
+    NcSpec ens;
+    ens.dimNames = {"member", "z", "y", "x"};
+    ens.dimLengths = {3, 2, 3, 4};
+    writeNc(dir / "ens.nc", ens);
+    expectUdvrError([&] { readField(dir / "ens.nc"); }, {"ens.nc", "no 3D variable"});
+
+    testing::writeBytes(dir / "text.nc", "CDF? no, just text");
+    expectUdvrError([&] { readField(dir / "text.nc"); }, {"text.nc", "NetCDF"});
+    // A classic file cut short.
+    ScalarField f;
+    f.grid.dims = {8, 8, 8};
+    f.values.assign(512, 1.f);
+    writeFieldNetcdf(dir / "full.nc", f);
+    std::string bytes = testing::readBytes(dir / "full.nc");
+    testing::writeBytes(dir / "cut.nc", bytes.substr(0, bytes.size() - 1000));
+    expectUdvrError([&] { readField(dir / "cut.nc"); }, {"cut.nc"});
+}
+
+TEST(IoNetcdf, EnsembleFromMemberDimension) {
+    TempDir dir;
+    NcSpec s;
+    s.dimNames = {"realization", "z", "y", "x"};
+    s.dimLengths = {3, 2, 3, 4};
+    s.var = "fuel";
+    s.type = NC_FLOAT;
+    s.coords = {{"x", {0, 2, 4, 6}}, {"y", {0, 2, 4}}, {"z", {5, 7}}};
+    writeNc(dir / "e.nc", s);
+    Ensemble e = readEnsemble({(dir / "e.nc").string()}, {});
+    EXPECT_EQ(e.members, 3);
+    EXPECT_EQ(e.name, "fuel");
+    ASSERT_EQ(e.grid.dims, (std::array<int, 3>{4, 3, 2}));
+    EXPECT_EQ(e.grid.spacing, (std::array<double, 3>{2, 2, 2}));
+    EXPECT_EQ(e.grid.origin, (std::array<double, 3>{0, 0, 5}));
+    EXPECT_EQ(e.member(2)[e.grid.index(3, 2, 1)], 2123.f);
+    EXPECT_EQ(e.member(0)[e.grid.index(1, 0, 0)], 1.f);
+
+    // A member dimension with another name, named by the caller; and a member dim not first.
+    s.dimNames = {"z", "y", "x", "sample"};
+    s.dimLengths = {2, 3, 4, 2};
+    s.coords.clear();
+    writeNc(dir / "last.nc", s);
+    expectUdvrError([&] { readEnsemble({(dir / "last.nc").string()}, {}); },
+                    {"last.nc", "no variable with a member dimension"});
+    EnsembleReadOptions o;
+    o.memberDim = "sample";
+    ::testing::internal::CaptureStderr();
+    Ensemble l = readEnsemble({(dir / "last.nc").string()}, o);
+    ::testing::internal::GetCapturedStderr();
+    ASSERT_EQ(l.members, 2);
+    ASSERT_EQ(l.grid.dims, (std::array<int, 3>{4, 3, 2}));
+    // rampValues counts the last dim (here the member) fastest.
+    EXPECT_EQ(l.member(1)[0], 1.f);
+    EXPECT_EQ(l.member(0)[1], 10.f);
+}
+
+TEST(IoNetcdf, EnsembleWriterRoundTripAndBadInput) {
+    TempDir dir;
+    Ensemble e;
+    e.grid.dims = {4, 3, 2};
+    e.grid.origin = {1, 2, 3};
+    e.grid.spacing = {0.5, 0.5, 0.25};
+    e.members = 3;
+    e.name = "";
+    for (std::size_t i = 0; i < 3 * e.grid.pointCount(); ++i) e.values.push_back(float(i));
+    writeEnsembleNetcdf(dir / "e.nc", e);
+    Ensemble r = readEnsemble({(dir / "e.nc").string()}, {});
+    EXPECT_EQ(r.name, "value");
+    EXPECT_EQ(r.members, 3);
+    EXPECT_EQ(r.values, e.values);
+    EXPECT_EQ(r.grid.origin, e.grid.origin);
+    EXPECT_EQ(r.grid.spacing, e.grid.spacing);
+
+    e.members = 1;
+    e.values.resize(e.grid.pointCount());
+    writeEnsembleNetcdf(dir / "one.nc", e);
+    expectUdvrError([&] { readEnsemble({(dir / "one.nc").string()}, {}); },
+                    {"one.nc", "1 member", "at least 2"});
+
+    NcSpec nan;
+    nan.dimNames = {"member", "z", "y", "x"};
+    nan.dimLengths = {2, 2, 3, 4};
+    nan.values = rampValues(nan);
+    nan.values[24 + 5] = std::numeric_limits<double>::quiet_NaN();
+    writeNc(dir / "nan.nc", nan);
+    expectUdvrError([&] { readEnsemble({(dir / "nan.nc").string()}, {}); },
+                    {"nan.nc", "1 NaN", "member 1", "(1,1,0)"});
+    EXPECT_THROW(writeEnsembleNetcdf(dir.path() / "missing_dir" / "e.nc", r), UdvrError);
+}
+
+}  // namespace
+}  // namespace udvr

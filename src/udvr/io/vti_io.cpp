@@ -1,0 +1,451 @@
+// VTK XML ImageData (.vti): scalar fields and model volumes (SPEC §7). All VTK includes of the io
+// module stay in this file; VTK headers are heavy to compile.
+#include <vtkCommand.h>
+#include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkIntArray.h>
+#include <vtkMatrix3x3.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
+#include <vtkXMLImageDataReader.h>
+#include <vtkXMLImageDataWriter.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "udvr/io/field_io.h"
+#include "udvr/io/io_detail.h"
+#include "udvr/io/model_io.h"
+#include "udvr/util/atomic_file.h"
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Collects the errors a VTK object reports, so they become one UdvrError line instead of text
+/// on VTK's output window.
+class ErrorCollector : public vtkCommand {
+  public:
+    static ErrorCollector* New() { return new ErrorCollector; }
+    void Execute(vtkObject*, unsigned long, void* callData) override {
+        ++count;
+        if (!message.empty() || callData == nullptr) return;
+        // VTK passes "ERROR: In file, line N\nClass (0x…): text\n\n"; keep the text.
+        std::string text = static_cast<const char*>(callData);
+        std::size_t nl = text.find('\n');
+        if (nl != std::string::npos) text = text.substr(nl + 1);
+        std::size_t cls = text.find("): ");
+        if (cls != std::string::npos) text = text.substr(cls + 3);
+        std::replace(text.begin(), text.end(), '\n', ' ');
+        while (!text.empty() && text.back() == ' ') text.pop_back();
+        message = text;
+    }
+    int count = 0;
+    std::string message;
+};
+
+/// VTK reads appended data past the end of a cut file without complaint, so check the sizes the
+/// block headers promise against the file size first (raw appended data, as VTK writes it).
+void checkAppendedSize(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string head(1 << 20, '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    std::size_t appended = head.find("<AppendedData");
+    if (appended == std::string::npos) return;
+    std::size_t tagEnd = head.find('>', appended);
+    if (tagEnd == std::string::npos) return;
+    if (head.substr(appended, tagEnd - appended).find("base64") != std::string::npos) return;
+    std::size_t underscore = head.find('_', tagEnd);
+    if (underscore == std::string::npos) return;
+    std::string xml = head.substr(0, appended);
+    bool big = xml.find("byte_order=\"BigEndian\"") != std::string::npos;
+    std::size_t headerSize = xml.find("header_type=\"UInt64\"") != std::string::npos ? 8 : 4;
+    bool compressed = xml.find("compressor=\"") != std::string::npos;
+    std::size_t dataStart = underscore + 1;
+    std::size_t fileSize = static_cast<std::size_t>(fs::file_size(path));
+
+    auto readUint = [&](std::size_t at, std::uint64_t& value) {
+        unsigned char b[8] = {};
+        if (at + headerSize > fileSize) return false;
+        in.clear();
+        in.seekg(static_cast<std::streamoff>(at));
+        in.read(reinterpret_cast<char*>(b), static_cast<std::streamsize>(headerSize));
+        if (!in) return false;
+        if (big) std::reverse(b, b + headerSize);
+        value = 0;
+        for (std::size_t i = headerSize; i-- > 0;) value = (value << 8) | b[i];
+        return true;
+    };
+    std::size_t needed = 0;
+    static const std::string kOffset = "offset=\"";
+    for (std::size_t p = xml.find(kOffset); p != std::string::npos; p = xml.find(kOffset, p + 1)) {
+        std::size_t offset = std::strtoull(xml.c_str() + p + kOffset.size(), nullptr, 10);
+        std::size_t at = dataStart + offset;
+        std::uint64_t blocks = 0, bytes = 0;
+        bool ok = readUint(at, blocks);
+        std::size_t end = at + headerSize;
+        if (ok && !compressed) {
+            end += blocks;
+        } else if (ok) {
+            // Compressed: nblocks, block size, last block size, then one size per block.
+            end += 2 * headerSize + blocks * headerSize;
+            for (std::uint64_t b = 0; ok && b < blocks; ++b) {
+                ok = readUint(at + (3 + b) * headerSize, bytes);
+                end += bytes;
+            }
+        }
+        needed = std::max(needed, ok ? end : at + headerSize);
+        if (!ok) break;
+    }
+    if (needed > fileSize) {
+        UDVR_FAIL(path.string() << ": truncated appended data: expected at least " << needed
+                                << " bytes, found " << fileSize);
+    }
+}
+
+/// Read a .vti; throws with VTK's first error message.
+vtkSmartPointer<vtkImageData> readImageData(const fs::path& path) {
+    detail::requireFile(path);
+    checkAppendedSize(path);
+    vtkNew<vtkXMLImageDataReader> reader;
+    vtkNew<ErrorCollector> errors;
+    reader->AddObserver(vtkCommand::ErrorEvent, errors);
+    reader->AddObserver(vtkCommand::WarningEvent, errors);
+    std::string name = path.string();
+    if (!reader->CanReadFile(name.c_str())) {
+        UDVR_FAIL(name << ": not a VTK XML ImageData file (expected <VTKFile type=\"ImageData\">)");
+    }
+    reader->SetFileName(name.c_str());
+    reader->Update();
+    vtkImageData* image = reader->GetOutput();
+    if (errors->count > 0 || reader->GetErrorCode() != 0 || image == nullptr) {
+        UDVR_FAIL(name << ": cannot read VTK ImageData" << (errors->message.empty() ? "" : ": ")
+                       << errors->message << " (truncated or corrupt file?)");
+    }
+    vtkSmartPointer<vtkImageData> out = image;
+    return out;
+}
+
+Grid3 gridOf(const fs::path& path, vtkImageData* image) {
+    Grid3 g;
+    int extent[6];
+    double origin[3], spacing[3];
+    image->GetExtent(extent);
+    image->GetOrigin(origin);
+    image->GetSpacing(spacing);
+    for (int a = 0; a < 3; ++a) {
+        g.dims[a] = extent[2 * a + 1] - extent[2 * a] + 1;
+        if (g.dims[a] < 1) UDVR_FAIL(path.string() << ": empty ImageData extent");
+        if (!(spacing[a] > 0.0) || !std::isfinite(spacing[a])) {
+            UDVR_FAIL(path.string() << ": spacing along axis " << a << " is " << spacing[a]
+                                    << ", expected a positive number");
+        }
+        g.spacing[a] = spacing[a];
+        // The point at index 0 of our grid is the extent's first point.
+        g.origin[a] = origin[a] + extent[2 * a] * spacing[a];
+    }
+    if (vtkMatrix3x3* dir = image->GetDirectionMatrix(); dir != nullptr && !dir->IsIdentity()) {
+        std::fprintf(stderr,
+                     "udvr: note: %s: the ImageData Direction is not the identity; ignoring the "
+                     "orientation\n",
+                     path.string().c_str());
+    }
+    return g;
+}
+
+template <class T>
+void convertValues(const T* src, std::size_t n, float* dst) {
+    for (std::size_t i = 0; i < n; ++i) dst[i] = static_cast<float>(src[i]);
+}
+
+/// All tuples × components of a numeric array as float.
+std::vector<float> toFloat(const fs::path& path, vtkDataArray* array) {
+    std::size_t n = static_cast<std::size_t>(array->GetNumberOfValues());
+    std::vector<float> out(n);
+    if (n == 0) return out;
+    void* raw = array->GetVoidPointer(0);
+    switch (array->GetDataType()) {
+        vtkTemplateMacro(convertValues(static_cast<const VTK_TT*>(raw), n, out.data()));
+        default:
+            UDVR_FAIL(path.string() << ": array '" << (array->GetName() ? array->GetName() : "")
+                                    << "' has unsupported type " << array->GetDataTypeAsString());
+    }
+    return out;
+}
+
+std::string arrayNames(vtkPointData* pd) {
+    std::string names;
+    for (int i = 0; i < pd->GetNumberOfArrays(); ++i) {
+        const char* n = pd->GetArrayName(i);
+        names += (i ? ", " : "");
+        names += n ? n : "(unnamed)";
+    }
+    return names.empty() ? "none" : names;
+}
+
+/// Let VTK see our floats without a copy; the writer only reads them.
+vtkSmartPointer<vtkFloatArray> wrapFloats(const std::vector<float>& values, int components,
+                                          const char* name) {
+    auto array = vtkSmartPointer<vtkFloatArray>::New();
+    array->SetName(name);
+    array->SetNumberOfComponents(components);
+    array->SetArray(const_cast<float*>(values.data()), static_cast<vtkIdType>(values.size()),
+                    /*save=*/1);
+    return array;
+}
+
+vtkSmartPointer<vtkImageData> makeImage(const Grid3& grid) {
+    auto image = vtkSmartPointer<vtkImageData>::New();
+    image->SetDimensions(grid.dims[0], grid.dims[1], grid.dims[2]);
+    image->SetOrigin(grid.origin[0], grid.origin[1], grid.origin[2]);
+    image->SetSpacing(grid.spacing[0], grid.spacing[1], grid.spacing[2]);
+    return image;
+}
+
+/// Binary appended, zlib-compressed, 64-bit headers: ParaView's default kind of .vti.
+void writeImageData(const fs::path& path, vtkImageData* image) {
+    writeAtomically(path, [&](const fs::path& tmp) {
+        vtkNew<vtkXMLImageDataWriter> writer;
+        vtkNew<ErrorCollector> errors;
+        writer->AddObserver(vtkCommand::ErrorEvent, errors);
+        std::string name = tmp.string();
+        writer->SetFileName(name.c_str());
+        writer->SetInputData(image);
+        writer->SetDataModeToAppended();
+        writer->EncodeAppendedDataOff();
+        writer->SetCompressorTypeToZLib();
+        writer->SetHeaderTypeToUInt64();
+        if (writer->Write() != 1 || errors->count > 0 || writer->GetErrorCode() != 0) {
+            UDVR_FAIL("cannot write " << path.string() << ": " << errors->message);
+        }
+    });
+}
+
+// ---- model field data ----------------------------------------------------------------------
+
+void addDouble(vtkFieldData* fd, const char* name, std::vector<double> values) {
+    vtkNew<vtkDoubleArray> a;
+    a->SetName(name);
+    for (double v : values) a->InsertNextValue(v);
+    fd->AddArray(a);
+}
+
+void addInt(vtkFieldData* fd, const char* name, int value) {
+    vtkNew<vtkIntArray> a;
+    a->SetName(name);
+    a->InsertNextValue(value);
+    fd->AddArray(a);
+}
+
+void addString(vtkFieldData* fd, const char* name, const std::string& value) {
+    vtkNew<vtkStringArray> a;
+    a->SetName(name);
+    a->InsertNextValue(value);
+    fd->AddArray(a);
+}
+
+std::vector<double> getDoubles(vtkFieldData* fd, const char* name) {
+    std::vector<double> out;
+    auto* a = vtkDataArray::SafeDownCast(fd ? fd->GetAbstractArray(name) : nullptr);
+    if (a == nullptr) return out;
+    for (vtkIdType i = 0; i < a->GetNumberOfValues(); ++i) {
+        out.push_back(a->GetComponent(i / a->GetNumberOfComponents(),
+                                      static_cast<int>(i % a->GetNumberOfComponents())));
+    }
+    return out;
+}
+
+double getDouble(vtkFieldData* fd, const char* name, double fallback) {
+    auto v = getDoubles(fd, name);
+    return v.empty() ? fallback : v[0];
+}
+
+int getInt(const fs::path& path, vtkFieldData* fd, const char* name, int fallback) {
+    double v = getDouble(fd, name, fallback);
+    if (!std::isfinite(v) || v != std::floor(v) || std::abs(v) > 1e9) {
+        UDVR_FAIL(path.string() << ": field data '" << name << "' is " << v
+                                << ", expected an integer");
+    }
+    return static_cast<int>(v);
+}
+
+std::string getString(vtkFieldData* fd, const char* name, const std::string& fallback) {
+    auto* a = vtkStringArray::SafeDownCast(fd ? fd->GetAbstractArray(name) : nullptr);
+    if (a == nullptr || a->GetNumberOfValues() == 0) return fallback;
+    return a->GetValue(0);
+}
+
+}  // namespace
+
+// ---- fields ------------------------------------------------------------------------------------
+
+ScalarField detail::readFieldVti(const fs::path& path, const std::string& var) {
+    vtkSmartPointer<vtkImageData> image = readImageData(path);
+    ScalarField f;
+    f.grid = gridOf(path, image);
+    vtkPointData* pd = image->GetPointData();
+    vtkDataArray* array = nullptr;
+    if (!var.empty()) {
+        array = pd->GetArray(var.c_str());
+        if (array == nullptr) {
+            UDVR_FAIL(path.string()
+                      << ": no point array '" << var << "' (arrays: " << arrayNames(pd) << ")");
+        }
+    } else {
+        array = pd->GetScalars();
+        if (array == nullptr && pd->GetNumberOfArrays() > 0) array = pd->GetArray(0);
+        if (array == nullptr) UDVR_FAIL(path.string() << ": no numeric point data array");
+    }
+    std::string name = array->GetName() ? array->GetName() : "";
+    if (array->GetNumberOfComponents() != 1) {
+        UDVR_FAIL(path.string() << ": point array '" << name << "' has "
+                                << array->GetNumberOfComponents()
+                                << " components, expected a scalar (1 component)");
+    }
+    if (static_cast<std::size_t>(array->GetNumberOfTuples()) != f.grid.pointCount()) {
+        UDVR_FAIL(path.string() << ": dims do not match the data: array '" << name << "' holds "
+                                << array->GetNumberOfTuples() << " values, the grid "
+                                << f.grid.pointCount());
+    }
+    f.values = toFloat(path, array);
+    f.name = name;
+    return f;
+}
+
+void writeFieldVti(const fs::path& path, const ScalarField& field) {
+    UDVR_CHECK_MSG(field.values.size() == field.grid.pointCount(), "field size vs grid");
+    auto image = makeImage(field.grid);
+    auto array = wrapFloats(field.values, 1, field.name.empty() ? "scalars" : field.name.c_str());
+    image->GetPointData()->SetScalars(array);
+    writeImageData(path, image);
+}
+
+// ---- models ------------------------------------------------------------------------------------
+
+void writeModelVti(const fs::path& path, const ModelVolume& model) {
+    std::size_t n = model.voxelCount();
+    auto image = makeImage(model.grid);
+    vtkPointData* pd = image->GetPointData();
+    auto add = [&](const std::vector<float>& values, int components, const char* name) {
+        if (values.empty()) return;
+        UDVR_CHECK_MSG(values.size() == n * static_cast<std::size_t>(components),
+                       std::string("model array size: ") + name);
+        pd->AddArray(wrapFloats(values, components, name));
+    };
+    add(model.mean, 1, "mean");
+    add(model.stddev, 1, "stddev");
+    add(model.min, 1, "min");
+    add(model.max, 1, "max");
+    if (model.hasQuantiles()) add(model.quantiles, model.quantileCount + 1, "quantiles");
+    add(model.iqr, 2, "iqr");
+    if (model.hasGmm()) add(model.gmm, 3 * model.gmmComponents, "gmm");
+    if (!model.mean.empty()) pd->SetActiveScalars("mean");
+
+    vtkFieldData* fd = image->GetFieldData();
+    addInt(fd, "quantile_count", model.hasQuantiles() ? model.quantileCount : 0);
+    addString(fd, "density", model.density);
+    addDouble(fd, "bandwidth", {model.bandwidth});
+    addString(fd, "bandwidth_rule", model.bandwidthRule);
+    addDouble(fd, "tail_eps", {model.tailEps});
+    addInt(fd, "samples_per_voxel", model.samplesPerVoxel);
+    addInt(fd, "downsample", model.downsample);
+    addDouble(fd, "bounds", std::vector<double>(model.bounds.begin(), model.bounds.end()));
+    addDouble(fd, "full_res_min_spacing", {model.fullResMinSpacing});
+    addInt(fd, "gmm_components", model.hasGmm() ? model.gmmComponents : 0);
+    addString(fd, "source", model.source);
+    writeImageData(path, image);
+}
+
+ModelVolume readModelVti(const fs::path& path) {
+    vtkSmartPointer<vtkImageData> image = readImageData(path);
+    ModelVolume m;
+    m.grid = gridOf(path, image);
+    std::size_t n = m.voxelCount();
+    vtkPointData* pd = image->GetPointData();
+    vtkFieldData* fd = image->GetFieldData();
+
+    // Reads array `name` with `components` per voxel (0 = any), NaN/Inf rejected.
+    auto get = [&](const char* name, int components) -> std::vector<float> {
+        vtkDataArray* a = pd->GetArray(name);
+        if (a == nullptr) return {};
+        int c = a->GetNumberOfComponents();
+        if (components > 0 && c != components) {
+            UDVR_FAIL(path.string() << ": array '" << name << "' has " << c
+                                    << " components, expected " << components);
+        }
+        if (static_cast<std::size_t>(a->GetNumberOfTuples()) != n) {
+            UDVR_FAIL(path.string()
+                      << ": dims do not match the data: array '" << name << "' holds "
+                      << a->GetNumberOfTuples() << " tuples, the grid " << n << " points");
+        }
+        std::vector<float> v = toFloat(path, a);
+        detail::checkFinite(path, m.grid, v, c, std::string("array '") + name + "'");
+        return v;
+    };
+    m.mean = get("mean", 1);
+    m.stddev = get("stddev", 1);
+    m.min = get("min", 1);
+    m.max = get("max", 1);
+    m.iqr = get("iqr", 2);
+
+    int q = getInt(path, fd, "quantile_count", 0);
+    if (vtkDataArray* a = pd->GetArray("quantiles")) {
+        if (q == 0) q = a->GetNumberOfComponents() - 1;
+        if (q < 1) UDVR_FAIL(path.string() << ": array 'quantiles' needs at least 2 components");
+        m.quantiles = get("quantiles", q + 1);
+        m.quantileCount = q;
+    }
+    int k = getInt(path, fd, "gmm_components", 0);
+    if (vtkDataArray* a = pd->GetArray("gmm")) {
+        if (k == 0) k = a->GetNumberOfComponents() / 3;
+        if (k < 1 || a->GetNumberOfComponents() != 3 * k) {
+            UDVR_FAIL(path.string() << ": array 'gmm' has " << a->GetNumberOfComponents()
+                                    << " components, expected 3K (pi, mu, sigma per component)");
+        }
+        m.gmm = get("gmm", 3 * k);
+        m.gmmComponents = k;
+    }
+    if (m.mean.empty() && m.quantiles.empty() && m.gmm.empty() && m.iqr.empty() && m.min.empty()) {
+        UDVR_FAIL(path.string() << ": no model arrays (mean, stddev, min, max, quantiles, iqr, "
+                                   "gmm); arrays present: "
+                                << arrayNames(pd));
+    }
+
+    m.density = getString(fd, "density", m.density);
+    m.bandwidth = getDouble(fd, "bandwidth", 0.0);
+    m.bandwidthRule = getString(fd, "bandwidth_rule", "");
+    m.tailEps = getDouble(fd, "tail_eps", 0.0);
+    m.samplesPerVoxel = getInt(path, fd, "samples_per_voxel", 0);
+    m.downsample = getInt(path, fd, "downsample", 0);
+    std::vector<double> bounds = getDoubles(fd, "bounds");
+    if (bounds.empty()) {
+        m.bounds = m.grid.bounds();
+    } else if (bounds.size() == 6) {
+        std::copy(bounds.begin(), bounds.end(), m.bounds.begin());
+    } else {
+        UDVR_FAIL(path.string() << ": field data 'bounds' holds " << bounds.size()
+                                << " values, expected 6");
+    }
+    m.fullResMinSpacing = getDouble(fd, "full_res_min_spacing", m.grid.minSpacing());
+    if (!(m.fullResMinSpacing > 0.0)) {
+        UDVR_FAIL(path.string() << ": field data 'full_res_min_spacing' must be positive");
+    }
+    m.source = getString(fd, "source", "");
+    return m;
+}
+
+}  // namespace udvr

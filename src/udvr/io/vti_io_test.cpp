@@ -1,0 +1,261 @@
+// VTK XML ImageData: fields written by VTK's own writer, our writer read back by VTK, model
+// volumes round trip, and bad input.
+#include <gtest/gtest.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkStringArray.h>
+#include <vtkXMLImageDataReader.h>
+#include <vtkXMLImageDataWriter.h>
+
+#include <cmath>
+#include <limits>
+
+#include "udvr/io/field_io.h"
+#include "udvr/io/io_test_util.h"
+#include "udvr/io/model_io.h"
+
+namespace udvr {
+namespace {
+
+using testing::expectUdvrError;
+using testing::fileCount;
+using testing::readBytes;
+using testing::TempDir;
+using testing::writeBytes;
+
+enum class Mode { kAppendedRaw, kAppendedZlib, kAscii };
+
+/// A 5×4×3 image on extent [2,6]×[0,3]×[1,3]: "value" (float64, i+10j+100k) and "other" (float),
+/// with `scalars` as the active scalars; written by vtkXMLImageDataWriter.
+void writeWithVtk(const std::filesystem::path& path, Mode mode, const char* scalars,
+                  double poison = 0.0) {
+    vtkNew<vtkImageData> image;
+    image->SetExtent(2, 6, 0, 3, 1, 3);
+    image->SetOrigin(10.0, 20.0, 30.0);
+    image->SetSpacing(0.5, 0.25, 2.0);
+    vtkNew<vtkDoubleArray> value;
+    value->SetName("value");
+    vtkNew<vtkFloatArray> other;
+    other->SetName("other");
+    for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 4; ++j)
+            for (int i = 0; i < 5; ++i) {
+                value->InsertNextValue(i + 10 * j + 100 * k);
+                other->InsertNextValue(-1.0f);
+            }
+    if (poison != 0.0) value->SetValue(7, poison);
+    image->GetPointData()->AddArray(value);
+    image->GetPointData()->AddArray(other);
+    image->GetPointData()->SetActiveScalars(scalars);
+    vtkNew<vtkXMLImageDataWriter> writer;
+    writer->SetFileName(path.c_str());
+    writer->SetInputData(image);
+    if (mode == Mode::kAscii) {
+        writer->SetDataModeToAscii();
+    } else {
+        writer->SetDataModeToAppended();
+        writer->EncodeAppendedDataOff();
+        if (mode == Mode::kAppendedRaw) writer->SetCompressorTypeToNone();
+    }
+    ASSERT_EQ(writer->Write(), 1);
+}
+
+TEST(IoVti, ReadsFilesWrittenByVtk) {
+    TempDir dir;
+    for (Mode mode : {Mode::kAppendedRaw, Mode::kAppendedZlib, Mode::kAscii}) {
+        writeWithVtk(dir / "f.vti", mode, "value");
+        ScalarField f = readField(dir / "f.vti");
+        EXPECT_EQ(f.name, "value");
+        ASSERT_EQ(f.grid.dims, (std::array<int, 3>{5, 4, 3}));
+        // The first point of the extent is our index 0: origin + extent start · spacing.
+        EXPECT_EQ(f.grid.origin, (std::array<double, 3>{11.0, 20.0, 32.0}));
+        EXPECT_EQ(f.grid.spacing, (std::array<double, 3>{0.5, 0.25, 2.0}));
+        EXPECT_EQ(f.values[f.grid.index(4, 3, 2)], 234.f);
+        EXPECT_EQ(f.values[f.grid.index(1, 2, 0)], 21.f);
+    }
+    // Active scalars win; --var picks another array.
+    writeWithVtk(dir / "g.vti", Mode::kAppendedRaw, "other");
+    EXPECT_EQ(readField(dir / "g.vti").name, "other");
+    FieldReadOptions o;
+    o.var = "value";
+    EXPECT_EQ(readField(dir / "g.vti", o).values[1], 1.f);
+}
+
+TEST(IoVti, WriterRoundTripAndVtkCanReadIt) {
+    TempDir dir;
+    ScalarField f;
+    f.grid.dims = {3, 2, 4};
+    f.grid.origin = {-1.0, 0.5, 2.0};
+    f.grid.spacing = {0.1, 0.2, 0.3};
+    f.name = "density";
+    for (std::size_t i = 0; i < f.grid.pointCount(); ++i) f.values.push_back(0.5f * float(i));
+    writeField(dir / "out.vti", f);
+    EXPECT_EQ(testing::fileCount(dir.path()), 1u);  // no temporary left
+
+    ScalarField g = readField(dir / "out.vti");
+    EXPECT_EQ(g.grid.dims, f.grid.dims);
+    EXPECT_EQ(g.grid.origin, f.grid.origin);
+    EXPECT_EQ(g.grid.spacing, f.grid.spacing);
+    EXPECT_EQ(g.values, f.values);
+    EXPECT_EQ(g.name, "density");
+
+    vtkNew<vtkXMLImageDataReader> reader;
+    reader->SetFileName((dir / "out.vti").c_str());
+    reader->Update();
+    vtkImageData* image = reader->GetOutput();
+    ASSERT_NE(image->GetPointData()->GetScalars(), nullptr);
+    EXPECT_STREQ(image->GetPointData()->GetScalars()->GetName(), "density");
+    EXPECT_EQ(image->GetNumberOfPoints(), 24);
+}
+
+TEST(IoVti, RejectsBadInput) {
+    TempDir dir;
+    writeWithVtk(dir / "f.vti", Mode::kAppendedRaw, "value");
+    std::string bytes = readBytes(dir / "f.vti");
+
+    writeBytes(dir / "short.vti", bytes.substr(0, bytes.size() - 200));
+    expectUdvrError([&] { readField(dir / "short.vti"); }, {"short.vti", "truncated", "expected at least"});
+
+    writeBytes(dir / "garbage.vti", "<html>not vtk</html>");
+    expectUdvrError([&] { readField(dir / "garbage.vti"); }, {"garbage.vti", "ImageData"});
+
+    // WholeExtent and Piece extent grown by one plane: the arrays are too short for the grid.
+    std::string grown = bytes;
+    for (std::size_t p = 0; (p = grown.find("Extent=\"2 6 0 3 1 3\"", p)) != std::string::npos;) {
+        grown.replace(p, 20, "Extent=\"2 6 0 3 1 4\"");
+    }
+    writeBytes(dir / "dims.vti", grown);
+    expectUdvrError([&] { readField(dir / "dims.vti"); }, {"dims.vti"});
+
+    FieldReadOptions o;
+    o.var = "nope";
+    expectUdvrError([&] { readField(dir / "f.vti", o); },
+                    {"f.vti", "no point array 'nope'", "value, other"});
+
+    writeWithVtk(dir / "nan.vti", Mode::kAppendedRaw, "value",
+                 std::numeric_limits<double>::quiet_NaN());
+    expectUdvrError([&] { readField(dir / "nan.vti"); }, {"nan.vti", "1 NaN", "(2,1,0)"});
+    writeWithVtk(dir / "inf.vti", Mode::kAppendedRaw, "value", 1e300);  // beyond float32
+    expectUdvrError([&] { readField(dir / "inf.vti"); }, {"inf.vti", "1 Inf"});
+}
+
+ModelVolume sampleModel() {
+    ModelVolume m;
+    m.grid.dims = {3, 2, 2};
+    m.grid.origin = {0.5, 1.0, 1.5};
+    m.grid.spacing = {2.0, 2.0, 2.0};
+    std::size_t n = m.voxelCount();
+    for (std::size_t v = 0; v < n; ++v) {
+        float x = static_cast<float>(v);
+        m.mean.push_back(x);
+        m.stddev.push_back(0.1f * x);
+        m.min.push_back(x - 1);
+        m.max.push_back(x + 1);
+        for (int j = 0; j <= 4; ++j) m.quantiles.push_back(x - 1 + 0.5f * float(j));
+        m.iqr.push_back(x - 0.5f);
+        m.iqr.push_back(x + 0.5f);
+        for (int c = 0; c < 6; ++c) m.gmm.push_back(x + 0.25f * float(c));
+    }
+    m.quantileCount = 4;
+    m.gmmComponents = 2;
+    m.density = "kde";
+    m.bandwidth = 0.37;
+    m.bandwidthRule = "silverman";
+    m.tailEps = 0.05;
+    m.samplesPerVoxel = 8;
+    m.downsample = 2;
+    m.bounds = {0.0, 5.0, 0.5, 3.5, 1.0, 4.0};
+    m.fullResMinSpacing = 1.0;
+    m.source = "tooth.nhdr --downsample 2";
+    return m;
+}
+
+TEST(IoModel, RoundTripKeepsArraysAndFieldData) {
+    TempDir dir;
+    ModelVolume m = sampleModel();
+    writeModelVti(dir / "model.vti", m);
+    ModelVolume r = readModelVti(dir / "model.vti");
+    EXPECT_EQ(r.grid.dims, m.grid.dims);
+    EXPECT_EQ(r.grid.origin, m.grid.origin);
+    EXPECT_EQ(r.grid.spacing, m.grid.spacing);
+    EXPECT_EQ(r.mean, m.mean);
+    EXPECT_EQ(r.stddev, m.stddev);
+    EXPECT_EQ(r.min, m.min);
+    EXPECT_EQ(r.max, m.max);
+    EXPECT_EQ(r.quantiles, m.quantiles);
+    EXPECT_EQ(r.quantileCount, 4);
+    EXPECT_EQ(r.iqr, m.iqr);
+    EXPECT_EQ(r.gmm, m.gmm);
+    EXPECT_EQ(r.gmmComponents, 2);
+    EXPECT_EQ(r.density, "kde");
+    EXPECT_EQ(r.bandwidth, 0.37);
+    EXPECT_EQ(r.bandwidthRule, "silverman");
+    EXPECT_EQ(r.tailEps, 0.05);
+    EXPECT_EQ(r.samplesPerVoxel, 8);
+    EXPECT_EQ(r.downsample, 2);
+    EXPECT_EQ(r.bounds, m.bounds);
+    EXPECT_EQ(r.fullResMinSpacing, 1.0);
+    EXPECT_EQ(r.source, m.source);
+
+    // A plain VTK reader (as ParaView uses) sees the named arrays and field data.
+    vtkNew<vtkXMLImageDataReader> reader;
+    reader->SetFileName((dir / "model.vti").c_str());
+    reader->Update();
+    vtkImageData* image = reader->GetOutput();
+    ASSERT_NE(image->GetPointData()->GetArray("quantiles"), nullptr);
+    EXPECT_EQ(image->GetPointData()->GetArray("quantiles")->GetNumberOfComponents(), 5);
+    EXPECT_EQ(image->GetPointData()->GetArray("gmm")->GetNumberOfComponents(), 6);
+    auto* density =
+        vtkStringArray::SafeDownCast(image->GetFieldData()->GetAbstractArray("density"));
+    ASSERT_NE(density, nullptr);
+    EXPECT_EQ(density->GetValue(0), "kde");
+}
+
+TEST(IoModel, OnlyPresentArraysAndEmptyStrings) {
+    TempDir dir;
+    ModelVolume m = sampleModel();
+    m.quantiles.clear();
+    m.quantileCount = 0;
+    m.gmm.clear();
+    m.gmmComponents = 0;
+    m.iqr.clear();
+    m.density = "empirical";
+    m.bandwidthRule = "";
+    m.source = "";
+    writeModelVti(dir / "m.vti", m);
+    ModelVolume r = readModelVti(dir / "m.vti");
+    EXPECT_FALSE(r.hasQuantiles());
+    EXPECT_FALSE(r.hasGmm());
+    EXPECT_TRUE(r.iqr.empty());
+    EXPECT_EQ(r.mean, m.mean);
+    EXPECT_EQ(r.bandwidthRule, "");
+    EXPECT_EQ(r.source, "");
+}
+
+TEST(IoModel, RejectsBadInput) {
+    TempDir dir;
+    expectUdvrError([&] { readModelVti(dir / "none.vti"); }, {"none.vti", "no such file"});
+    ModelVolume m = sampleModel();
+    m.quantiles[7] = std::numeric_limits<float>::quiet_NaN();  // voxel 1, boundary 2
+    writeModelVti(dir / "nan.vti", m);
+    expectUdvrError([&] { readModelVti(dir / "nan.vti"); },
+                    {"nan.vti", "1 NaN", "'quantiles'", "(1,0,0)"});
+    // A field file is not a model.
+    ScalarField f;
+    f.grid.dims = {2, 2, 2};
+    f.values.assign(8, 1.f);
+    f.name = "density";
+    writeFieldVti(dir / "field.vti", f);
+    expectUdvrError([&] { readModelVti(dir / "field.vti"); },
+                    {"field.vti", "no model arrays", "density"});
+    // Failing writes leave nothing behind.
+    EXPECT_THROW(writeModelVti(dir.path() / "no_dir" / "m.vti", sampleModel()), UdvrError);
+    EXPECT_FALSE(std::filesystem::exists(dir.path() / "no_dir"));
+}
+
+}  // namespace
+}  // namespace udvr
