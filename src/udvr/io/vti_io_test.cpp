@@ -118,7 +118,8 @@ TEST(IoVti, RejectsBadInput) {
     std::string bytes = readBytes(dir / "f.vti");
 
     writeBytes(dir / "short.vti", bytes.substr(0, bytes.size() - 200));
-    expectUdvrError([&] { readField(dir / "short.vti"); }, {"short.vti", "truncated", "expected at least"});
+    expectUdvrError([&] { readField(dir / "short.vti"); },
+                    {"short.vti", "truncated", "expected at least"});
 
     writeBytes(dir / "garbage.vti", "<html>not vtk</html>");
     expectUdvrError([&] { readField(dir / "garbage.vti"); }, {"garbage.vti", "ImageData"});
