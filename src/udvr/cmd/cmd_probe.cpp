@@ -1,13 +1,65 @@
-// udvr probe (SPEC §8). Placeholder until its issue lands.
+// udvr probe model.vti --point i,j,k --model NAME --tf tf.json [--json] [--plot out.png]
+#include <cstdio>
+#include <iostream>
+#include <string>
+
+#include "udvr/classify/probe.h"
 #include "udvr/cmd/commands.h"
-#include "udvr/util/check.h"
+#include "udvr/cmd/parse_util.h"
+#include "udvr/eval/probe_plot.h"
+#include "udvr/io/image.h"
+#include "udvr/io/model_io.h"
+#include "udvr/io/transfer_function_io.h"
 
 namespace udvr::cmd {
 
 void addProbeCommand(CLI::App& app) {
-    auto* sub = app.add_subcommand("probe", "not implemented yet");
-    sub->allow_extras();
-    sub->callback([] { UDVR_FAIL("'udvr probe' is not implemented yet"); });
+    auto* sub = app.add_subcommand(
+        "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
+    struct Opts {
+        std::string model, point, kind, tf, plot, uniformWidth = "std";
+        bool json = false;
+    };
+    auto o = std::make_shared<Opts>();
+    sub->add_option("model", o->model, "model file (.vti from `udvr build`)")->required();
+    sub->add_option("--point", o->point, "index coordinates i,j,k")->required();
+    sub->add_option("--model", o->kind,
+                    "noise model (mean, uniform, gaussian, gmm-ordered, "
+                    "quantile-range, ...)")
+        ->required();
+    sub->add_option("--tf", o->tf, "transfer function (ParaView JSON)")->required();
+    sub->add_flag("--json", o->json, "print one JSON object");
+    sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
+    sub->add_option("--uniform-width", o->uniformWidth,
+                    "uniform model: std (mu +- sqrt(3) sigma, default) or minmax");
+    sub->callback([o] {
+        const ModelKind kind = parseModelKind(o->kind);
+        const auto p = parseVec3(o->point, "--point");
+        ClassifyOptions options;
+        if (o->uniformWidth == "minmax")
+            options.uniformMinMax = true;
+        else if (o->uniformWidth != "std")
+            UDVR_FAIL("--uniform-width must be 'std' or 'minmax', got '" << o->uniformWidth << "'");
+        const TransferFunction1D tf = readTransferFunction(o->tf);
+        const ModelVolume model = readModelVti(o->model);
+        const ProbeResult r = probeModel(model, kind, tf, p, options);
+        if (!o->plot.empty()) writePng(o->plot, renderProbePlot(r, tf));
+        if (o->json) {
+            std::cout << r.json.dump(2) << "\n";
+            return;
+        }
+        std::printf("model %s at (%g, %g, %g)\n", std::string(modelName(kind)).c_str(), p[0], p[1],
+                    p[2]);
+        for (const char* key : {"value", "mean", "stddev", "low", "high"})
+            if (r.json.contains(key)) std::printf("  %-8s %.6g\n", key, r.json[key].get<double>());
+        for (const char* key : {"boundaries", "weights", "means", "sigmas", "population"})
+            if (r.json.contains(key)) std::printf("  %-8s %s\n", key, r.json[key].dump().c_str());
+        std::printf("  E[a*r], E[a*g], E[a*b], E[a] = %.6f %.6f %.6f %.6f\n", r.expected.r,
+                    r.expected.g, r.expected.b, r.expected.a);
+        if (!o->plot.empty())
+            std::printf("  plot %s: x from %.6g to %.6g\n", o->plot.c_str(), r.distribution.lo,
+                        r.distribution.hi);
+    });
 }
 
 }  // namespace udvr::cmd

@@ -1,0 +1,35 @@
+#pragma once
+// `udvr probe` (SPEC §8): the reconstructed distribution (SPEC §3) and its expected TF (SPEC §4)
+// at one index-space point, as data for JSON, a summary and a PDF plot.
+#include <array>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "udvr/classify/model_kind.h"
+#include "udvr/classify/sample_kernels.h"
+#include "udvr/classify/transfer_function.h"
+#include "udvr/stats/model_volume.h"
+
+namespace udvr {
+
+/// The distribution at a point: continuous part given by its CDF, plus point masses.
+struct ProbeDistribution {
+    double lo = 0.0, hi = 0.0;            // plot range holding (almost) all the mass, data units
+    double continuousMass = 0.0;          // total mass of the continuous part (0 or 1)
+    std::vector<double> atoms, atomMass;  // point masses: positions and probabilities
+    std::vector<double> cdfX, cdfY;       // continuous CDF sampled on a fine grid over [lo, hi]
+};
+
+struct ProbeResult {
+    ModelKind kind;
+    std::array<double, 3> point;  // index space
+    Rgba expected;        // (E[α·r], E[α·g], E[α·b], E[α]), before opacity correction
+    nlohmann::json json;  // SPEC §8 object: model, point, expected_rgba, distribution
+    ProbeDistribution distribution;
+};
+
+/// Reconstruct and classify at index-space `point` (inside the grid, else UdvrError).
+ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                       const std::array<double, 3>& point, const ClassifyOptions& options = {});
+
+}  // namespace udvr

@@ -1,0 +1,47 @@
+#include "udvr/classify/probe.h"
+
+#include <gtest/gtest.h>
+
+#include "udvr/classify/classify_test_util.h"
+#include "udvr/eval/probe_plot.h"
+
+namespace udvr {
+namespace {
+
+TEST(Probe, JsonHoldsTheDistributionAndExpectation) {
+    CounterRng rng(61, 0, 0);
+    const ModelVolume m = testing::randomModel(rng, {3, 2, 2}, 8);
+    const auto r = modelDataRange(m);
+    const TransferFunction1D tf = testing::randomTf(rng, r.first, r.second);
+    for (ModelKind kind : allModelKinds()) {
+        if (kind == ModelKind::GmmMc) {
+            EXPECT_THROW(probeModel(m, kind, tf, {1, 0.5, 0.5}), UdvrError);
+            continue;
+        }
+        const ProbeResult p = probeModel(m, kind, tf, {1.25, 0.5, 1.0});
+        const auto& j = p.json;
+        EXPECT_EQ(j["model"], std::string(modelName(kind)));
+        ASSERT_EQ(j["expected_rgba"].size(), 4u);
+        EXPECT_NEAR(j["expected_rgba"][3].get<double>(), p.expected.a, 1e-7);
+        EXPECT_TRUE(j.contains("value"));
+        if (kind == ModelKind::Gaussian || kind == ModelKind::Uniform) {
+            EXPECT_TRUE(j.contains("mean") && j.contains("stddev"));
+        }
+        if (needsQuantiles(kind) || kind == ModelKind::Iqr) {
+            EXPECT_TRUE(j.contains("boundaries"));
+        }
+        if (kind == ModelKind::GmmOrdered) {
+            EXPECT_EQ(j["weights"].size(), 3u);
+        }
+        // Continuous part + point masses = 1.
+        double mass = p.distribution.continuousMass;
+        for (double a : p.distribution.atomMass) mass += a;
+        EXPECT_NEAR(mass, 1.0, 1e-9) << modelName(kind);
+        const ImageRgba im = renderProbePlot(p, tf, 200, 120);
+        EXPECT_EQ(im.width, 200);
+    }
+    EXPECT_THROW(probeModel(m, ModelKind::Mean, tf, {2.5, 0, 0}), UdvrError);
+}
+
+}  // namespace
+}  // namespace udvr
