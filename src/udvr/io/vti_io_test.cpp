@@ -121,6 +121,17 @@ TEST(IoVti, RejectsBadInput) {
     expectUdvrError([&] { readField(dir / "short.vti"); },
                     {"short.vti", "truncated", "expected at least"});
 
+    // Our writer's zlib-compressed output, cut inside the last compressed block.
+    ScalarField big;
+    big.grid.dims = {16, 16, 16};
+    for (std::size_t i = 0; i < big.grid.pointCount(); ++i) {
+        big.values.push_back(float((i * 2654435761u) % 1000u));
+    }
+    writeFieldVti(dir / "z.vti", big);
+    std::string zbytes = readBytes(dir / "z.vti");
+    writeBytes(dir / "zshort.vti", zbytes.substr(0, zbytes.size() - 100));
+    expectUdvrError([&] { readField(dir / "zshort.vti"); }, {"zshort.vti", "truncated"});
+
     writeBytes(dir / "garbage.vti", "<html>not vtk</html>");
     expectUdvrError([&] { readField(dir / "garbage.vti"); }, {"garbage.vti", "ImageData"});
 
