@@ -144,8 +144,14 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                         prev = std::max(prev, inv(p));  // monotone despite solver tolerance
                         qv[j] = static_cast<float>(prev);
                     }
-                    iqr[0] = static_cast<float>(inv(0.25));
-                    iqr[1] = static_cast<float>(std::max(inv(0.75), static_cast<double>(iqr[0])));
+                    if (qv && q % 4 == 0) {  // b(0.25), b(0.75) are b_{q/4}, b_{3q/4}
+                        iqr[0] = qv[q / 4];
+                        iqr[1] = qv[3 * q / 4];
+                    } else {
+                        iqr[0] = static_cast<float>(inv(0.25));
+                        iqr[1] =
+                            static_cast<float>(std::max(inv(0.75), static_cast<double>(iqr[0])));
+                    }
                 }
                 if (K > 0) {
                     const std::span<float> out(m.gmm.data() + v * static_cast<std::size_t>(3 * K),
