@@ -67,6 +67,9 @@ class BoxSplineTail {
     UDVR_CPU_GPU explicit BoxSplineTail(const UniformSum& u) : u_(u) {
         // Raw moments E[Z_k^j] of the partial sums, j ≤ n+2, by moment convolution with
         // E[(hU)^m] = h^m/(m+1).
+        for (int a = 0; a < kMaxUniformTerms + 3; ++a)
+            for (int b = 0; b <= a; ++b)
+                binom_[a][b] = (b == 0 || b == a) ? 1.0 : binom_[a - 1][b - 1] + binom_[a - 1][b];
         prefix_[0] = 0.0;
         for (int k = 0; k < u.n; ++k) prefix_[k + 1] = prefix_[k] + u.h[k];
         const int jmax = u.n + 2;
@@ -87,11 +90,8 @@ class BoxSplineTail {
     UDVR_CPU_GPU void at(double y, double out[3]) const { tail(u_.n, y, out); }
 
   private:
-    UDVR_CPU_GPU static double binomial(int n, int k) {
-        double r = 1.0;
-        for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
-        return r;
-    }
+    // C(n, k) for n ≤ kMaxUniformTerms + 2 from Pascal's triangle, built once per sum.
+    UDVR_CPU_GPU double binomial(int n, int k) const { return binom_[n][k]; }
     // out[i] = T_k(y, n − k + i), i = 0, 1, 2.
     UDVR_CPU_GPU void tail(int k, double y, double out[3]) const {
         const int d0 = u_.n - k;
@@ -121,6 +121,7 @@ class BoxSplineTail {
     const UniformSum& u_;
     double prefix_[kMaxUniformTerms + 1];
     double moment_[kMaxUniformTerms + 1][kMaxUniformTerms + 3];
+    double binom_[kMaxUniformTerms + 3][kMaxUniformTerms + 3];
 };
 
 }  // namespace udvr

@@ -1,0 +1,105 @@
+// Classification cost per sample (reconstruct + expected TF) for every model at q = 2, 4, 8, 16,
+// one core, on a random 32³ model volume with a tangle-like TF (docs/models.md has the table).
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "udvr/classify/sample_kernels.h"
+#include "udvr/util/random.h"
+
+namespace {
+
+using namespace udvr;
+
+ModelVolume benchModel(int q) {
+    const int n = 32;
+    ModelVolume m;
+    m.grid.dims = {n, n, n};
+    m.quantileCount = q;
+    m.gmmComponents = 4;
+    CounterRng rng(1234, static_cast<std::uint64_t>(q), 0);
+    std::vector<double> s(32);
+    const double ns = static_cast<double>(s.size());
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const double c = 10.0 * std::sin(0.3 * i) * std::cos(0.2 * j) + 0.3 * k - 5.0;
+                for (auto& x : s) x = c + (rng.uniform() < 0.3 ? -2.0 : 1.0) + rng.normal();
+                std::sort(s.begin(), s.end());
+                double mean = 0, var = 0;
+                for (double x : s) mean += x / ns;
+                for (double x : s) var += (x - mean) * (x - mean) / (ns - 1);
+                m.mean.push_back(static_cast<float>(mean));
+                m.stddev.push_back(static_cast<float>(std::sqrt(var)));
+                m.min.push_back(static_cast<float>(s.front()));
+                m.max.push_back(static_cast<float>(s.back()));
+                for (int b = 0; b <= q; ++b) {
+                    const double pos = double(b) / q * (ns - 1);
+                    const std::size_t lo =
+                        std::min<std::size_t>(static_cast<std::size_t>(pos), s.size() - 2);
+                    m.quantiles.push_back(static_cast<float>(
+                        s[lo] + (pos - static_cast<double>(lo)) * (s[lo + 1] - s[lo])));
+                }
+                m.iqr.push_back(m.quantiles[m.quantiles.size() - 1 - 3 * q / 4]);
+                m.iqr.push_back(m.quantiles[m.quantiles.size() - 1 - q / 4]);
+                for (int g = 0; g < 4; ++g) m.gmm.push_back(0.25f);
+                for (int g = 0; g < 4; ++g) m.gmm.push_back(static_cast<float>(mean - 3 + 2 * g));
+                for (int g = 0; g < 4; ++g) m.gmm.push_back(0.5f);
+            }
+    return m;
+}
+
+TransferFunction1D benchTf() {
+    TransferFunction1D tf;
+    tf.colorX = {-15, -4.5, -2, 0, 1.5, 3, 25};
+    tf.color = {{0.7, 0.05, 0.05}, {0.85, 0.1, 0.1},   {0.95, 0.55, 0.1}, {1, 0.8, 0.2},
+                {0.6, 0.8, 0.8},   {0.25, 0.45, 0.95}, {0.1, 0.2, 0.6}};
+    tf.opacityX = {-15, -5.5, -4.5, -3.5, -0.6, 0, 0.6, 2.4, 3, 3.6, 25};
+    tf.opacity = {0, 0, 0.9, 0, 0, 0.45, 0, 0, 0.12, 0, 0};
+    return tf;
+}
+
+void BM_Classify(benchmark::State& state) {
+    const ModelKind kind = allModelKinds()[static_cast<std::size_t>(state.range(0))];
+    const int q = static_cast<int>(state.range(1));
+    static std::vector<ModelVolume> models(17);
+    if (models[q].voxelCount() == 0) models[q] = benchModel(q);
+    const ModelVolume& m = models[q];
+    const TransferFunction1D tf = benchTf();
+    std::vector<float> pts(3 * 4096);
+    CounterRng rng(5, 0, 0);
+    for (auto& p : pts) p = static_cast<float>(rng.uniform() * 31.0);
+    state.SetLabel(std::string(modelName(kind)) + " q=" + std::to_string(q));
+    withKernel(m, kind, tf, [&](const auto& k) {
+        for (auto _ : state) {
+            float acc = 0.f;
+            for (std::size_t i = 0; i < pts.size(); i += 3)
+                acc += k.classifyAt(pts[i], pts[i + 1], pts[i + 2]).a;
+            benchmark::DoNotOptimize(acc);
+        }
+    });
+    state.SetItemsProcessed(state.iterations() * 4096);
+}
+
+void args(benchmark::internal::Benchmark* b) {
+    for (std::size_t i = 0; i < allModelKinds().size(); ++i) {
+        if (allModelKinds()[i] == ModelKind::GmmMc) continue;
+        for (int q : {2, 4, 8, 16}) {
+            const ModelKind k = allModelKinds()[i];
+            const bool usesQ = needsQuantiles(k);
+            if (!usesQ && q != 8) continue;  // q only matters to the quantile models
+            if ((k == ModelKind::QuartileLower || k == ModelKind::QuartileMiddle ||
+                 k == ModelKind::QuartileUpper) &&
+                q % 4 != 0)
+                continue;
+            b->Args({static_cast<long>(i), q});
+        }
+    }
+}
+BENCHMARK(BM_Classify)->Apply(args);
+
+}  // namespace
+
+BENCHMARK_MAIN();
