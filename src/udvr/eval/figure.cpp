@@ -345,7 +345,26 @@ ImageRgba renderLinePlots(const std::vector<PlotAxes>& plots, int width, int hei
             const double lineW = 2.2 * font;
             const double boxW = legendW + lineW + 1.5 * font;
             const double boxH = static_cast<double>(p.series.size()) * 1.3 * font + 0.6 * font;
-            const double bx = right - boxW - 0.5 * font, by = top + 0.5 * font;
+            // The corner whose box covers the fewest plotted points (top right on a tie).
+            double bx = right - boxW - 0.5 * font, by = top + 0.5 * font;
+            int fewest = std::numeric_limits<int>::max();
+            for (int corner = 0; corner < 4; ++corner) {
+                const double cx = corner % 2 == 0 ? right - boxW - 0.5 * font : left + 0.5 * font;
+                const double cy = corner < 2 ? top + 0.5 * font : bottom - boxH - 0.5 * font;
+                int covered = 0;
+                for (const PlotSeries& s : p.series)
+                    for (std::size_t i = 0; i + 1 < s.x.size(); ++i) {
+                        if (!std::isfinite(s.y[i]) || !std::isfinite(s.y[i + 1])) continue;
+                        for (int k = 0; k <= 16; ++k) {  // points along the segment
+                            const double t = k / 16.0;
+                            const double x0 = px(s.x[i]), x1 = px(s.x[i + 1]);
+                            const double qx = x0 + t * (x1 - x0);
+                            const double qy = py(s.y[i]) + t * (py(s.y[i + 1]) - py(s.y[i]));
+                            covered += qx >= cx && qx <= cx + boxW && qy >= cy && qy <= cy + boxH;
+                        }
+                    }
+                if (covered < fewest) fewest = covered, bx = cx, by = cy;
+            }
             cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
             cairo_rectangle(cr, bx, by, boxW, boxH);
             cairo_fill_preserve(cr);
