@@ -10,8 +10,6 @@ using nlohmann::json;
 
 constexpr int kCdfSamples = 2048;
 
-double normalCdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
-
 // Samples a continuous CDF over [lo, hi].
 template <class Cdf>
 void sampleCdf(ProbeDistribution& d, Cdf cdf) {
