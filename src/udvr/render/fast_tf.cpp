@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace udvr {
 
@@ -49,13 +50,40 @@ FastTransferFunction::FastTransferFunction(const TransferFunction1D& tf) {
     for (std::size_t r = 1; r < nb; ++r) fill(regions_[r], bounds_[r - 1], bounds_[r]);
     fillConstant(regions_[nb], last, last + 1.0 + std::abs(last));
 
-    bucketRegion_.assign(kBuckets, static_cast<int>(nb));
+    // Bucket count: about 4 buckets per smallest gap between breakpoints, within [256, 16384].
     const double span = static_cast<double>(bounds_[nb - 1]) - static_cast<double>(bounds_[0]);
-    invBucket_ = span > 0.0 ? static_cast<float>(kBuckets / span) : 0.f;
-    for (int k = 0; k < kBuckets; ++k) {
-        const float edge = static_cast<float>(bounds_[0] + span * k / kBuckets);
-        bucketRegion_[k] = static_cast<int>(std::upper_bound(bounds_.begin(), bounds_.end(), edge) -
-                                            bounds_.begin());
+    double minGap = span;
+    for (std::size_t i = 1; i < nb; ++i)
+        minGap = std::min(minGap, static_cast<double>(bounds_[i]) - bounds_[i - 1]);
+    int count = 256;
+    while (count < 16384 && minGap > 0.0 && span / count > 0.25 * minGap) count *= 2;
+    // Scale slightly below count/span so the last breakpoint lands in the last bucket.
+    scale_ = span > 0.0 ? static_cast<float>(count / span * (1.0 - 1e-6)) : 0.f;
+    maxBucket_ = static_cast<float>(count - 1);
+    auto bucketOf = [&](float x) {  // the same float arithmetic as classify()
+        float fb = (x - bounds_[0]) * scale_;
+        fb = fb > 0.f ? fb : 0.f;
+        fb = fb < maxBucket_ ? fb : maxBucket_;
+        return static_cast<int>(fb);
+    };
+    const float inf = std::numeric_limits<float>::infinity();
+    buckets_.assign(static_cast<std::size_t>(count), Bucket{inf, 0, 0});
+    std::vector<int> inBucket(static_cast<std::size_t>(count), 0);
+    for (std::size_t i = 0; i < nb; ++i) {
+        const int k = bucketOf(bounds_[i]);
+        if (inBucket[k]++ == 0) buckets_[k].split = bounds_[i];
+    }
+    int below = 0;
+    for (int k = 0; k < count; ++k) {
+        Bucket& b = buckets_[k];
+        b.base = below;
+        b.extra = inBucket[k] > 1 ? 1 : 0;
+        // Regions below..below+inBucket[k] are the only ones x in this bucket can fall in.
+        bool zero = true;
+        for (int r = below; r <= below + inBucket[k]; ++r)
+            zero = zero && regions_[r].a0 == 0.f && regions_[r].as == 0.f;
+        below += inBucket[k];
+        if (zero) b.base = -1;
     }
 }
 

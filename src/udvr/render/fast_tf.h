@@ -1,9 +1,14 @@
 #pragma once
 // An exact, fast evaluator of a piecewise-linear 1D transfer function (SPEC §4) for the ray loop:
 // the colour and opacity breakpoints are merged into regions on which α(x) and c(x) are both
-// linear, so TF(x) = (α·c, α) needs one region lookup (a uniform bucket grid plus a short scan)
-// and a few multiply-adds. Same values as TransferFunction1D::classify up to float rounding,
-// including right-continuous steps and clamping outside the control points.
+// linear, so TF(x) = (α·c, α) needs one bucket load and a few multiply-adds. Same values as
+// TransferFunction1D::classify up to float rounding, including right-continuous steps and
+// clamping outside the control points.
+//
+// Exactness of the lookup: the bucket of x is k(x) = ⌊(x − u_0)·s⌋ in float arithmetic, a
+// non-decreasing function of x. So every breakpoint in a lower bucket than x's is ≤ x and every
+// one in a higher bucket is > x; only the breakpoints in x's own bucket (usually none or one)
+// need a comparison. Buckets on which α ≡ 0 are flagged, so transparent samples cost one load.
 #include <vector>
 
 #include "udvr/classify/transfer_function.h"
@@ -16,18 +21,24 @@ class FastTransferFunction {
 
     /// (α·r, α·g, α·b, α) at data value x.
     Rgba classify(float x) const {
-        const Region& g = regions_[regionOf(x)];
+        float fb = (x - bounds_[0]) * scale_;
+        fb = fb > 0.f ? fb : 0.f;  // also maps NaN to bucket 0
+        fb = fb < maxBucket_ ? fb : maxBucket_;
+        const Bucket& bk = buckets_[static_cast<int>(fb)];
+        if (bk.base < 0) return Rgba{};  // α ≡ 0 on this bucket: what the region would give
+        int r = bk.base + (x >= bk.split ? 1 : 0);
+        if (bk.extra) {  // two or more breakpoints in this bucket (rare): scan them
+            const int nb = static_cast<int>(bounds_.size());
+            r = bk.base;
+            while (r < nb && x >= bounds_[r]) ++r;
+        }
+        const Region& g = regions_[r];
         const float dx = x - g.x0;
         const float a = g.a0 + g.as * dx;
-        const float r = g.c0[0] + g.cs[0] * dx;
-        const float gg = g.c0[1] + g.cs[1] * dx;
-        const float b = g.c0[2] + g.cs[2] * dx;
-        return Rgba{a * r, a * gg, a * b, a};
-    }
-    /// Opacity only (cheaper; used to reject transparent samples early).
-    float opacity(float x) const {
-        const Region& g = regions_[regionOf(x)];
-        return g.a0 + g.as * (x - g.x0);
+        const float cr = g.c0[0] + g.cs[0] * dx;
+        const float cg = g.c0[1] + g.cs[1] * dx;
+        const float cb = g.c0[2] + g.cs[2] * dx;
+        return Rgba{a * cr, a * cg, a * cb, a};
     }
 
   private:
@@ -36,26 +47,17 @@ class FastTransferFunction {
         float a0, as;        // α = a0 + as·(x − x0)
         float c0[3], cs[3];  // c = c0 + cs·(x − x0)
     };
-    // Region index r: bounds_[r−1] ≤ x < bounds_[r] (region 0 below bounds_[0], the last one at
-    // or above bounds_.back()).
-    int regionOf(float x) const {
-        const int nb = static_cast<int>(bounds_.size());
-        if (!(x >= bounds_[0])) return 0;
-        if (x >= bounds_[nb - 1]) return nb;
-        float fb = (x - bounds_[0]) * invBucket_;
-        int k = static_cast<int>(fb);
-        if (k >= kBuckets) k = kBuckets - 1;
-        int r = bucketRegion_[k];
-        while (r > 1 && x < bounds_[r - 1]) --r;
-        while (r < nb && x >= bounds_[r]) ++r;
-        return r;
-    }
+    struct Bucket {
+        float split;  // the breakpoint inside this bucket (+inf when none)
+        int base;  // breakpoints in lower buckets = region of the bucket's left part; −1: α ≡ 0
+        int extra;  // 1 when the bucket holds more than one breakpoint
+    };
 
-    static constexpr int kBuckets = 2048;
-    std::vector<float> bounds_;      // merged breakpoints, strictly increasing
-    std::vector<Region> regions_;    // bounds_.size() + 1 regions
-    std::vector<int> bucketRegion_;  // region of each bucket's left edge
-    float invBucket_ = 0.f;
+    std::vector<float> bounds_;    // merged breakpoints u_0 < … < u_{N−1}
+    std::vector<Region> regions_;  // N + 1 regions: (−∞, u_0), [u_0, u_1), …, [u_{N−1}, ∞)
+    std::vector<Bucket> buckets_;
+    float scale_ = 0.f;      // buckets per data unit
+    float maxBucket_ = 0.f;  // index of the last bucket
 };
 
 }  // namespace udvr

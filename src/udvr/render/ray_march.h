@@ -22,7 +22,7 @@
 namespace udvr::detail {
 
 /// Cells per brick edge of the empty-space-skipping table (index space).
-inline constexpr int kBrickCells = 8;
+inline constexpr int kBrickCells = 4;
 /// Pixels per tile edge; tiles are the unit of parallel work.
 inline constexpr int kTilePixels = 16;
 
