@@ -243,8 +243,17 @@ ImageRgba renderLinePlots(const std::vector<PlotAxes>& plots, int width, int hei
     cairo_set_source_rgb(cr, 1, 1, 1);
     cairo_paint(cr);
 
-    const double plotW = static_cast<double>(width) / static_cast<double>(plots.size());
     const double font = std::clamp(height / 32.0, 9.0, 14.0);
+    // Width of the legend column: the longest label plus its line sample.
+    double legendW = 0;
+    setFont(cr, font, false);
+    for (const PlotSeries& s : plots.front().series) {
+        cairo_text_extents_t ext;
+        cairo_text_extents(cr, s.label.c_str(), &ext);
+        legendW = std::max(legendW, ext.x_advance + 3.4 * font);
+    }
+    const double plotsWidth = std::max(0.5 * width, width - legendW);
+    const double plotW = plotsWidth / static_cast<double>(plots.size());
     for (std::size_t pIndex = 0; pIndex < plots.size(); ++pIndex) {
         const PlotAxes& p = plots[pIndex];
         const double pi = static_cast<double>(pIndex);
@@ -332,61 +341,30 @@ ImageRgba renderLinePlots(const std::vector<PlotAxes>& plots, int width, int hei
             }
         }
         cairo_restore(cr);
+    }
 
-        // Legend, top right inside the frame.
-        double legendW = 0;
-        setFont(cr, font, false);
-        for (const PlotSeries& s : p.series) {
-            cairo_text_extents_t ext;
-            cairo_text_extents(cr, s.label.c_str(), &ext);
-            legendW = std::max(legendW, ext.x_advance);
-        }
-        if (!p.series.empty()) {
-            const double lineW = 2.2 * font;
-            const double boxW = legendW + lineW + 1.5 * font;
-            const double boxH = static_cast<double>(p.series.size()) * 1.3 * font + 0.6 * font;
-            // The corner whose box covers the fewest plotted points (top right on a tie).
-            double bx = right - boxW - 0.5 * font, by = top + 0.5 * font;
-            int fewest = std::numeric_limits<int>::max();
-            for (int corner = 0; corner < 4; ++corner) {
-                const double cx = corner % 2 == 0 ? right - boxW - 0.5 * font : left + 0.5 * font;
-                const double cy = corner < 2 ? top + 0.5 * font : bottom - boxH - 0.5 * font;
-                int covered = 0;
-                for (const PlotSeries& s : p.series)
-                    for (std::size_t i = 0; i + 1 < s.x.size(); ++i) {
-                        if (!std::isfinite(s.y[i]) || !std::isfinite(s.y[i + 1])) continue;
-                        for (int k = 0; k <= 16; ++k) {  // points along the segment
-                            const double t = k / 16.0;
-                            const double x0 = px(s.x[i]), x1 = px(s.x[i + 1]);
-                            const double qx = x0 + t * (x1 - x0);
-                            const double qy = py(s.y[i]) + t * (py(s.y[i + 1]) - py(s.y[i]));
-                            covered += qx >= cx && qx <= cx + boxW && qy >= cy && qy <= cy + boxH;
-                        }
-                    }
-                if (covered < fewest) fewest = covered, bx = cx, by = cy;
+    // One legend for all plots (they share their series), in the column right of them.
+    if (!plots.front().series.empty()) {
+        const auto& series = plots.front().series;
+        const double lineW = 2.2 * font;
+        const double boxH = static_cast<double>(series.size()) * 1.3 * font + 0.6 * font;
+        const double bx = plotsWidth + 0.2 * font;
+        const double by = std::max(2.6 * font, (height - boxH) / 2);
+        for (std::size_t i = 0; i < series.size(); ++i) {
+            const PlotSeries& s = series[i];
+            const double ly = by + 0.3 * font + (static_cast<double>(i) + 0.5) * 1.3 * font;
+            cairo_set_source_rgb(cr, s.color[0], s.color[1], s.color[2]);
+            cairo_set_line_width(cr, 2.0);
+            if (s.dashed) {
+                const double dash[] = {6.0, 4.0};
+                cairo_set_dash(cr, dash, 2, 0);
             }
-            cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
-            cairo_rectangle(cr, bx, by, boxW, boxH);
-            cairo_fill_preserve(cr);
-            cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
-            cairo_set_line_width(cr, 1.0);
+            cairo_move_to(cr, bx, ly);
+            cairo_line_to(cr, bx + lineW, ly);
             cairo_stroke(cr);
-            for (std::size_t i = 0; i < p.series.size(); ++i) {
-                const PlotSeries& s = p.series[i];
-                const double ly = by + 0.3 * font + (static_cast<double>(i) + 0.5) * 1.3 * font;
-                cairo_set_source_rgb(cr, s.color[0], s.color[1], s.color[2]);
-                cairo_set_line_width(cr, 2.0);
-                if (s.dashed) {
-                    const double dash[] = {6.0, 4.0};
-                    cairo_set_dash(cr, dash, 2, 0);
-                }
-                cairo_move_to(cr, bx + 0.5 * font, ly);
-                cairo_line_to(cr, bx + 0.5 * font + lineW, ly);
-                cairo_stroke(cr);
-                cairo_set_dash(cr, nullptr, 0, 0);
-                cairo_set_source_rgb(cr, 0, 0, 0);
-                textAt(cr, s.label, bx + lineW + 1.0 * font, ly + 0.35 * font, font, false);
-            }
+            cairo_set_dash(cr, nullptr, 0, 0);
+            cairo_set_source_rgb(cr, 0, 0, 0);
+            textAt(cr, s.label, bx + lineW + 0.6 * font, ly + 0.35 * font, font, false);
         }
     }
     crp.reset();

@@ -54,8 +54,9 @@ struct PlotAxes {
     bool logX = false;  // x ticks at the series' x values either way
 };
 
-/// Side-by-side line plots sharing one y range (so they compare at a glance), each with ticks,
-/// axis labels and a legend; width×height pixels in all, white background, opaque.
+/// Side-by-side line plots sharing one y range (so they compare at a glance), each with ticks
+/// and axis labels, and one legend of the first plot's series (the plots are meant to share
+/// them) in a column on the right; width×height pixels in all, white background, opaque.
 ImageRgba renderLinePlots(const std::vector<PlotAxes>& plots, int width, int height);
 
 /// Write as 8-bit RGB(A) PNG through cairo, values clamped to [0,1] and rounded, alpha dropped
