@@ -15,7 +15,8 @@ double piecewiseLinear(const std::vector<double>& xs, double x, Get f) {
     if (x >= xs.back()) return f(n - 1);
     // First point with xs[i] > x; the segment is [i-1, i]. At a step (xs[i-1]==xs[i]) upper_bound
     // skips both, so the later point holds from x on.
-    std::size_t i = static_cast<std::size_t>(std::upper_bound(xs.begin(), xs.end(), x) - xs.begin());
+    std::size_t i =
+        static_cast<std::size_t>(std::upper_bound(xs.begin(), xs.end(), x) - xs.begin());
     const double x0 = xs[i - 1], x1 = xs[i];
     const double t = (x - x0) / (x1 - x0);
     return f(i - 1) + t * (f(i) - f(i - 1));

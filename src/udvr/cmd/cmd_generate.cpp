@@ -11,8 +11,9 @@
 namespace udvr::cmd {
 
 void addGenerateCommand(CLI::App& app) {
-    auto* sub = app.add_subcommand("generate", "write a synthetic field (tangle, teardrop, "
-                                               "spheres, marschner-lobb) as .vti or .nc");
+    auto* sub = app.add_subcommand("generate",
+                                   "write a synthetic field (tangle, teardrop, "
+                                   "spheres, marschner-lobb) as .vti or .nc");
     struct Opts {
         std::string name, dims = "64", out;
     };

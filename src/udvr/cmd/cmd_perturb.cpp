@@ -1,8 +1,10 @@
 // udvr perturb field --members 50 --noise bimodal [--seed S] -o ensemble.nc
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/parse_util.h"
 #include "udvr/data/noise.h"
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field_io.h"
@@ -21,7 +23,8 @@ void addPerturbCommand(CLI::App& app) {
     sub->add_option("field", o->input, "input field (.vti .nc .nrrd .nhdr)")->required();
     sub->add_option("--members", o->members, "ensemble size (>= 2, default 50)");
     sub->add_option("--noise", o->noise, "bimodal | gaussian | uniform (default bimodal)");
-    sub->add_option("--seed", o->p.seed, "random seed (default 1)");
+    sub->add_option("--seed", o->p.seed, "random seed (default 1)")
+        ->check(wholeNumberIn(0, std::numeric_limits<long long>::max()));
     sub->add_option("--sigma", o->p.sigma,
                     "std of the main mode / gaussian noise, as a fraction of the value range "
                     "(default 0.02)");
@@ -42,8 +45,7 @@ void addPerturbCommand(CLI::App& app) {
         Ensemble e = perturbField(f, o->members, o->p);
         writeEnsembleNetcdf(o->out, e);
         std::fprintf(stderr, "perturb: %d members of %s noise (seed %llu) -> %s\n", o->members,
-                     o->noise.c_str(), static_cast<unsigned long long>(o->p.seed),
-                     o->out.c_str());
+                     o->noise.c_str(), static_cast<unsigned long long>(o->p.seed), o->out.c_str());
     });
 }
 

@@ -18,12 +18,21 @@ NoiseKind parseNoiseKind(const std::string& name) {
 
 Ensemble perturbField(const ScalarField& truth, int members, const NoiseParams& p) {
     if (members < 2) UDVR_FAIL("--members must be at least 2, got " << members);
-    if (!(p.sigma >= 0) || !(p.width >= 0) || !(p.outlierSigma >= 0) || !std::isfinite(p.outlierOffset))
-        UDVR_FAIL("noise magnitudes must be finite and non-negative");
+    // Name the flag in the error: the user set one of them.
+    const auto checkMagnitude = [](double v, const char* flag) {
+        if (!(v >= 0) || !std::isfinite(v))
+            UDVR_FAIL(flag << " must be finite and non-negative, got " << v);
+    };
+    checkMagnitude(p.sigma, "--sigma");
+    checkMagnitude(p.width, "--width");
+    checkMagnitude(p.outlierSigma, "--outlier-sigma");
+    if (!std::isfinite(p.outlierOffset))
+        UDVR_FAIL("--outlier-offset must be finite, got " << p.outlierOffset);
     if (!(p.outlierFraction >= 0 && p.outlierFraction <= 1))
         UDVR_FAIL("--outlier-fraction must lie in [0,1], got " << p.outlierFraction);
     const std::size_t n = truth.grid.pointCount();
-    if (truth.values.size() != n) UDVR_FAIL("field has " << truth.values.size() << " values, grid needs " << n);
+    if (truth.values.size() != n)
+        UDVR_FAIL("field has " << truth.values.size() << " values, grid needs " << n);
     auto [lo, hi] = std::minmax_element(truth.values.begin(), truth.values.end());
     double range = static_cast<double>(*hi) - static_cast<double>(*lo);
     if (!(range > 0)) range = 1.0;  // a constant field: magnitudes become absolute

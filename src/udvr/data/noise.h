@@ -17,11 +17,11 @@ enum class NoiseKind {
 
 struct NoiseParams {
     NoiseKind kind = NoiseKind::Bimodal;
-    double sigma = 0.02;            // main-mode / gaussian std, × R
-    double width = 0.05;            // uniform half-width, × R
-    double outlierFraction = 0.2;   // bimodal: probability of the outlier mode
-    double outlierOffset = 0.2;     // bimodal: outlier mode centre, truth + offset·R (one side)
-    double outlierSigma = 0.04;     // bimodal: outlier mode std, × R
+    double sigma = 0.02;           // main-mode / gaussian std, × R
+    double width = 0.05;           // uniform half-width, × R
+    double outlierFraction = 0.2;  // bimodal: probability of the outlier mode
+    double outlierOffset = 0.2;    // bimodal: outlier mode centre, truth + offset·R (one side)
+    double outlierSigma = 0.04;    // bimodal: outlier mode std, × R
     std::uint64_t seed = 1;
 };
 

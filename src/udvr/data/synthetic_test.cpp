@@ -11,7 +11,8 @@ namespace udvr {
 
 TEST(Synthetic, TangleMatchesClosedFormAndRange) {
     ScalarField f = makeTangle(65, 65, 65);
-    // The grid includes the box corners and centre: f(0,0,0) = 11.8, f(±2.5,…) = 3·(39.0625−31.25)+11.8.
+    // The grid includes the box corners and centre: f(0,0,0) = 11.8, f(±2.5,…) =
+    // 3·(39.0625−31.25)+11.8.
     EXPECT_NEAR(f.values[f.grid.index(32, 32, 32)], 11.8, 1e-5);
     EXPECT_NEAR(f.values[f.grid.index(0, 0, 0)], 3 * (39.0625 - 31.25) + 11.8, 1e-4);
     EXPECT_DOUBLE_EQ(f.grid.spacing[0], 5.0 / 64.0);
@@ -42,7 +43,7 @@ TEST(Noise, BimodalMatchesItsMixtureMoments) {
     f.grid.dims = {40, 40, 40};
     f.values.assign(f.grid.pointCount(), 0.f);
     f.values[0] = 10.f;  // range R = 10
-    NoiseParams p;  // defaults: 80 % N(0, (0.2)^2), 20 % N(2, (0.4)^2) in units of R=10
+    NoiseParams p;       // defaults: 80 % N(0, (0.2)^2), 20 % N(2, (0.4)^2) in units of R=10
     Ensemble e = perturbField(f, 4, p);
     // Pool members over voxels 1.. (truth 0). Mixture mean = 0.2·2 = 0.4;
     // variance = 0.8·0.04 + 0.2·(0.16 + 4) − 0.16 = 0.704.

@@ -13,7 +13,7 @@ namespace udvr {
 /// Layout of a headerless raw file, given on the command line.
 struct RawLayout {
     std::array<int, 3> dims{0, 0, 0};  // all > 0 when given
-    std::string type = "float32";       // uint8 int8 uint16 int16 uint32 int32 float32 float64
+    std::string type = "float32";      // uint8 int8 uint16 int16 uint32 int32 float32 float64
     bool bigEndian = false;
     std::array<double, 3> spacing{1.0, 1.0, 1.0};
     std::array<double, 3> origin{0.0, 0.0, 0.0};

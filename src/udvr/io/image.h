@@ -10,7 +10,9 @@ struct ImageRgba {
     int width = 0, height = 0;
     std::vector<float> rgba;  // width*height*4, row-major from the top row
 
-    float* pixel(int x, int y) { return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x); }
+    float* pixel(int x, int y) {
+        return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x);
+    }
     const float* pixel(int x, int y) const {
         return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x);
     }

@@ -18,7 +18,7 @@ struct ModelVolume {
     std::vector<float> min;     // sample minimum per voxel
     std::vector<float> max;     // sample maximum per voxel
 
-    int quantileCount = 0;        // q; quantiles holds q+1 boundaries per voxel (0 = absent)
+    int quantileCount = 0;         // q; quantiles holds q+1 boundaries per voxel (0 = absent)
     std::vector<float> quantiles;  // b_0..b_q contiguous per voxel: quantiles[v*(q+1)+j]
     std::vector<float> iqr;        // b(0.25), b(0.75) per voxel (empty = absent)
 
@@ -31,10 +31,10 @@ struct ModelVolume {
     std::string bandwidthRule;          // "silverman", "scott", a number, or "" (empirical)
     double tailEps = 0.0;               // kde tail ε; 0 for empirical
     int samplesPerVoxel = 0;
-    int downsample = 0;                  // brick size K, 0 for an ensemble
-    std::array<double, 6> bounds{};      // full-resolution world bounds
-    double fullResMinSpacing = 1.0;      // smallest spacing of the full-resolution grid
-    std::string source;                  // input description
+    int downsample = 0;              // brick size K, 0 for an ensemble
+    std::array<double, 6> bounds{};  // full-resolution world bounds
+    double fullResMinSpacing = 1.0;  // smallest spacing of the full-resolution grid
+    std::string source;              // input description
 
     std::size_t voxelCount() const { return grid.pointCount(); }
     bool hasQuantiles() const { return quantileCount > 0 && !quantiles.empty(); }

@@ -11,13 +11,13 @@ namespace udvr {
 
 /// A user error: the message says what was wrong and what was expected. One line.
 class UdvrError : public std::runtime_error {
-public:
+  public:
     explicit UdvrError(const std::string& message) : std::runtime_error(message) {}
 };
 
 /// A violated invariant (a bug, not bad input).
 class InternalError : public std::logic_error {
-public:
+  public:
     explicit InternalError(const std::string& message) : std::logic_error(message) {}
 };
 
@@ -50,11 +50,11 @@ namespace detail {
 #endif
 
 /// Throw a UdvrError built with stream syntax: UDVR_FAIL("dims " << n << " do not match").
-#define UDVR_FAIL(stream_expr)                           \
-    do {                                                 \
-        std::ostringstream udvr_fail_os_;                \
-        udvr_fail_os_ << stream_expr;                    \
-        throw ::udvr::UdvrError(udvr_fail_os_.str());    \
+#define UDVR_FAIL(stream_expr)                        \
+    do {                                              \
+        std::ostringstream udvr_fail_os_;             \
+        udvr_fail_os_ << stream_expr;                 \
+        throw ::udvr::UdvrError(udvr_fail_os_.str()); \
     } while (0)
 
 #ifdef __CUDACC__

@@ -9,7 +9,7 @@
 namespace udvr {
 
 struct Grid3 {
-    std::array<int, 3> dims{0, 0, 0};           // points per axis
+    std::array<int, 3> dims{0, 0, 0};              // points per axis
     std::array<double, 3> origin{0.0, 0.0, 0.0};   // world position of point (0,0,0)
     std::array<double, 3> spacing{1.0, 1.0, 1.0};  // world distance between points, > 0
 

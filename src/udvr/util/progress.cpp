@@ -38,7 +38,8 @@ void ProgressBar::draw(std::size_t done) {
     if (frac > 1.0) frac = 1.0;
     const int width = 30;
     int filled = static_cast<int>(frac * width);
-    double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     std::string bar(static_cast<std::size_t>(filled), '#');
     bar.append(static_cast<std::size_t>(width - filled), '.');
     std::fprintf(stderr, "\r%s [%s] %5.1f%% %6.1fs", label_.c_str(), bar.c_str(), 100.0 * frac,

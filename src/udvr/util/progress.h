@@ -10,7 +10,7 @@
 namespace udvr {
 
 class ProgressBar {
-public:
+  public:
     /// label: what is being done ("build"); total: units of work (voxels, rows, frames).
     ProgressBar(std::string label, std::size_t total);
     ~ProgressBar();
@@ -24,7 +24,7 @@ public:
     /// Whether bars are drawn at all (stderr is a tty and UDVR_NO_PROGRESS is unset).
     static bool enabled();
 
-private:
+  private:
     void draw(std::size_t done);
     std::string label_;
     std::size_t total_;

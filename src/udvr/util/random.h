@@ -18,7 +18,7 @@ UDVR_CPU_GPU inline std::uint64_t mix64(std::uint64_t z) {
 
 /// A small stream generator seeded from (seed, stream, index).
 class CounterRng {
-public:
+  public:
     UDVR_CPU_GPU CounterRng(std::uint64_t seed, std::uint64_t stream, std::uint64_t index)
         : state_(mix64(mix64(mix64(seed) ^ stream) ^ index)) {}
     /// Next 64 random bits.
@@ -35,7 +35,7 @@ public:
         return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
     }
 
-private:
+  private:
     std::uint64_t state_;
 };
 
