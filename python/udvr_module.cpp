@@ -5,7 +5,9 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <cmath>
 #include <cstring>
+#include <optional>
 
 #include "udvr/classify/model_kind.h"
 #include "udvr/data/noise.h"
@@ -49,6 +51,72 @@ Grid3 gridFromShape(const FloatArray& a, int leadingDims) {
     g.dims = {static_cast<int>(a.shape(2 + leadingDims)),
               static_cast<int>(a.shape(1 + leadingDims)), static_cast<int>(a.shape(leadingDims))};
     return g;
+}
+
+// A per-voxel array with `components` values per voxel on grid g (components 0: no trailing axis).
+std::vector<float> voxelValues(const std::optional<FloatArray>& a, const Grid3& g, int components,
+                               const char* name) {
+    if (!a) return {};
+    const int nd = components > 0 ? 4 : 3;
+    bool ok = a->ndim() == nd && a->shape(0) == g.dims[2] && a->shape(1) == g.dims[1] &&
+              a->shape(2) == g.dims[0];
+    if (ok && components > 0) ok = a->shape(3) == components;
+    if (!ok)
+        throw UdvrError(std::string("Model: array '") + name + "' must have shape (" +
+                        std::to_string(g.dims[2]) + ", " + std::to_string(g.dims[1]) + ", " +
+                        std::to_string(g.dims[0]) +
+                        (components > 0 ? ", " + std::to_string(components) : std::string()) + ")");
+    std::vector<float> v = toVector(*a);
+    for (float x : v)
+        if (!std::isfinite(x))
+            throw UdvrError(std::string("Model: array '") + name + "' holds NaN or Inf");
+    return v;
+}
+
+ModelVolume modelFromArrays(
+    const FloatArray& mean, const std::optional<FloatArray>& stddev,
+    const std::optional<FloatArray>& min, const std::optional<FloatArray>& max,
+    const std::optional<FloatArray>& quantiles, const std::optional<FloatArray>& iqr,
+    const std::optional<FloatArray>& gmm, std::array<double, 3> origin,
+    std::array<double, 3> spacing, const std::optional<std::array<double, 6>>& bounds,
+    const std::optional<double>& fullResMinSpacing, int downsample, int samplesPerVoxel,
+    const std::string& density, const std::string& source) {
+    ModelVolume mv;
+    mv.grid = gridFromShape(mean, 0);
+    for (int a = 0; a < 3; ++a) {
+        if (mv.grid.dims[a] < 1) throw UdvrError("Model: every grid axis needs at least 1 point");
+        if (!(spacing[a] > 0.0) || !std::isfinite(spacing[a]) || !std::isfinite(origin[a]))
+            throw UdvrError("Model: spacing must be positive and origin finite");
+    }
+    mv.grid.origin = origin;
+    mv.grid.spacing = spacing;
+    mv.mean = voxelValues(mean, mv.grid, 0, "mean");
+    mv.stddev = stddev ? voxelValues(stddev, mv.grid, 0, "stddev")
+                       : std::vector<float>(mv.mean.size(), 0.f);
+    mv.min = min ? voxelValues(min, mv.grid, 0, "min") : mv.mean;
+    mv.max = max ? voxelValues(max, mv.grid, 0, "max") : mv.mean;
+    if (quantiles) {
+        if (quantiles->ndim() != 4 || quantiles->shape(3) < 2)
+            throw UdvrError("Model: 'quantiles' must have shape (Z, Y, X, q+1) with q >= 1");
+        mv.quantileCount = static_cast<int>(quantiles->shape(3)) - 1;
+        mv.quantiles = voxelValues(quantiles, mv.grid, mv.quantileCount + 1, "quantiles");
+    }
+    mv.iqr = voxelValues(iqr, mv.grid, 2, "iqr");
+    if (gmm) {
+        if (gmm->ndim() != 4 || gmm->shape(3) < 3 || gmm->shape(3) % 3 != 0)
+            throw UdvrError("Model: 'gmm' must have shape (Z, Y, X, 3K) with K >= 1");
+        mv.gmmComponents = static_cast<int>(gmm->shape(3)) / 3;
+        mv.gmm = voxelValues(gmm, mv.grid, 3 * mv.gmmComponents, "gmm");
+    }
+    mv.bounds = bounds ? *bounds : mv.grid.bounds();
+    mv.fullResMinSpacing = fullResMinSpacing ? *fullResMinSpacing : mv.grid.minSpacing();
+    if (!(mv.fullResMinSpacing > 0.0))
+        throw UdvrError("Model: full_res_min_spacing must be positive");
+    mv.downsample = downsample;
+    mv.samplesPerVoxel = samplesPerVoxel;
+    mv.density = density;
+    mv.source = source;
+    return mv;
 }
 
 }  // namespace
@@ -104,6 +172,19 @@ PYBIND11_MODULE(udvr, m) {
             "the members as a (members, Z, Y, X) float32 array (a copy)");
 
     py::class_<ModelVolume>(m, "Model")
+        .def(py::init(&modelFromArrays), py::arg("mean"), py::kw_only(),
+             py::arg("stddev") = py::none(), py::arg("min") = py::none(),
+             py::arg("max") = py::none(), py::arg("quantiles") = py::none(),
+             py::arg("iqr") = py::none(), py::arg("gmm") = py::none(),
+             py::arg("origin") = std::array<double, 3>{0, 0, 0},
+             py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("bounds") = py::none(),
+             py::arg("full_res_min_spacing") = py::none(), py::arg("downsample") = 0,
+             py::arg("samples_per_voxel") = 0, py::arg("density") = "empirical",
+             py::arg("source") = "python",
+             "a model from NumPy arrays of shape (Z, Y, X[, components]): mean (required), "
+             "stddev, min, max (default: mean), quantiles (Z,Y,X,q+1), iqr (Z,Y,X,2), gmm "
+             "(Z,Y,X,3K: pi_1..pi_K, mu_1..mu_K, sigma_1..sigma_K); bounds (xmin,xmax,ymin,ymax,"
+             "zmin,zmax) and full_res_min_spacing default to the model grid's")
         .def_readwrite("grid", &ModelVolume::grid)
         .def_readonly("quantile_count", &ModelVolume::quantileCount)
         .def_readonly("gmm_components", &ModelVolume::gmmComponents)
@@ -111,6 +192,7 @@ PYBIND11_MODULE(udvr, m) {
         .def_readonly("samples_per_voxel", &ModelVolume::samplesPerVoxel)
         .def_readonly("downsample", &ModelVolume::downsample)
         .def_readonly("bounds", &ModelVolume::bounds)
+        .def_readonly("full_res_min_spacing", &ModelVolume::fullResMinSpacing)
         .def(
             "array",
             [](const ModelVolume& mv, const std::string& name) {

@@ -1,0 +1,96 @@
+"""`udvr probe --json` against the independent NumPy reference of SPEC §3–§4 (reference.py) on
+random models (small grids, random spacing and origin, ties and point masses in the quantiles),
+random TFs (steps, zero opacity, control points beyond the data range) and random points
+(interior, faces, edges, corners). Every model of SPEC §4 but gmm-mc (not probe-able).
+Tolerance 1e−4 absolute, the SPEC's accuracy for the expected TF."""
+import numpy as np
+import pytest
+
+import reference as ref
+import refcase
+
+udvr = pytest.importorskip("udvr")
+
+TOL = 1e-4
+MODELS = ["mean", "uniform", "gaussian", "gmm-ordered", "quantile-range", "quantile-mean",
+          "quantile-mean-mass", "iqr", "quartile-lower", "quartile-middle", "quartile-upper"]
+SEEDS = [11, 12, 13, 14]
+
+
+def random_points(rng, dims, n):
+    """Interior points, then a face, an edge and a corner point; float32-exact coordinates."""
+    hi = np.asarray(dims, float) - 1
+    pts = [rng.uniform(0, 1, 3) * hi for _ in range(n)]
+    face = rng.uniform(0, 1, 3) * hi
+    face[rng.integers(3)] = hi[0] if rng.random() < 0.5 else 0.0
+    face[0] = min(face[0], hi[0])
+    edge = rng.uniform(0, 1, 3) * hi
+    a, b = rng.choice(3, 2, replace=False)
+    edge[a], edge[b] = 0.0, hi[b]
+    corner = hi * rng.integers(0, 2, 3)
+    integer = np.array([rng.integers(0, d) for d in dims], float)  # a grid point
+    pts += [face, edge, corner, integer]
+    return [np.asarray(p, np.float32).astype(float) for p in pts]
+
+
+@pytest.fixture(scope="module", params=SEEDS)
+def case(request, tmp_path_factory):
+    rng = np.random.default_rng(request.param)
+    dims = [int(rng.integers(3, 6)), int(rng.integers(3, 6)), int(rng.integers(2, 5))]
+    arrays = refcase.random_model_arrays(rng, dims)
+    origin = rng.uniform(-3, 3, 3)
+    spacing = rng.uniform(0.5, 2.0, 3)
+    m, r = refcase.make_models(udvr, arrays, origin, spacing)
+    d = tmp_path_factory.mktemp("probe%d" % request.param)
+    udvr.write_model(str(d / "model.vti"), m)
+    lo, hi = r.data_range()
+    tf = refcase.random_tf(rng, lo, hi)
+    tf.write(d / "tf.json")
+    return dict(rng=rng, dims=dims, ref=r, tf=tf, model=d / "model.vti", tfpath=d / "tf.json",
+                points=random_points(rng, dims, 4))
+
+
+@pytest.mark.parametrize("kind", MODELS)
+def test_probe_matches_reference(case, kind):
+    r, tf = case["ref"], case["tf"]
+    worst = 0.0
+    for p in case["points"]:
+        got = refcase.probe_json(case["model"], case["tfpath"], kind, p)
+        assert got["model"] == kind
+        np.testing.assert_allclose(got["point"], p, rtol=0, atol=1e-12)
+        want = r.classify(kind, tf, p[None, :])[0]
+        diff = np.abs(np.asarray(got["expected_rgba"]) - want).max()
+        worst = max(worst, diff)
+        assert diff <= TOL, "%s at %s: udvr %s, reference %s" % (
+            kind, p, got["expected_rgba"], want.tolist())
+        scale = max(1.0, abs(r.data_range()[0]), abs(r.data_range()[1]))
+        if "value" in got:
+            assert abs(got["value"] - r.mean_at(p[None, :])[0]) <= 1e-5 * scale
+        if kind == "gaussian":
+            mu, sg = r.gaussian_at(p[None, :])
+            assert abs(got["mean"] - mu[0]) <= 1e-5 * scale
+            assert abs(got["stddev"] - sg[0]) <= 1e-5 * scale
+        if kind.startswith("quantile") or kind.startswith("quartile") or kind == "iqr":
+            b = r.boundaries_at(p[None, :], "iqr" if kind == "iqr" else "quantiles")[0]
+            np.testing.assert_allclose(got["boundaries"], b, rtol=0, atol=1e-5 * scale)
+        if kind == "gmm-ordered":
+            idx, w = r.corners(p[None, :])
+            par = r._lerp(r.gmm, idx, w)[0]
+            K = len(par) // 3
+            for key, sl in (("weights", par[:K]), ("means", par[K:2 * K]),
+                            ("sigmas", par[2 * K:])):
+                np.testing.assert_allclose(got[key], sl, rtol=0, atol=1e-5 * scale)
+
+
+def test_probe_constant_tf_is_exact(tmp_path):
+    """A constant TF gives the constant for every model (the distribution integrates to 1)."""
+    rng = np.random.default_rng(5)
+    arrays = refcase.random_model_arrays(rng, [3, 4, 2])
+    m, r = refcase.make_models(udvr, arrays, [0, 0, 0], [1, 1, 1])
+    udvr.write_model(str(tmp_path / "m.vti"), m)
+    tf = ref.TF([0.0], [[0.2, 0.4, 0.6]], [0.0], [0.5])
+    tf.write(tmp_path / "tf.json")
+    for kind in MODELS:
+        got = refcase.probe_json(tmp_path / "m.vti", tmp_path / "tf.json", kind, [1.3, 2.2, 0.6])
+        np.testing.assert_allclose(got["expected_rgba"], [0.1, 0.2, 0.3, 0.5], rtol=0, atol=1e-6,
+                                   err_msg=kind)
