@@ -3,6 +3,7 @@ import json
 import os
 import pathlib
 import subprocess
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -109,3 +110,12 @@ def probe_json(model_path, tf_path, kind, point):
     out = run_udvr("probe", model_path, "--point", fmt(point), "--model", kind, "--tf", tf_path,
                    "--json")
     return json.loads(out)
+
+
+def probe_many(model_path, tf_path, kind, points, extra=()):
+    """probe_json at several points, a few processes at a time (their start-up dominates)."""
+    def one(p):
+        return json.loads(run_udvr("probe", model_path, "--point", fmt(p), "--model", kind,
+                                   "--tf", tf_path, "--json", *extra))
+    with ThreadPoolExecutor(max_workers=4) as ex:
+        return list(ex.map(one, points))

@@ -47,20 +47,18 @@ def case(request, tmp_path_factory):
     tf = refcase.random_tf(rng, lo, hi)
     tf.write(d / "tf.json")
     return dict(rng=rng, dims=dims, ref=r, tf=tf, model=d / "model.vti", tfpath=d / "tf.json",
-                points=random_points(rng, dims, 4))
+                points=random_points(rng, dims, 3))
 
 
 @pytest.mark.parametrize("kind", MODELS)
 def test_probe_matches_reference(case, kind):
     r, tf = case["ref"], case["tf"]
-    worst = 0.0
-    for p in case["points"]:
-        got = refcase.probe_json(case["model"], case["tfpath"], kind, p)
+    answers = refcase.probe_many(case["model"], case["tfpath"], kind, case["points"])
+    for p, got in zip(case["points"], answers):
         assert got["model"] == kind
         np.testing.assert_allclose(got["point"], p, rtol=0, atol=1e-12)
         want = r.classify(kind, tf, p[None, :])[0]
         diff = np.abs(np.asarray(got["expected_rgba"]) - want).max()
-        worst = max(worst, diff)
         assert diff <= TOL, "%s at %s: udvr %s, reference %s" % (
             kind, p, got["expected_rgba"], want.tolist())
         scale = max(1.0, abs(r.data_range()[0]), abs(r.data_range()[1]))
@@ -94,3 +92,35 @@ def test_probe_constant_tf_is_exact(tmp_path):
         got = refcase.probe_json(tmp_path / "m.vti", tmp_path / "tf.json", kind, [1.3, 2.2, 0.6])
         np.testing.assert_allclose(got["expected_rgba"], [0.1, 0.2, 0.3, 0.5], rtol=0, atol=1e-6,
                                    err_msg=kind)
+
+
+def test_probe_uniform_minmax_matches_reference(tmp_path):
+    """`--uniform-width minmax`: X = Σ w_c U[min_c, max_c] (SPEC §2)."""
+    rng = np.random.default_rng(15)
+    arrays = refcase.random_model_arrays(rng, [4, 3, 3])
+    m, r = refcase.make_models(udvr, arrays, rng.uniform(-1, 1, 3), rng.uniform(0.5, 2, 3))
+    udvr.write_model(str(tmp_path / "m.vti"), m)
+    tf = refcase.random_tf(rng, *r.data_range())
+    tf.write(tmp_path / "tf.json")
+    pts = random_points(rng, [4, 3, 3], 3)
+    answers = refcase.probe_many(tmp_path / "m.vti", tmp_path / "tf.json", "uniform", pts,
+                                 ("--uniform-width", "minmax"))
+    for p, a in zip(pts, answers):
+        got = np.asarray(a["expected_rgba"])
+        want = r.classify("uniform", tf, p[None, :], uniform_width="minmax")[0]
+        assert np.abs(got - want).max() <= TOL, (p, got, want)
+
+
+@pytest.mark.xfail(strict=True, reason="probe calls the variance-matched width 'std', render "
+                   "calls it 'variance'; each rejects the other's name (src/udvr/cmd, not ours)")
+def test_probe_and_render_accept_the_same_uniform_width_names(tmp_path):
+    rng = np.random.default_rng(16)
+    arrays = refcase.random_model_arrays(rng, [3, 3, 3])
+    m, r = refcase.make_models(udvr, arrays, [0, 0, 0], [1, 1, 1])
+    udvr.write_model(str(tmp_path / "m.vti"), m)
+    refcase.random_tf(rng, *r.data_range()).write(tmp_path / "tf.json")
+    refcase.run_udvr("probe", tmp_path / "m.vti", "--point", "1,1,1", "--model", "uniform",
+                     "--tf", tmp_path / "tf.json", "--uniform-width", "variance")
+    refcase.run_udvr("render", tmp_path / "m.vti", "--model", "uniform", "--tf",
+                     tmp_path / "tf.json", "--size", "4x3", "--uniform-width", "std", "-o",
+                     tmp_path / "u.png")

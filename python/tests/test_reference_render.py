@@ -126,3 +126,63 @@ def test_render_without_early_exit(tmp_path):
     got = render_udvr(tmp_path, "quantile-mean", args, "noexit")
     want = ref.render(r, "quantile-mean", tf, W, H, cam, parallel_scale=ps, early_exit=1.0)
     check(got, want, "early exit off, quantile-mean")
+
+
+def ref_from_model_file(path):
+    """RefModel from a model .vti as udvr reads it (arrays, grid, bounds, full-res spacing)."""
+    m = udvr.read_model(str(path))
+    arr = {k: m.array(k) for k in ("mean", "stddev", "min", "max", "quantiles", "iqr")}
+    return ref.RefModel(arr["mean"], stddev=arr["stddev"], vmin=arr["min"], vmax=arr["max"],
+                        quantiles=arr["quantiles"], iqr=arr["iqr"], origin=m.grid.origin,
+                        spacing=m.grid.spacing, bounds=m.bounds,
+                        full_res_min_spacing=m.full_res_min_spacing)
+
+
+def test_render_downsampled_model_sees_the_full_resolution_box(tmp_path):
+    """A model built with --downsample 2: rays sample the full-resolution bounds (half a brick
+    beyond the reduced grid on each side, where the reference clamps index coordinates into the
+    grid, as SPEC §3's reconstruction at the grid's edge), default Δ and u from the full-res
+    spacing. Field and model geometry both come from the files."""
+    rng = np.random.default_rng(61)
+    field = rng.uniform(0, 1, (7, 8, 9)).astype(np.float32)
+    udvr.write_field(str(tmp_path / "f.vti"), udvr.Field(field, [0.3, -0.2, 1.0], [0.7, 0.5, 0.6]))
+    refcase.run_udvr("build", tmp_path / "f.vti", "--downsample", "2", "--gmm", "0", "-o",
+                     tmp_path / "model.vti")
+    r = ref_from_model_file(tmp_path / "model.vti")
+    assert r.bounds[1] > r.origin[0] + (r.dims[0] - 1) * r.spacing[0]  # box beyond the grid
+    tf = refcase.random_tf(rng, 0.0, 1.0)
+    tf.write(tmp_path / "tf.json")
+    for camera in ("default", "parallel"):
+        args, cam, ps = random_camera(rng, r, camera)
+        for kind in ["mean", "quantile-mean", "gaussian"]:
+            got = render_udvr(tmp_path, kind, args, "down")
+            want = ref.render(r, kind, tf, W, H, cam, parallel_scale=ps)
+            check(got, want, "downsampled model, %s camera, %s" % (camera, kind))
+
+
+def test_render_a_plain_field_as_the_mean_model(tmp_path):
+    rng = np.random.default_rng(71)
+    field = rng.uniform(-1, 2, (6, 4, 5)).astype(np.float32)
+    origin, spacing = rng.uniform(-2, 2, 3), rng.uniform(0.5, 1.5, 3)
+    udvr.write_field(str(tmp_path / "model.vti"), udvr.Field(field, list(origin), list(spacing)))
+    r = ref.RefModel(field, origin=origin, spacing=spacing)
+    tf = refcase.random_tf(rng, -1.0, 2.0)
+    tf.write(tmp_path / "tf.json")
+    args, cam, ps = random_camera(rng, r, "perspective")
+    got = render_udvr(tmp_path, "mean", args, "field")
+    check(got, ref.render(r, "mean", tf, W, H, cam, parallel_scale=ps), "field input, mean")
+
+
+def test_render_uniform_tiny(tmp_path):
+    """The box-spline model through the renderer (its reference is slow: a 7×5 image)."""
+    global W, H
+    rng, r, tf = random_setup(81, tmp_path)
+    args, cam, ps = random_camera(rng, r, "default")
+    w0, h0 = W, H
+    W, H = 7, 5
+    try:
+        got = render_udvr(tmp_path, "uniform", args + ["--step", repr(r.spacing.min())], "unif")
+        want = ref.render(r, "uniform", tf, W, H, cam, parallel_scale=ps, step=r.spacing.min())
+    finally:
+        W, H = w0, h0
+    check(got, want, "uniform")
