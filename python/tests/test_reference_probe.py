@@ -22,8 +22,8 @@ def random_points(rng, dims, n):
     hi = np.asarray(dims, float) - 1
     pts = [rng.uniform(0, 1, 3) * hi for _ in range(n)]
     face = rng.uniform(0, 1, 3) * hi
-    face[rng.integers(3)] = hi[0] if rng.random() < 0.5 else 0.0
-    face[0] = min(face[0], hi[0])
+    ax = rng.integers(3)
+    face[ax] = hi[ax] if rng.random() < 0.5 else 0.0
     edge = rng.uniform(0, 1, 3) * hi
     a, b = rng.choice(3, 2, replace=False)
     edge[a], edge[b] = 0.0, hi[b]
