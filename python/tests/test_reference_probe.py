@@ -71,6 +71,19 @@ def test_probe_matches_reference(case, kind):
         if kind.startswith("quantile") or kind.startswith("quartile") or kind == "iqr":
             b = r.boundaries_at(p[None, :], "iqr" if kind == "iqr" else "quantiles")[0]
             np.testing.assert_allclose(got["boundaries"], b, rtol=0, atol=1e-5 * scale)
+        if kind == "uniform":  # X = Σ w_c U[μ_c − √3σ_c, μ_c + √3σ_c]
+            mu, sg = r.gaussian_at(p[None, :])  # same mean and variance as the Gaussian
+            assert abs(got["mean"] - mu[0]) <= 1e-5 * scale
+            assert abs(got["stddev"] - sg[0]) <= 1e-5 * scale
+            idx, w = r.corners(p[None, :])
+            half = np.sum(w * ref.SQRT3 * r.stddev.ravel()[idx])
+            assert abs(got["low"] - (mu[0] - half)) <= 1e-5 * scale
+            assert abs(got["high"] - (mu[0] + half)) <= 1e-5 * scale
+        if kind in ("quantile-mean", "quantile-mean-mass"):
+            b = r.boundaries_at(p[None, :])[0]
+            np.testing.assert_allclose(got["midpoints"], 0.5 * (b[1:] + b[:-1]), rtol=0,
+                                       atol=1e-5 * scale)
+            assert abs(sum(got["probabilities"]) - 1) <= 1e-9
         if kind == "gmm-ordered":
             idx, w = r.corners(p[None, :])
             par = r._lerp(r.gmm, idx, w)[0]
@@ -124,3 +137,29 @@ def test_probe_and_render_accept_the_same_uniform_width_names(tmp_path):
     refcase.run_udvr("render", tmp_path / "m.vti", "--model", "uniform", "--tf",
                      tmp_path / "tf.json", "--size", "4x3", "--uniform-width", "std", "-o",
                      tmp_path / "u.png")
+
+
+@pytest.mark.parametrize("density", ["empirical", "kde"])
+def test_probe_a_built_model_matches_reference(tmp_path, density):
+    """End to end: members → `udvr build` (GMM by EM, quantiles) → probe, against the reference
+    on the arrays udvr wrote."""
+    rng = np.random.default_rng(17)
+    dims = [4, 3, 3]
+    for i in range(6):
+        v = rng.normal(0, 1, dims[::-1]) + (rng.random(dims[::-1]) < 0.3) * 3.0
+        udvr.write_field(str(tmp_path / ("m%d.vti" % i)),
+                         udvr.Field(v.astype(np.float32), [1.0, 2.0, 3.0], [0.5, 1.0, 1.5]))
+    refcase.run_udvr("build", *sorted(tmp_path.glob("m*.vti")), "--gmm", "2", "--density",
+                     density, "-o", tmp_path / "model.vti")
+    m = udvr.read_model(str(tmp_path / "model.vti"))
+    r = ref.RefModel(m.array("mean"), stddev=m.array("stddev"), vmin=m.array("min"),
+                     vmax=m.array("max"), quantiles=m.array("quantiles"), iqr=m.array("iqr"),
+                     gmm=m.array("gmm"), origin=m.grid.origin, spacing=m.grid.spacing)
+    tf = refcase.random_tf(rng, *r.data_range())
+    tf.write(tmp_path / "tf.json")
+    pts = random_points(rng, dims, 2)
+    for kind in ["gmm-ordered", "quantile-mean", "quantile-range", "iqr", "gaussian"]:
+        for p, got in zip(pts, refcase.probe_many(tmp_path / "model.vti", tmp_path / "tf.json",
+                                                  kind, pts)):
+            want = r.classify(kind, tf, p[None, :])[0]
+            assert np.abs(np.asarray(got["expected_rgba"]) - want).max() <= TOL, (kind, p)
