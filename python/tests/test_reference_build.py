@@ -1,7 +1,8 @@
 """`udvr build` statistics (SPEC §2) against NumPy on random ensembles and bricks: mean, stddev
 (ddof=1), min, max, quantile boundaries (empirical: numpy's linear quantiles; kde: inverse of a
 Gaussian KDE CDF with Silverman's robust, Scott's or a given bandwidth and ε = 1/(2n) tails),
-the iqr array, and the geometry of a downsampled model (brick centres, k·spacing, full-res bounds)."""
+the iqr array, and the geometry of a downsampled model (brick centres, k·spacing, full-res
+bounds)."""
 import numpy as np
 import pytest
 from scipy.special import ndtr

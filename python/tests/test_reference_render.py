@@ -1,8 +1,9 @@
 """`udvr render --float` against the independent NumPy ray caster of SPEC §5 (reference.py):
 random models, TFs and cameras (perspective with --position/--focal-point/--view-up/--view-angle,
 orthographic with --parallel-scale, the default camera of bench/peer/vtk_render.py with
---azimuth/--elevation/--zoom), tiny non-square images (12×9, so x/y swaps show), compared pixel by
-pixel: max |udvr − reference| ≤ 1e−4 on R, G, B (the values error metrics use) and on A."""
+--azimuth/--elevation/--zoom, and that camera orthographic), tiny non-square images (12×9, so
+x/y swaps show), compared pixel by pixel: max |udvr − reference| ≤ 1e−4 on R, G, B (the values
+error metrics use) and on A (accumulated opacity before the background)."""
 import numpy as np
 import pytest
 
@@ -44,6 +45,12 @@ def random_camera(rng, r, kind):
         args = ["--azimuth", repr(az), "--elevation", repr(el), "--zoom", repr(zoom),
                 "--view-angle", repr(va)]
         return args, cam, None
+    if kind == "default-parallel":
+        az, el = rng.uniform(-180, 180), rng.uniform(-60, 60)
+        cam = ref.default_camera(b, az, el)
+        ps = radius * rng.uniform(0.6, 1.1)
+        args = ["--azimuth", repr(az), "--elevation", repr(el), "--parallel-scale", repr(ps)]
+        return args, cam, ps
     d = rng.normal(size=3)
     d /= np.linalg.norm(d)
     focal = c + 0.15 * radius * rng.normal(size=3)
@@ -79,7 +86,7 @@ def check(got, want, what):
 
 
 @pytest.mark.parametrize("seed", [21, 22])
-@pytest.mark.parametrize("camera", ["perspective", "parallel", "default"])
+@pytest.mark.parametrize("camera", ["perspective", "parallel", "default", "default-parallel"])
 def test_render_matches_reference(tmp_path, seed, camera):
     rng, r, tf = random_setup(seed, tmp_path)
     args, cam, ps = random_camera(rng, r, camera)
