@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -74,13 +75,16 @@ struct FastMeanKernel {
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const { lo = hi = values[voxel]; }
 };
 
-/// Per-brick emptiness over the model grid's cells: a brick is empty when the hull of its
+/// Empty-space tables over the model grid's cells. A cell is empty when the hull of its 8
 /// corner voxels' supports misses every non-zero-opacity range of the TF, so every sample whose
-/// trilinear cell lies in it classifies to E[α] = 0.
-struct BrickTable {
-    int cells[3] = {1, 1, 1};   // cells per axis (≥ 1)
-    int bricks[3] = {1, 1, 1};  // bricks per axis
-    std::vector<std::uint8_t> empty;
+/// trilinear cell it is classifies to E[α] = 0 and is skipped; a brick (kBrickCells³ cells) is
+/// empty when all its cells are, and rays jump over empty bricks whole.
+struct SkipTable {
+    int dims[3] = {1, 1, 1};              // grid points per axis
+    int cells[3] = {1, 1, 1};             // cells per axis (≥ 1)
+    int bricks[3] = {1, 1, 1};            // bricks per axis
+    std::vector<std::uint8_t> cellEmpty;  // indexed by the cell's base voxel (x fastest)
+    std::vector<std::uint8_t> empty;      // per brick
 
     std::size_t index(int bx, int by, int bz) const {
         return (static_cast<std::size_t>(bz) * static_cast<std::size_t>(bricks[1]) +
@@ -91,51 +95,89 @@ struct BrickTable {
 };
 
 template <class Kernel>
-BrickTable buildBrickTable(const Kernel& kernel, const Grid3& grid,
-                           const std::vector<std::pair<double, double>>& ranges) {
-    BrickTable t;
+SkipTable buildSkipTable(const Kernel& kernel, const Grid3& grid,
+                         const std::vector<std::pair<double, double>>& ranges) {
+    SkipTable t;
     for (int a = 0; a < 3; ++a) {
+        t.dims[a] = grid.dims[a];
         t.cells[a] = std::max(grid.dims[a] - 1, 1);
         t.bricks[a] = (t.cells[a] + kBrickCells - 1) / kBrickCells;
     }
+    const std::size_t n = grid.pointCount();
     const std::size_t nBricks = static_cast<std::size_t>(t.bricks[0]) * t.bricks[1] * t.bricks[2];
-    t.empty.assign(nBricks, 0);
     if (ranges.empty()) {  // the TF is transparent everywhere
-        std::fill(t.empty.begin(), t.empty.end(), std::uint8_t{1});
+        t.cellEmpty.assign(n, 1);
+        t.empty.assign(nBricks, 1);
         return t;
     }
-    const int bx = t.bricks[0], by = t.bricks[1];
-    parallelForChunks(nBricks, 16, [&](std::size_t begin, std::size_t end) {
-        for (std::size_t b = begin; b < end; ++b) {
-            const int brick[3] = {
-                static_cast<int>(b % static_cast<std::size_t>(bx)),
-                static_cast<int>((b / static_cast<std::size_t>(bx)) % static_cast<std::size_t>(by)),
-                static_cast<int>(b / (static_cast<std::size_t>(bx) * by))};
-            int lo[3], hi[3];  // corner voxels of the brick's cells, inclusive
-            for (int a = 0; a < 3; ++a) {
-                lo[a] = brick[a] * kBrickCells;
-                hi[a] = std::min(lo[a] + kBrickCells, grid.dims[a] - 1);
+    // Per-voxel supports, then the hull over each cell's 2×2×2 corners by three in-place passes
+    // (x, then y, then z): afterwards lo[v], hi[v] hold the hull of the cell based at voxel v.
+    std::vector<float> lo(n), hi(n);
+    parallelForChunks(n, 4096, [&](std::size_t b, std::size_t e) {
+        for (std::size_t v = b; v < e; ++v) {
+            kernel.voxelSupport(v, lo[v], hi[v]);
+            if (!(lo[v] <= hi[v])) {  // NaN or inverted: never skip
+                lo[v] = -std::numeric_limits<float>::infinity();
+                hi[v] = std::numeric_limits<float>::infinity();
             }
-            float vmin = std::numeric_limits<float>::infinity();
-            float vmax = -std::numeric_limits<float>::infinity();
-            bool bad = false;
-            for (int k = lo[2]; k <= hi[2]; ++k)
-                for (int j = lo[1]; j <= hi[1]; ++j)
-                    for (int i = lo[0]; i <= hi[0]; ++i) {
-                        float l, h;
-                        kernel.voxelSupport(grid.index(i, j, k), l, h);
-                        if (!(l <= h)) bad = true;  // NaN or inverted: never skip
-                        vmin = std::min(vmin, l);
-                        vmax = std::max(vmax, h);
-                    }
+        }
+    });
+    const std::size_t nx = static_cast<std::size_t>(grid.dims[0]);
+    const std::size_t ny = static_cast<std::size_t>(grid.dims[1]);
+    const std::size_t nz = static_cast<std::size_t>(grid.dims[2]);
+    const std::size_t stride[3] = {1, nx, nx * ny};
+    for (int a = 0; a < 3; ++a) {
+        if (grid.dims[a] < 2) continue;
+        // Rows of x in ascending order; v + stride[a] is read before it is overwritten.
+        const auto pass = [&](std::size_t b, std::size_t e) {
+            for (std::size_t line = b; line < e; ++line) {
+                const std::size_t j = line % ny, k = line / ny;
+                if (a == 1 && j + 1 >= ny) continue;  // last plane: no neighbour
+                if (a == 2 && k + 1 >= nz) continue;
+                const std::size_t v0 = line * nx, m = nx - (a == 0 ? 1 : 0);
+                for (std::size_t i = 0; i < m; ++i) {
+                    const std::size_t v = v0 + i;
+                    lo[v] = std::min(lo[v], lo[v + stride[a]]);
+                    hi[v] = std::max(hi[v], hi[v + stride[a]]);
+                }
+            }
+        };
+        if (a == 2) {
+            pass(0, ny * nz);  // z reads the next plane: keep planes in order
+        } else {
+            parallelForChunks(ny * nz, 64, pass);
+        }
+    }
+    t.cellEmpty.assign(n, 0);
+    parallelForChunks(n, 4096, [&](std::size_t b, std::size_t e) {
+        for (std::size_t v = b; v < e; ++v) {
             // A float trilinear blend may round an ulp past its corners: pad the hull.
-            const double pad = 1e-6 * (std::abs(static_cast<double>(vmin)) +
-                                       std::abs(static_cast<double>(vmax)) + 1e-30);
-            const double l = static_cast<double>(vmin) - pad, h = static_cast<double>(vmax) + pad;
-            bool hit = bad;
-            for (const auto& r : ranges)
-                if (!(h < r.first || l > r.second)) hit = true;
-            t.empty[b] = hit ? 0 : 1;
+            const double l0 = lo[v], h0 = hi[v];
+            const double pad = 1e-6 * (std::abs(l0) + std::abs(h0) + 1e-30);
+            const double l = l0 - pad, h = h0 + pad;
+            bool hit = false;
+            for (const auto& r : ranges) hit = hit || !(h < r.first || l > r.second);
+            t.cellEmpty[v] = hit ? 0 : 1;
+        }
+    });
+    t.empty.assign(nBricks, 1);
+    const std::size_t bx = static_cast<std::size_t>(t.bricks[0]);
+    const std::size_t by = static_cast<std::size_t>(t.bricks[1]);
+    parallelForChunks(nBricks, 16, [&](std::size_t b, std::size_t e) {
+        for (std::size_t br = b; br < e; ++br) {
+            const int c[3] = {static_cast<int>(br % bx), static_cast<int>((br / bx) % by),
+                              static_cast<int>(br / (bx * by))};
+            int c0[3], c1[3];
+            for (int a = 0; a < 3; ++a) {
+                c0[a] = c[a] * kBrickCells;
+                c1[a] = std::min(c0[a] + kBrickCells, t.cells[a]);
+            }
+            bool allEmpty = true;
+            for (int z = c0[2]; z < c1[2] && allEmpty; ++z)
+                for (int y = c0[1]; y < c1[1] && allEmpty; ++y)
+                    for (int x = c0[0]; x < c1[0] && allEmpty; ++x)
+                        allEmpty = t.cellEmpty[grid.index(x, y, z)] != 0;
+            t.empty[br] = allEmpty ? 1 : 0;
         }
     });
     return t;
@@ -179,8 +221,13 @@ struct OpacityCorrection {
 
 /// March every pixel of `image` (already sized) through `kernel`. Writes straight RGB over the
 /// background and the accumulated α.
+/// Whether the ray loop tests each sample's cell before classifying it: worth it when
+/// classification costs far more than the test (every kernel but the plain mean field).
 template <class Kernel>
-void marchFrame(const Kernel& kernel, const BrickTable& bricks, const MarchParams& p,
+inline constexpr bool kCellSkip = !std::is_same_v<Kernel, FastMeanKernel>;
+
+template <class Kernel>
+void marchFrame(const Kernel& kernel, const SkipTable& bricks, const MarchParams& p,
                 ImageRgba& image, MarchCounters& counters) {
     const int width = p.frame.width, height = p.frame.height;
     const int tilesX = (width + kTilePixels - 1) / kTilePixels;
@@ -190,6 +237,9 @@ void marchFrame(const Kernel& kernel, const BrickTable& bricks, const MarchParam
     const std::array<double, 3> invSpacing{1.0 / p.grid.spacing[0], 1.0 / p.grid.spacing[1],
                                            1.0 / p.grid.spacing[2]};
     const float inf = std::numeric_limits<float>::infinity();
+    const std::size_t cellStride[3] = {
+        1, static_cast<std::size_t>(bricks.dims[0]),
+        static_cast<std::size_t>(bricks.dims[0]) * static_cast<std::size_t>(bricks.dims[1])};
 
     parallelForChunks(
         static_cast<std::size_t>(tilesX) * tilesY, 1, [&](std::size_t t0, std::size_t t1) {
@@ -277,6 +327,22 @@ void marchFrame(const Kernel& kernel, const BrickTable& bricks, const MarchParam
                                 }
                                 for (; s < end; ++s) {
                                     const float sf = static_cast<float>(s);
+                                    if (kCellSkip<Kernel> && p.skipEmpty) {
+                                        // Cell of the sample, clamped as trilinearCell does.
+                                        std::size_t v = 0;
+                                        for (int ax = 0; ax < 3; ++ax) {
+                                            const float x =
+                                                std::clamp(a[ax] + sf * b[ax], 0.f,
+                                                           static_cast<float>(bricks.cells[ax]));
+                                            v += static_cast<std::size_t>(std::min(
+                                                     static_cast<int>(x), bricks.cells[ax] - 1)) *
+                                                 cellStride[ax];
+                                        }
+                                        if (bricks.cellEmpty[v]) {
+                                            ++nSkipped;
+                                            continue;
+                                        }
+                                    }
                                     const Rgba c = kernel.classifyAt(
                                         a[0] + sf * b[0], a[1] + sf * b[1], a[2] + sf * b[2]);
                                     ++nSamples;

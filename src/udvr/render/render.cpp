@@ -72,13 +72,73 @@ ImageRgba blankImage(int width, int height) {
     return img;
 }
 
+// What the cached tables were built from: the model's arrays, the kind and the TF.
+struct CacheKey {
+    const ModelVolume* model = nullptr;
+    std::vector<const void*> arrays;
+    std::size_t voxels = 0;
+    std::array<int, 3> dims{};
+    ModelKind kind = ModelKind::Mean;
+    bool uniformMinMax = false;
+    TransferFunction1D tf;
+
+    bool operator==(const CacheKey& o) const {
+        return model == o.model && arrays == o.arrays && voxels == o.voxels && dims == o.dims &&
+               kind == o.kind && uniformMinMax == o.uniformMinMax && tf.colorX == o.tf.colorX &&
+               tf.color == o.tf.color && tf.opacityX == o.tf.opacityX && tf.opacity == o.tf.opacity;
+    }
+};
+
+CacheKey makeKey(const ModelVolume& m, ModelKind kind, const TransferFunction1D& tf,
+                 bool uniformMinMax) {
+    CacheKey k;
+    k.model = &m;
+    k.arrays = {m.mean.data(),      m.stddev.data(), m.min.data(), m.max.data(),
+                m.quantiles.data(), m.iqr.data(),    m.gmm.data()};
+    k.voxels = m.voxelCount();
+    k.dims = m.grid.dims;
+    k.kind = kind;
+    k.uniformMinMax = uniformMinMax;
+    k.tf = tf;
+    return k;
+}
+
+}  // namespace
+
+struct RenderCache::Impl {
+    bool valid = false;
+    CacheKey key;
+    detail::SkipTable table;
+};
+
+RenderCache::RenderCache() : impl_(std::make_unique<Impl>()) {}
+RenderCache::~RenderCache() = default;
+void RenderCache::clear() { impl_->valid = false; }
+
+namespace {
+
+// Build (or reuse from `cache` under `key`) the skipping tables and march the frame.
 template <class Kernel>
 void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
                   const std::vector<std::pair<double, double>>& ranges, ImageRgba& image,
-                  detail::MarchCounters& counters) {
-    detail::BrickTable bricks;
-    if (p.skipEmpty) bricks = detail::buildBrickTable(kernel, p.grid, ranges);
-    detail::marchFrame(kernel, bricks, p, image, counters);
+                  detail::MarchCounters& counters, RenderCache::Impl* cache = nullptr,
+                  const CacheKey* key = nullptr) {
+    if (!p.skipEmpty) {
+        detail::marchFrame(kernel, detail::SkipTable{}, p, image, counters);
+        return;
+    }
+    if (cache && key) {
+        if (!cache->valid || !(cache->key == *key)) {
+            cache->valid = false;
+            cache->table = detail::buildSkipTable(kernel, p.grid, ranges);
+            cache->key = *key;
+            cache->valid = true;
+        }
+        detail::marchFrame(kernel, cache->table, p, image, counters);
+        return;
+    }
+    const detail::SkipTable table = detail::buildSkipTable(kernel, p.grid, ranges);
+    detail::marchFrame(kernel, table, p, image, counters);
 }
 
 // Draw one gmm-mc realization: every voxel independently from its own mixture (SPEC §3),
@@ -114,20 +174,22 @@ void drawRealization(const ModelVolume& model, std::uint64_t seed, std::uint64_t
 }  // namespace
 
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
-                       const RenderSettings& settings, RenderStats* stats) {
+                       const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
     const auto start = std::chrono::steady_clock::now();
     const detail::MarchParams p = makeParams(model, settings);
     tf.validate();
     const auto ranges = tf.nonZeroOpacityRanges();
     ImageRgba image = blankImage(settings.width, settings.height);
     detail::MarchCounters counters;
+    RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
+    const CacheKey key = cache ? makeKey(model, kind, tf, settings.uniformMinMax) : CacheKey{};
 
     if (kind == ModelKind::Mean) {
         if (model.mean.size() != model.voxelCount())
             UDVR_FAIL("model has no 'mean' array, needed by model 'mean'");
         const FastTransferFunction fast(tf);
         const detail::FastMeanKernel kernel(model.grid, model.mean.data(), &fast);
-        renderKernel(kernel, p, ranges, image, counters);
+        renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
     } else if (kind == ModelKind::GmmMc) {
         if (!model.hasGmm() || model.gmm.size() != model.voxelCount() * 3 * model.gmmComponents)
             UDVR_FAIL("model has no 'gmm' array, needed by model 'gmm-mc' (build with --gmm K)");

@@ -3,6 +3,7 @@
 // premultiplied front-to-back compositing, early termination, empty-space skipping.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 
 #include "udvr/classify/model_kind.h"
@@ -48,9 +49,30 @@ struct RenderStats {
     std::uint64_t skippedSamples = 0;
 };
 
+/// Tables kept between frames of one model, kind and TF: the empty-space-skipping tables,
+/// built on the first frame (as VTK's mapper builds its min-max volume) and reused while only
+/// the camera, size or step change. Rebuilt when the model's arrays, the kind or the TF differ;
+/// a model edited in place (same arrays, new values) needs clear().
+class RenderCache {
+  public:
+    RenderCache();
+    ~RenderCache();
+    RenderCache(const RenderCache&) = delete;
+    RenderCache& operator=(const RenderCache&) = delete;
+    /// Forget the cached tables.
+    void clear();
+    struct Impl;  // defined in render.cpp
+    Impl& impl() { return *impl_; }
+
+  private:
+    std::unique_ptr<Impl> impl_;
+};
+
 /// Render one frame of `model` with noise model `kind`. The image holds straight (not
-/// premultiplied) RGB composited over the background, alpha = accumulated opacity.
+/// premultiplied) RGB composited over the background, alpha = accumulated opacity. Pass a
+/// RenderCache to reuse the skipping tables across frames (optional; same image either way).
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
-                       const RenderSettings& settings, RenderStats* stats = nullptr);
+                       const RenderSettings& settings, RenderStats* stats = nullptr,
+                       RenderCache* cache = nullptr);
 
 }  // namespace udvr

@@ -319,6 +319,26 @@ TEST(Render, EmptySpaceSkippingDoesNotChangeTheImage) {
     EXPECT_EQ(c.pixel(24, 24)[0], 1.f);
 }
 
+TEST(Render, CacheReusesTablesAndRebuildsForANewTf) {
+    const ModelVolume m = tangleModel(24);
+    RenderSettings s;
+    s.width = s.height = 32;
+    s.camera = defaultCamera(m.bounds, 30.0, 20.0);
+    RenderCache cache;
+    const auto tf = tangleTf();
+    const ImageRgba a = renderVolume(m, ModelKind::Mean, tf, s);
+    const ImageRgba b = renderVolume(m, ModelKind::Mean, tf, s, nullptr, &cache);
+    s.camera = defaultCamera(m.bounds, -60.0, 10.0);  // new camera: the tables still hold
+    const ImageRgba c = renderVolume(m, ModelKind::Mean, tf, s, nullptr, &cache);
+    EXPECT_EQ(maxAbsDiff(a, b), 0.0);
+    EXPECT_EQ(maxAbsDiff(c, renderVolume(m, ModelKind::Mean, tf, s)), 0.0);
+    TransferFunction1D other = tf;  // opaque only in the outer shell: different tables
+    other.opacity = {0, 0, 0, 0, 0, 0, 0, 0, 0.3, 0, 0};
+    EXPECT_EQ(maxAbsDiff(renderVolume(m, ModelKind::Mean, other, s, nullptr, &cache),
+                         renderVolume(m, ModelKind::Mean, other, s)),
+              0.0);
+}
+
 TEST(Render, SkippingOnADownsampledGridAndJitter) {
     // A coarse model grid inside the full-resolution box: samples clamp into the grid.
     ModelVolume m = tangleModel(21);
