@@ -10,6 +10,7 @@
 #include "udvr/io/image.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_io.h"
+#include "udvr/util/check.h"
 
 namespace udvr::cmd {
 
@@ -40,6 +41,12 @@ void addProbeCommand(CLI::App& app) {
             options.uniformMinMax = true;
         else if (o->uniformWidth != "std")
             UDVR_FAIL("--uniform-width must be 'std' or 'minmax', got '" << o->uniformWidth << "'");
+        if (!o->plot.empty()) {
+            const std::string& plot = o->plot;
+            const bool png = plot.size() > 4 && (plot.compare(plot.size() - 4, 4, ".png") == 0 ||
+                                                 plot.compare(plot.size() - 4, 4, ".PNG") == 0);
+            if (!png) UDVR_FAIL("--plot must name a .png file, got '" << plot << "'");
+        }
         const TransferFunction1D tf = readTransferFunction(o->tf);
         const ModelVolume model = readModelVti(o->model);
         const ProbeResult r = probeModel(model, kind, tf, p, options);

@@ -4,8 +4,27 @@
 #include <string>
 
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/parse_util.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
+
+namespace {
+
+// The first word that is neither an option nor the value of --threads: the command name.
+std::string firstCommandWord(int argc, char** argv) {
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--threads") {
+            ++i;
+            continue;
+        }
+        if (!a.empty() && a[0] == '-') continue;
+        return a;
+    }
+    return {};
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021)"};
@@ -13,7 +32,7 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", "udvr 0.1.0");
     int threads = 0;
     app.add_option("--threads", threads, "worker threads (0 = all cores)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(udvr::cmd::wholeNumberIn(0, 4096));
     app.parse_complete_callback([&] { udvr::setThreadCount(threads); });
 
     udvr::cmd::addGenerateCommand(app);
@@ -33,6 +52,21 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
+        // CLI11 reports `udvr frobnicate` as a missing subcommand; name the word instead.
+        if (app.get_subcommands().empty()) {
+            const std::string word = firstCommandWord(argc, argv);
+            std::string names;
+            bool known = false;
+            for (const CLI::App* sub : app.get_subcommands({})) {
+                names += (names.empty() ? "" : ", ") + sub->get_name();
+                known = known || sub->get_name() == word;
+            }
+            if (!word.empty() && !known) {
+                std::fprintf(stderr, "udvr: error: unknown command '%s' (expected one of %s)\n",
+                             word.c_str(), names.c_str());
+                return 2;
+            }
+        }
         std::string msg = e.what();
         for (char& c : msg)
             if (c == '\n') c = ' ';

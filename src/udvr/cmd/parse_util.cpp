@@ -1,5 +1,6 @@
 #include "udvr/cmd/parse_util.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 
@@ -40,6 +41,21 @@ long toInt(const std::string& s, const std::string& flag) {
 }
 
 }  // namespace
+
+CLI::Validator wholeNumberIn(long long lo, long long hi) {
+    const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return CLI::Validator(
+        [lo, hi, range](std::string& input) -> std::string {
+            errno = 0;
+            char* end = nullptr;
+            const long long v = std::strtoll(input.c_str(), &end, 10);
+            if (input.empty() || end == input.c_str() || *end != '\0' || errno == ERANGE ||
+                v < lo || v > hi)
+                return "'" + input + "' is not a whole number in " + range;
+            return {};
+        },
+        "INT in " + range);
+}
 
 std::array<int, 3> parseDims(const std::string& text, const std::string& flag) {
     auto parts = split(text, ',');

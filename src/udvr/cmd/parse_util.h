@@ -1,10 +1,15 @@
 #pragma once
 // Small parsers for CLI values ("64", "64,64,32", "1.5,2,3", "512x512"); throw UdvrError.
+#include <CLI/CLI.hpp>
 #include <array>
 #include <string>
 #include <vector>
 
 namespace udvr::cmd {
+
+/// A CLI11 check: a whole number in [lo, hi]. CLI11's own Range prints the bounds as doubles
+/// and accepts "-1" for unsigned options (strtoull wraps it), so counts and seeds use this.
+CLI::Validator wholeNumberIn(long long lo, long long hi);
 
 /// "N" → {N,N,N}; "X,Y,Z" → {X,Y,Z}; each ≥ 1. `flag` names the option in errors.
 std::array<int, 3> parseDims(const std::string& text, const std::string& flag);
