@@ -421,11 +421,13 @@ def camera_rays(cam, width, height, parallel_scale=None):
     NX, NY = np.meshgrid(nx, ny)  # (H, W)
     if parallel_scale is not None:
         s = parallel_scale
-        orig = pos + (NX * s * aspect)[..., None] * right + (NY * s)[..., None] * up
+        # ndc · aspect · scale: in this order a pixel centre that lies on a box face in exact
+        # arithmetic (axis-aligned orthographic views) stays on it in floating point too.
+        orig = pos + (NX * aspect * s)[..., None] * right + (NY * s)[..., None] * up
         d = np.broadcast_to(fwd, orig.shape)
     else:
         t = math.tan(math.radians(cam["view_angle"]) / 2)
-        d = fwd + (NX * t * aspect)[..., None] * right + (NY * t)[..., None] * up
+        d = fwd + (NX * aspect * t)[..., None] * right + (NY * t)[..., None] * up
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
         orig = np.broadcast_to(pos, d.shape)
     return np.array(orig), np.array(d)
@@ -464,7 +466,7 @@ def render(model, kind, tf, width, height, cam, parallel_scale=None, step=None, 
     smax = int(ns.max()) if ns.size else 0
     H, W = hit.shape
     s = np.arange(smax)
-    t = t0[..., None] + (s + 0.5) * step  # (H, W, S)
+    t = np.where(hit, t0, 0.0)[..., None] + (s + 0.5) * step  # (H, W, S)
     valid = s[None, None, :] < ns[..., None]
     pts = orig[..., None, :] + t[..., None] * d[..., None, :]  # world (H, W, S, 3)
     idx = (pts - model.origin) / model.spacing
