@@ -101,6 +101,13 @@ def test_good_pipeline_writes_every_file(tmp_path):
     )
 
 
+def test_missing_netcdf_coordinates_are_noted_once_on_success(tmp_path):
+    field = _netcdf(tmp_path / "f.nc", (4, 4, 4), [float(i) for i in range(64)])
+    r = run_ok("perturb", field, "--members", "3", "-o", tmp_path / "e.nc")
+    notes = [ln for ln in r.stderr.splitlines() if ln.startswith("udvr: note:")]
+    assert len(notes) == 1 and "f.nc" in notes[0] and "coordinate" in notes[0], r.stderr
+
+
 def test_errors_say_nothing_on_stdout_and_leave_no_output(pipeline, tmp_path):
     r = run_udvr("compare", pipeline.png, tmp_path / "absent.png")
     assert_one_line_error(r, "absent.png")
@@ -128,6 +135,26 @@ def _raw(t, n=64):
     path = t / "vol.raw"
     path.write_bytes(struct.pack(f"<{n}f", *[float(i) for i in range(n)]))
     return path
+
+
+def _netcdf(path, dims, values, member=None):
+    """A NetCDF-3 file without coordinate variables (scipy), variable 'val' on z,y,x."""
+    netcdf = pytest.importorskip("scipy.io").netcdf_file
+    np = pytest.importorskip("numpy")
+    f = netcdf(str(path), "w")
+    names = ("z", "y", "x") if member is None else ("member", "z", "y", "x")
+    shape = tuple(reversed(dims)) if member is None else (member, *reversed(dims))
+    for name, n in zip(names, shape):
+        f.createDimension(name, n)
+    f.createVariable("val", "f4", names)[:] = np.asarray(values, dtype="f4").reshape(shape)
+    f.close()
+    return path
+
+
+def _nc_nan(t):
+    vals = [float(i) for i in range(64)]
+    vals[21] = float("nan")
+    return _netcdf(t / "nan.nc", (4, 4, 4), vals)
 
 
 def _raw_nan(t):
@@ -212,6 +239,8 @@ CASES = {
          o(t, "e.nc")], ["cut.nrrd"]),
     "perturb/nrrd-nan": lambda p, t: (
         ["perturb", _nan_nrrd(t), "--members", "3", "-o", o(t, "e.nc")], ["nan.nrrd"]),
+    "perturb/netcdf-nan-no-coordinates": lambda p, t: (
+        ["perturb", _nc_nan(t), "--members", "3", "-o", o(t, "e.nc")], ["nan.nc", "nan"]),
     "perturb/nrrd-wrong-sizes": lambda p, t: (
         ["perturb", write_nrrd(t / "bad.nrrd", [0.0] * 64, (4, 4, 4), sizes="4 4"),
          "--members", "3", "-o", o(t, "e.nc")], ["bad.nrrd", "sizes"]),
@@ -270,6 +299,12 @@ CASES = {
         ["build", p.field, "-o", o(t, "m.vti")], ["member"]),
     "build/one-member-netcdf": lambda p, t: (
         ["build", p.field_nc, "-o", o(t, "m.vti")], ["member"]),
+    "build/one-member-netcdf-ensemble": lambda p, t: (
+        ["build", _netcdf(t / "one.nc", (4, 4, 4), [0.0] * 64, member=1), "-o", o(t, "m.vti")],
+        ["one.nc", "1 member"]),
+    "build/netcdf-members-nan-no-coordinates": lambda p, t: (
+        ["build", _netcdf(t / "ens.nc", (4, 4, 4), [0.0] * 127 + [float("nan")], member=2),
+         "-o", o(t, "m.vti")], ["ens.nc", "member 1"]),
     "build/members-differ-in-dims": lambda p, t: (
         ["build", write_nrrd(t / "a.nrrd", [0.0] * 64, (4, 4, 4)),
          write_nrrd(t / "b.nrrd", [0.0] * 60, (4, 5, 3)), "-o", o(t, "m.vti")], ["b.nrrd"]),

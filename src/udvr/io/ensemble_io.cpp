@@ -112,8 +112,9 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
     Ensemble e;
     e.members = static_cast<int>(files.size());
     std::size_t n = 0;
+    std::string note;  // about member 0's geometry; printed once all members have been read
     for (std::size_t m = 0; m < files.size(); ++m) {
-        ScalarField f = detail::readFieldImpl(files[m], fieldOptions, m == 0);
+        ScalarField f = detail::readFieldImpl(files[m], fieldOptions, m == 0 ? &note : nullptr);
         if (m == 0) {
             e.grid = f.grid;
             e.name = f.name;
@@ -127,6 +128,7 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
         std::copy(f.values.begin(), f.values.end(),
                   e.values.begin() + static_cast<std::ptrdiff_t>(m * n));
     }
+    detail::printNote(note);
     return e;
 }
 

@@ -10,6 +10,7 @@
 #include <climits>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -638,8 +639,12 @@ ScalarField readNrrd(const fs::path& path) {
 
 namespace detail {
 
+void printNote(const std::string& note) {
+    if (!note.empty()) std::fprintf(stderr, "%s\n", note.c_str());
+}
+
 ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
-                          bool noteMissingGeometry) {
+                          std::string* geometryNote) {
     requireFile(path);
     std::string ext = lowerExtension(path);
     ScalarField f;
@@ -648,7 +653,7 @@ ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
     } else if (ext == ".vti") {
         f = readFieldVti(path, options.var);
     } else if (ext == ".nc" || ext == ".nc4" || ext == ".cdf") {
-        f = readFieldNetcdf(path, options.var, noteMissingGeometry);
+        f = readFieldNetcdf(path, options.var, geometryNote);
     } else if (ext == ".raw" || options.raw.given()) {
         f = readRaw(path, options.raw);
     } else {
@@ -662,7 +667,10 @@ ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
 }  // namespace detail
 
 ScalarField readField(const fs::path& path, const FieldReadOptions& options) {
-    return detail::readFieldImpl(path, options, true);
+    std::string note;
+    ScalarField f = detail::readFieldImpl(path, options, &note);
+    detail::printNote(note);
+    return f;
 }
 
 void writeField(const fs::path& path, const ScalarField& field) {

@@ -22,15 +22,19 @@ void requireFile(const std::filesystem::path& path);
 /// Lower-case extension with the dot (".nhdr").
 std::string lowerExtension(const std::filesystem::path& path);
 
-/// readField with control over the one-line stderr note about missing NetCDF coordinates.
+/// readField that hands back the one-line note about missing NetCDF coordinates in
+/// *geometryNote (left alone when there is none; nullptr: no note) instead of printing it, so
+/// that the caller prints it only after the whole read succeeded (an error is one stderr line).
 ScalarField readFieldImpl(const std::filesystem::path& path, const FieldReadOptions& options,
-                          bool noteMissingGeometry);
+                          std::string* geometryNote);
+/// Print a note on its own stderr line; nothing for an empty one.
+void printNote(const std::string& note);
 
 /// .vti through VTK's XML reader (vti_io.cpp).
 ScalarField readFieldVti(const std::filesystem::path& path, const std::string& var);
 /// .nc with a 3D variable (netcdf_io.cpp).
 ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string& var,
-                            bool noteMissingGeometry);
+                            std::string* geometryNote);
 /// .nc with a member dimension (netcdf_io.cpp).
 Ensemble readEnsembleNetcdf(const std::filesystem::path& path, const EnsembleReadOptions& options);
 

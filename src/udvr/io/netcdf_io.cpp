@@ -232,9 +232,10 @@ int openForRead(const fs::path& path) {
 }
 
 /// Geometry from the CF coordinate variables of the last three dims (z, y, x order in the file).
-/// Absent ones give origin 0, spacing 1 with one note on stderr; an uneven axis is an error.
+/// Absent ones give origin 0, spacing 1 and a one-line note in *note (when given), which the
+/// caller prints once the whole read has succeeded; an uneven axis is an error.
 Grid3 gridFromCoordinates(const fs::path& path, int nc, const VarInfo& var, std::size_t first,
-                          bool noteMissing) {
+                          std::string* note) {
     Grid3 g;
     std::string missing;
     for (int a = 0; a < 3; ++a) {
@@ -280,11 +281,9 @@ Grid3 gridFromCoordinates(const fs::path& path, int nc, const VarInfo& var, std:
         }
         g.spacing[a] = s;
     }
-    if (!missing.empty() && noteMissing) {
-        std::fprintf(stderr,
-                     "udvr: note: %s has no coordinate variables for %s; using origin 0 and "
-                     "spacing 1 there\n",
-                     path.string().c_str(), missing.c_str());
+    if (!missing.empty() && note != nullptr) {
+        *note = "udvr: note: " + path.string() + " has no coordinate variables for " + missing +
+                "; using origin 0 and spacing 1 there";
     }
     return g;
 }
@@ -455,7 +454,7 @@ void writeNetcdf(const fs::path& path, const Grid3& grid, const std::string& nam
 }  // namespace
 
 ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
-                                    bool noteMissingGeometry) {
+                                    std::string* geometryNote) {
     NcFile file;
     file.id = openForRead(path);
     std::vector<VarInfo> vars = allVars(path, file.id);
@@ -495,7 +494,7 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
     }
     std::size_t first = var->dims.size() - 3;
     ScalarField f;
-    f.grid = gridFromCoordinates(path, file.id, *var, first, noteMissingGeometry);
+    f.grid = gridFromCoordinates(path, file.id, *var, first, geometryNote);
     f.name = var->name;
     f.values.resize(f.grid.pointCount());
     std::vector<std::size_t> start(var->dims.size(), 0), count(var->lengths);
@@ -570,7 +569,8 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
                                 << " member(s); an ensemble needs at least 2");
     }
     Ensemble e;
-    e.grid = gridFromCoordinates(path, file.id, gridView, 0, true);
+    std::string geometryNote;
+    e.grid = gridFromCoordinates(path, file.id, gridView, 0, &geometryNote);
     e.members = static_cast<int>(members);
     e.name = var->name;
     std::size_t n = e.grid.pointCount();
@@ -584,6 +584,7 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
         readSlab(path, file.id, *var, start, count, out, what);
         checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
     }
+    detail::printNote(geometryNote);  // only now: an error must stay the one line on stderr
     return e;
 }
 
