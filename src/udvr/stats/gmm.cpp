@@ -4,244 +4,376 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
+#include "udvr/stats/fast_math.h"
 #include "udvr/util/check.h"
 #include "udvr/util/random.h"
 
 namespace udvr {
 namespace {
 
-// 8-lane float vectors (GCC/Clang vector extensions; AVX where the target has it). The EM pass
-// below is written on them because GCC does not vectorise floating-point reductions by itself.
-// Float suffices inside one pass: samples are taken relative to the voxel mean, the M-step sums
-// relative to each component's current mean, and the log-likelihood is summed in double.
-using V8f = float __attribute__((vector_size(32)));
-using V8i = std::int32_t __attribute__((vector_size(32)));
-
-V8f splat(float v) { return V8f{v, v, v, v, v, v, v, v}; }
-
-// e^x for x ≤ 0, relative error < 3e−7 down to x = −87 (clamped there: e^−87 ≈ 2e−38 is nothing
-// next to the row maximum's e^0 = 1). x = n·ln2 + r, |r| ≤ ln2/2, e^r by its degree-6 Taylor
-// polynomial (error r⁷/7! < 1.2e−7), 2^n from the bits of the rounding shifter.
-inline V8f expNonPositive(V8f x) {
-    x = x < splat(-87.f) ? splat(-87.f) : x;
-    const V8f shifter = splat(0x1.8p23f);            // adding it rounds to an integer
-    const V8f t = x * splat(1.44269504f) + shifter;  // low mantissa bits: 2^22 + n
-    const V8f n = t - shifter;
-    const V8f r = (x - n * splat(0.693145752f)) - n * splat(1.42860677e-6f);  // ln2 = hi + lo
-    V8f p = splat(1.f / 720.f);
-    p = p * r + splat(1.f / 120.f);
-    p = p * r + splat(1.f / 24.f);
-    p = p * r + splat(1.f / 6.f);
-    p = p * r + splat(0.5f);
-    p = p * r + splat(1.f);
-    p = p * r + splat(1.f);
-    // (2^22 + n + 127) << 23 keeps the low 9 bits, n + 127 ∈ [1, 127]: the exponent of 2^n.
-    const V8i bits = (std::bit_cast<V8i>(t) + 127) << 23;
-    return p * std::bit_cast<V8f>(bits);
-}
-
-// log(s) for s ≥ 1 (finite): s = 2^e·f with f ∈ [√½, √2), log f = 2·atanh(t), t = (f−1)/(f+1),
-// |t| ≤ 0.172, series to t⁹ (error < 1e−9, below float resolution).
-inline V8f logAtLeastOne(V8f s) {
-    const V8i bits = std::bit_cast<V8i>(s);
-    const V8i expo = (bits >> 23) - 127;  // ≥ 0 for s ≥ 1
-    const V8i mant = (bits & 0x007FFFFF) | 0x3F800000;
-    V8f f = std::bit_cast<V8f>(mant);
-    V8f e = std::bit_cast<V8f>(expo + 0x4B000000) - splat(0x1p23f);  // 2^23 + e as a float
-    const auto big = f > splat(1.41421356f);
-    f = big ? f * splat(0.5f) : f;
-    e = big ? e + splat(1.f) : e;
-    const V8f t = (f - splat(1.f)) / (f + splat(1.f));
-    const V8f t2 = t * t;
-    V8f p = splat(1.f / 9.f);
-    p = p * t2 + splat(1.f / 7.f);
-    p = p * t2 + splat(1.f / 5.f);
-    p = p * t2 + splat(1.f / 3.f);
-    p = p * t2 + splat(1.f);
-    return e * splat(0.693147181f) + splat(2.f) * t * p;
-}
-
-using V8d = double __attribute__((vector_size(64)));
-
-// Tree sums of the lanes (short dependency chains).
-double sum8(V8f v) {
-    return static_cast<double>(((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7])));
-}
-double sum8(V8d v) { return ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7])); }
+// 16 voxels per vector: two AVX2 registers (or one AVX-512 register) per operation, so the long
+// dependency chain of one sample (max → exp → sum → division → sums) overlaps with another's.
+constexpr int kLanes = 16;
+using VF = detail::Lanes<kLanes>::F;
+using VI = detail::Lanes<kLanes>::I;
+using VD = detail::Lanes<kLanes>::D;
+using VL = detail::Lanes<kLanes>::L;
+using detail::splat;
+constexpr double kHalfLog2Pi = 0.91893853320467274178;  // ½·log(2π)
 
 struct Component {
-    double pi, mu, sigma;
+    double pi, mu, var;  // weight, mean, variance (≥ floor²)
 };
+
+/// A voxel's samples in standardised units: x' = (x − mean)·invScale with scale a power of two
+/// ≥ the sample range, so x' ∈ [−1, 1], the scaling is exact, and every σ' lies between
+/// floor·invScale (≥ 2^−12·1e−3 relative to the global range... in practice ≥ 5e−4) and 1:
+/// float arithmetic has the same relative accuracy whatever the data's units.
+struct Standardise {
+    double mean, scale, invScale;
+};
+
+Standardise standardise(std::span<const float> sorted) {
+    double sum = 0.0;
+    for (float v : sorted) sum += v;
+    const double mean = sum / static_cast<double>(sorted.size());
+    const double range = static_cast<double>(sorted.back()) - sorted.front();
+    int e = 0;
+    std::frexp(range, &e);  // range < 2^e
+    return {mean, std::ldexp(1.0, e), std::ldexp(1.0, -e)};
+}
+
+/// k-means++ seeding (Arthur & Vassilvitskii 2007) of a non-constant voxel, then the initial
+/// parameters from the hard assignment to the nearest centre (with sorted samples and centres
+/// the clusters are runs split at the midpoints; each run holds its centre). Writes d ≤ K
+/// components in standardised units and returns d (< K when there are fewer distinct values).
+int seedComponents(std::span<const float> x, const Standardise& st, int K, double floorVar,
+                   std::uint64_t seed, std::uint64_t stream, Component* comp,
+                   std::vector<double>& d2buf) {
+    const std::size_t n = x.size();
+    const double invN = 1.0 / static_cast<double>(n);
+    d2buf.resize(n);
+    double* d2 = d2buf.data();
+    // Each next centre is a sample drawn with probability ∝ D², its squared distance to the
+    // nearest centre chosen so far. Data units, double: the draw does not depend on scaling.
+    CounterRng rng(seed, stream, 0);
+    std::array<double, kMaxGmmComponents> centre{};
+    centre[0] =
+        x[std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)))];
+    for (std::size_t i = 0; i < n; ++i) d2[i] = (x[i] - centre[0]) * (x[i] - centre[0]);
+    int d = 1;
+    while (d < K) {
+        double total = 0.0;
+        for (std::size_t i = 0; i < n; ++i) total += d2[i];
+        if (!(total > 0.0)) break;  // fewer distinct values than K
+        const double target = rng.uniform() * total;
+        std::size_t pick = n;
+        double cum = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            cum += d2[i];
+            if (d2[i] > 0.0) {
+                pick = i;
+                if (cum > target) break;
+            }
+        }
+        const double c = x[pick];
+        centre[static_cast<std::size_t>(d++)] = c;
+        for (std::size_t i = 0; i < n; ++i) d2[i] = std::min(d2[i], (x[i] - c) * (x[i] - c));
+    }
+    std::sort(centre.begin(), centre.begin() + d);
+
+    std::size_t begin = 0;
+    for (int k = 0; k < d; ++k) {
+        std::size_t end = n;
+        if (k + 1 < d) {
+            const double mid = 0.5 * (centre[k] + centre[k + 1]);
+            end = begin;
+            while (end < n && x[end] <= mid) ++end;
+        }
+        double s = 0.0;
+        for (std::size_t i = begin; i < end; ++i) s += x[i];
+        const double cnt = static_cast<double>(end - begin);
+        const double mu = cnt > 0.0 ? s / cnt : centre[k];
+        double ss = 0.0;
+        for (std::size_t i = begin; i < end; ++i) ss += (x[i] - mu) * (x[i] - mu);
+        const double var = cnt > 0.0 ? ss / cnt * st.invScale * st.invScale : 0.0;
+        comp[k] = {cnt * invN, (mu - st.mean) * st.invScale, std::max(var, floorVar)};
+        begin = end;
+    }
+    return d;
+}
+
+/// Writes the 3K outputs of a fit (data units): spare components (k ≥ d) get weight 0 at the
+/// sample mean, then all are sorted by mean and the weights normalised.
+void finish(Component* comp, int d, int K, const Standardise& st, double floorSigma,
+            std::span<float> out, GmmFitInfo& info) {
+    std::array<Component, kMaxGmmComponents> c{};  // data units, σ in .var
+    for (int k = 0; k < K; ++k) {
+        if (k < d)
+            c[k] = {comp[k].pi, st.mean + comp[k].mu * st.scale,
+                    std::max(std::sqrt(comp[k].var) * st.scale, floorSigma)};
+        else
+            c[k] = {0.0, st.mean, floorSigma};
+    }
+    std::stable_sort(c.begin(), c.begin() + K,
+                     [](const Component& a, const Component& b) { return a.mu < b.mu; });
+    double piSum = 0.0;
+    for (int k = 0; k < K; ++k) piSum += c[k].pi;
+    info.distinctComponents = 0;
+    for (int k = 0; k < K; ++k) {
+        if (c[k].pi > 0.0) ++info.distinctComponents;
+        out[k] = static_cast<float>(c[k].pi / piSum);
+        out[K + k] = static_cast<float>(c[k].mu);
+        out[2 * K + k] = static_cast<float>(c[k].var);
+    }
+}
+
+/// A constant voxel: a point mass (all weight on one component, every μ at the value).
+void pointMass(float value, int K, double floorSigma, std::span<float> out, GmmFitInfo& info) {
+    for (int k = 0; k < K; ++k) {
+        out[k] = k == 0 ? 1.f : 0.f;
+        out[K + k] = value;
+        out[2 * K + k] = static_cast<float>(floorSigma);
+    }
+    info = GmmFitInfo{};
+    info.distinctComponents = 1;
+}
+
+/// EM (Dempster et al. 1977) on many voxels at once, one voxel per vector lane (kLanes): lane l
+/// iterates its own voxel; when it stops (converged or at the cap) its result is written and the
+/// next voxel is loaded into the lane. Each lane's arithmetic is elementwise, so a voxel's result
+/// does not depend on its lane, its neighbours or the thread. KC = K when known at compile time
+/// (registers), 0 for any K ≤ kMaxGmmComponents.
+///
+/// One fused pass per iteration: the E-step's responsibilities at the current parameters are
+/// folded straight into the M-step's weighted sums. Per sample, with e_k = log(π_k·N(x|μ_k,σ_k))
+/// + ½·log(2π) and m = max_k e_k: r_k = e^{e_k−m} / Σ_j e^{e_j−m} (one fast exp per component,
+/// one division), log p(x) = m + log Σ_j e^{e_j−m}. The log is not taken per sample: the sums
+/// (each in [1, K]) are multiplied up, their exponent split off every 8 samples, and one log per
+/// lane per iteration finishes the log-likelihood. Float inside blocks of 8 samples, double
+/// across blocks and for the parameters: the log-likelihood per sample is accurate to ~1e−7,
+/// ten times finer than the 1e−6 convergence tolerance.
+template <int KC>
+void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOptions& opt,
+            std::uint64_t firstStream, float* out, GmmFitInfo* infos, GmmWorkspace& ws) {
+    constexpr int KA = KC > 0 ? KC : kMaxGmmComponents;
+    const int K = KC > 0 ? KC : opt.components;
+    const double floorSigma = opt.sigmaFloor;
+    const double invN = 1.0 / static_cast<double>(n);
+    const std::size_t outStride = static_cast<std::size_t>(3 * K);
+
+    ws.lanes.assign(kLanes * n, 0.f);
+    float* X = ws.lanes.data();  // X[kLanes·i + l]: sample i of lane l, standardised
+
+    // Lane state. Parameters are SoA over lanes, standardised units.
+    struct Lane {
+        std::size_t voxel = 0;
+        bool active = false;
+        int d = 0;
+        int iterations = 0;
+        double prevLl = 0.0;
+        Standardise st{};
+        double floorVar = 0.0;
+    };
+    std::array<Lane, kLanes> lane{};
+    std::array<VD, KA> pi{}, mu{}, var{};
+    VD floorVar = splat<VD>(1.0);
+    std::size_t nextVoxel = 0;
+
+    auto setComponent = [&](int l, int k, const Component& c) {
+        pi[k][l] = c.pi;
+        mu[k][l] = c.mu;
+        var[k][l] = c.var;
+    };
+    // Loads the next non-constant voxel into lane l (constant ones are finished on the way);
+    // an idle lane gets harmless parameters and zero samples.
+    auto load = [&](int l) {
+        Lane& ln = lane[static_cast<std::size_t>(l)];
+        while (nextVoxel < count) {
+            const std::size_t v = nextVoxel++;
+            const std::span<const float> s(samples + v * n, n);
+            const std::span<float> o(out + v * outStride, outStride);
+            if (s.front() == s.back()) {
+                pointMass(s.front(), K, floorSigma, o, infos[v]);
+                continue;
+            }
+            ln.voxel = v;
+            ln.active = true;
+            ln.iterations = 0;
+            ln.prevLl = 0.0;
+            ln.st = standardise(s);
+            const double f = floorSigma * ln.st.invScale;
+            ln.floorVar = f * f;
+            floorVar[l] = ln.floorVar;
+            std::array<Component, kMaxGmmComponents> c{};
+            ln.d = seedComponents(s, ln.st, K, ln.floorVar, opt.seed, firstStream + v, c.data(),
+                                  ws.d2);
+            for (int k = 0; k < K; ++k)
+                setComponent(l, k, k < ln.d ? c[k] : Component{0.0, 0.0, ln.floorVar});
+            for (std::size_t i = 0; i < n; ++i)
+                X[kLanes * i + static_cast<std::size_t>(l)] =
+                    static_cast<float>((s[i] - ln.st.mean) * ln.st.invScale);
+            return;
+        }
+        ln.active = false;
+        for (int k = 0; k < K; ++k) setComponent(l, k, {k == 0 ? 1.0 : 0.0, 0.0, 1.0});
+        floorVar[l] = 1.0;
+        for (std::size_t i = 0; i < n; ++i) X[kLanes * i + static_cast<std::size_t>(l)] = 0.f;
+    };
+    for (int l = 0; l < kLanes; ++l) load(l);
+
+    const VF negInf = splat<VF>(-std::numeric_limits<float>::infinity());
+    for (;;) {
+        bool any = false;
+        for (const Lane& ln : lane) any = any || ln.active;
+        if (!any) break;
+
+        // Per component: e_k = a_k + b_k·(x − μ_k)², a_k = log π_k − ½·log σ_k², b_k = −½/σ_k².
+        std::array<VF, KA> a, b, m;
+        for (int k = 0; k < K; ++k) {
+            const VF piF = __builtin_convertvector(pi[k], VF);
+            const VF varF = __builtin_convertvector(var[k], VF);
+            const VF la = detail::logPositive(piF) - splat<VF>(0.5f) * detail::logPositive(varF);
+            a[k] = piF > splat<VF>(0.f) ? la : negInf;  // a dead component stays dead
+            b[k] = splat<VF>(-0.5f) / varF;
+            m[k] = __builtin_convertvector(mu[k], VF);
+        }
+        std::array<VD, KA> nkD{}, s1D{}, s2D{};
+        VD maxSum{};
+        VI expo{};
+        VF prod = splat<VF>(1.f);
+        for (std::size_t i0 = 0; i0 < n; i0 += 8) {
+            const std::size_t i1 = std::min(n, i0 + 8);
+            std::array<VF, KA> nk{}, s1{}, s2{};
+            VF mSum{};
+            for (std::size_t i = i0; i < i1; ++i) {
+                VF xv;
+                std::memcpy(&xv, X + kLanes * i, sizeof(VF));
+                std::array<VF, KA> dx, dx2, e;
+                for (int k = 0; k < K; ++k) {
+                    dx[k] = xv - m[k];
+                    dx2[k] = dx[k] * dx[k];
+                    e[k] = a[k] + b[k] * dx2[k];
+                }
+                VF mx = e[0];
+                for (int k = 1; k < K; ++k) mx = e[k] > mx ? e[k] : mx;
+                VF sum{};
+                for (int k = 0; k < K; ++k) {
+                    e[k] = detail::expNonPositive(e[k] - mx);
+                    sum += e[k];
+                }
+                const VF inv = 1.f / sum;  // sum ∈ [1, K]
+                for (int k = 0; k < K; ++k) {
+                    // Sums about the current μ_k: little cancellation in s2.
+                    const VF r = e[k] * inv;
+                    nk[k] += r;
+                    s1[k] += r * dx[k];
+                    s2[k] += r * dx2[k];
+                }
+                mSum += mx;
+                prod *= sum;
+            }
+            for (int k = 0; k < K; ++k) {
+                nkD[k] += __builtin_convertvector(nk[k], VD);
+                s1D[k] += __builtin_convertvector(s1[k], VD);
+                s2D[k] += __builtin_convertvector(s2[k], VD);
+            }
+            maxSum += __builtin_convertvector(mSum, VD);
+            prod = detail::splitExponent(prod, expo);  // ≤ 8 factors in [1, K]: no overflow
+        }
+        // Mean log-likelihood per sample (standardised units, without −½·log(2π)).
+        const VD ll = (maxSum + __builtin_convertvector(expo, VD) * splat<VD>(0.69314718055994531) +
+                       __builtin_convertvector(detail::logPositive(prod), VD)) *
+                      splat<VD>(invN);
+
+        // Lanes that stop keep the parameters `ll` was evaluated at; the rest take the M-step.
+        VD step{};  // all-ones bits where a lane takes the M-step
+        for (int l = 0; l < kLanes; ++l) {
+            Lane& ln = lane[static_cast<std::size_t>(l)];
+            if (!ln.active) continue;
+            const bool converged =
+                ln.iterations > 0 && std::fabs(ll[l] - ln.prevLl) < opt.tolerance;
+            if (converged || ln.iterations >= opt.maxIterations) {
+                GmmFitInfo& info = infos[ln.voxel];
+                info.iterations = ln.iterations;
+                info.converged = converged;
+                info.meanLogLikelihood = ll[l] - std::log(ln.st.scale) - kHalfLog2Pi;
+                std::array<Component, kMaxGmmComponents> c{};
+                for (int k = 0; k < ln.d; ++k) c[k] = {pi[k][l], mu[k][l], var[k][l]};
+                finish(c.data(), ln.d, K, ln.st, floorSigma,
+                       std::span<float>(out + ln.voxel * outStride, outStride), info);
+                load(l);
+                continue;
+            }
+            ++ln.iterations;
+            ln.prevLl = ll[l];
+            step[l] = std::bit_cast<double>(~std::uint64_t{0});
+        }
+        // M-step: π = N_k/n, μ += Σ r·(x − μ)/N_k, σ² = max(Σ r·(x − μ)²/N_k − shift², floor²);
+        // a component that lost its samples (N_k ≤ 1e−6) gets weight 0 and keeps its mean.
+        const auto takeMask = std::bit_cast<VL>(step) != 0;
+        for (int k = 0; k < K; ++k) {
+            const VD nkS = nkD[k];
+            const auto live = nkS > splat<VD>(1e-6);
+            const VD inv = splat<VD>(1.0) / (live ? nkS : splat<VD>(1.0));
+            const VD shift = s1D[k] * inv;
+            VD v = s2D[k] * inv - shift * shift;
+            v = v > floorVar ? v : floorVar;
+            const VD muF = __builtin_convertvector(m[k], VD);  // the μ the pass used
+            const VD nPi = live ? nkS * splat<VD>(invN) : splat<VD>(0.0);
+            const VD nMu = live ? muF + shift : mu[k];
+            const VD nVar = live ? v : floorVar;
+            pi[k] = takeMask ? nPi : pi[k];
+            mu[k] = takeMask ? nMu : mu[k];
+            var[k] = takeMask ? nVar : var[k];
+        }
+    }
+}
+
+void fitMany(std::size_t count, std::size_t n, const float* samples, const GmmOptions& opt,
+             std::uint64_t firstStream, float* out, GmmFitInfo* infos, GmmWorkspace& ws) {
+    switch (opt.components) {
+        case 1:
+            return emMany<1>(count, n, samples, opt, firstStream, out, infos, ws);
+        case 2:
+            return emMany<2>(count, n, samples, opt, firstStream, out, infos, ws);
+        case 3:
+            return emMany<3>(count, n, samples, opt, firstStream, out, infos, ws);
+        case 4:
+            return emMany<4>(count, n, samples, opt, firstStream, out, infos, ws);
+        default:
+            return emMany<0>(count, n, samples, opt, firstStream, out, infos, ws);
+    }
+}
+
+void checkOptions(const GmmOptions& o, std::size_t n) {
+    UDVR_CHECK(o.components >= 1 && o.components <= kMaxGmmComponents);
+    UDVR_CHECK(n >= static_cast<std::size_t>(o.components) && o.sigmaFloor > 0.0);
+}
 
 }  // namespace
 
 GmmFitInfo fitGmm(std::span<const float> sorted, const GmmOptions& options, std::uint64_t stream,
                   std::span<float> out, GmmWorkspace& ws) {
-    const int K = options.components;
-    const std::size_t n = sorted.size();
-    UDVR_CHECK(K >= 1 && K <= kMaxGmmComponents);
-    UDVR_CHECK(out.size() == static_cast<std::size_t>(3 * K));
-    UDVR_CHECK(n >= static_cast<std::size_t>(K) && options.sigmaFloor > 0.0);
-    const double floorSigma = options.sigmaFloor;
-    const double invN = 1.0 / static_cast<double>(n);
-
-    double sampleMean = 0.0;
-    for (float v : sorted) sampleMean += v;
-    sampleMean *= invN;
-
-    std::array<Component, kMaxGmmComponents> comp{};
+    checkOptions(options, sorted.size());
+    UDVR_CHECK(out.size() == static_cast<std::size_t>(3 * options.components));
     GmmFitInfo info;
-    int d = 1;  // components actually fitted
-
-    if (sorted.front() == sorted.back()) {
-        // Point mass: all weight on one component; every μ at the value.
-        comp[0] = {1.0, static_cast<double>(sorted.front()), floorSigma};
-    } else {
-        ws.x.assign(sorted.begin(), sorted.end());
-        const double* x = ws.x.data();
-        ws.d2.resize(n);
-        double* d2 = ws.d2.data();
-
-        // k-means++ seeding (Arthur & Vassilvitskii 2007): each next centre is a sample drawn
-        // with probability ∝ D², its squared distance to the nearest centre chosen so far.
-        CounterRng rng(options.seed, stream, 0);
-        std::array<double, kMaxGmmComponents> centre{};
-        centre[0] =
-            x[std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)))];
-        for (std::size_t i = 0; i < n; ++i) d2[i] = (x[i] - centre[0]) * (x[i] - centre[0]);
-        while (d < K) {
-            double total = 0.0;
-            for (std::size_t i = 0; i < n; ++i) total += d2[i];
-            if (!(total > 0.0)) break;  // fewer distinct values than K
-            const double target = rng.uniform() * total;
-            std::size_t pick = n;
-            double cum = 0.0;
-            for (std::size_t i = 0; i < n; ++i) {
-                cum += d2[i];
-                if (d2[i] > 0.0) {
-                    pick = i;
-                    if (cum > target) break;
-                }
-            }
-            const double c = x[pick];
-            centre[static_cast<std::size_t>(d++)] = c;
-            for (std::size_t i = 0; i < n; ++i) d2[i] = std::min(d2[i], (x[i] - c) * (x[i] - c));
-        }
-        std::sort(centre.begin(), centre.begin() + d);
-
-        // Initial parameters from the hard assignment to the nearest centre; with sorted samples
-        // and centres the clusters are runs split at the midpoints. Each run holds its centre.
-        std::size_t begin = 0;
-        for (int k = 0; k < d; ++k) {
-            std::size_t end = n;
-            if (k + 1 < d) {
-                const double mid = 0.5 * (centre[k] + centre[k + 1]);
-                end = begin;
-                while (end < n && x[end] <= mid) ++end;
-            }
-            double s = 0.0;
-            for (std::size_t i = begin; i < end; ++i) s += x[i];
-            const double cnt = static_cast<double>(end - begin);
-            const double mu = cnt > 0.0 ? s / cnt : centre[k];
-            double ss = 0.0;
-            for (std::size_t i = begin; i < end; ++i) ss += (x[i] - mu) * (x[i] - mu);
-            comp[k] = {cnt * invN, mu, std::max(cnt > 0.0 ? std::sqrt(ss / cnt) : 0.0, floorSigma)};
-            begin = end;
-        }
-
-        // EM (Dempster et al. 1977) on d components, one fused pass per iteration: the E-step's
-        // responsibilities for the current parameters are folded straight into the M-step's
-        // weighted sums, 8 samples per vector. Samples are padded to a multiple of 8 with weight
-        // 0 and taken relative to the sample mean.
-        const std::size_t blocks = (n + 7) / 8;
-        ws.xPadded.resize(8 * blocks);
-        ws.weight.resize(8 * blocks);
-        for (std::size_t i = 0; i < 8 * blocks; ++i) {
-            ws.xPadded[i] = static_cast<float>((i < n ? x[i] : x[n - 1]) - sampleMean);
-            ws.weight[i] = i < n ? 1.f : 0.f;
-        }
-        std::array<Component, kMaxGmmComponents> next{};
-        // Returns the mean log-likelihood per sample of `comp` (without −½·log(2π)) and writes
-        // the M-step's parameters to `next`.
-        auto pass = [&]() {
-            std::array<V8f, kMaxGmmComponents> a, b, mu, nk, s1, s2, e, dx;
-            for (int k = 0; k < d; ++k) {
-                a[k] = splat(static_cast<float>(std::log(std::max(comp[k].pi, 1e-300)) -
-                                                std::log(comp[k].sigma)));
-                b[k] = splat(static_cast<float>(-0.5 / (comp[k].sigma * comp[k].sigma)));
-                mu[k] = splat(static_cast<float>(comp[k].mu - sampleMean));
-                nk[k] = s1[k] = s2[k] = splat(0.f);
-            }
-            V8d ll{};  // per-lane sums in double: the convergence test needs ~1e−7 accuracy
-            for (std::size_t blk = 0; blk < blocks; ++blk) {
-                V8f xv, w;
-                __builtin_memcpy(&xv, ws.xPadded.data() + 8 * blk, sizeof(V8f));
-                __builtin_memcpy(&w, ws.weight.data() + 8 * blk, sizeof(V8f));
-                V8f m = splat(-3e38f);
-                for (int k = 0; k < d; ++k) {
-                    dx[k] = xv - mu[k];
-                    e[k] = a[k] + b[k] * dx[k] * dx[k];  // log(π_k·N(x | μ_k, σ_k)) + ½·log(2π)
-                    m = e[k] > m ? e[k] : m;
-                }
-                V8f sum = splat(0.f);
-                for (int k = 0; k < d; ++k) {
-                    e[k] = expNonPositive(e[k] - m);
-                    sum += e[k];
-                }
-                ll += __builtin_convertvector(w * (m + logAtLeastOne(sum)), V8d);  // sum ∈ [1, d]
-                const V8f inv = w / sum;
-                for (int k = 0; k < d; ++k) {
-                    const V8f r = e[k] * inv;
-                    nk[k] += r;
-                    s1[k] += r * dx[k];  // about the current μ_k: little cancellation in s2
-                    s2[k] += r * dx[k] * dx[k];
-                }
-            }
-            for (int k = 0; k < d; ++k) {
-                const double nkS = sum8(nk[k]);
-                if (!(nkS > 1e-6)) {  // a component that lost its samples keeps its mean
-                    next[k] = {0.0, comp[k].mu, floorSigma};
-                    continue;
-                }
-                const double shift = sum8(s1[k]) / nkS;
-                const double var = sum8(s2[k]) / nkS - shift * shift;
-                next[k] = {nkS * invN, sampleMean + static_cast<double>(mu[k][0]) + shift,
-                           std::max(std::sqrt(std::max(var, 0.0)), floorSigma)};
-            }
-            return sum8(ll) * invN;
-        };
-
-        double prev = 0.0;
-        for (;;) {
-            const double ll = pass();
-            info.meanLogLikelihood = ll - 0.91893853320467274178;  // −½·log(2π)
-            if (info.iterations > 0 && std::fabs(ll - prev) < options.tolerance) break;
-            if (info.iterations >= options.maxIterations) {
-                info.converged = false;
-                break;
-            }
-            std::copy(next.begin(), next.begin() + d, comp.begin());
-            ++info.iterations;
-            prev = ll;
-        }
-    }
-
-    // Spare components (fewer distinct values than K): zero weight at the sample mean.
-    for (int k = d; k < K; ++k) comp[k] = {0.0, sampleMean, floorSigma};
-    std::stable_sort(comp.begin(), comp.begin() + K,
-                     [](const Component& a, const Component& b) { return a.mu < b.mu; });
-    double piSum = 0.0;
-    for (int k = 0; k < K; ++k) piSum += comp[k].pi;
-    info.distinctComponents = 0;
-    for (int k = 0; k < K; ++k) {
-        if (comp[k].pi > 0.0) ++info.distinctComponents;
-        out[k] = static_cast<float>(comp[k].pi / piSum);
-        out[K + k] = static_cast<float>(comp[k].mu);
-        out[2 * K + k] = static_cast<float>(comp[k].sigma);
-    }
+    fitMany(1, sorted.size(), sorted.data(), options, stream, out.data(), &info, ws);
     return info;
+}
+
+void fitGmmMany(std::span<const float> sorted, std::size_t n, const GmmOptions& options,
+                std::uint64_t firstStream, std::span<float> out, std::span<GmmFitInfo> info,
+                GmmWorkspace& ws) {
+    checkOptions(options, n);
+    UDVR_CHECK(n > 0 && sorted.size() % n == 0);
+    const std::size_t count = sorted.size() / n;
+    UDVR_CHECK(out.size() == count * static_cast<std::size_t>(3 * options.components));
+    UDVR_CHECK(info.size() == count);
+    fitMany(count, n, sorted.data(), options, firstStream, out.data(), info.data(), ws);
 }
 
 }  // namespace udvr

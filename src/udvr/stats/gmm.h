@@ -28,10 +28,10 @@ struct GmmFitInfo {
     double meanLogLikelihood = 0.0;  // per sample, at the final parameters
 };
 
-/// Scratch buffers reused across voxels by one thread.
+/// Scratch buffers reused across voxels by one thread (no allocation per voxel).
 struct GmmWorkspace {
-    std::vector<double> x, d2;
-    std::vector<float> xPadded, weight;
+    std::vector<double> d2;    // k-means++ distances
+    std::vector<float> lanes;  // 16 voxels' samples, interleaved
 };
 
 /// Fit a K-component mixture to `sorted` (ascending, n ≥ K) and write 3K floats to `out`:
@@ -41,5 +41,13 @@ struct GmmWorkspace {
 /// mass (π_1 = 1, every μ = the value, every σ = the floor).
 GmmFitInfo fitGmm(std::span<const float> sorted, const GmmOptions& options, std::uint64_t stream,
                   std::span<float> out, GmmWorkspace& ws);
+
+/// fitGmm for many voxels of n samples each: voxel v's sorted samples are sorted[v·n, (v+1)·n),
+/// its stream firstStream + v, its 3K outputs out[v·3K …] and its info info[v]. The voxels are
+/// fitted 16 at a time, one per vector lane (a lane takes the next voxel as soon as its own has
+/// stopped); every voxel's result is bit-identical to fitGmm's.
+void fitGmmMany(std::span<const float> sorted, std::size_t n, const GmmOptions& options,
+                std::uint64_t firstStream, std::span<float> out, std::span<GmmFitInfo> info,
+                GmmWorkspace& ws);
 
 }  // namespace udvr

@@ -18,9 +18,11 @@ struct NormalCdfPdf {
 
 namespace detail {
 /// erfc(z)·e^(z²) for z ≥ 0 (the scaled complementary error function erfcx), |rel. err| < 2e−9.
-UDVR_CPU_GPU inline double erfcxNonNegative(double z) {
-    const double t = 1.0 / (1.0 + 0.5 * z);
-    double q = -0.034835435706290684;
+/// T is double or a vector of doubles (stats/fast_math.h evaluates it on 8 lanes).
+template <class T>
+UDVR_CPU_GPU inline T erfcxNonNegative(T z) {
+    const T t = 1.0 / (1.0 + 0.5 * z);
+    T q = T{} - 0.034835435706290684;  // T{} broadcasts for vectors
     q = q * t + 0.20629037933280478;
     q = q * t - 0.49051169818528501;
     q = q * t + 0.55717139941080052;

@@ -1,0 +1,156 @@
+#pragma once
+// Vector math for the per-voxel estimators of stats/ (GCC/Clang vector extensions: one or more
+// AVX registers per vector where the target has them). GCC does not vectorise the floating-point
+// reductions and transcendental calls of EM and of the KDE sums by itself, so the hot loops are
+// written on these types directly. The functions are templates over the lane count: 16-lane
+// vectors give two independent dependency chains per operation on AVX2 (or one zmm on AVX-512),
+// which the latency-bound EM loop needs. Error bounds are tested in fast_math_test.cpp.
+#include <bit>
+#include <cstdint>
+
+#include "udvr/util/normal_cdf.h"
+
+namespace udvr::detail {
+
+/// Vector types of W lanes: float, int32, double, int64.
+template <int W>
+struct Lanes;
+template <>
+struct Lanes<8> {
+    using F = float __attribute__((vector_size(32)));
+    using I = std::int32_t __attribute__((vector_size(32)));
+    using D = double __attribute__((vector_size(64)));
+    using L = std::int64_t __attribute__((vector_size(64)));
+};
+template <>
+struct Lanes<16> {
+    using F = float __attribute__((vector_size(64)));
+    using I = std::int32_t __attribute__((vector_size(64)));
+    using D = double __attribute__((vector_size(128)));
+    using L = std::int64_t __attribute__((vector_size(128)));
+};
+
+using V8f = Lanes<8>::F;
+using V8i = Lanes<8>::I;
+using V8d = Lanes<8>::D;
+using V8l = Lanes<8>::L;
+
+/// Every lane = s.
+template <class V, class S>
+inline V splat(S s) {
+    return V{} + static_cast<decltype(V{}[0] + 0)>(s);
+}
+inline V8f splat8(float v) { return splat<V8f>(v); }
+inline V8d splat8d(double v) { return splat<V8d>(v); }
+
+/// expNonPositive clamps its argument here: e^−87 ≈ 1.6e−38 is nothing next to a row maximum
+/// of e^0 = 1 (and keeps a dead mixture component, log π = −∞, dead: its responsibilities sum to
+/// < n·2e−38, far below the 1e−6 at which EM declares a component empty).
+inline constexpr float kExpClampBelow = -87.f;
+
+/// e^max(x, −87) for float lanes x ≤ 0 (−∞ allowed): relative error < 2.5e−7.
+/// x = n·ln2 + r, |r| ≤ ln2/2, e^r by its degree-6 Taylor polynomial (truncation r⁷/7! < 1.2e−7),
+/// 2^n from the bits of the rounding shifter. Horner's scheme: the EM loop is throughput-bound.
+template <class VF>
+inline VF expNonPositive(VF x) {
+    using VI = decltype(x < x);
+    const VF xc = x < kExpClampBelow ? splat<VF>(kExpClampBelow) : x;
+    const VF shifter = splat<VF>(0x1.8p23f);  // adding it rounds to an integer
+    const VF t = xc * 1.44269504f + shifter;  // low mantissa bits: 2^22 + n
+    const VF n = t - shifter;
+    const VF r = (xc - n * 0.693145752f) - n * 1.42860677e-6f;  // ln2 = hi + lo
+    VF p = splat<VF>(1.f / 720.f);
+    p = p * r + (1.f / 120.f);
+    p = p * r + (1.f / 24.f);
+    p = p * r + (1.f / 6.f);
+    p = p * r + 0.5f;
+    p = p * r + 1.f;
+    p = p * r + 1.f;
+    // (2^22 + n + 127) << 23 keeps the low 9 bits, n + 127 ∈ [1, 127]: the exponent of 2^n.
+    const VI bits = (std::bit_cast<VI>(t) + 127) << 23;
+    return p * std::bit_cast<VF>(bits);
+}
+
+/// Splits positive normal floats s = 2^e·f with f ∈ [1, 2): returns f, adds e to `expo`.
+template <class VF, class VI>
+inline VF splitExponent(VF s, VI& expo) {
+    const VI bits = std::bit_cast<VI>(s);
+    expo += (bits >> 23) - 127;
+    return std::bit_cast<VF>((bits & 0x007FFFFF) | 0x3F800000);
+}
+
+/// log(s) for positive normal float lanes; absolute error < 1.5e−7 + 6e−8·|log s| (the float
+/// rounding of the result). s = 2^e·f with f ∈ [√½, √2), log f = 2·atanh(t), t = (f−1)/(f+1),
+/// |t| ≤ 0.172, series to t⁹ (truncation < 1e−9).
+template <class VF>
+inline VF logPositive(VF s) {
+    using VI = decltype(s < s);
+    VI expo{};
+    VF f = splitExponent(s, expo);
+    VF e = __builtin_convertvector(expo, VF);
+    const auto big = f > 1.41421356f;
+    f = big ? f * 0.5f : f;
+    e = big ? e + 1.f : e;
+    const VF t = (f - 1.f) / (f + 1.f);
+    const VF t2 = t * t;
+    VF p = splat<VF>(1.f / 9.f);
+    p = p * t2 + (1.f / 7.f);
+    p = p * t2 + (1.f / 5.f);
+    p = p * t2 + (1.f / 3.f);
+    p = p * t2 + 1.f;
+    return e * 0.693147181f + 2.f * t * p;
+}
+
+/// e^x in double for x ≤ 0 (−∞ allowed): relative error < 3e−13 for x ≥ −708, exactly 0
+/// below. x = n·ln2 + r, |r| ≤ ln2/2, e^r by its degree-10 Taylor polynomial (truncation
+/// r¹¹/11! < 2.2e−13), 2^n from the bits of the rounding shifter.
+template <class VD>
+inline VD expNonPositiveD(VD x) {
+    using VL = decltype(x < x);
+    const auto flush = x < -708.0;
+    const VD xc = flush ? splat<VD>(-708.0) : x;
+    const VD shifter = splat<VD>(0x1.8p52);
+    const VD t = xc * 1.4426950408889634 + shifter;  // low mantissa bits: 2^51 + n
+    const VD n = t - shifter;
+    // ln2 = hi + lo with n·hi exact (hi has 21 trailing zero bits; fdlibm's split).
+    const VD r = (xc - n * 6.93147180369123816490e-01) - n * 1.90821492927058770002e-10;
+    VD p = splat<VD>(1.0 / 3628800.0);
+    p = p * r + 1.0 / 362880.0;
+    p = p * r + 1.0 / 40320.0;
+    p = p * r + 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    // (2^51 + n + 1023) << 52 keeps the low 12 bits, n + 1023 ∈ [1, 1023]: the exponent of 2^n.
+    const VL bits = (std::bit_cast<VL>(t) + 1023) << 52;
+    const VD v = p * std::bit_cast<VD>(bits);
+    return flush ? VD{} : v;
+}
+
+/// Φ(u) and φ(u) of the standard normal on double lanes: the formula of util/normal_cdf.h
+/// (erfc through erfcx's degree-12 fit, |Φ error| < 4e−10) with expNonPositiveD.
+template <class VD>
+inline void normalCdfPdfLanes(VD u, VD& cdf, VD& pdf) {
+    const VD g = expNonPositiveD(-0.5 * u * u);
+    const VD z = (u < 0.0 ? -u : u) * 0.70710678118654752440;
+    const VD tail = 0.5 * g * erfcxNonNegative(z);  // Φ(−|u|)
+    cdf = u >= 0.0 ? 1.0 - tail : tail;
+    pdf = 0.39894228040143267794 * g;
+}
+
+/// Sum of the lanes in double (pairwise: short dependency chains).
+template <class V>
+inline double sumLanes(V v) {
+    constexpr int kW = sizeof(V) / sizeof(v[0]);
+    double s[kW];
+    for (int i = 0; i < kW; ++i) s[i] = static_cast<double>(v[i]);
+    for (int w = kW / 2; w >= 1; w /= 2)
+        for (int i = 0; i < w; ++i) s[i] += s[i + w];
+    return s[0];
+}
+
+}  // namespace udvr::detail

@@ -1,0 +1,105 @@
+// Error bounds of the vector math in fast_math.h against libm, sampled densely over the ranges
+// the estimators use.
+#include "udvr/stats/fast_math.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "udvr/util/normal_cdf.h"
+
+namespace udvr::detail {
+namespace {
+
+using V16f = Lanes<16>::F;
+
+TEST(FastMath, ExpFloatRelativeErrorBelow2_5e7) {
+    double worst = 0.0;
+    for (int i = 0; i < 200000; i += 16) {
+        V16f x;
+        for (int l = 0; l < 16; ++l) x[l] = -87.f * static_cast<float>(i + l) / 200000.f;
+        const V16f y = expNonPositive(x);
+        for (int l = 0; l < 16; ++l) {
+            const double ref = std::exp(static_cast<double>(x[l]));
+            worst = std::max(worst, std::fabs(y[l] - ref) / ref);
+        }
+    }
+    EXPECT_LT(worst, 2.5e-7);  // truncation 1.2e−7 plus float rounding
+    // Clamped below −87 (also −∞): e^−87, a negligible but finite weight.
+    V16f x = splat<V16f>(-1000.f);
+    x[1] = -std::numeric_limits<float>::infinity();
+    x[2] = 0.f;
+    const V16f y = expNonPositive(x);
+    EXPECT_NEAR(y[0], std::exp(-87.0), 1e-6 * std::exp(-87.0));
+    EXPECT_EQ(y[0], y[1]);
+    EXPECT_EQ(y[2], 1.f);
+}
+
+TEST(FastMath, LogFloatAbsoluteErrorBound) {
+    double worst = 0.0;
+    for (int i = 0; i < 4000; ++i) {
+        V8f s;
+        for (int l = 0; l < 8; ++l)
+            s[l] = static_cast<float>(std::exp(-30.0 + 60.0 * (8 * i + l) / 32000.0));
+        const V8f y = logPositive(s);
+        for (int l = 0; l < 8; ++l) {
+            const double ref = std::log(static_cast<double>(s[l]));
+            worst = std::max(worst, std::fabs(y[l] - ref) / (1.5e-7 + 6e-8 * std::fabs(ref)));
+        }
+    }
+    EXPECT_LT(worst, 1.0);  // |error| < 1.5e−7 + 6e−8·|log s|
+}
+
+TEST(FastMath, SplitExponentIsExact) {
+    V8f s{1.f, 1.5f, 2.f, 3.f, 1024.f, 0x1.fffffep0f, 7e30f, 1.0001f};
+    V8i e{};
+    const V8f f = splitExponent(s, e);
+    for (int l = 0; l < 8; ++l) {
+        EXPECT_GE(f[l], 1.f);
+        EXPECT_LT(f[l], 2.f);
+        EXPECT_EQ(std::ldexp(static_cast<double>(f[l]), e[l]), static_cast<double>(s[l]));
+    }
+}
+
+TEST(FastMath, ExpDoubleRelativeErrorBelow3e13) {
+    double worst = 0.0;
+    for (int i = 0; i < 100000; i += 8) {
+        V8d x;
+        for (int l = 0; l < 8; ++l) x[l] = -708.0 * (i + l) / 100000.0;
+        const V8d y = expNonPositiveD(x);
+        for (int l = 0; l < 8; ++l) {
+            const double ref = std::exp(x[l]);
+            worst = std::max(worst, std::fabs(y[l] - ref) / ref);
+        }
+    }
+    EXPECT_LT(worst, 3e-13);
+    V8d x = splat8d(-800.0);
+    x[1] = -INFINITY;
+    const V8d y = expNonPositiveD(x);
+    EXPECT_EQ(y[0], 0.0);
+    EXPECT_EQ(y[1], 0.0);
+}
+
+TEST(FastMath, NormalCdfPdfLanesMatchScalar) {
+    for (int i = 0; i < 2000; ++i) {
+        V8d u;
+        for (int l = 0; l < 8; ++l) u[l] = -12.0 + 24.0 * (8 * i + l) / 16000.0;
+        V8d c, p;
+        normalCdfPdfLanes(u, c, p);
+        for (int l = 0; l < 8; ++l) {
+            EXPECT_NEAR(c[l], 0.5 * std::erfc(-u[l] / std::sqrt(2.0)), 1e-9) << u[l];
+            const double pdf = std::exp(-0.5 * u[l] * u[l]) / std::sqrt(2.0 * M_PI);
+            EXPECT_NEAR(p[l], pdf, 3e-13 * pdf) << u[l];
+            EXPECT_NEAR(c[l], normalCdfPdf(u[l]).cdf, 1e-13) << u[l];
+        }
+    }
+}
+
+TEST(FastMath, SumLanes) {
+    V16f v;
+    for (int l = 0; l < 16; ++l) v[l] = static_cast<float>(l + 1);
+    EXPECT_EQ(sumLanes(v), 136.0);
+}
+
+}  // namespace
+}  // namespace udvr::detail
