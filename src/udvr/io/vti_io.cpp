@@ -216,8 +216,16 @@ vtkSmartPointer<vtkImageData> makeImage(const Grid3& grid) {
     return image;
 }
 
-/// Binary appended, zlib-compressed, 64-bit headers: ParaView's default kind of .vti.
-void writeImageData(const fs::path& path, vtkImageData* image) {
+/// Block compression of appended data. Both are read by VTK ≥ 8.1 and ParaView ≥ 5.5.
+enum class Compression {
+    Zlib,  // ParaView's default; best ratio on smooth fields
+    Lz4,   // model files: on float statistics zlib (level 5) saves ~10 % of the size at ~20×
+           // the time (64³ model, 26 MB: 0.62 s vs 0.03 s to write; 0.11 s vs 0.01 s to read)
+};
+
+/// Binary appended, block-compressed, 64-bit headers: ParaView's default kind of .vti.
+void writeImageData(const fs::path& path, vtkImageData* image,
+                    Compression compression = Compression::Zlib) {
     writeAtomically(path, [&](const fs::path& tmp) {
         vtkNew<vtkXMLImageDataWriter> writer;
         vtkNew<ErrorCollector> errors;
@@ -227,7 +235,10 @@ void writeImageData(const fs::path& path, vtkImageData* image) {
         writer->SetInputData(image);
         writer->SetDataModeToAppended();
         writer->EncodeAppendedDataOff();
-        writer->SetCompressorTypeToZLib();
+        if (compression == Compression::Lz4)
+            writer->SetCompressorTypeToLZ4();
+        else
+            writer->SetCompressorTypeToZLib();
         writer->SetHeaderTypeToUInt64();
         if (writer->Write() != 1 || errors->count > 0 || writer->GetErrorCode() != 0) {
             UDVR_FAIL("cannot write " << path.string() << ": " << errors->message);
@@ -367,7 +378,7 @@ void writeModelVti(const fs::path& path, const ModelVolume& model) {
     addDouble(fd, "full_res_min_spacing", {model.fullResMinSpacing});
     addInt(fd, "gmm_components", model.hasGmm() ? model.gmmComponents : 0);
     addString(fd, "source", model.source);
-    writeImageData(path, image);
+    writeImageData(path, image, Compression::Lz4);
 }
 
 ModelVolume readModelVti(const fs::path& path) {
