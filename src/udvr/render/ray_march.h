@@ -36,6 +36,11 @@ struct FastMeanKernel {
     int maxBase[3] = {0, 0, 0};     // last cell's base index: max(dims − 2, 0)
     std::size_t stride[3] = {0, 0, 0};  // linear stride per axis
     std::size_t next[3] = {0, 0, 0};    // offset of the +1 neighbour (0 on a 1-point axis)
+    // Per-cell emptiness (SkipTable::cellEmpty) or null: the test costs one byte load here,
+    // where the cell's base index is computed anyway.
+    const std::uint8_t* cellEmpty = nullptr;
+    /// valueAt()'s result for a sample in an empty cell: below every value, never classified.
+    static constexpr float kEmptyCell = -std::numeric_limits<float>::infinity();
 
     FastMeanKernel(const Grid3& grid, const float* v, const FastTransferFunction* t)
         : values(v), tf(t) {
@@ -59,9 +64,11 @@ struct FastMeanKernel {
         const int iz = std::min(static_cast<int>(z), maxBase[2]);
         const float fx = x - static_cast<float>(ix), fy = y - static_cast<float>(iy),
                     fz = z - static_cast<float>(iz);
-        const float* q = values + static_cast<std::size_t>(ix) +
-                         static_cast<std::size_t>(iy) * stride[1] +
-                         static_cast<std::size_t>(iz) * stride[2];
+        const std::size_t base = static_cast<std::size_t>(ix) +
+                                 static_cast<std::size_t>(iy) * stride[1] +
+                                 static_cast<std::size_t>(iz) * stride[2];
+        if (cellEmpty && cellEmpty[base]) return kEmptyCell;  // E[α] = 0 in the whole cell
+        const float* q = values + base;
         const std::size_t ox = next[0], oy = next[1], oz = next[2];
         const float c00 = q[0] + fx * (q[ox] - q[0]);
         const float c10 = q[oy] + fx * (q[oy + ox] - q[oy]);
@@ -71,7 +78,11 @@ struct FastMeanKernel {
         const float c1 = c01 + fy * (c11 - c01);
         return c0 + fz * (c1 - c0);
     }
-    Rgba classifyAt(float x, float y, float z) const { return tf->classify(valueAt(x, y, z)); }
+    Rgba classifyAt(float x, float y, float z) const {
+        const float v = valueAt(x, y, z);
+        if (v == kEmptyCell) return Rgba{};
+        return tf->classify(v);
+    }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const { lo = hi = values[voxel]; }
 };
 

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include "udvr/classify/sample_kernels.h"
@@ -117,6 +118,19 @@ void RenderCache::clear() { impl_->valid = false; }
 
 namespace {
 
+// March with the skip table; the mean kernel tests cells itself (see FastMeanKernel).
+template <class Kernel>
+void march(const Kernel& kernel, const detail::SkipTable& table, const detail::MarchParams& p,
+           ImageRgba& image, detail::MarchCounters& counters) {
+    if constexpr (std::is_same_v<Kernel, detail::FastMeanKernel>) {
+        detail::FastMeanKernel k = kernel;
+        if (!table.cellEmpty.empty()) k.cellEmpty = table.cellEmpty.data();
+        detail::marchFrame(k, table, p, image, counters);
+    } else {
+        detail::marchFrame(kernel, table, p, image, counters);
+    }
+}
+
 // Build (or reuse from `cache` under `key`) the skipping tables and march the frame.
 template <class Kernel>
 void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
@@ -134,11 +148,11 @@ void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
             cache->key = *key;
             cache->valid = true;
         }
-        detail::marchFrame(kernel, cache->table, p, image, counters);
+        march(kernel, cache->table, p, image, counters);
         return;
     }
     const detail::SkipTable table = detail::buildSkipTable(kernel, p.grid, ranges);
-    detail::marchFrame(kernel, table, p, image, counters);
+    march(kernel, table, p, image, counters);
 }
 
 // Draw one gmm-mc realization: every voxel independently from its own mixture (SPEC §3),
