@@ -4,6 +4,7 @@
 // Channels are (α·r, α·g, α·b, α); results before opacity correction. All closed forms, exact up
 // to double rounding unless a comment says otherwise.
 #include <cmath>
+#include <new>
 
 #include "udvr/classify/tf_table.h"
 #include "udvr/reconstruct/box_spline.h"
@@ -80,21 +81,29 @@ UDVR_CPU_GPU inline void expectedTfUniformSum(const TfTable& tf, const UniformSu
     const double et = u.mean() - p0.origin, et2 = u.variance() + et * et;
     for (int ch = 0; ch < 4; ++ch) out[ch] = p0.a[ch] + p0.b[ch] * et + p0.c[ch] * et2;
     if (kl == kh) return;
-    BoxSplineTail tail(u);
+    // Breaks where the TF's polynomial does not change (e.g. a colour point where α = 0 on both
+    // sides, so α·c is 0 throughout) add nothing: skip them, and build the tail only if needed.
+    alignas(BoxSplineTail) unsigned char storage[sizeof(BoxSplineTail)];
+    const BoxSplineTail* tail = nullptr;
     for (int k = kl; k < kh; ++k) {
         const double x = tf.breaks[k];  // piece k ends, piece k+1 (origin x) starts
         const TfPiece& p = tf.pieces[k];
         const TfPiece& q = tf.pieces[k + 1];
-        double t[3];
-        tail.at(u.shift - x, t);  // E[(X − x)_+^d]
         const double len = x - p.origin;
+        double da[4], db[4], dc[4];
+        bool any = false;
         for (int ch = 0; ch < 4; ++ch) {
             // Piece k re-expanded about x, subtracted from piece k+1.
-            const double da = q.a[ch] - (p.a[ch] + len * (p.b[ch] + len * p.c[ch]));
-            const double db = q.b[ch] - (p.b[ch] + 2.0 * len * p.c[ch]);
-            const double dc = q.c[ch] - p.c[ch];
-            out[ch] += da * t[0] + db * t[1] + dc * t[2];
+            da[ch] = q.a[ch] - (p.a[ch] + len * (p.b[ch] + len * p.c[ch]));
+            db[ch] = q.b[ch] - (p.b[ch] + 2.0 * len * p.c[ch]);
+            dc[ch] = q.c[ch] - p.c[ch];
+            any = any || da[ch] != 0.0 || db[ch] != 0.0 || dc[ch] != 0.0;
         }
+        if (!any) continue;
+        if (tail == nullptr) tail = new (storage) BoxSplineTail(u);
+        double t[3];
+        tail->at(u.shift - x, t);  // E[(X − x)_+^d]
+        for (int ch = 0; ch < 4; ++ch) out[ch] += da[ch] * t[0] + db[ch] * t[1] + dc[ch] * t[2];
     }
 }
 

@@ -74,6 +74,33 @@ TEST(ExpectedTfUniform, MatchesNumericalConvolution) {
     }
 }
 
+TEST(ExpectedTfUniform, BreaksWithoutChangeAreSkippedExactly) {
+    // Colour points inside a stretch where α = 0 change nothing in (α·c, α): the fast path that
+    // skips them must agree with the numerical convolution, with and without such points inside
+    // the support, for 1 … 8 terms.
+    TransferFunction1D tf;
+    tf.colorX = {0.0, 0.3, 0.45, 0.5, 1.0};
+    tf.color = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 0}, {0, 1, 1}};
+    tf.opacityX = {0.0, 0.2, 0.25, 0.6, 0.7, 1.0};
+    tf.opacity = {0.5, 0.0, 0.0, 0.0, 0.8, 0.3};
+    const TfTableStorage st(tf);
+    CounterRng rng(33, 0, 0);
+    for (int n = 1; n <= 8; ++n) {
+        for (double shift : {0.27, 0.1, 0.5}) {
+            std::vector<double> h;
+            for (int i = 0; i < n; ++i) h.push_back((0.05 + 0.3 * rng.uniform()) / n);
+            double ref[4], got[4];
+            convolutionReference(tf, shift, h, ref);
+            expectedTfUniformSum(st.table(), sumOf(shift, h), got);
+            for (int ch = 0; ch < 4; ++ch) EXPECT_NEAR(got[ch], ref[ch], 1e-4) << n << " " << ch;
+        }
+    }
+    // A support inside the α = 0 stretch: exactly zero, no tail evaluated.
+    double got[4];
+    expectedTfUniformSum(st.table(), sumOf(0.26, {0.1, 0.1, 0.1}), got);
+    for (int ch = 0; ch < 4; ++ch) EXPECT_EQ(got[ch], 0.0);
+}
+
 TEST(ExpectedTfUniform, StableForWildlyDifferentWidths) {
     // Widths from 1 down to 1e-10: the result must tend continuously to the limit in which the
     // tiny terms are point masses at their means.

@@ -62,66 +62,108 @@ UDVR_CPU_GPU inline UniformSum makeUniformSum(const double lo[8], const double h
 }
 
 /// Partial moments of a UniformSum: E[(y + Z)_+^d] for d = 0, 1, 2 with Z = X − shift.
+///
+/// Evaluated in factorial-scaled form S_k(y, d) = T_k(y, d)/d!, in which the recursion is a plain
+/// divided difference, S_k(y, d) = (S_{k−1}(y + h_k, d+1) − S_{k−1}(y, d+1)) / h_k, the closed
+/// form for y ≥ 0 is Σ_j m_j · y^{d−j}/(d−j)! with scaled moments m_j = E[Z_k^j]/j!, and the
+/// moments convolve without binomials: m_{k,j} = Σ_m m_{k−1,j−m} · h_k^m/(m+1)!. Only the orders
+/// a level can need are kept (level k is asked for d ≤ n − k + 2).
 class BoxSplineTail {
   public:
     UDVR_CPU_GPU explicit BoxSplineTail(const UniformSum& u) : u_(u) {
-        // Raw moments E[Z_k^j] of the partial sums, j ≤ n+2, by moment convolution with
-        // E[(hU)^m] = h^m/(m+1).
-        for (int a = 0; a < kMaxUniformTerms + 3; ++a)
-            for (int b = 0; b <= a; ++b)
-                binom_[a][b] = (b == 0 || b == a) ? 1.0 : binom_[a - 1][b - 1] + binom_[a - 1][b];
         prefix_[0] = 0.0;
         for (int k = 0; k < u.n; ++k) prefix_[k + 1] = prefix_[k] + u.h[k];
-        const int jmax = u.n + 2;
-        for (int j = 0; j <= jmax; ++j) moment_[0][j] = j == 0 ? 1.0 : 0.0;
+        for (int k = 0; k < u.n; ++k) invH_[k] = 1.0 / u.h[k];
+        const int jmax0 = u.n + 2;
+        for (int j = 0; j <= jmax0; ++j) moment_[0][j] = j == 0 ? 1.0 : 0.0;
         for (int k = 1; k <= u.n; ++k) {
             const double h = u.h[k - 1];
+            const int jmax = u.n - k + 2;
+            double hp[kMaxUniformTerms + 3];  // h^m/(m+1)!
+            hp[0] = 1.0;
+            for (int m = 1; m <= jmax; ++m) hp[m] = hp[m - 1] * h * kInvInt[m + 1];
             for (int j = 0; j <= jmax; ++j) {
-                double s = 0.0, hp = 1.0;  // Σ_m C(j,m) E[Z_{k−1}^{j−m}] h^m/(m+1)
-                for (int m = 0; m <= j; ++m) {
-                    s += binomial(j, m) * moment_[k - 1][j - m] * hp / (m + 1);
-                    hp *= h;
-                }
+                double s = 0.0;
+                for (int m = 0; m <= j; ++m) s += moment_[k - 1][j - m] * hp[m];
                 moment_[k][j] = s;
             }
         }
     }
     /// out[d] = E[(y + Z)_+^d], d = 0, 1, 2 (out[0] = P(Z ≥ −y)).
-    UDVR_CPU_GPU void at(double y, double out[3]) const { tail(u_.n, y, out); }
+    UDVR_CPU_GPU void at(double y, double out[3]) const {
+        switch (u_.n) {  // the level is a template argument: the recursion compiles to plain code
+            case 0:
+                tail<0>(0, y, out);
+                break;
+            case 1:
+                tail<1>(1, y, out);
+                break;
+            case 2:
+                tail<2>(2, y, out);
+                break;
+            case 3:
+                tail<3>(3, y, out);
+                break;
+            case 4:
+                tail<4>(4, y, out);
+                break;
+            case 5:
+                tail<5>(5, y, out);
+                break;
+            case 6:
+                tail<6>(6, y, out);
+                break;
+            case 7:
+                tail<7>(7, y, out);
+                break;
+            default:
+                tail<8>(8, y, out);
+                break;
+        }
+        out[2] *= 2.0;  // S → T: ×d!
+    }
 
   private:
-    // C(n, k) for n ≤ kMaxUniformTerms + 2 from Pascal's triangle, built once per sum.
-    UDVR_CPU_GPU double binomial(int n, int k) const { return binom_[n][k]; }
-    // out[i] = T_k(y, n − k + i), i = 0, 1, 2.
+    // out[i] = S_k(y, n − k + i), i = 0, 1, 2, for level k = K (K passed again as `k` for clarity).
+    template <int K>
     UDVR_CPU_GPU void tail(int k, double y, double out[3]) const {
         const int d0 = u_.n - k;
         if (y >= 0.0) {
+            // y^i/i! for i ≤ d0 + 2, then three dot products with the scaled moments.
+            double yp[kMaxUniformTerms + 3];
+            yp[0] = 1.0;
+            for (int i = 1; i <= d0 + 2; ++i) yp[i] = yp[i - 1] * y * kInvInt[i];
+            const double* m = moment_[k];
             for (int i = 0; i < 3; ++i) {
                 const int d = d0 + i;
-                double s = 0.0, yp = 1.0;  // Σ_j C(d,j) y^{d−j} E[Z^j], summed from j = d down
-                for (int j = d; j >= 0; --j) {
-                    s += binomial(d, j) * yp * moment_[k][j];
-                    yp *= y;
-                }
+                double s = 0.0;
+                for (int j = 0; j <= d; ++j) s += m[j] * yp[d - j];
                 out[i] = s;
             }
             return;
         }
-        if (y + prefix_[k] <= 0.0 || k == 0) {
+        if constexpr (K == 0) {
             out[0] = out[1] = out[2] = 0.0;
-            return;
+        } else {
+            if (y + prefix_[K] <= 0.0) {
+                out[0] = out[1] = out[2] = 0.0;
+                return;
+            }
+            double a[3], b[3];
+            tail<K - 1>(K - 1, y + u_.h[K - 1], a);
+            tail<K - 1>(K - 1, y, b);
+            const double inv = invH_[K - 1];
+            for (int i = 0; i < 3; ++i) out[i] = (a[i] - b[i]) * inv;
         }
-        const double h = u_.h[k - 1];
-        double a[3], b[3];
-        tail(k - 1, y + h, a);
-        tail(k - 1, y, b);
-        for (int i = 0; i < 3; ++i) out[i] = (a[i] - b[i]) / ((d0 + i + 1) * h);
     }
+
+    static constexpr double kInvInt[kMaxUniformTerms + 3] = {
+        0.0, 1.0, 1.0 / 2, 1.0 / 3, 1.0 / 4, 1.0 / 5, 1.0 / 6, 1.0 / 7, 1.0 / 8, 1.0 / 9, 1.0 / 10};
 
     const UniformSum& u_;
     double prefix_[kMaxUniformTerms + 1];
-    double moment_[kMaxUniformTerms + 1][kMaxUniformTerms + 3];
-    double binom_[kMaxUniformTerms + 3][kMaxUniformTerms + 3];
+    double invH_[kMaxUniformTerms];
+    double moment_[kMaxUniformTerms + 1][kMaxUniformTerms + 3];  // E[Z_k^j]/j!
 };
 
 }  // namespace udvr
