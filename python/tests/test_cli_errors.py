@@ -524,29 +524,8 @@ for _name, (_make, _mentions) in BAD_TFS.items():
             ["render", p.model, "--tf", make(t), "--size", "8", "-o", o(t, "i.png")], mentions)
     )(_make, _mentions)
 
-# Cases whose fix belongs to a file this suite's authors may not edit (see the reason).
-_CAMERA_LINE = (
-    "cmd_render.cpp prints its 'render: camera …' line on stderr before the render settings are "
-    "validated and before the outputs are written, so the error is the second stderr line"
-)
-XFAIL = {
-    "render/step-negative": _CAMERA_LINE,
-    "render/unit-distance-negative": _CAMERA_LINE,
-    "render/early-exit-2": _CAMERA_LINE,
-    "render/realizations-0": _CAMERA_LINE,
-    "render/background-out-of-range": _CAMERA_LINE,
-    "render/model-without-quantiles": _CAMERA_LINE,
-    "render/missing-output-dir": _CAMERA_LINE,
-    "render/float-missing-dir": _CAMERA_LINE,
-    "render/png-missing-dir-after-float": (
-        _CAMERA_LINE + "; also cmd_render.cpp writes --float before it finds that -o cannot be "
-        "written, leaving the .npy behind (check both output folders before rendering)"
-    ),
-    "experiment/missing-tf-dir": (
-        "eval/experiments.cpp creates DIR/images before it looks for the transfer functions, "
-        "so a failed experiment leaves empty folders behind"
-    ),
-}
+# Cases known to fail, name -> reason; strict xfails so a fix is noticed.
+XFAIL = {}  # cases known to fail: name -> reason (none at present)
 
 
 def _params():

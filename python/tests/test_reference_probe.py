@@ -124,8 +124,6 @@ def test_probe_uniform_minmax_matches_reference(tmp_path):
         assert np.abs(got - want).max() <= TOL, (p, got, want)
 
 
-@pytest.mark.xfail(strict=True, reason="probe calls the variance-matched width 'std', render "
-                   "calls it 'variance'; each rejects the other's name (src/udvr/cmd, not ours)")
 def test_probe_and_render_accept_the_same_uniform_width_names(tmp_path):
     rng = np.random.default_rng(16)
     arrays = refcase.random_model_arrays(rng, [3, 3, 3])

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/parse_util.h"
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/model_io.h"
@@ -37,6 +38,7 @@ void addBuildCommand(CLI::App& app) {
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
         CLI::Option* tailEpsOpt = nullptr;
+        RawLayoutFlags raw;  // headerless .raw inputs
     };
     auto o = std::make_shared<Opts>();
     sub->add_option("inputs", o->inputs,
@@ -57,6 +59,7 @@ void addBuildCommand(CLI::App& app) {
     sub->add_option("--var", o->var, "variable/array to read");
     sub->add_option("--member-dim", o->memberDim, "NetCDF member dimension name");
     sub->add_option("-o,--output", o->out, "output model .vti")->required();
+    addRawLayoutOptions(sub, o->raw);
 
     sub->callback([o] {
         BuildOptions opt;
@@ -74,6 +77,7 @@ void addBuildCommand(CLI::App& app) {
         for (const std::string& in : o->inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
         if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
 
+        requireOutputDirectory(o->out, "-o");
         auto t0 = std::chrono::steady_clock::now();
         ModelVolume model;
         BuildReport rep;
@@ -84,6 +88,7 @@ void addBuildCommand(CLI::App& app) {
                 UDVR_FAIL("--downsample takes one field, got " << o->inputs.size() << " inputs");
             FieldReadOptions ro;
             ro.var = o->var;
+            ro.raw = toRawLayout(o->raw);
             const ScalarField f = readField(o->inputs[0], ro);
             readSeconds = secondsSince(t0);
             const Grid3 reduced = downsampledGrid(f.grid, o->downsample);
@@ -104,6 +109,7 @@ void addBuildCommand(CLI::App& app) {
             EnsembleReadOptions ro;
             ro.var = o->var;
             ro.memberDim = o->memberDim;
+            ro.raw = toRawLayout(o->raw);
             const Ensemble e = readEnsemble(o->inputs, ro);
             readSeconds = secondsSince(t0);
             validateBuildOptions(opt, e.members);  // before the bar is drawn

@@ -18,9 +18,11 @@ void addPerturbCommand(CLI::App& app) {
         std::string input, out, noise = "bimodal", var;
         int members = 50;
         NoiseParams p;
+        RawLayoutFlags raw;  // headerless .raw input
     };
     auto o = std::make_shared<Opts>();
-    sub->add_option("field", o->input, "input field (.vti .nc .nrrd .nhdr)")->required();
+    sub->add_option("field", o->input, "input field (.vti .nc .nrrd .nhdr, or .raw with --dims)")
+        ->required();
     sub->add_option("--members", o->members, "ensemble size (>= 2, default 50)");
     sub->add_option("--noise", o->noise, "bimodal | gaussian | uniform (default bimodal)");
     sub->add_option("--seed", o->p.seed, "random seed (default 1)")
@@ -37,10 +39,13 @@ void addPerturbCommand(CLI::App& app) {
                     "bimodal: outlier mode std, fraction of range (default 0.04)");
     sub->add_option("--var", o->var, "variable/array of the input to read");
     sub->add_option("-o,--output", o->out, "output ensemble .nc")->required();
+    addRawLayoutOptions(sub, o->raw);
     sub->callback([o] {
         o->p.kind = parseNoiseKind(o->noise);
+        requireOutputDirectory(o->out, "-o");
         FieldReadOptions ro;
         ro.var = o->var;
+        ro.raw = toRawLayout(o->raw);
         ScalarField f = readField(o->input, ro);
         Ensemble e = perturbField(f, o->members, o->p);
         writeEnsembleNetcdf(o->out, e);

@@ -18,7 +18,7 @@ void addProbeCommand(CLI::App& app) {
     auto* sub = app.add_subcommand(
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
-        std::string model, point, kind, tf, plot, uniformWidth = "std";
+        std::string model, point, kind, tf, plot, uniformWidth = "variance";
         bool json = false;
     };
     auto o = std::make_shared<Opts>();
@@ -32,15 +32,12 @@ void addProbeCommand(CLI::App& app) {
     sub->add_flag("--json", o->json, "print one JSON object");
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
     sub->add_option("--uniform-width", o->uniformWidth,
-                    "uniform model: std (mu +- sqrt(3) sigma, default) or minmax");
+                    "uniform model: variance (alias std; mu +- sqrt(3) sigma, default) or minmax");
     sub->callback([o] {
         const ModelKind kind = parseModelKind(o->kind);
         const auto p = parseVec3(o->point, "--point");
         ClassifyOptions options;
-        if (o->uniformWidth == "minmax")
-            options.uniformMinMax = true;
-        else if (o->uniformWidth != "std")
-            UDVR_FAIL("--uniform-width must be 'std' or 'minmax', got '" << o->uniformWidth << "'");
+        options.uniformMinMax = parseUniformWidthMinMax(o->uniformWidth);
         if (!o->plot.empty()) {
             const std::string& plot = o->plot;
             const bool png = plot.size() > 4 && (plot.compare(plot.size() - 4, 4, ".png") == 0 ||

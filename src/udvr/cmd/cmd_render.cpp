@@ -31,9 +31,8 @@ struct RenderOpts {
     bool noSkip = false;
     int realizations = 200, frames = 0;
     std::uint64_t seed = 1, jitter = 0;
-    // Raw field layout (as `build`).
-    std::string dims, type = "float32", spacing, origin, var;
-    bool bigEndian = false;
+    RawLayoutFlags raw;  // headerless .raw input
+    std::string var;
 };
 
 std::string lowerExtension(const std::string& path) {
@@ -48,17 +47,7 @@ std::string lowerExtension(const std::string& path) {
 ModelVolume loadVolume(const RenderOpts& o) {
     FieldReadOptions fo;
     fo.var = o.var;
-    if (!o.dims.empty()) {
-        fo.raw.dims = parseDims(o.dims, "--dims");
-        fo.raw.type = o.type;
-        fo.raw.bigEndian = o.bigEndian;
-        if (!o.spacing.empty()) {
-            const auto s = parseDoubleList(o.spacing, "--spacing");
-            if (s.size() != 1 && s.size() != 3) UDVR_FAIL("--spacing expects S or SX,SY,SZ");
-            for (int a = 0; a < 3; ++a) fo.raw.spacing[a] = s[s.size() == 1 ? 0 : a];
-        }
-        if (!o.origin.empty()) fo.raw.origin = parseVec3(o.origin, "--origin");
-    }
+    fo.raw = toRawLayout(o.raw);
     if (lowerExtension(o.input) == ".vti" && o.var.empty()) {
         std::string modelError;
         try {
@@ -114,7 +103,9 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
         const std::string e = lowerExtension(o.floatOut);
         if (e != ".npy" && e != ".pfm")
             UDVR_FAIL("--float must name a .npy or .pfm file, got '" << o.floatOut << "'");
+        requireOutputDirectory(o.floatOut, "--float");
     }
+    requireOutputDirectory(o.out, "-o");
     const ModelKind kind = parseModelKind(o.model);
     const TransferFunction1D tf = readTransferFunction(o.tf);
     const ModelVolume model = loadVolume(o);
@@ -132,21 +123,10 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
         for (int c = 0; c < 3; ++c) s.background[c] = static_cast<float>(bg[c]);
     }
     s.skipEmpty = !o.noSkip;
-    if (o.uniformWidth != "variance" && o.uniformWidth != "minmax")
-        UDVR_FAIL("--uniform-width must be 'variance' or 'minmax', got '" << o.uniformWidth << "'");
-    s.uniformMinMax = o.uniformWidth == "minmax";
+    s.uniformMinMax = parseUniformWidthMinMax(o.uniformWidth);
     s.realizations = o.realizations;
     s.seed = o.seed;
     if (jitterGiven) s.jitterSeed = o.jitter;
-
-    const auto& cam = s.camera;
-    std::fprintf(stderr,
-                 "render: camera pos %.6g %.6g %.6g  focal %.6g %.6g %.6g  up %.6g %.6g %.6g  %s "
-                 "%.6g\n",
-                 cam.position[0], cam.position[1], cam.position[2], cam.focalPoint[0],
-                 cam.focalPoint[1], cam.focalPoint[2], cam.viewUp[0], cam.viewUp[1], cam.viewUp[2],
-                 cam.parallel ? "parallel-scale" : "view-angle",
-                 cam.parallel ? cam.parallelScale : cam.viewAngleDeg);
 
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
@@ -175,6 +155,15 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
     }
     if (!o.floatOut.empty()) writeFloatImage(o.floatOut, image);
     writePng(o.out, image);
+    const auto& cam = s.camera;
+    std::fprintf(stderr,
+                 "render: camera pos %.6g %.6g %.6g  focal %.6g %.6g %.6g  up %.6g %.6g %.6g  %s "
+                 "%.6g\n",
+                 cam.position[0], cam.position[1], cam.position[2], cam.focalPoint[0],
+                 cam.focalPoint[1], cam.focalPoint[2], cam.viewUp[0], cam.viewUp[1], cam.viewUp[2],
+                 cam.parallel ? "parallel-scale" : "view-angle",
+                 cam.parallel ? cam.parallelScale : cam.viewAngleDeg);
+
     std::fprintf(stderr, "render: %s %dx%d in %.1f ms, %llu samples (%llu skipped) -> %s\n",
                  std::string(modelName(kind)).c_str(), s.width, s.height, stats.milliseconds,
                  static_cast<unsigned long long>(stats.samples),
@@ -222,11 +211,7 @@ void addRenderCommand(CLI::App& app) {
     auto* jit = sub->add_option("--jitter", o->jitter, "jitter ray starts with this seed");
     sub->add_option("--frames", o->frames,
                     "time N frames after one warm-up; print median/min ms and frames/s");
-    sub->add_option("--dims", o->dims, "raw input: X,Y,Z (or N)");
-    sub->add_option("--type", o->type, "raw input: value type (default float32)");
-    sub->add_flag("--big-endian", o->bigEndian, "raw input: big-endian values");
-    sub->add_option("--spacing", o->spacing, "raw input: spacing S or SX,SY,SZ (default 1)");
-    sub->add_option("--origin", o->origin, "raw input: origin x,y,z (default 0,0,0)");
+    addRawLayoutOptions(sub, o->raw);
     sub->add_option("--var", o->var, "array/variable name in the input");
     sub->callback([o, jit, ps] { run(*o, jit->count() > 0, ps->count() > 0); });
 }

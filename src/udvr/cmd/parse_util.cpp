@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 
 #include "udvr/util/check.h"
 
@@ -91,6 +92,53 @@ std::vector<double> parseDoubleList(const std::string& text, const std::string& 
     std::vector<double> out;
     for (const auto& p : split(text, ',')) out.push_back(toDouble(p, flag));
     return out;
+}
+
+void addRawLayoutOptions(CLI::App* sub, RawLayoutFlags& flags) {
+    sub->add_option("--dims", flags.dims, "raw input: X,Y,Z (or N)");
+    sub->add_option("--type", flags.type,
+                    "raw input: uint8 int8 uint16 int16 uint32 int32 float32 float64 "
+                    "(default float32)");
+    sub->add_flag("--big-endian", flags.bigEndian, "raw input: big-endian values");
+    sub->add_option("--spacing", flags.spacing, "raw input: spacing S or SX,SY,SZ (default 1)");
+    sub->add_option("--origin", flags.origin, "raw input: origin x,y,z (default 0,0,0)");
+}
+
+RawLayout toRawLayout(const RawLayoutFlags& flags) {
+    RawLayout raw;
+    if (flags.dims.empty()) {
+        if (!flags.spacing.empty() || !flags.origin.empty() || flags.bigEndian)
+            UDVR_FAIL("--spacing/--origin/--big-endian describe a raw file and need --dims");
+        return raw;
+    }
+    raw.dims = parseDims(flags.dims, "--dims");
+    raw.type = flags.type;
+    raw.bigEndian = flags.bigEndian;
+    if (!flags.spacing.empty()) {
+        const auto s = parseDoubleList(flags.spacing, "--spacing");
+        if (s.size() != 1 && s.size() != 3)
+            UDVR_FAIL("--spacing expects S or SX,SY,SZ, got '" << flags.spacing << "'");
+        for (std::size_t a = 0; a < 3; ++a) {
+            raw.spacing[a] = s[s.size() == 1 ? 0 : a];
+            if (!(raw.spacing[a] > 0))
+                UDVR_FAIL("--spacing must be positive, got '" << flags.spacing << "'");
+        }
+    }
+    if (!flags.origin.empty()) raw.origin = parseVec3(flags.origin, "--origin");
+    return raw;
+}
+
+bool parseUniformWidthMinMax(const std::string& text) {
+    if (text == "variance" || text == "std") return false;
+    if (text == "minmax") return true;
+    UDVR_FAIL("--uniform-width must be 'variance' (or 'std') or 'minmax', got '" << text << "'");
+}
+
+void requireOutputDirectory(const std::string& path, const std::string& flag) {
+    const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    if (!dir.empty() && !std::filesystem::is_directory(dir))
+        UDVR_FAIL(flag << ": cannot write " << path << ": directory " << dir.string()
+                       << " does not exist");
 }
 
 }  // namespace udvr::cmd

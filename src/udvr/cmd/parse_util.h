@@ -5,7 +5,26 @@
 #include <string>
 #include <vector>
 
+#include "udvr/io/field_io.h"
+
 namespace udvr::cmd {
+
+/// Raw-file layout flags as typed (--dims --type --big-endian --spacing --origin).
+struct RawLayoutFlags {
+    std::string dims, type = "float32", spacing, origin;
+    bool bigEndian = false;
+};
+/// Register the raw-layout flags on a subcommand (for headerless .raw inputs).
+void addRawLayoutOptions(CLI::App* sub, RawLayoutFlags& flags);
+/// The RawLayout the flags describe (not given() when --dims is absent).
+RawLayout toRawLayout(const RawLayoutFlags& flags);
+
+/// --uniform-width: "variance" (alias "std"; μ ± √3σ, the default) → false, "minmax" → true.
+bool parseUniformWidthMinMax(const std::string& text);
+
+/// Fail unless the folder that will hold `path` exists (checked before long work starts, so a
+/// bad output path costs nothing and leaves nothing behind).
+void requireOutputDirectory(const std::string& path, const std::string& flag);
 
 /// A CLI11 check: a whole number in [lo, hi]. CLI11's own Range prints the bounds as doubles
 /// and accepts "-1" for unsigned options (strtoull wraps it), so counts and seeds use this.

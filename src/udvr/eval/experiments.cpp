@@ -164,6 +164,11 @@ class Run {
         : options_(options), sizes_(std::move(sizes)), t0_(Clock::now()) {
         result_.name = std::move(name);
         result_.dir = std::move(dir);
+        // Inputs are checked before anything is created, so a failed run leaves no folders.
+        const fs::path tfDir = options_.tfDir.empty() ? locateTfDir() : options_.tfDir;
+        if (!fs::is_directory(tfDir))
+            UDVR_FAIL("transfer-function folder " << tfDir.string()
+                                                  << " not found (use --tf-dir or UDVR_TF_DIR)");
         std::error_code ec;
         fs::create_directories(result_.dir / "images", ec);
         if (ec)
