@@ -167,11 +167,13 @@ TEST(Gmm, AgreesWithAPlainDoublePrecisionEm) {
         if (worst < 1e-3) ++closeParams;
     }
     // EM is chaotic where it converges slowly (flat likelihood ridges, the 100-iteration cap):
-    // rounding differences move the stopping point there. Measured: 383/400 within one
-    // iteration, 364/400 with every parameter within 1e−3 (data range ~14), log-likelihood
-    // per sample at most 6.4e−5 below the reference's.
-    EXPECT_GE(sameIterations, 360);
-    EXPECT_GE(closeParams, 340);
+    // rounding differences move the stopping point there. Measured: 395/400 within one
+    // iteration, 381/400 with every parameter within 1e−3 (data range ~14), log-likelihood per
+    // sample at most 4.7e−5 below the reference's (the previous float-log implementation:
+    // 398, 389, 4.5e−5).
+    EXPECT_GE(sameIterations, 380);
+    EXPECT_GE(closeParams, 360);
+    EXPECT_LT(worstLlDeficit, 1e-3);
     EXPECT_LT(worstLlDeficit, 1e-3);
 }
 
