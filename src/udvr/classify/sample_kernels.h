@@ -45,6 +45,29 @@ UDVR_CPU_GPU inline Rgba toRgba(const double v[4]) {
     return Rgba{static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]),
                 static_cast<float>(v[3])};
 }
+
+/// b_j(p) = Σ_c w_c b_{j,c} for the N boundaries j = j0 … j0+N−1 into out[0 … N−1]:
+/// corner-major, so the inner loop runs over a voxel's contiguous boundaries (vectorised, N a
+/// compile-time constant). Per j the sum runs over the corners in the same order and arithmetic
+/// as interpolateBoundary, so the values are identical.
+template <int N>
+UDVR_CPU_GPU inline void interpolateBoundaryRun(const TrilinearCell& cell, const float* data,
+                                                std::size_t stride, int j0, double (&out)[N]) {
+    for (int j = 0; j < N; ++j) out[j] = 0.0;
+    for (int c = 0; c < 8; ++c) {
+        const double w = static_cast<double>(cell.weight[c]);
+        const float* b = data + cell.corner[c] * stride + static_cast<std::size_t>(j0);
+        for (int j = 0; j < N; ++j) out[j] += w * static_cast<double>(b[j]);
+    }
+}
+
+/// pieceOf(x) for a non-decreasing sequence of x, walking up from the previous piece k (exact:
+/// the same piece as TfTable::pieceOf; NaN or a decrease falls back to it).
+UDVR_CPU_GPU inline int nextPiece(const TfTable& tf, int k, double xPrev, double x) {
+    if (!(x >= xPrev)) return tf.pieceOf(x);
+    while (k < tf.breakCount && x >= tf.breaks[k]) ++k;
+    return k;
+}
 }  // namespace detail
 
 /// Mean field: TF(Σ w_c μ_c), exact TF evaluation through the piece table (O(1)).
@@ -168,10 +191,44 @@ struct QuantileRangeKernel {
 
     UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
         const TrilinearCell cell = trilinearCell(dims, x, y, z);
+        switch (j1 - j0) {  // the common populations get a fixed-size vectorised path
+            case 1:
+                return fixed<2>(cell);
+            case 2:
+                return fixed<3>(cell);
+            case 4:
+                return fixed<5>(cell);
+            case 8:
+                return fixed<9>(cell);
+            case 16:
+                return fixed<17>(cell);
+            default:
+                break;
+        }
         const std::size_t s = static_cast<std::size_t>(stride);
         auto boundary = [&](int j) { return interpolateBoundary(cell, boundaries, s, j); };
         double v[4];
         expectedTfQuantileRange(tf, boundary, j0, j1, v);
+        return detail::toRgba(v);
+    }
+    /// expectedTfQuantileRange for N = j1 − j0 + 1 boundaries, interpolated in one vectorised
+    /// pass, with the pieces found by walking up (boundaries are non-decreasing): same values.
+    template <int N>
+    UDVR_CPU_GPU Rgba fixed(const TrilinearCell& cell) const {
+        double b[N];
+        detail::interpolateBoundaryRun<N>(cell, boundaries, static_cast<std::size_t>(stride), j0,
+                                          b);
+        double v[4] = {0, 0, 0, 0};
+        int kPrev = tf.pieceOf(b[0]);
+        for (int j = 1; j < N; ++j) {
+            const int k = detail::nextPiece(tf, kPrev, b[j - 1], b[j]);
+            double m[4];
+            tf.meanOver(b[j - 1], b[j], kPrev, k, m);
+            for (int ch = 0; ch < 4; ++ch) v[ch] += m[ch];
+            kPrev = k;
+        }
+        const double inv = 1.0 / (N - 1);
+        for (int ch = 0; ch < 4; ++ch) v[ch] *= inv;
         return detail::toRgba(v);
     }
     UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
@@ -193,10 +250,57 @@ struct QuantileMeanKernel {
 
     UDVR_CPU_GPU Rgba classifyAt(float x, float y, float z) const {
         const TrilinearCell cell = trilinearCell(dims, x, y, z);
+        switch (q) {  // the common q get a fixed-size vectorised path
+            case 2:
+                return fixed<3>(cell);
+            case 4:
+                return fixed<5>(cell);
+            case 8:
+                return fixed<9>(cell);
+            case 16:
+                return fixed<17>(cell);
+            default:
+                break;
+        }
         const std::size_t s = static_cast<std::size_t>(q) + 1;
         auto boundary = [&](int j) { return interpolateBoundary(cell, quantiles, s, j); };
         double v[4];
         expectedTfQuantileMean(tf, boundary, q, densityWeights, zeroWidth, v);
+        return detail::toRgba(v);
+    }
+    /// expectedTfQuantileMean for N = q + 1 boundaries interpolated in one vectorised pass, the
+    /// midpoints' pieces found by walking up (midpoints are non-decreasing): the same operations
+    /// per quantile in the same order, so the same values.
+    template <int N>
+    UDVR_CPU_GPU Rgba fixed(const TrilinearCell& cell) const {
+        double b[N];
+        detail::interpolateBoundaryRun<N>(cell, quantiles, N, 0, b);
+        // Widths, midpoints and weights of all quantiles first (vectorised divisions).
+        double w[N - 1], mid[N - 1], weight[N - 1];
+        for (int j = 0; j < N - 1; ++j) {
+            w[j] = b[j + 1] - b[j];
+            mid[j] = 0.5 * (b[j] + b[j + 1]);
+            weight[j] = densityWeights ? 1.0 / w[j] : 1.0;  // 1/q cancels
+        }
+        double sum[4] = {0, 0, 0, 0}, zeroSum[4] = {0, 0, 0, 0};
+        double wsum = 0.0;
+        int zeroCount = 0;
+        int k = tf.pieceOf(mid[0]);
+        for (int j = 0; j < N - 1; ++j) {
+            if (j > 0) k = detail::nextPiece(tf, k, mid[j - 1], mid[j]);
+            double e[4];
+            tf.evalPiece(k, mid[j], e);
+            if (densityWeights && w[j] <= zeroWidth) {
+                ++zeroCount;
+                for (int ch = 0; ch < 4; ++ch) zeroSum[ch] += e[ch];
+            } else {
+                for (int ch = 0; ch < 4; ++ch) sum[ch] += weight[j] * e[ch];
+                wsum += weight[j];
+            }
+        }
+        double v[4];
+        for (int ch = 0; ch < 4; ++ch)
+            v[ch] = zeroCount > 0 ? zeroSum[ch] / zeroCount : sum[ch] / wsum;
         return detail::toRgba(v);
     }
     UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {

@@ -350,5 +350,41 @@ TEST(Kernels, VoxelSupportHoldsTheMass) {
     }
 }
 
+TEST(Kernels, FixedSizeQuantilePathsEqualTheGenericExpectations) {
+    // The vectorised q = 2, 4, 8, 16 paths (and iqr) must give exactly the generic
+    // expectedTfQuantile* results over interpolateBoundary.
+    for (int q : {2, 4, 8, 16}) {
+        const Case c = makeCase(static_cast<std::uint64_t>(100 + q), q);
+        const TfTableStorage table(c.tf);
+        const int dims[3] = {c.model.grid.dims[0], c.model.grid.dims[1], c.model.grid.dims[2]};
+        const auto span = modelDataRange(c.model);
+        CounterRng rng(7, static_cast<std::uint64_t>(q), 0);
+        for (int i = 0; i < 200; ++i) {
+            const float x = static_cast<float>(rng.uniform() * 2.2 - 0.1);
+            const float y = static_cast<float>(rng.uniform() * 2.2 - 0.1);
+            const float z = static_cast<float>(rng.uniform() * 1.2 - 0.1);
+            const TrilinearCell cell = trilinearCell(dims, x, y, z);
+            const std::size_t s = static_cast<std::size_t>(q) + 1;
+            auto boundary = [&](int j) {
+                return interpolateBoundary(cell, c.model.quantiles.data(), s, j);
+            };
+            double want[4];
+            for (bool density : {true, false}) {
+                expectedTfQuantileMean(table.table(), boundary, q, density,
+                                       kQuantileZeroWidth * (span.second - span.first), want);
+                const Rgba got = classify(
+                    c.model, density ? ModelKind::QuantileMean : ModelKind::QuantileMeanMass, c.tf,
+                    x, y, z);
+                EXPECT_EQ(got.a, static_cast<float>(want[3])) << q;
+                EXPECT_EQ(got.r, static_cast<float>(want[0])) << q;
+            }
+            expectedTfQuantileRange(table.table(), boundary, 0, q, want);
+            const Rgba got = classify(c.model, ModelKind::QuantileRange, c.tf, x, y, z);
+            EXPECT_EQ(got.a, static_cast<float>(want[3])) << q;
+            EXPECT_EQ(got.b, static_cast<float>(want[2])) << q;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace udvr
