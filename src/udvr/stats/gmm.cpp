@@ -236,11 +236,13 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
         // different iteration than a double-precision reference noticeably more often.
         std::array<VF, KA> a, b, m;
         for (int k = 0; k < K; ++k) {
-            const VD la = detail::logPositiveD(pi[k] > 0.0 ? pi[k] : splat<VD>(1.0)) -
-                          0.5 * detail::logPositiveD(var[k]);
-            a[k] = __builtin_convertvector(la, VF);
+            // One log and one division per component: a = ½·log(π²/σ²), b = −½·(1/σ²).
+            const VD invVar = 1.0 / var[k];
+            const VD ratio = pi[k] * pi[k] * invVar;
+            a[k] = __builtin_convertvector(
+                0.5 * detail::logPositiveD(ratio > 0.0 ? ratio : splat<VD>(1.0)), VF);
             a[k] = __builtin_convertvector(pi[k], VF) > 0.f ? a[k] : negInf;  // dead stays dead
-            b[k] = __builtin_convertvector(-0.5 / var[k], VF);
+            b[k] = __builtin_convertvector(-0.5 * invVar, VF);
             m[k] = __builtin_convertvector(mu[k], VF);
         }
         std::array<VD, KA> nkD{}, s1D{}, s2D{};
