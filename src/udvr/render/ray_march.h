@@ -14,7 +14,6 @@
 #include "udvr/classify/transfer_function.h"
 #include "udvr/io/image.h"
 #include "udvr/render/camera.h"
-#include "udvr/render/fast_pow.h"
 #include "udvr/render/fast_tf.h"
 #include "udvr/render/render.h"
 #include "udvr/util/grid.h"
@@ -216,8 +215,7 @@ struct MarchCounters {
 };
 
 /// α' = 1 − (1 − α)^(Δ/u) (SPEC §5 opacity correction), with the common exponents exact and
-/// cheap: 1 (Δ = u) and ½ (the default Δ = spacing/2, u = spacing); any other exponent goes
-/// through fastPowUnit (relative error < 1e−8, a third of powf's cost).
+/// cheap: 1 (Δ = u) and ½ (the default Δ = spacing/2, u = spacing).
 struct OpacityCorrection {
     enum Mode { kIdentity, kHalf, kGeneral } mode = kGeneral;
     float exponent = 1.f;
@@ -228,7 +226,7 @@ struct OpacityCorrection {
         if (mode == kIdentity) return a;
         const float t = 1.f - a;
         if (mode == kHalf) return 1.f - std::sqrt(t);
-        return 1.f - fastPowUnit(t, exponent);
+        return 1.f - std::pow(t, exponent);
     }
 };
 

@@ -8,7 +8,6 @@
 
 #include "udvr/data/synthetic.h"
 #include "udvr/render/camera.h"
-#include "udvr/render/fast_pow.h"
 #include "udvr/render/fast_tf.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/parallel.h"
@@ -465,26 +464,3 @@ TEST(FastTransferFunction, MatchesTheReferenceEvaluator) {
 
 }  // namespace
 }  // namespace udvr
-
-TEST(FastPow, MatchesStdPowOnTheUnitInterval) {
-    // Every exponent the opacity correction can see (Δ/u from 1e−3 to 64) on α ∈ [0, 1],
-    // including the float grid near 0 and 1 (t = 1 − α is a multiple of 2^−24).
-    const float exps[] = {0.001f, 0.1234568f, 0.25f, 0.3333333f, 0.75f, 1.5f, 3.f, 17.f, 64.f};
-    for (float e : exps) {
-        double worst = 0;
-        for (int i = 0; i <= 200000; ++i) {
-            float t = static_cast<float>(i) / 200000.f;
-            if (i < 100) t = static_cast<float>(i) * 0x1p-24f;
-            if (i > 199900) t = 1.f - static_cast<float>(200000 - i) * 0x1p-24f;
-            const double ref = std::pow(static_cast<double>(t), static_cast<double>(e));
-            const double got = udvr::detail::fastPowUnit(t, e);
-            if (ref > 1e-30)
-                worst = std::max(worst, std::abs(got - ref) / ref);
-            else
-                EXPECT_LE(got, 1e-30);
-        }
-        EXPECT_LT(worst, 2e-7) << "exponent " << e;  // float rounding of the result (6e−8)
-    }
-    EXPECT_EQ(udvr::detail::fastPowUnit(0.f, 0.5f), 0.f);
-    EXPECT_EQ(udvr::detail::fastPowUnit(1.f, 0.3f), 1.f);
-}
