@@ -29,9 +29,9 @@ struct Component {
 };
 
 /// A voxel's samples in standardised units: x' = (x − mean)·invScale with scale a power of two
-/// ≥ the sample range, so x' ∈ [−1, 1], the scaling is exact, and every σ' lies between
-/// floor·invScale (≥ 2^−12·1e−3 relative to the global range... in practice ≥ 5e−4) and 1:
-/// float arithmetic has the same relative accuracy whatever the data's units.
+/// in (range, 2·range], so x' ∈ (−1, 1), the scaling is exact, and every σ' lies between
+/// floor·invScale ≥ 1e−3·(global range)/(2·voxel range) ≥ 5e−4 and 1: float arithmetic has the
+/// same relative accuracy whatever the data's units.
 struct Standardise {
     double mean, scale, invScale;
 };
