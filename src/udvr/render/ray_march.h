@@ -218,19 +218,71 @@ struct MarchCounters {
     std::atomic<std::uint64_t> skipped{0};
 };
 
-/// α' = 1 − (1 − α)^(Δ/u) (SPEC §5 opacity correction), with the common exponents exact and
-/// cheap: 1 (Δ = u) and ½ (the default Δ = spacing/2, u = spacing).
+/// α' = 1 − (1 − α)^(Δ/u) (SPEC §5 opacity correction) and the colour scale α'/α, with the
+/// common exponents exact and cheap: 1 (Δ = u) and ½ (the default Δ = spacing/2, u = spacing).
+/// Other exponents use a table over α of g(α) = α' and h(α) = α'/α with linear interpolation
+/// (VTK bakes the correction into its TF table the same way), built per frame: every interval
+/// whose interpolation error (checked at three interior points in double, times 2) could exceed
+/// kTableError falls back to powf; that happens only near α = 1, where (1 − α)^e is steep.
 struct OpacityCorrection {
     enum Mode { kIdentity, kHalf, kGeneral } mode = kGeneral;
     float exponent = 1.f;
+    static constexpr int kEntries = 4096;
+    static constexpr double kTableError = 1e-6;
+    struct Entry {
+        float g0, dg, h0, dh;  // g = g0 + dg·f, h = h0 + dh·f on [i/N, (i+1)/N]; NaN g0: exact
+    };
+    std::vector<Entry> table;
+
     explicit OpacityCorrection(float e) : exponent(e) {
         mode = e == 1.f ? kIdentity : (e == 0.5f ? kHalf : kGeneral);
+        if (mode != kGeneral) return;
+        const double ed = e;
+        const auto g = [&](double a) { return 1.0 - std::pow(1.0 - a, ed); };
+        const auto h = [&](double a) { return a > 0.0 ? g(a) / a : ed; };  // h(0) = e
+        table.resize(kEntries);
+        for (int i = 0; i < kEntries; ++i) {
+            const double a0 = static_cast<double>(i) / kEntries,
+                         a1 = static_cast<double>(i + 1) / kEntries;
+            Entry& en = table[static_cast<std::size_t>(i)];
+            const double g0 = g(a0), g1 = g(a1), h0 = h(a0), h1 = h(a1);
+            double err = 0.0;
+            for (double t : {0.25, 0.5, 0.75}) {
+                const double a = a0 + t * (a1 - a0);
+                err = std::max(err, std::abs(g0 + t * (g1 - g0) - g(a)));
+                err = std::max(err, std::abs(h0 + t * (h1 - h0) - h(a)));
+            }
+            if (!(2.0 * err <= kTableError)) {
+                en = Entry{std::numeric_limits<float>::quiet_NaN(), 0.f, 0.f, 0.f};
+                continue;
+            }
+            en = Entry{static_cast<float>(g0), static_cast<float>(g1 - g0), static_cast<float>(h0),
+                       static_cast<float>(h1 - h0)};
+        }
     }
-    float operator()(float a) const {
-        if (mode == kIdentity) return a;
-        const float t = 1.f - a;
-        if (mode == kHalf) return 1.f - std::sqrt(t);
-        return 1.f - std::pow(t, exponent);
+    /// α' and α'/α for an expected opacity a ∈ (0, 1].
+    void operator()(float a, float& alpha, float& scale) const {
+        if (mode == kIdentity) {
+            alpha = a;
+            scale = 1.f;
+            return;
+        }
+        if (mode == kHalf) {
+            alpha = 1.f - std::sqrt(1.f - a);
+            scale = alpha / a;
+            return;
+        }
+        const float u = a * static_cast<float>(kEntries);
+        const int i = std::min(static_cast<int>(u), kEntries - 1);
+        const Entry& en = table[static_cast<std::size_t>(i)];
+        if (en.g0 == en.g0) {
+            const float f = u - static_cast<float>(i);
+            alpha = en.g0 + f * en.dg;
+            scale = en.h0 + f * en.dh;
+            return;
+        }
+        alpha = 1.f - std::pow(1.f - a, exponent);
+        scale = alpha / a;
     }
 };
 
@@ -358,13 +410,26 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const MarchParams
                                             continue;
                                         }
                                     }
-                                    const Rgba c = kernel.classifyAt(
-                                        a[0] + sf * b[0], a[1] + sf * b[1], a[2] + sf * b[2]);
+                                    Rgba c;
+                                    if constexpr (std::is_same_v<Kernel, FastMeanKernel>) {
+                                        // The mean kernel tests the cell itself (valueAt).
+                                        const float v = kernel.valueAt(
+                                            a[0] + sf * b[0], a[1] + sf * b[1], a[2] + sf * b[2]);
+                                        if (v == FastMeanKernel::kEmptyCell) {
+                                            ++nSkipped;
+                                            continue;
+                                        }
+                                        c = kernel.tf->classify(v);
+                                    } else {
+                                        c = kernel.classifyAt(a[0] + sf * b[0], a[1] + sf * b[1],
+                                                              a[2] + sf * b[2]);
+                                    }
                                     ++nSamples;
                                     if (!(c.a > 0.f)) continue;  // E[α] = 0 contributes nothing
                                     const float ea = std::min(c.a, 1.f);
-                                    const float alpha = correct(ea);
-                                    const float w = (1.f - accA) * (alpha / ea);
+                                    float alpha, scale;
+                                    correct(ea, alpha, scale);
+                                    const float w = (1.f - accA) * scale;
                                     accR += w * c.r;
                                     accG += w * c.g;
                                     accB += w * c.b;
