@@ -88,24 +88,23 @@ struct FastMeanKernel {
         const float c1 = c01 + fy * (c11 - c01);
         return c0 + fz * (c1 - c0);
     }
-    /// Samples per batch of valuesAt: one AVX-512 register of floats.
+    /// Samples per batch of cellsAt/blend: one AVX-512 register of floats.
     static constexpr int kBatch = 16;
-    /// Whether every voxel index fits an int (valuesAt's 32-bit gathers); else valueAt per sample.
+    /// Whether every voxel index fits an int (the batched loops' 32-bit indices); else valueAt per
+    /// sample.
     bool batchable = false;
     int stride32[3] = {0, 0, 0};
     int next32[3] = {0, 0, 0};
 
-    /// valueAt's blend (without the empty-cell test) for the kBatch samples at a + (s0 + i)·b,
-    /// i < kBatch, and each sample's cell base voxel: one loop the compiler vectorises (gathers
-    /// for the corners). Samples past the end of a run are computed too; they clamp into the grid,
-    /// so every load is in range. The same operations per sample as valueAt, so the same values.
-    void valuesAt(const float a[3], const float b[3], int s0, float* value, int* base) const {
+    /// valueAt's cell and weights for the kBatch samples at a + (s0 + i)·b, i < kBatch (one loop
+    /// the compiler vectorises): the cell's base voxel and the fractional position in it.
+    /// Samples past the end of a run are computed too; they clamp into the grid like any other.
+    void cellsAt(const float a[3], const float b[3], int s0, int* base, float* fx, float* fy,
+                 float* fz) const {
         const float a0 = a[0], a1 = a[1], a2 = a[2], b0 = b[0], b1 = b[1], b2 = b[2];
         const float m0 = maxIndex[0], m1 = maxIndex[1], m2 = maxIndex[2];
         const int mb0 = maxBase[0], mb1 = maxBase[1], mb2 = maxBase[2];
         const int sy = stride32[1], sz = stride32[2];
-        const int ox = next32[0], oy = next32[1], oz = next32[2];
-        const float* q = values;
         for (int i = 0; i < kBatch; ++i) {
             const float sf = static_cast<float>(s0 + i);
             const float x = std::min(std::max(a0 + sf * b0, 0.f), m0);
@@ -114,10 +113,21 @@ struct FastMeanKernel {
             const int ix = std::min(static_cast<int>(x), mb0);
             const int iy = std::min(static_cast<int>(y), mb1);
             const int iz = std::min(static_cast<int>(z), mb2);
-            const float fx = x - static_cast<float>(ix), fy = y - static_cast<float>(iy),
-                        fz = z - static_cast<float>(iz);
-            const int v = ix + iy * sy + iz * sz;
-            base[i] = v;
+            fx[i] = x - static_cast<float>(ix);
+            fy[i] = y - static_cast<float>(iy);
+            fz[i] = z - static_cast<float>(iz);
+            base[i] = ix + iy * sy + iz * sz;
+        }
+    }
+    /// valueAt's blend (without the empty-cell test) for kBatch cells from cellsAt (gathers for
+    /// the corners; every index is in range): the same operations, so the same values.
+    void blend(const int* base, const float* fxs, const float* fys, const float* fzs,
+               float* value) const {
+        const int ox = next32[0], oy = next32[1], oz = next32[2];
+        const float* q = values;
+        for (int i = 0; i < kBatch; ++i) {
+            const int v = base[i];
+            const float fx = fxs[i], fy = fys[i], fz = fzs[i];
             const float q000 = q[v], q100 = q[v + ox], q010 = q[v + oy], q110 = q[v + oy + ox];
             const float q001 = q[v + oz], q101 = q[v + oz + ox], q011 = q[v + oz + oy],
                         q111 = q[v + oz + oy + ox];
@@ -445,11 +455,26 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const MarchParams
                                         // Interpolate kBatch samples at once, then classify and
                                         // composite them in order (early exit after each).
                                         while (s < end && !done) {
-                                            alignas(64) float val[FastMeanKernel::kBatch];
-                                            alignas(64) int cell[FastMeanKernel::kBatch];
-                                            kernel.valuesAt(a, b, static_cast<int>(s), val, cell);
-                                            const int m = static_cast<int>(std::min<std::int64_t>(
-                                                FastMeanKernel::kBatch, end - s));
+                                            constexpr int kB = FastMeanKernel::kBatch;
+                                            alignas(64) float val[kB], fx[kB], fy[kB], fz[kB];
+                                            alignas(64) int cell[kB];
+                                            kernel.cellsAt(a, b, static_cast<int>(s), cell, fx, fy,
+                                                           fz);
+                                            const int m = static_cast<int>(
+                                                std::min<std::int64_t>(kB, end - s));
+                                            if (kernel.cellEmpty) {
+                                                // All cells empty (common inside non-empty
+                                                // bricks): no corner loads at all.
+                                                bool any = false;
+                                                for (int i = 0; i < m; ++i)
+                                                    any |= kernel.cellEmpty[cell[i]] == 0;
+                                                if (!any) {
+                                                    nSkipped += static_cast<std::uint64_t>(m);
+                                                    s += m;
+                                                    continue;
+                                                }
+                                            }
+                                            kernel.blend(cell, fx, fy, fz, val);
                                             for (int i = 0; i < m; ++i) {
                                                 if (kernel.cellEmpty && kernel.cellEmpty[cell[i]]) {
                                                     ++nSkipped;
