@@ -379,6 +379,19 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const MarchParams
                     for (int px = x0; px < x1; ++px) {
                         float* out = image.pixel(px, py);
                         float accR = 0.f, accG = 0.f, accB = 0.f, accA = 0.f;
+                        // Composite one classified sample front to back (SPEC §5); true once
+                        // the accumulated α passes the early-exit threshold.
+                        auto composite = [&](const Rgba& c) {
+                            if (!(c.a > 0.f)) return false;  // E[α] = 0 contributes nothing
+                            float alpha, scale;
+                            correct(std::min(c.a, 1.f), alpha, scale);
+                            const float w = (1.f - accA) * scale;
+                            accR += w * c.r;
+                            accG += w * c.g;
+                            accB += w * c.b;
+                            accA += (1.f - accA) * alpha;
+                            return accA > p.earlyExit;
+                        };
                         std::array<double, 3> o, d;
                         p.frame.ray(px, py, o, d);
                         double tNear, tFar;
@@ -480,18 +493,8 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const MarchParams
                                                     ++nSkipped;
                                                     continue;
                                                 }
-                                                const Rgba c = kernel.tf->classify(val[i]);
                                                 ++nSamples;
-                                                if (!(c.a > 0.f)) continue;
-                                                const float ea = std::min(c.a, 1.f);
-                                                float alpha, scale;
-                                                correct(ea, alpha, scale);
-                                                const float w = (1.f - accA) * scale;
-                                                accR += w * c.r;
-                                                accG += w * c.g;
-                                                accB += w * c.b;
-                                                accA += (1.f - accA) * alpha;
-                                                if (accA > p.earlyExit) {
+                                                if (composite(kernel.tf->classify(val[i]))) {
                                                     done = true;
                                                     break;
                                                 }
@@ -534,16 +537,7 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const MarchParams
                                                               a[2] + sf * b[2]);
                                     }
                                     ++nSamples;
-                                    if (!(c.a > 0.f)) continue;  // E[α] = 0 contributes nothing
-                                    const float ea = std::min(c.a, 1.f);
-                                    float alpha, scale;
-                                    correct(ea, alpha, scale);
-                                    const float w = (1.f - accA) * scale;
-                                    accR += w * c.r;
-                                    accG += w * c.g;
-                                    accB += w * c.b;
-                                    accA += (1.f - accA) * alpha;
-                                    if (accA > p.earlyExit) {
+                                    if (composite(c)) {
                                         done = true;
                                         break;
                                     }
