@@ -26,25 +26,6 @@ namespace {
 
 using udvr::ModelKind;
 
-udvr::TransferFunction1D tangleTf() {
-    udvr::TransferFunction1D tf;
-    const double rgb[][4] = {{-6.95, 0.70, 0.05, 0.05}, {-4.50, 0.85, 0.10, 0.10},
-                             {-2.00, 0.95, 0.55, 0.10}, {0.00, 1.00, 0.80, 0.20},
-                             {1.50, 0.60, 0.80, 0.80},  {3.00, 0.25, 0.45, 0.95},
-                             {35.24, 0.10, 0.20, 0.60}};
-    for (const auto& p : rgb) {
-        tf.colorX.push_back(p[0]);
-        tf.color.push_back({p[1], p[2], p[3]});
-    }
-    const double pts[][2] = {{-6.95, 0}, {-5.5, 0}, {-4.5, 0.9}, {-3.5, 0}, {-0.6, 0}, {0, 0.45},
-                             {0.6, 0},   {2.4, 0},  {3.0, 0.12}, {3.6, 0},  {35.24, 0}};
-    for (const auto& p : pts) {
-        tf.opacityX.push_back(p[0]);
-        tf.opacity.push_back(p[1]);
-    }
-    return tf;
-}
-
 // Every array of SPEC §7 (q = 8, K = 4) around the tangle value of each voxel.
 udvr::ModelVolume syntheticModel(int n) {
     udvr::ModelVolume m = udvr::modelFromField(udvr::makeTangle(n, n, n));
@@ -104,7 +85,7 @@ void BM_Render(benchmark::State& state) {
     if (truth && !t)
         t = std::make_unique<udvr::ModelVolume>(udvr::modelFromField(udvr::makeTangle(n, n, n)));
     const udvr::ModelVolume& m = truth ? *t : model(n);
-    const udvr::TransferFunction1D tf = tangleTf();
+    const udvr::TransferFunction1D tf = udvr::tangleTransferFunction();
     udvr::RenderSettings s;
     s.width = s.height = 512;
     s.camera = udvr::defaultCamera(m.bounds, 30.0, 20.0);

@@ -28,26 +28,6 @@ TransferFunction1D constantTf(double alpha, std::array<double, 3> rgb) {
     return tf;
 }
 
-// The peer harness's three-band tangle TF (bench/peer/make_tangle.py).
-TransferFunction1D tangleTf() {
-    TransferFunction1D tf;
-    const double rgb[][4] = {{-6.95, 0.70, 0.05, 0.05}, {-4.50, 0.85, 0.10, 0.10},
-                             {-2.00, 0.95, 0.55, 0.10}, {0.00, 1.00, 0.80, 0.20},
-                             {1.50, 0.60, 0.80, 0.80},  {3.00, 0.25, 0.45, 0.95},
-                             {35.24, 0.10, 0.20, 0.60}};
-    for (const auto& p : rgb) {
-        tf.colorX.push_back(p[0]);
-        tf.color.push_back({p[1], p[2], p[3]});
-    }
-    const double pts[][2] = {{-6.95, 0}, {-5.5, 0}, {-4.5, 0.9}, {-3.5, 0}, {-0.6, 0}, {0, 0.45},
-                             {0.6, 0},   {2.4, 0},  {3.0, 0.12}, {3.6, 0},  {35.24, 0}};
-    for (const auto& p : pts) {
-        tf.opacityX.push_back(p[0]);
-        tf.opacity.push_back(p[1]);
-    }
-    return tf;
-}
-
 ModelVolume constantModel(int n, float value, double spacing = 1.0) {
     ScalarField f;
     f.grid.dims = {n, n, n};
@@ -301,7 +281,7 @@ TEST(Render, EmptySpaceSkippingDoesNotChangeTheImage) {
     s.width = s.height = 48;
     s.camera = defaultCamera(m.bounds, 30.0, 20.0);
     RenderStats on, off;
-    const auto tf = tangleTf();
+    const auto tf = tangleTransferFunction();
     const ImageRgba a = renderVolume(m, ModelKind::Mean, tf, s, &on);
     s.skipEmpty = false;
     const ImageRgba b = renderVolume(m, ModelKind::Mean, tf, s, &off);
@@ -326,7 +306,7 @@ TEST(Render, CacheReusesTablesAndRebuildsForANewTf) {
     s.width = s.height = 32;
     s.camera = defaultCamera(m.bounds, 30.0, 20.0);
     RenderCache cache;
-    const auto tf = tangleTf();
+    const auto tf = tangleTransferFunction();
     const ImageRgba a = renderVolume(m, ModelKind::Mean, tf, s);
     const ImageRgba b = renderVolume(m, ModelKind::Mean, tf, s, nullptr, &cache);
     s.camera = defaultCamera(m.bounds, -60.0, 10.0);  // new camera: the tables still hold
@@ -349,7 +329,7 @@ TEST(Render, SkippingOnADownsampledGridAndJitter) {
     s.width = s.height = 32;
     s.camera = defaultCamera(m.bounds, -40.0, 60.0, 1.2);
     s.jitterSeed = 7;
-    const auto tf = tangleTf();
+    const auto tf = tangleTransferFunction();
     const ImageRgba a = renderVolume(m, ModelKind::Mean, tf, s);
     s.skipEmpty = false;
     const ImageRgba b = renderVolume(m, ModelKind::Mean, tf, s);
@@ -366,9 +346,9 @@ TEST(Render, ThreadCountDoesNotChangeTheImage) {
     s.height = 35;
     s.camera = defaultCamera(m.bounds, 10.0, -30.0);
     setThreadCount(1);
-    const ImageRgba a = renderVolume(m, ModelKind::Mean, tangleTf(), s);
+    const ImageRgba a = renderVolume(m, ModelKind::Mean, tangleTransferFunction(), s);
     setThreadCount(2);
-    const ImageRgba b = renderVolume(m, ModelKind::Mean, tangleTf(), s);
+    const ImageRgba b = renderVolume(m, ModelKind::Mean, tangleTransferFunction(), s);
     setThreadCount(0);
     EXPECT_EQ(maxAbsDiff(a, b), 0.0);
 }
@@ -397,13 +377,13 @@ TEST(Render, GmmMcIsDeterministicForASeed) {
     s.realizations = 4;
     s.seed = 11;
     setThreadCount(1);
-    const ImageRgba a = renderVolume(m, ModelKind::GmmMc, tangleTf(), s);
+    const ImageRgba a = renderVolume(m, ModelKind::GmmMc, tangleTransferFunction(), s);
     setThreadCount(2);
-    const ImageRgba b = renderVolume(m, ModelKind::GmmMc, tangleTf(), s);
+    const ImageRgba b = renderVolume(m, ModelKind::GmmMc, tangleTransferFunction(), s);
     setThreadCount(0);
     EXPECT_EQ(maxAbsDiff(a, b), 0.0);
     s.seed = 12;
-    const ImageRgba c = renderVolume(m, ModelKind::GmmMc, tangleTf(), s);
+    const ImageRgba c = renderVolume(m, ModelKind::GmmMc, tangleTransferFunction(), s);
     EXPECT_GT(maxAbsDiff(a, c), 1e-3);
 }
 
@@ -420,8 +400,8 @@ TEST(Render, GmmMcWithPointMassesIsTheMeanField) {
     s.width = s.height = 20;
     s.camera = defaultCamera(m.bounds, 30.0, 20.0);
     s.realizations = 3;
-    const ImageRgba mc = renderVolume(m, ModelKind::GmmMc, tangleTf(), s);
-    const ImageRgba mean = renderVolume(m, ModelKind::Mean, tangleTf(), s);
+    const ImageRgba mc = renderVolume(m, ModelKind::GmmMc, tangleTransferFunction(), s);
+    const ImageRgba mean = renderVolume(m, ModelKind::Mean, tangleTransferFunction(), s);
     EXPECT_LE(maxAbsDiff(mc, mean), 1e-6);
 }
 
@@ -444,7 +424,7 @@ TEST(Render, BadSettingsAreUserErrors) {
 }
 
 TEST(FastTransferFunction, MatchesTheReferenceEvaluator) {
-    TransferFunction1D tf = tangleTf();
+    TransferFunction1D tf = tangleTransferFunction();
     // Add a step (two points at the same x) and an interior colour-only point.
     tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};
     tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
