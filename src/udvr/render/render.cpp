@@ -124,7 +124,7 @@ void march(const Kernel& kernel, const detail::SkipTable& table, const detail::M
            ImageRgba& image, detail::MarchCounters& counters) {
     if constexpr (std::is_same_v<Kernel, detail::FastMeanKernel>) {
         detail::FastMeanKernel k = kernel;
-        if (!table.cellEmpty.empty()) k.cellEmpty = table.cellEmpty.data();
+        if (!table.cellEmptyBits.empty()) k.cellEmpty = table.cellEmptyBits.data();
         detail::marchFrame(k, table, p, image, counters);
     } else {
         detail::marchFrame(kernel, table, p, image, counters);

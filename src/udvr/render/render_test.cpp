@@ -8,7 +8,7 @@
 
 #include "udvr/data/synthetic.h"
 #include "udvr/render/camera.h"
-#include "udvr/render/fast_tf.h"
+#include "udvr/classify/fast_tf.h"
 #include "udvr/render/ray_march.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/parallel.h"

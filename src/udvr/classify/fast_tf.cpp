@@ -1,4 +1,4 @@
-#include "udvr/render/fast_tf.h"
+#include "udvr/classify/fast_tf.h"
 
 #include <algorithm>
 #include <cmath>
@@ -84,6 +84,23 @@ FastTransferFunction::FastTransferFunction(const TransferFunction1D& tf) {
             zero = zero && regions_[r].a0 == 0.f && regions_[r].as == 0.f;
         below += inBucket[k];
         if (zero) b.base = -1;
+    }
+
+    simdFits_ = regions_.size() <= static_cast<std::size_t>(kMaxSimdRegions);
+    if (simdFits_) {
+        arrays_.boundCount = static_cast<int>(nb);
+        for (int r = 0; r < kMaxSimdRegions; ++r) {
+            arrays_.bound[r] =
+                r < static_cast<int>(nb) ? bounds_[static_cast<std::size_t>(r)] : inf;
+            const Region& g = regions_[std::min<std::size_t>(r, nb)];
+            arrays_.x0[r] = g.x0;
+            arrays_.a0[r] = g.a0;
+            arrays_.as[r] = g.as;
+            for (int ch = 0; ch < 3; ++ch) {
+                arrays_.c0[ch][r] = g.c0[ch];
+                arrays_.cs[ch][r] = g.cs[ch];
+            }
+        }
     }
 }
 

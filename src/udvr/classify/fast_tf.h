@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "udvr/classify/transfer_function.h"
+#include "udvr/util/simd.h"
 
 namespace udvr {
 
@@ -41,6 +42,44 @@ class FastTransferFunction {
         return Rgba{a * cr, a * cg, a * cb, a};
     }
 
+    /// Regions as arrays for SIMD lookups: region r of x is the number of breakpoints ≤ x
+    /// (NaN: 0), the same region classify() finds.
+    static constexpr int kMaxSimdRegions = 32;
+    struct RegionArrays {
+        int boundCount = 0;                        // N ≤ kMaxSimdRegions − 1
+        alignas(64) float bound[kMaxSimdRegions];  // u_0 … u_{N−1}, then +inf
+        alignas(64) float x0[kMaxSimdRegions], a0[kMaxSimdRegions], as[kMaxSimdRegions];
+        alignas(64) float c0[3][kMaxSimdRegions], cs[3][kMaxSimdRegions];
+    };
+    /// The region arrays, or null when the TF has more than kMaxSimdRegions regions.
+    const RegionArrays* regionArrays() const { return simdFits_ ? &arrays_ : nullptr; }
+
+#if UDVR_HAVE_AVX512
+    /// classify() of 16 values at once (needs regionArrays()): α and the straight colour.
+    static void classify16(const RegionArrays& t, __m512 x, __m512& r, __m512& g, __m512& b,
+                           __m512& a) {
+        // Region by binary search over the padded breakpoints: r ← r + step where x ≥ u_{r+step−1}.
+        const __m512 lo = _mm512_load_ps(t.bound), hi = _mm512_load_ps(t.bound + 16);
+        __m512i reg = _mm512_setzero_si512();
+        const int firstStep = t.boundCount < 16 ? 8 : 16;
+        for (int step = firstStep; step >= 1; step >>= 1) {
+            const __m512i cand = _mm512_add_epi32(reg, _mm512_set1_epi32(step));
+            const __m512 u =
+                _mm512_permutex2var_ps(lo, _mm512_sub_epi32(cand, _mm512_set1_epi32(1)), hi);
+            reg = _mm512_mask_mov_epi32(reg, _mm512_cmp_ps_mask(x, u, _CMP_GE_OQ), cand);
+        }
+        reg = _mm512_min_epi32(reg, _mm512_set1_epi32(t.boundCount));  // x = +inf
+        const auto pick = [&](const float* f) {
+            return _mm512_permutex2var_ps(_mm512_load_ps(f), reg, _mm512_load_ps(f + 16));
+        };
+        const __m512 dx = _mm512_sub_ps(x, pick(t.x0));
+        a = _mm512_fmadd_ps(pick(t.as), dx, pick(t.a0));
+        r = _mm512_fmadd_ps(pick(t.cs[0]), dx, pick(t.c0[0]));
+        g = _mm512_fmadd_ps(pick(t.cs[1]), dx, pick(t.c0[1]));
+        b = _mm512_fmadd_ps(pick(t.cs[2]), dx, pick(t.c0[2]));
+    }
+#endif
+
   private:
     struct Region {
         float x0;            // left end (data units); the region is [x0, next boundary)
@@ -58,6 +97,8 @@ class FastTransferFunction {
     std::vector<Bucket> buckets_;
     float scale_ = 0.f;      // buckets per data unit
     float maxBucket_ = 0.f;  // index of the last bucket
+    bool simdFits_ = false;
+    RegionArrays arrays_;
 };
 
 }  // namespace udvr

@@ -1,0 +1,235 @@
+// The 16-sample batched ray loop (AVX-512): its vector math, TF lookup and compositing against
+// scalar references, and whole frames against the per-sample loop. Where the compiler does not
+// target AVX-512 only the frame test runs (both frames then take the per-sample loop).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "udvr/classify/fast_tf.h"
+#include "udvr/data/synthetic.h"
+#include "udvr/render/ray_march.h"
+#include "udvr/render/render.h"
+#include "udvr/stats/model_volume.h"
+#include "udvr/util/simd.h"
+
+namespace udvr {
+namespace {
+
+#if UDVR_HAVE_AVX512
+std::vector<float> lanes(__m512 v) {
+    std::vector<float> out(16);
+    _mm512_storeu_ps(out.data(), v);
+    return out;
+}
+
+TEST(Simd, LogMatchesLibmToFloatRounding) {
+    std::vector<float> xs;
+    for (int e = -120; e <= 120; e += 3)
+        for (float m : {1.f, 1.1f, 1.4999f, 1.5f, 1.7f, 1.99999f}) xs.push_back(std::ldexp(m, e));
+    for (int i = 1; i < 200; ++i) xs.push_back(1.f - static_cast<float>(i) * 1e-3f);
+    for (int i = 1; i < 50; ++i) xs.push_back(1.f + static_cast<float>(i) * 0x1p-23f);
+    xs.push_back(1.f);
+    xs.push_back(0x1p-140f);  // subnormal
+    while (xs.size() % 16) xs.push_back(2.f);
+    for (std::size_t i = 0; i < xs.size(); i += 16) {
+        const auto got = lanes(simd::logPs(_mm512_loadu_ps(&xs[i])));
+        for (int l = 0; l < 16; ++l) {
+            const double want = std::log(static_cast<double>(xs[i + l]));
+            // Relative to |ln x|, plus an absolute floor near x = 1 (float spacing of x).
+            EXPECT_NEAR(got[l], want, 2e-7 * std::abs(want) + 1.2e-7) << xs[i + l];
+        }
+    }
+}
+
+TEST(Simd, ExpOfNonPositiveMatchesLibm) {
+    std::vector<float> ys;
+    for (int i = 0; i <= 2000; ++i) ys.push_back(-static_cast<float>(i) * 0.05f);
+    for (int i = 1; i < 100; ++i) ys.push_back(-static_cast<float>(i) * 1e-7f);
+    ys.push_back(-std::numeric_limits<float>::infinity());
+    ys.push_back(-200.f);
+    while (ys.size() % 16) ys.push_back(0.f);
+    for (std::size_t i = 0; i < ys.size(); i += 16) {
+        const auto got = lanes(simd::expNonPositivePs(_mm512_loadu_ps(&ys[i])));
+        for (int l = 0; l < 16; ++l) {
+            const double want = std::exp(static_cast<double>(ys[i + l]));
+            // float(y·log2 e) carries a relative error of 2^−24 of itself: ≈ 6e−8·|y| in e^y.
+            const double y = std::abs(static_cast<double>(ys[i + l]));
+            if (std::isinf(y)) {
+                EXPECT_EQ(got[l], 0.f);
+                continue;
+            }
+            EXPECT_NEAR(got[l], want, 2e-7 * want * (1.0 + y) + 1e-38) << ys[i + l];
+        }
+    }
+}
+
+TEST(Simd, PrefixProductAndSums) {
+    float v[16], want = 1.f;
+    for (int i = 0; i < 16; ++i) v[i] = 0.5f + 0.03f * static_cast<float>(i);
+    const auto p = lanes(simd::prefixProduct(_mm512_loadu_ps(v)));
+    for (int i = 0; i < 16; ++i) {
+        want *= v[i];
+        EXPECT_NEAR(p[i], want, 1e-6 * want) << i;
+    }
+    float sums[4];
+    simd::sum4(_mm512_set1_ps(1.f), _mm512_loadu_ps(v), _mm512_set1_ps(-2.f), _mm512_setzero_ps(),
+               sums);
+    double sv = 0;
+    for (float x : v) sv += x;
+    EXPECT_FLOAT_EQ(sums[0], 16.f);
+    EXPECT_NEAR(sums[1], sv, 1e-5);
+    EXPECT_FLOAT_EQ(sums[2], -32.f);
+    EXPECT_FLOAT_EQ(sums[3], 0.f);
+}
+
+TEST(OpacityCorrection, Apply16MatchesThePower) {
+    // Exponents Δ/u: 1 and ½ (closed forms) and the general path; α from 0 to 1, tiny α and α
+    // within a few ulps of 1.
+    std::vector<float> as;
+    for (int i = 0; i <= 4000; ++i) as.push_back(static_cast<float>(i) / 4000.f);
+    for (int i = 1; i < 60; ++i) as.push_back(static_cast<float>(i) * 1e-7f);
+    for (int i = 1; i < 60; ++i) as.push_back(1.f - static_cast<float>(i) * 0x1p-24f);
+    while (as.size() % 16) as.push_back(0.5f);
+    for (float e : {1.f, 0.5f, 0.001f, 0.1234568f, 0.25f, 0.7f, 1.5f, 4.f, 30.f}) {
+        const detail::OpacityCorrection correct(e);
+        for (std::size_t i = 0; i < as.size(); i += 16) {
+            __m512 alpha, keep;
+            correct.apply16(_mm512_loadu_ps(&as[i]), alpha, keep);
+            const auto ga = lanes(alpha), gk = lanes(keep);
+            for (int l = 0; l < 16; ++l) {
+                const double a = as[i + l];
+                const double k = std::pow(1.0 - a, static_cast<double>(e));
+                // α' relative to itself (it scales the colour), 1 − α' absolutely.
+                EXPECT_NEAR(ga[l], 1.0 - k, 1e-6 * (1.0 - k) + 1e-12) << e << " " << a;
+                EXPECT_NEAR(gk[l], k, 2e-7) << e << " " << a;
+            }
+        }
+    }
+}
+
+TEST(FastTransferFunction, Classify16MatchesClassify) {
+    TransferFunction1D tf = tangleTransferFunction();
+    tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};  // a step at 0.1
+    tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
+    const FastTransferFunction fast(tf);
+    ASSERT_NE(fast.regionArrays(), nullptr);
+    std::vector<float> xs;
+    for (int i = -2000; i <= 4000; ++i) xs.push_back(static_cast<float>(i) * 0.0123f);
+    for (double x : tf.opacityX) xs.push_back(static_cast<float>(x));
+    for (double x : tf.colorX) xs.push_back(static_cast<float>(x));
+    xs.push_back(-1e30f);
+    xs.push_back(1e30f);
+    while (xs.size() % 16) xs.push_back(0.f);
+    for (std::size_t i = 0; i < xs.size(); i += 16) {
+        __m512 r, g, b, a;
+        FastTransferFunction::classify16(*fast.regionArrays(), _mm512_loadu_ps(&xs[i]), r, g, b, a);
+        const auto vr = lanes(r), vg = lanes(g), vb = lanes(b), va = lanes(a);
+        for (int l = 0; l < 16; ++l) {
+            const Rgba want = fast.classify(xs[i + l]);  // premultiplied
+            EXPECT_NEAR(va[l], want.a, 1e-6) << xs[i + l];
+            EXPECT_NEAR(va[l] * vr[l], want.r, 2e-6) << xs[i + l];
+            EXPECT_NEAR(va[l] * vg[l], want.g, 2e-6) << xs[i + l];
+            EXPECT_NEAR(va[l] * vb[l], want.b, 2e-6) << xs[i + l];
+        }
+    }
+    // NaN contributes nothing either way.
+    __m512 r, g, b, a;
+    FastTransferFunction::classify16(*fast.regionArrays(), _mm512_set1_ps(std::nanf("")), r, g, b,
+                                     a);
+    EXPECT_FALSE(lanes(a)[0] > 0.f);
+    EXPECT_FALSE(fast.classify(std::nanf("")).a > 0.f);
+}
+
+TEST(BatchCompositor, MatchesSerialFrontToBack) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    for (float e : {1.f, 0.5f, 0.37f}) {
+        const detail::OpacityCorrection correct(e);
+        for (int trial = 0; trial < 200; ++trial) {
+            const float earlyExit = trial % 3 == 0 ? 1.f : 0.95f;
+            detail::BatchCompositor comp;
+            double accR = 0, accG = 0, accB = 0, accA = 0;  // the SPEC §5 recurrence, double
+            bool doneRef = false, doneGot = false;
+            for (int batch = 0; batch < 4 && !doneGot; ++batch) {
+                alignas(64) float pr[16], pg[16], pb[16], pa[16];
+                __mmask16 live = 0;
+                for (int l = 0; l < 16; ++l) {
+                    pa[l] = u(rng) < 0.2f ? 0.f : 0.3f * u(rng) * u(rng);
+                    pr[l] = pa[l] * u(rng);
+                    pg[l] = pa[l] * u(rng);
+                    pb[l] = pa[l] * u(rng);
+                    if (u(rng) < 0.8f) live |= static_cast<__mmask16>(1u << l);
+                }
+                doneGot = comp.add(_mm512_load_ps(pr), _mm512_load_ps(pg), _mm512_load_ps(pb),
+                                   _mm512_load_ps(pa), live, correct, 1.f - earlyExit);
+                for (int l = 0; l < 16 && !doneRef; ++l) {
+                    if (!(live >> l & 1) || !(pa[l] > 0.f)) continue;
+                    const double a = pa[l];
+                    const double alpha = 1.0 - std::pow(1.0 - a, static_cast<double>(e));
+                    const double w = (1.0 - accA) * alpha / a;
+                    accR += w * pr[l];
+                    accG += w * pg[l];
+                    accB += w * pb[l];
+                    accA += (1.0 - accA) * alpha;
+                    doneRef = accA > earlyExit;
+                }
+                ASSERT_EQ(doneGot, doneRef) << trial << " " << batch;
+            }
+            float r, g, b, a;
+            comp.result(r, g, b, a);
+            EXPECT_NEAR(r, accR, 2e-6);
+            EXPECT_NEAR(g, accG, 2e-6);
+            EXPECT_NEAR(b, accB, 2e-6);
+            EXPECT_NEAR(a, accA, 2e-6);
+        }
+    }
+}
+#endif
+
+// The same TF written with many redundant (collinear) control points is the same function but
+// has too many regions for the batched loop, so the frame takes the per-sample loop: the two
+// frames agree to float rounding (with or without AVX-512).
+TEST(Render, BatchedAndPerSampleLoopsGiveTheSameFrame) {
+    const ModelVolume m = modelFromField(makeTangle(40, 36, 44));
+    const TransferFunction1D tf = tangleTransferFunction();
+    TransferFunction1D dense = tf;
+    // Insert 40 points on the first opacity segment's line (and on the colour line).
+    const double x0 = tf.opacityX[0], x1 = tf.opacityX[1];
+    std::vector<double> ox{x0}, o{tf.opacity[0]};
+    for (int i = 1; i <= 40; ++i) {
+        const double t = i / 41.0;
+        ox.push_back(x0 + t * (x1 - x0));
+        o.push_back(tf.opacity[0] + t * (tf.opacity[1] - tf.opacity[0]));
+    }
+    for (std::size_t i = 1; i < tf.opacityX.size(); ++i) {
+        ox.push_back(tf.opacityX[i]);
+        o.push_back(tf.opacity[i]);
+    }
+    dense.opacityX = ox;
+    dense.opacity = o;
+    ASSERT_NE(FastTransferFunction(tf).regionArrays(), nullptr);
+    ASSERT_EQ(FastTransferFunction(dense).regionArrays(), nullptr);
+    for (double unit : {0.0, 0.3}) {  // exponent ½ (default), and a general one
+        RenderSettings s;
+        s.width = 72;
+        s.height = 64;
+        s.camera = defaultCamera(m.bounds, 30.0, 20.0);
+        s.unitDistance = unit;
+        for (bool skip : {true, false}) {
+            s.skipEmpty = skip;
+            RenderStats sa, sb;
+            const ImageRgba a = renderVolume(m, ModelKind::Mean, tf, s, &sa);
+            const ImageRgba b = renderVolume(m, ModelKind::Mean, dense, s, &sb);
+            double worst = 0.0;
+            for (std::size_t i = 0; i < a.rgba.size(); ++i)
+                worst = std::max(worst, std::abs(static_cast<double>(a.rgba[i]) - b.rgba[i]));
+            EXPECT_LE(worst, 2e-5) << unit << " " << skip;
+            EXPECT_EQ(sa.samples + sa.skippedSamples > 0, true);
+        }
+    }
+}
+
+}  // namespace
+}  // namespace udvr
