@@ -16,6 +16,7 @@
 #include "udvr/io/image.h"
 #include "udvr/render/camera.h"
 #include "udvr/render/render.h"
+#include "udvr/util/fast_math.h"
 #include "udvr/util/grid.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/random.h"
@@ -417,17 +418,18 @@ struct OpacityCorrection {
         const __m512 x = _mm512_sub_ps(one, a);
         const __mmask16 small = _mm512_cmp_ps_mask(a, _mm512_set1_ps(0.25f), _CMP_LE_OQ);
         const __mmask16 opaque = _mm512_cmp_ps_mask(a, one, _CMP_GE_OQ);
-        // ln x for x = 1 − a ≥ ¾ is 2·atanh(−a/(2 − a)); otherwise simd::logPs.
-        __m512 lnx = simd::logPs(_mm512_mask_mov_ps(x, opaque, one));
-        const __m512 sa =
-            _mm512_div_ps(_mm512_sub_ps(_mm512_setzero_ps(), a), _mm512_add_ps(one, x));
-        lnx = _mm512_mask_mov_ps(lnx, small, simd::logOfAtanhArg(sa));
+        // ln x: for x = 1 − a ≥ ¾ as 2·atanh(−a/(2 − a)), otherwise logPositive (x is normal
+        // for a < 1; the opaque lanes take x = 1 and are set below).
+        const __m512 lnx =
+            _mm512_mask_mov_ps(logPositive(_mm512_mask_mov_ps(x, opaque, one)), small,
+                               logOfAtanhArg(_mm512_div_ps(_mm512_sub_ps(_mm512_setzero_ps(), a),
+                                                           _mm512_add_ps(one, x))));
         const __m512 y = _mm512_mul_ps(lnx, _mm512_set1_ps(exponent));  // ≤ 0
-        // e^y − 1: series for |y| ≤ ln2/2, else e^y − 1 from simd::expNonPositivePs.
-        keep = simd::expNonPositivePs(y);
+        // e^y − 1: y·expm1OverX(y) for |y| ≤ ln2/2 (no cancellation), else e^y − 1.
+        keep = expNonPositive(y);
         __m512 em1 = _mm512_sub_ps(keep, one);
         const __mmask16 near0 = _mm512_cmp_ps_mask(y, _mm512_set1_ps(-0.34657359f), _CMP_GE_OQ);
-        if (near0) em1 = _mm512_mask_mov_ps(em1, near0, _mm512_mul_ps(simd::expm1OverZ(y), y));
+        if (near0) em1 = _mm512_mask_mov_ps(em1, near0, _mm512_mul_ps(expm1OverX(y), y));
         alpha = _mm512_mask_mov_ps(_mm512_sub_ps(_mm512_setzero_ps(), em1), opaque, one);
         keep = _mm512_mask_mov_ps(keep, near0, _mm512_add_ps(em1, one));
         keep = _mm512_mask_mov_ps(keep, opaque, _mm512_setzero_ps());

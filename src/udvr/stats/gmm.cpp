@@ -7,7 +7,7 @@
 #include <cstring>
 #include <limits>
 
-#include "udvr/stats/fast_math.h"
+#include "udvr/util/fast_math.h"
 #include "udvr/util/check.h"
 #include "udvr/util/random.h"
 

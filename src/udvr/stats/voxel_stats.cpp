@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "udvr/stats/fast_math.h"
+#include "udvr/util/fast_math.h"
 #include "udvr/util/check.h"
 
 namespace udvr {

@@ -18,7 +18,7 @@ struct NormalCdfPdf {
 
 namespace detail {
 /// erfc(z)·e^(z²) for z ≥ 0 (the scaled complementary error function erfcx), |rel. err| < 2e−9.
-/// T is double or a vector of doubles (stats/fast_math.h evaluates it on 8 lanes).
+/// T is double or a vector of doubles (util/fast_math.h evaluates it on 8 lanes).
 template <class T>
 UDVR_CPU_GPU inline T erfcxNonNegative(T z) {
     const T t = 1.0 / (1.0 + 0.5 * z);

@@ -1,6 +1,7 @@
 #pragma once
-// AVX-512 helpers for the batched ray loop (16 float lanes). Everything here exists only when
-// the compiler targets AVX-512F (UDVR_NATIVE on a machine that has it); callers keep a scalar
+// AVX-512 helpers for the batched ray loop (16 float lanes); the transcendental functions are
+// util/fast_math.h's, which take __m512 as they take any float vector. Everything here exists only
+// when the compiler targets AVX-512F (UDVR_NATIVE on a machine that has it); callers keep a scalar
 // path for other machines and test both (docs/building.md).
 #if defined(__AVX512F__) && defined(__AVX512DQ__)
 #define UDVR_HAVE_AVX512 1
@@ -17,54 +18,6 @@ namespace udvr::simd {
 
 /// Lanes of a __m512 of floats.
 inline constexpr int kLanes = 16;
-
-/// ln((1 + s)/(1 − s)) = 2·atanh(s) for |s| ≤ 0.2, by its series to s⁹ (truncation < 4e−9).
-inline __m512 logOfAtanhArg(__m512 s) {
-    const __m512 s2 = _mm512_mul_ps(s, s);
-    __m512 p = _mm512_set1_ps(1.f / 9.f);
-    p = _mm512_fmadd_ps(p, s2, _mm512_set1_ps(1.f / 7.f));
-    p = _mm512_fmadd_ps(p, s2, _mm512_set1_ps(1.f / 5.f));
-    p = _mm512_fmadd_ps(p, s2, _mm512_set1_ps(1.f / 3.f));
-    p = _mm512_fmadd_ps(p, s2, _mm512_set1_ps(1.f));
-    return _mm512_mul_ps(_mm512_add_ps(s, s), p);
-}
-
-/// ln(x) for finite x > 0 (also subnormal): x = m·2^k with m ∈ [0.75, 1.5), then
-/// ln m = 2·atanh(s), s = (m − 1)/(m + 1), |s| ≤ 0.2 (logOfAtanhArg). Relative error ≈ 1e−7
-/// (float rounding).
-inline __m512 logPs(__m512 x) {
-    const __m512 one = _mm512_set1_ps(1.f);
-    const __m512 m = _mm512_getmant_ps(x, _MM_MANT_NORM_p75_1p5, _MM_MANT_SIGN_src);
-    // getexp gives ⌊log2 x⌋ for the [1, 2) mantissa; a mantissa below 1 means one more.
-    __m512 k = _mm512_getexp_ps(x);
-    k = _mm512_mask_add_ps(k, _mm512_cmp_ps_mask(m, one, _CMP_LT_OQ), k, one);
-    const __m512 lnm = logOfAtanhArg(_mm512_div_ps(_mm512_sub_ps(m, one), _mm512_add_ps(m, one)));
-    return _mm512_fmadd_ps(k, _mm512_set1_ps(0.69314718055994531f), lnm);
-}
-
-/// (e^z − 1)/z for |z| ≤ ln2/2 by its Taylor series to z⁶ (truncation < 6e−9).
-inline __m512 expm1OverZ(__m512 z) {
-    __m512 p = _mm512_set1_ps(1.f / 5040.f);
-    p = _mm512_fmadd_ps(p, z, _mm512_set1_ps(1.f / 720.f));
-    p = _mm512_fmadd_ps(p, z, _mm512_set1_ps(1.f / 120.f));
-    p = _mm512_fmadd_ps(p, z, _mm512_set1_ps(1.f / 24.f));
-    p = _mm512_fmadd_ps(p, z, _mm512_set1_ps(1.f / 6.f));
-    p = _mm512_fmadd_ps(p, z, _mm512_set1_ps(0.5f));
-    return _mm512_fmadd_ps(p, z, _mm512_set1_ps(1.f));
-}
-
-/// e^y for y ≤ 0 (−∞ gives 0): y·log2(e) = n + f with n integer, |f| ≤ ½, 2^f = e^z,
-/// z = f·ln 2, as 1 + z·expm1OverZ(z), scaled by 2^n (vscalefps). Relative error
-/// ≈ 1e−7·(1 + |y|) (the float rounding of y·log2(e)).
-inline __m512 expNonPositivePs(__m512 y) {
-    const __m512 t = _mm512_mul_ps(y, _mm512_set1_ps(1.44269504088896341f));
-    const __m512 n = _mm512_roundscale_ps(t, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
-    __m512 f = _mm512_sub_ps(t, n);  // NaN for t = −∞
-    f = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(f, f, _CMP_ORD_Q), f);
-    const __m512 z = _mm512_mul_ps(f, _mm512_set1_ps(0.69314718055994531f));
-    const __m512 p = _mm512_fmadd_ps(z, expm1OverZ(z), _mm512_set1_ps(1.f));
-    return _mm512_scalef_ps(p, n);  // 2^−∞ = 0
-}
 
 /// Lane i ← v[i − k] for i ≥ k, `fill` below (k in 1 … 15).
 template <int K>

@@ -1,6 +1,6 @@
 // Error bounds of the vector math in fast_math.h against libm, sampled densely over the ranges
 // the estimators use.
-#include "udvr/stats/fast_math.h"
+#include "udvr/util/fast_math.h"
 
 #include <gtest/gtest.h>
 

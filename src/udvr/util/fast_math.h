@@ -1,5 +1,6 @@
 #pragma once
-// Vector math for the per-voxel estimators of stats/ (GCC/Clang vector extensions: one or more
+// Vector math for the per-voxel estimators of stats/ and the batched ray loop of render/
+// (GCC/Clang vector extensions, which include the __m512 of the intrinsics: one or more
 // AVX registers per vector where the target has them). GCC does not vectorise the floating-point
 // reductions and transcendental calls of EM and of the KDE sums by itself, so the hot loops are
 // written on these types directly. The functions are templates over the lane count: 16-lane
@@ -48,6 +49,18 @@ inline V8d splat8d(double v) { return splat<V8d>(v); }
 /// < n·2e−38, far below the 1e−6 at which EM declares a component empty).
 inline constexpr float kExpClampBelow = -87.f;
 
+/// (e^r − 1)/r for float lanes |r| ≤ ln2/2: degree-5 Taylor polynomial (so r·it + 1 is e^r's
+/// degree-6 one, truncation r⁷/7! < 1.2e−7); e^r − 1 = r·expm1OverX(r) without cancellation.
+template <class VF>
+inline VF expm1OverX(VF r) {
+    VF p = splat<VF>(1.f / 720.f);
+    p = p * r + (1.f / 120.f);
+    p = p * r + (1.f / 24.f);
+    p = p * r + (1.f / 6.f);
+    p = p * r + 0.5f;
+    return p * r + 1.f;
+}
+
 /// e^max(x, −87) for float lanes x ≤ 0 (−∞ allowed): relative error < 2.5e−7.
 /// x = n·ln2 + r, |r| ≤ ln2/2, e^r by its degree-6 Taylor polynomial (truncation r⁷/7! < 1.2e−7),
 /// 2^n from the bits of the rounding shifter. Horner's scheme: the EM loop is throughput-bound.
@@ -59,13 +72,7 @@ inline VF expNonPositive(VF x) {
     const VF t = xc * 1.44269504f + shifter;  // low mantissa bits: 2^22 + n
     const VF n = t - shifter;
     const VF r = (xc - n * 0.693145752f) - n * 1.42860677e-6f;  // ln2 = hi + lo
-    VF p = splat<VF>(1.f / 720.f);
-    p = p * r + (1.f / 120.f);
-    p = p * r + (1.f / 24.f);
-    p = p * r + (1.f / 6.f);
-    p = p * r + 0.5f;
-    p = p * r + 1.f;
-    p = p * r + 1.f;
+    const VF p = expm1OverX(r) * r + 1.f;
     // (2^22 + n + 127) << 23 keeps the low 9 bits, n + 127 ∈ [1, 127]: the exponent of 2^n.
     const VI bits = (std::bit_cast<VI>(t) + 127) << 23;
     return p * std::bit_cast<VF>(bits);
@@ -77,6 +84,19 @@ inline VF splitExponent(VF s, VI& expo) {
     const VI bits = std::bit_cast<VI>(s);
     expo += (bits >> 23) - 127;
     return std::bit_cast<VF>((bits & 0x007FFFFF) | 0x3F800000);
+}
+
+/// log((1 + t)/(1 − t)) = 2·atanh(t) for float lanes |t| ≤ 0.2: series to t⁹ (truncation
+/// < 4e−9). With t = −a/(2 − a) it is log(1 − a) without forming 1 − a.
+template <class VF>
+inline VF logOfAtanhArg(VF t) {
+    const VF t2 = t * t;
+    VF p = splat<VF>(1.f / 9.f);
+    p = p * t2 + (1.f / 7.f);
+    p = p * t2 + (1.f / 5.f);
+    p = p * t2 + (1.f / 3.f);
+    p = p * t2 + 1.f;
+    return 2.f * t * p;
 }
 
 /// log(s) for positive normal float lanes; absolute error < 1.5e−7 + 6e−8·|log s| (the float
@@ -91,14 +111,7 @@ inline VF logPositive(VF s) {
     const auto big = f > 1.41421356f;
     f = big ? f * 0.5f : f;
     e = big ? e + 1.f : e;
-    const VF t = (f - 1.f) / (f + 1.f);
-    const VF t2 = t * t;
-    VF p = splat<VF>(1.f / 9.f);
-    p = p * t2 + (1.f / 7.f);
-    p = p * t2 + (1.f / 5.f);
-    p = p * t2 + (1.f / 3.f);
-    p = p * t2 + 1.f;
-    return e * 0.693147181f + 2.f * t * p;
+    return e * 0.693147181f + logOfAtanhArg((f - 1.f) / (f + 1.f));
 }
 
 /// log(s) for positive normal double lanes; absolute error < 1e−15·(1 + |log s|).
