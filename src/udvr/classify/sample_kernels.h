@@ -303,10 +303,13 @@ struct QuantileMeanKernel {
             v[ch] = zeroCount > 0 ? zeroSum[ch] / zeroCount : sum[ch] / wsum;
         return detail::toRgba(v);
     }
+    /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
+    /// the corners' midpoints (m_j(p) = Σ w_c m_{j,c}), so [m_0, m_{q−1}] of each voxel is a
+    /// support: narrower than [b_0, b_q] by half the outer quantiles (often the outliers).
     UDVR_CPU_GPU void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = quantiles + voxel * (static_cast<std::size_t>(q) + 1);
-        lo = b[0];
-        hi = b[q];
+        lo = static_cast<float>(0.5 * (static_cast<double>(b[0]) + b[1]));
+        hi = static_cast<float>(0.5 * (static_cast<double>(b[q - 1]) + b[q]));
     }
 };
 

@@ -14,6 +14,7 @@
 #include "udvr/classify/fast_tf.h"
 #include "udvr/classify/transfer_function.h"
 #include "udvr/io/image.h"
+#include "udvr/render/batch_kernels.h"
 #include "udvr/render/camera.h"
 #include "udvr/render/render.h"
 #include "udvr/util/fast_math.h"
@@ -32,172 +33,6 @@ namespace udvr::detail {
 inline constexpr int kBrickCells = 16;
 /// Pixels per tile edge; tiles are the unit of parallel work.
 inline constexpr int kTilePixels = 16;
-
-/// Bit v of a per-cell emptiness bit table (SkipTable::cellEmptyBits).
-inline bool isCellEmpty(const std::uint32_t* bits, std::size_t v) {
-    return ((bits[v >> 5] >> (v & 31u)) & 1u) != 0;
-}
-
-/// Mean field with the exact fast TF: TF(trilinear(values)), the kernel of `mean`, of plain
-/// fields (ground truth) and of each gmm-mc realization.
-struct FastMeanKernel {
-    const float* values = nullptr;  // one value per grid point, x fastest
-    const FastTransferFunction* tf = nullptr;
-    float maxIndex[3] = {0, 0, 0};  // dims − 1: index-space clamp (SPEC §3 clamps into the grid)
-    int maxBase[3] = {0, 0, 0};     // last cell's base index: max(dims − 2, 0)
-    std::size_t stride[3] = {0, 0, 0};  // linear stride per axis
-    std::size_t next[3] = {0, 0, 0};    // offset of the +1 neighbour (0 on a 1-point axis)
-    // Per-cell emptiness bits (SkipTable::cellEmptyBits) or null: the test costs one load here,
-    // where the cell's base index is computed anyway.
-    const std::uint32_t* cellEmpty = nullptr;
-    /// valueAt()'s result for a sample in an empty cell: below every value, never classified.
-    static constexpr float kEmptyCell = -std::numeric_limits<float>::infinity();
-
-    FastMeanKernel(const Grid3& grid, const float* v, const FastTransferFunction* t)
-        : values(v), tf(t) {
-        stride[0] = 1;
-        stride[1] = static_cast<std::size_t>(grid.dims[0]);
-        stride[2] = stride[1] * static_cast<std::size_t>(grid.dims[1]);
-        for (int a = 0; a < 3; ++a) {
-            maxIndex[a] = static_cast<float>(grid.dims[a] - 1);
-            maxBase[a] = std::max(grid.dims[a] - 2, 0);
-            next[a] = grid.dims[a] > 1 ? stride[a] : 0;
-        }
-        batchable = grid.pointCount() < static_cast<std::size_t>(std::numeric_limits<int>::max());
-        if (batchable)
-            for (int a = 0; a < 3; ++a) {
-                stride32[a] = static_cast<int>(stride[a]);
-                next32[a] = static_cast<int>(next[a]);
-            }
-    }
-
-    /// Trilinear value at an index-space point (clamped into the grid); SPEC §3 `mean`.
-    float valueAt(float x, float y, float z) const {
-        x = std::clamp(x, 0.f, maxIndex[0]);
-        y = std::clamp(y, 0.f, maxIndex[1]);
-        z = std::clamp(z, 0.f, maxIndex[2]);
-        const int ix = std::min(static_cast<int>(x), maxBase[0]);
-        const int iy = std::min(static_cast<int>(y), maxBase[1]);
-        const int iz = std::min(static_cast<int>(z), maxBase[2]);
-        const float fx = x - static_cast<float>(ix), fy = y - static_cast<float>(iy),
-                    fz = z - static_cast<float>(iz);
-        const std::size_t base = static_cast<std::size_t>(ix) +
-                                 static_cast<std::size_t>(iy) * stride[1] +
-                                 static_cast<std::size_t>(iz) * stride[2];
-        if (cellEmpty && isCellEmpty(cellEmpty, base))
-            return kEmptyCell;  // E[α] = 0 in the whole cell
-        const float* q = values + base;
-        const std::size_t ox = next[0], oy = next[1], oz = next[2];
-        const float c00 = q[0] + fx * (q[ox] - q[0]);
-        const float c10 = q[oy] + fx * (q[oy + ox] - q[oy]);
-        const float c01 = q[oz] + fx * (q[oz + ox] - q[oz]);
-        const float c11 = q[oz + oy] + fx * (q[oz + oy + ox] - q[oz + oy]);
-        const float c0 = c00 + fy * (c10 - c00);
-        const float c1 = c01 + fy * (c11 - c01);
-        return c0 + fz * (c1 - c0);
-    }
-    /// Samples per batch of cellsAt/blend: one AVX-512 register of floats.
-    static constexpr int kBatch = 16;
-    /// Whether every voxel index fits an int (the batched loops' 32-bit indices); else valueAt per
-    /// sample.
-    bool batchable = false;
-    int stride32[3] = {0, 0, 0};
-    int next32[3] = {0, 0, 0};
-
-    /// valueAt's cell and weights for the kBatch samples at a + (s0 + i)·b, i < kBatch (one loop
-    /// the compiler vectorises): the cell's base voxel and the fractional position in it.
-    /// Samples past the end of a run are computed too; they clamp into the grid like any other.
-    void cellsAt(const float a[3], const float b[3], int s0, int* base, float* fx, float* fy,
-                 float* fz) const {
-        const float a0 = a[0], a1 = a[1], a2 = a[2], b0 = b[0], b1 = b[1], b2 = b[2];
-        const float m0 = maxIndex[0], m1 = maxIndex[1], m2 = maxIndex[2];
-        const int mb0 = maxBase[0], mb1 = maxBase[1], mb2 = maxBase[2];
-        const int sy = stride32[1], sz = stride32[2];
-        for (int i = 0; i < kBatch; ++i) {
-            const float sf = static_cast<float>(s0 + i);
-            const float x = std::min(std::max(a0 + sf * b0, 0.f), m0);
-            const float y = std::min(std::max(a1 + sf * b1, 0.f), m1);
-            const float z = std::min(std::max(a2 + sf * b2, 0.f), m2);
-            const int ix = std::min(static_cast<int>(x), mb0);
-            const int iy = std::min(static_cast<int>(y), mb1);
-            const int iz = std::min(static_cast<int>(z), mb2);
-            fx[i] = x - static_cast<float>(ix);
-            fy[i] = y - static_cast<float>(iy);
-            fz[i] = z - static_cast<float>(iz);
-            base[i] = ix + iy * sy + iz * sz;
-        }
-    }
-    /// valueAt's blend (without the empty-cell test) for kBatch cells from cellsAt (gathers for
-    /// the corners; every index is in range): the same operations, so the same values.
-    void blend(const int* base, const float* fxs, const float* fys, const float* fzs,
-               float* value) const {
-        const int ox = next32[0], oy = next32[1], oz = next32[2];
-        const float* q = values;
-        for (int i = 0; i < kBatch; ++i) {
-            const int v = base[i];
-            const float fx = fxs[i], fy = fys[i], fz = fzs[i];
-            const float q000 = q[v], q100 = q[v + ox], q010 = q[v + oy], q110 = q[v + oy + ox];
-            const float q001 = q[v + oz], q101 = q[v + oz + ox], q011 = q[v + oz + oy],
-                        q111 = q[v + oz + oy + ox];
-            const float c00 = q000 + fx * (q100 - q000);
-            const float c10 = q010 + fx * (q110 - q010);
-            const float c01 = q001 + fx * (q101 - q001);
-            const float c11 = q011 + fx * (q111 - q011);
-            const float c0 = c00 + fy * (c10 - c00);
-            const float c1 = c01 + fy * (c11 - c01);
-            value[i] = c0 + fz * (c1 - c0);
-        }
-    }
-    Rgba classifyAt(float x, float y, float z) const {
-        const float v = valueAt(x, y, z);
-        if (v == kEmptyCell) return Rgba{};
-        return tf->classify(v);
-    }
-    void voxelSupport(std::size_t voxel, float& lo, float& hi) const { lo = hi = values[voxel]; }
-
-#if UDVR_HAVE_AVX512
-    /// Prefetch the cache lines of the cell based at voxel v (its four x-rows).
-    void prefetchCell(int v) const {
-        const float* q = values + v;
-        __builtin_prefetch(q);
-        __builtin_prefetch(q + next32[1]);
-        __builtin_prefetch(q + next32[2]);
-        __builtin_prefetch(q + next32[1] + next32[2]);
-    }
-    /// Whether load16/finish16 can run: 32-bit voxel indices and a TF with few enough regions.
-    bool batch16() const { return batchable && tf->regionArrays() != nullptr; }
-    /// What load16 hands to finish16: the trilinear values.
-    using Loaded16 = __m512;
-    /// Classification of 16 samples in two phases, so the ray loop can issue one batch's loads
-    /// before it classifies the previous batch: load16 reads and blends the `live` lanes of 16
-    /// cells (base voxel and fractional position, see cellsAt; other lanes are not loaded),
-    /// finish16 gives TF(value) premultiplied, (α·r, α·g, α·b, α).
-    Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
-        const __m512 zero = _mm512_setzero_ps();
-        const auto at = [&](int offset) {
-            return _mm512_mask_i32gather_ps(
-                zero, live, _mm512_add_epi32(base, _mm512_set1_epi32(offset)), values, 4);
-        };
-        const int ox = next32[0], oy = next32[1], oz = next32[2];
-        const auto lerp = [](__m512 u, __m512 v, __m512 f) {
-            return _mm512_fmadd_ps(f, _mm512_sub_ps(v, u), u);
-        };
-        const __m512 q000 = _mm512_mask_i32gather_ps(zero, live, base, values, 4);
-        const __m512 c00 = lerp(q000, at(ox), fx);
-        const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
-        const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
-        const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
-        return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
-    }
-    void finish16(Loaded16 v, __m512& pr, __m512& pg, __m512& pb, __m512& pa) const {
-        __m512 r, g, b;
-        FastTransferFunction::classify16(*tf->regionArrays(), v, r, g, b, pa);
-        pr = _mm512_mul_ps(pa, r);
-        pg = _mm512_mul_ps(pa, g);
-        pb = _mm512_mul_ps(pa, b);
-    }
-#endif
-};
 
 /// Empty-space tables over the model grid's cells. A cell is empty when the hull of its 8
 /// corner voxels' supports misses every non-zero-opacity range of the TF, so every sample whose
@@ -503,6 +338,16 @@ inline constexpr bool kHasBatch16 = requires(const Kernel& k) {
     k.batch16();
 };
 
+/// Whether marchFrame takes the batched loop for `kernel` (AVX-512 and the kernel's batch16()).
+template <class Kernel>
+bool batchable16(const Kernel& kernel) {
+#if UDVR_HAVE_AVX512
+    if constexpr (kHasBatch16<Kernel>) return kernel.batch16();
+#endif
+    (void)kernel;
+    return false;
+}
+
 /// One ray's samples in the model's index space: sample s = 0 … n−1 at a + s·b. Positions are
 /// not accumulated, so a sample's position does not depend on which samples were skipped.
 struct RaySamples {
@@ -691,9 +536,7 @@ bool step16(const Kernel& kernel, const SkipTable& bricks, bool skipEmpty, Ray16
     alignas(64) int ahead[16];
     _mm512_store_si512(ahead, cellsAt(_mm512_add_ps(sf, _mm512_set1_ps(32.f)), nullptr));
     for (int l : {0, 8, 15}) kernel.prefetchCell(ahead[l]);
-    // Load every lane of the run (not only the non-empty ones): the loads then do not wait for
-    // the emptiness test.
-    ray.loaded = kernel.load16(base, f[0], f[1], f[2], lanes);
+    ray.loaded = kernel.load16(base, f[0], f[1], f[2], Kernel::kLoadDeadLanes ? lanes : live);
     ray.pendingLive = live;
     ray.pending = true;
     return false;
@@ -756,7 +599,7 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const MarchParams
                 ImageRgba& image, MarchCounters& counters) {
 #if UDVR_HAVE_AVX512
     if constexpr (kHasBatch16<Kernel>) {
-        if (kernel.batch16()) {
+        if (batchable16(kernel)) {
             marchFrame16(kernel, bricks, p, image, counters);
             return;
         }

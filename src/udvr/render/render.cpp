@@ -122,8 +122,8 @@ namespace {
 template <class Kernel>
 void march(const Kernel& kernel, const detail::SkipTable& table, const detail::MarchParams& p,
            ImageRgba& image, detail::MarchCounters& counters) {
-    if constexpr (std::is_same_v<Kernel, detail::FastMeanKernel>) {
-        detail::FastMeanKernel k = kernel;
+    if constexpr (std::is_base_of_v<detail::CellGeometry, Kernel>) {
+        Kernel k = kernel;
         if (!table.cellEmptyBits.empty()) k.cellEmpty = table.cellEmptyBits.data();
         detail::marchFrame(k, table, p, image, counters);
     } else {
@@ -229,8 +229,19 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
     } else {
         ClassifyOptions options;
         options.uniformMinMax = settings.uniformMinMax;
-        withKernel(model, kind, tf, options,
-                   [&](const auto& kernel) { renderKernel(kernel, p, ranges, image, counters); });
+        const FastTransferFunction fast(tf);
+        withKernel(model, kind, tf, options, [&](const auto& kernel) {
+            using K = std::decay_t<decltype(kernel)>;
+            if constexpr (std::is_same_v<K, QuantileMeanKernel>) {
+                // Batched float quantile-mean where the machine and the model allow it.
+                const detail::FastQuantileMeanKernel batched(model.grid, kernel, &fast);
+                if (detail::batchable16(batched)) {
+                    renderKernel(batched, p, ranges, image, counters, cacheImpl, &key);
+                    return;
+                }
+            }
+            renderKernel(kernel, p, ranges, image, counters);
+        });
     }
 
     if (stats) {

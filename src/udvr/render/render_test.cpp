@@ -6,9 +6,9 @@
 #include <cmath>
 #include <vector>
 
+#include "udvr/classify/fast_tf.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/render/camera.h"
-#include "udvr/classify/fast_tf.h"
 #include "udvr/render/ray_march.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/parallel.h"

@@ -100,8 +100,8 @@ inline VF logOfAtanhArg(VF t) {
 }
 
 /// log(s) for positive normal float lanes; absolute error < 1.5e−7 + 6e−8·|log s| (the float
-/// rounding of the result). s = 2^e·f with f ∈ [√½, √2), log f = 2·atanh(t), t = (f−1)/(f+1),
-/// |t| ≤ 0.172, series to t⁹ (truncation < 1e−9).
+/// rounding of the result) with FMA, up to twice that without. s = 2^e·f with f ∈ [√½, √2), log f =
+/// 2·atanh(t), t = (f−1)/(f+1), |t| ≤ 0.172, series to t⁹ (truncation < 1e−9).
 template <class VF>
 inline VF logPositive(VF s) {
     using VI = decltype(s < s);

@@ -63,5 +63,29 @@ inline void sum4(__m512 a, __m512 b, __m512 c, __m512 d, float out[4]) {
     out[3] = lanes[12];
 }
 
+/// The sums of lanes 0–7 and of lanes 8–15 of a, b, c and d, in lo[0 … 3] and hi[0 … 3].
+inline void sumHalves4(__m512 a, __m512 b, __m512 c, __m512 d, float lo[4], float hi[4]) {
+    // 128-bit blocks: [a0+a1, a2+a3, b0+b1, b2+b3] (a's halves, then b's) and the same for c, d.
+    const __m512 ab =
+        _mm512_add_ps(_mm512_shuffle_f32x4(a, b, 0x88), _mm512_shuffle_f32x4(a, b, 0xDD));
+    const __m512 cd =
+        _mm512_add_ps(_mm512_shuffle_f32x4(c, d, 0x88), _mm512_shuffle_f32x4(c, d, 0xDD));
+    const auto within = [](__m512 s) {  // lane 0 of each block ← the block's sum
+        const __m512 t = _mm512_add_ps(s, _mm512_permute_ps(s, 0x4E));
+        return _mm512_add_ps(t, _mm512_permute_ps(t, 0xB1));
+    };
+    alignas(64) float x[16], y[16];
+    _mm512_store_ps(x, within(ab));
+    _mm512_store_ps(y, within(cd));
+    lo[0] = x[0];
+    hi[0] = x[4];
+    lo[1] = x[8];
+    hi[1] = x[12];
+    lo[2] = y[0];
+    hi[2] = y[4];
+    lo[3] = y[8];
+    hi[3] = y[12];
+}
+
 }  // namespace udvr::simd
 #endif

@@ -1,0 +1,358 @@
+#pragma once
+// Kernels of the batched ray loop (render/ray_march.h): float reconstruction and
+// classification of 16 samples at once with AVX-512 for the models whose per-sample work is
+// small enough that the classic per-sample loop would be bound by its own overhead — the mean
+// field (also the ground truth and each gmm-mc realization) and quantile-mean. Each also has a
+// per-sample classifyAt for machines without AVX-512. Internal to render/.
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+
+#include "udvr/classify/fast_tf.h"
+#include "udvr/classify/sample_kernels.h"
+#include "udvr/classify/transfer_function.h"
+#include "udvr/util/grid.h"
+#include "udvr/util/simd.h"
+
+namespace udvr::detail {
+
+/// Bit v of a per-cell emptiness bit table (SkipTable::cellEmptyBits).
+inline bool isCellEmpty(const std::uint32_t* bits, std::size_t v) {
+    return ((bits[v >> 5] >> (v & 31u)) & 1u) != 0;
+}
+
+/// Index-space geometry of a model grid's trilinear cells, as trilinearCell (SPEC §3) clamps
+/// them, shared by the batched kernels.
+struct CellGeometry {
+    float maxIndex[3] = {0, 0, 0};  // dims − 1: index-space clamp (SPEC §3 clamps into the grid)
+    int maxBase[3] = {0, 0, 0};     // last cell's base index: max(dims − 2, 0)
+    std::size_t stride[3] = {0, 0, 0};  // linear stride per axis (voxels)
+    std::size_t next[3] = {0, 0, 0};    // offset of the +1 neighbour (0 on a 1-point axis)
+    /// Whether every voxel index fits an int (the batched loops' 32-bit indices).
+    bool batchable = false;
+    int stride32[3] = {0, 0, 0};
+    int next32[3] = {0, 0, 0};
+    // Per-cell emptiness bits (SkipTable::cellEmptyBits) or null, set by the renderer.
+    const std::uint32_t* cellEmpty = nullptr;
+
+    explicit CellGeometry(const Grid3& grid) {
+        stride[0] = 1;
+        stride[1] = static_cast<std::size_t>(grid.dims[0]);
+        stride[2] = stride[1] * static_cast<std::size_t>(grid.dims[1]);
+        for (int a = 0; a < 3; ++a) {
+            maxIndex[a] = static_cast<float>(grid.dims[a] - 1);
+            maxBase[a] = std::max(grid.dims[a] - 2, 0);
+            next[a] = grid.dims[a] > 1 ? stride[a] : 0;
+        }
+        batchable = grid.pointCount() < static_cast<std::size_t>(std::numeric_limits<int>::max());
+        if (batchable)
+            for (int a = 0; a < 3; ++a) {
+                stride32[a] = static_cast<int>(stride[a]);
+                next32[a] = static_cast<int>(next[a]);
+            }
+    }
+};
+
+/// Mean field with the exact fast TF: TF(trilinear(values)), the kernel of `mean`, of plain
+/// fields (ground truth) and of each gmm-mc realization.
+struct FastMeanKernel : CellGeometry {
+    const float* values = nullptr;  // one value per grid point, x fastest
+    const FastTransferFunction* tf = nullptr;
+    /// valueAt()'s result for a sample in an empty cell: below every value, never classified.
+    static constexpr float kEmptyCell = -std::numeric_limits<float>::infinity();
+
+    FastMeanKernel(const Grid3& grid, const float* v, const FastTransferFunction* t)
+        : CellGeometry(grid), values(v), tf(t) {}
+
+    /// Trilinear value at an index-space point (clamped into the grid); SPEC §3 `mean`.
+    float valueAt(float x, float y, float z) const {
+        x = std::clamp(x, 0.f, maxIndex[0]);
+        y = std::clamp(y, 0.f, maxIndex[1]);
+        z = std::clamp(z, 0.f, maxIndex[2]);
+        const int ix = std::min(static_cast<int>(x), maxBase[0]);
+        const int iy = std::min(static_cast<int>(y), maxBase[1]);
+        const int iz = std::min(static_cast<int>(z), maxBase[2]);
+        const float fx = x - static_cast<float>(ix), fy = y - static_cast<float>(iy),
+                    fz = z - static_cast<float>(iz);
+        const std::size_t base = static_cast<std::size_t>(ix) +
+                                 static_cast<std::size_t>(iy) * stride[1] +
+                                 static_cast<std::size_t>(iz) * stride[2];
+        if (cellEmpty && isCellEmpty(cellEmpty, base))
+            return kEmptyCell;  // E[α] = 0 in the whole cell
+        const float* q = values + base;
+        const std::size_t ox = next[0], oy = next[1], oz = next[2];
+        const float c00 = q[0] + fx * (q[ox] - q[0]);
+        const float c10 = q[oy] + fx * (q[oy + ox] - q[oy]);
+        const float c01 = q[oz] + fx * (q[oz + ox] - q[oz]);
+        const float c11 = q[oz + oy] + fx * (q[oz + oy + ox] - q[oz + oy]);
+        const float c0 = c00 + fy * (c10 - c00);
+        const float c1 = c01 + fy * (c11 - c01);
+        return c0 + fz * (c1 - c0);
+    }
+    /// Samples per batch of cellsAt/blend: one AVX-512 register of floats.
+    static constexpr int kBatch = 16;
+
+    /// valueAt's cell and weights for the kBatch samples at a + (s0 + i)·b, i < kBatch (one loop
+    /// the compiler vectorises): the cell's base voxel and the fractional position in it.
+    /// Samples past the end of a run are computed too; they clamp into the grid like any other.
+    void cellsAt(const float a[3], const float b[3], int s0, int* base, float* fx, float* fy,
+                 float* fz) const {
+        const float a0 = a[0], a1 = a[1], a2 = a[2], b0 = b[0], b1 = b[1], b2 = b[2];
+        const float m0 = maxIndex[0], m1 = maxIndex[1], m2 = maxIndex[2];
+        const int mb0 = maxBase[0], mb1 = maxBase[1], mb2 = maxBase[2];
+        const int sy = stride32[1], sz = stride32[2];
+        for (int i = 0; i < kBatch; ++i) {
+            const float sf = static_cast<float>(s0 + i);
+            const float x = std::min(std::max(a0 + sf * b0, 0.f), m0);
+            const float y = std::min(std::max(a1 + sf * b1, 0.f), m1);
+            const float z = std::min(std::max(a2 + sf * b2, 0.f), m2);
+            const int ix = std::min(static_cast<int>(x), mb0);
+            const int iy = std::min(static_cast<int>(y), mb1);
+            const int iz = std::min(static_cast<int>(z), mb2);
+            fx[i] = x - static_cast<float>(ix);
+            fy[i] = y - static_cast<float>(iy);
+            fz[i] = z - static_cast<float>(iz);
+            base[i] = ix + iy * sy + iz * sz;
+        }
+    }
+    /// valueAt's blend (without the empty-cell test) for kBatch cells from cellsAt (gathers for
+    /// the corners; every index is in range): the same operations, so the same values.
+    void blend(const int* base, const float* fxs, const float* fys, const float* fzs,
+               float* value) const {
+        const int ox = next32[0], oy = next32[1], oz = next32[2];
+        const float* q = values;
+        for (int i = 0; i < kBatch; ++i) {
+            const int v = base[i];
+            const float fx = fxs[i], fy = fys[i], fz = fzs[i];
+            const float q000 = q[v], q100 = q[v + ox], q010 = q[v + oy], q110 = q[v + oy + ox];
+            const float q001 = q[v + oz], q101 = q[v + oz + ox], q011 = q[v + oz + oy],
+                        q111 = q[v + oz + oy + ox];
+            const float c00 = q000 + fx * (q100 - q000);
+            const float c10 = q010 + fx * (q110 - q010);
+            const float c01 = q001 + fx * (q101 - q001);
+            const float c11 = q011 + fx * (q111 - q011);
+            const float c0 = c00 + fy * (c10 - c00);
+            const float c1 = c01 + fy * (c11 - c01);
+            value[i] = c0 + fz * (c1 - c0);
+        }
+    }
+    Rgba classifyAt(float x, float y, float z) const {
+        const float v = valueAt(x, y, z);
+        if (v == kEmptyCell) return Rgba{};
+        return tf->classify(v);
+    }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const { lo = hi = values[voxel]; }
+
+#if UDVR_HAVE_AVX512
+    /// Prefetch the cache lines of the cell based at voxel v (its four x-rows).
+    void prefetchCell(int v) const {
+        const float* q = values + v;
+        __builtin_prefetch(q);
+        __builtin_prefetch(q + next32[1]);
+        __builtin_prefetch(q + next32[2]);
+        __builtin_prefetch(q + next32[1] + next32[2]);
+    }
+    /// load16 loads every lane of a run, empty cells too: the gathers then need not wait for the
+    /// emptiness test (they are cheap next to the wait).
+    static constexpr bool kLoadDeadLanes = true;
+    /// Whether load16/finish16 can run: 32-bit voxel indices and a TF with few enough regions.
+    bool batch16() const { return batchable && tf->regionArrays() != nullptr; }
+    /// What load16 hands to finish16: the trilinear values.
+    using Loaded16 = __m512;
+    /// Classification of 16 samples in two phases, so the ray loop can issue one batch's loads
+    /// before it classifies the previous batch: load16 reads and blends the `live` lanes of 16
+    /// cells (base voxel and fractional position, see cellsAt; other lanes are not loaded),
+    /// finish16 gives TF(value) premultiplied, (α·r, α·g, α·b, α).
+    Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
+        const __m512 zero = _mm512_setzero_ps();
+        const auto at = [&](int offset) {
+            return _mm512_mask_i32gather_ps(
+                zero, live, _mm512_add_epi32(base, _mm512_set1_epi32(offset)), values, 4);
+        };
+        const int ox = next32[0], oy = next32[1], oz = next32[2];
+        const auto lerp = [](__m512 u, __m512 v, __m512 f) {
+            return _mm512_fmadd_ps(f, _mm512_sub_ps(v, u), u);
+        };
+        const __m512 q000 = _mm512_mask_i32gather_ps(zero, live, base, values, 4);
+        const __m512 c00 = lerp(q000, at(ox), fx);
+        const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
+        const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
+        const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
+        return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+    }
+    void finish16(Loaded16 v, __m512& pr, __m512& pg, __m512& pb, __m512& pa) const {
+        __m512 r, g, b;
+        FastTransferFunction::classify16(*tf->regionArrays(), v, r, g, b, pa);
+        pr = _mm512_mul_ps(pa, r);
+        pg = _mm512_mul_ps(pa, g);
+        pb = _mm512_mul_ps(pa, b);
+    }
+#endif
+};
+
+/// Quantile mean (Eq. 5, SPEC §4) in float for 16 samples at a time: per sample the q + 1
+/// boundaries of the 8 corners in one vector each (masked loads of the voxel-major quantile
+/// array), blended by the same lerps as the mean field, then midpoints, widths and weights of
+/// all q quantiles at once and the TF at the midpoints by region permutes (FastTransferFunction)
+/// — two samples per vector when q ≤ 8. Density weights 1/w_j (`quantile-mean`) or equal
+/// weights (`quantile-mean-mass`); with density weights, zero-width quantiles (w ≤ zeroWidth)
+/// take all the mass, shared equally, as in QuantileMeanKernel. Same values as
+/// QuantileMeanKernel (double) up to float rounding.
+struct FastQuantileMeanKernel : CellGeometry {
+    const float* quantiles = nullptr;  // q + 1 boundaries per voxel, voxel-major
+    int q = 0;
+    bool densityWeights = true;
+    float zeroWidth = 0.f;  // data units
+    const FastTransferFunction* tf = nullptr;
+    QuantileMeanKernel exact;  // per-sample classification (no AVX-512) and voxel supports
+
+    FastQuantileMeanKernel(const Grid3& grid, const QuantileMeanKernel& k,
+                           const FastTransferFunction* t)
+        : CellGeometry(grid),
+          quantiles(k.quantiles),
+          q(k.q),
+          densityWeights(k.densityWeights),
+          zeroWidth(static_cast<float>(k.zeroWidth)),
+          tf(t),
+          exact(k) {}
+
+    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        exact.voxelSupport(voxel, lo, hi);
+    }
+
+#if UDVR_HAVE_AVX512
+    /// A sample costs far more than a cell test: classify the non-empty lanes only.
+    static constexpr bool kLoadDeadLanes = false;
+    /// q + 1 boundaries fit one vector, 32-bit indices, a TF with few enough regions.
+    bool batch16() const { return batchable && q >= 1 && q <= 15 && tf->regionArrays() != nullptr; }
+    void prefetchCell(int v) const {
+        const std::size_t n1 = static_cast<std::size_t>(q) + 1;
+        const float* b = quantiles + static_cast<std::size_t>(v) * n1;
+        for (int o : {0, next32[1], next32[2], next32[1] + next32[2]}) {
+            __builtin_prefetch(b + static_cast<std::size_t>(o) * n1);
+            __builtin_prefetch(b + (static_cast<std::size_t>(o) + 1) * n1 + q);
+        }
+    }
+    /// The classified samples (premultiplied colour and E[α]) of the live lanes.
+    struct Loaded16 {
+        __m512 r, g, b, a;
+    };
+    Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
+        alignas(64) int cell[16];
+        alignas(64) float w[3][16], out[4][16];
+        _mm512_store_si512(cell, base);
+        _mm512_store_ps(w[0], fx);
+        _mm512_store_ps(w[1], fy);
+        _mm512_store_ps(w[2], fz);
+        for (auto& o : out) _mm512_store_ps(o, _mm512_setzero_ps());  // dead lanes
+        int lanes[16], count = 0;
+        for (unsigned m = live; m; m &= m - 1) lanes[count++] = __builtin_ctz(m);
+        __m512 mid[2], width[2];
+        const auto sample = [&](int l, int k) {
+            midsAndWidths(boundaries(cell[l], w[0][l], w[1][l], w[2][l]), mid[k], width[k]);
+        };
+        const __mmask16 quantileLanes = static_cast<__mmask16>((1u << q) - 1u);
+        if (q <= 8) {  // two samples per vector: lanes 0–7 and 8–15
+            const __mmask16 valid = static_cast<__mmask16>(quantileLanes | quantileLanes << 8);
+            for (int i = 0; i < count; i += 2) {
+                const int l0 = lanes[i], l1 = i + 1 < count ? lanes[i + 1] : lanes[i];
+                sample(l0, 0);
+                sample(l1, 1);
+                float sums[2][4];
+                expectedTf(_mm512_insertf32x8(mid[0], _mm512_castps512_ps256(mid[1]), 1),
+                           _mm512_insertf32x8(width[0], _mm512_castps512_ps256(width[1]), 1), valid,
+                           true, sums);
+                for (int c = 0; c < 4; ++c) {
+                    out[c][l0] = sums[0][c];
+                    out[c][l1] = sums[1][c];
+                }
+            }
+        } else {
+            for (int i = 0; i < count; ++i) {
+                sample(lanes[i], 0);
+                float sums[2][4];
+                expectedTf(mid[0], width[0], quantileLanes, false, sums);
+                for (int c = 0; c < 4; ++c) out[c][lanes[i]] = sums[0][c];
+            }
+        }
+        return Loaded16{_mm512_load_ps(out[0]), _mm512_load_ps(out[1]), _mm512_load_ps(out[2]),
+                        _mm512_load_ps(out[3])};
+    }
+    void finish16(const Loaded16& l, __m512& pr, __m512& pg, __m512& pb, __m512& pa) const {
+        pr = l.r;
+        pg = l.g;
+        pb = l.b;
+        pa = l.a;
+    }
+
+  private:
+    /// b_0 … b_q at a sample of the cell based at voxel v (lanes 0 … q; the rest 0): the corner
+    /// vectors blended by the lerps of FastMeanKernel::valueAt, so equal corners give exactly
+    /// equal boundaries (zero widths stay zero).
+    __m512 boundaries(int v, float fx, float fy, float fz) const {
+        const __mmask16 m = static_cast<__mmask16>((1u << (q + 1)) - 1u);
+        const std::size_t n1 = static_cast<std::size_t>(q) + 1;
+        const float* b = quantiles + static_cast<std::size_t>(v) * n1;
+        const auto at = [&](int o) {
+            return _mm512_maskz_loadu_ps(m, b + static_cast<std::size_t>(o) * n1);
+        };
+        const auto lerp = [](__m512 u, __m512 w, float f) {
+            return _mm512_fmadd_ps(_mm512_set1_ps(f), _mm512_sub_ps(w, u), u);
+        };
+        const int ox = next32[0], oy = next32[1], oz = next32[2];
+        const __m512 c00 = lerp(at(0), at(ox), fx);
+        const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
+        const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
+        const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
+        return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+    }
+    /// Midpoints (b_j + b_{j+1})/2 and widths b_{j+1} − b_j of quantile j in lane j (j < q).
+    static void midsAndWidths(__m512 b, __m512& mid, __m512& width) {
+        const __m512 up = _mm512_castsi512_ps(
+            _mm512_alignr_epi32(_mm512_setzero_si512(), _mm512_castps_si512(b), 1));  // b_{j+1}
+        mid = _mm512_mul_ps(_mm512_add_ps(b, up), _mm512_set1_ps(0.5f));
+        width = _mm512_sub_ps(up, b);
+    }
+    /// (E[α·r], E[α·g], E[α·b], E[α]) of Eq. 5 for the quantiles in the `valid` lanes: one
+    /// sample in all 16 lanes (pair = false, result in sums[0]) or two, lanes 0–7 and 8–15
+    /// (sums[0], sums[1]).
+    void expectedTf(__m512 mid, __m512 width, __mmask16 valid, bool pair, float sums[2][4]) const {
+        const __m512 one = _mm512_set1_ps(1.f);
+        __m512 weight = densityWeights ? _mm512_maskz_div_ps(valid, one, width)
+                                       : _mm512_maskz_mov_ps(valid, one);
+        if (densityWeights) {
+            // A sample with zero-width quantiles: those share all the mass equally.
+            const __mmask16 zero =
+                _mm512_mask_cmp_ps_mask(valid, width, _mm512_set1_ps(zeroWidth), _CMP_LE_OQ);
+            if (zero) {
+                const __mmask16 groups[2] = {static_cast<__mmask16>(pair ? 0x00FFu : 0xFFFFu),
+                                             static_cast<__mmask16>(pair ? 0xFF00u : 0u)};
+                for (__mmask16 g : groups)
+                    if (zero & g)
+                        weight = _mm512_mask_mov_ps(weight, g, _mm512_maskz_mov_ps(zero & g, one));
+            }
+        }
+        __m512 r, g, b, a;
+        FastTransferFunction::classify16(*tf->regionArrays(), mid, r, g, b, a);
+        const __m512 wa = _mm512_mul_ps(weight, a);  // 0 outside `valid`
+        const __m512 wr = _mm512_mul_ps(wa, r), wg = _mm512_mul_ps(wa, g),
+                     wb = _mm512_mul_ps(wa, b);
+        if (pair) {
+            float colour[2][4], weights[2][4];
+            simd::sumHalves4(wr, wg, wb, wa, colour[0], colour[1]);
+            simd::sumHalves4(weight, weight, weight, weight, weights[0], weights[1]);
+            for (int h = 0; h < 2; ++h)
+                for (int c = 0; c < 4; ++c) sums[h][c] = colour[h][c] / weights[h][0];
+        } else {
+            float colour[4];
+            simd::sum4(wr, wg, wb, wa, colour);
+            const float total = _mm512_reduce_add_ps(weight);
+            for (int c = 0; c < 4; ++c) sums[0][c] = colour[c] / total;
+        }
+    }
+#endif
+};
+
+}  // namespace udvr::detail
