@@ -238,14 +238,33 @@ TEST(BatchCompositor, MatchesSerialFrontToBack) {
 // has too many regions for the batched loop, so the frame takes the per-sample loop: the two
 // frames agree to float rounding (with or without AVX-512), for the mean field and for
 // quantile-mean with both weightings.
-TEST(Render, BatchedAndPerSampleLoopsGiveTheSameFrame) {
-    ModelVolume m = modelFromField(makeTangle(40, 36, 44));
-    // Quantiles around the value (q = 8; a tie in every voxel), for quantile-mean.
+// The tangle with quantiles around its value (q = 8; a tie in every voxel), for quantile-mean;
+// `flat`: only its plane x = 20 (a 1-point x axis: no x-neighbour to load).
+ModelVolume tangleWithQuantiles(bool flat) {
+    ScalarField f = makeTangle(40, 36, 44);
+    if (flat) {
+        ScalarField plane;
+        plane.grid = f.grid;
+        plane.grid.dims = {1, 36, 44};
+        plane.grid.origin[0] += 20 * f.grid.spacing[0];
+        for (int z = 0; z < 44; ++z)
+            for (int y = 0; y < 36; ++y) plane.values.push_back(f.values[f.grid.index(20, y, z)]);
+        f = plane;
+    }
+    ModelVolume m = modelFromField(f);
+    if (flat) {  // a slab one unit thick around the plane (samples clamp into it)
+        m.bounds[0] -= 0.5;
+        m.bounds[1] += 0.5;
+    }
     constexpr std::array<float, 9> offsets{-2.5f, -1.f, -0.5f, -0.5f, 0.1f, 0.4f, 0.9f, 7.f, 10.f};
     m.quantileCount = 8;
     m.quantiles.resize(m.voxelCount() * 9);
     for (std::size_t v = 0; v < m.voxelCount(); ++v)
         for (int j = 0; j < 9; ++j) m.quantiles[v * 9 + j] = m.mean[v] + offsets[j];
+    return m;
+}
+
+TEST(Render, BatchedAndPerSampleLoopsGiveTheSameFrame) {
     const TransferFunction1D tf = tangleTransferFunction();
     TransferFunction1D dense = tf;
     // Insert 40 points on the first opacity segment's line (and on the colour line).
@@ -264,29 +283,32 @@ TEST(Render, BatchedAndPerSampleLoopsGiveTheSameFrame) {
     dense.opacity = o;
     ASSERT_NE(FastTransferFunction(tf).regionArrays(), nullptr);
     ASSERT_EQ(FastTransferFunction(dense).regionArrays(), nullptr);
-    for (double unit : {0.0, 0.3}) {  // exponent ½ (default), and a general one
-        RenderSettings s;
-        s.width = 72;
-        s.height = 64;
-        s.camera = defaultCamera(m.bounds, 30.0, 20.0);
-        s.unitDistance = unit;
-        for (bool skip : {true, false}) {
-            s.skipEmpty = skip;
-            for (ModelKind kind :
-                 {ModelKind::Mean, ModelKind::QuantileMean, ModelKind::QuantileMeanMass}) {
-                RenderStats sa;
-                const ImageRgba a = renderVolume(m, kind, tf, s, &sa);
-                const ImageRgba b = renderVolume(m, kind, dense, s);
-                double worst = 0.0;
-                for (std::size_t i = 0; i < a.rgba.size(); ++i)
-                    worst = std::max(worst, std::abs(static_cast<double>(a.rgba[i]) - b.rgba[i]));
-                // Mean: float both ways; quantile-mean: float against the double kernel.
-                EXPECT_LE(worst, kind == ModelKind::Mean ? 2e-5 : 1e-4)
-                    << modelName(kind) << " " << unit << " " << skip;
-                EXPECT_GT(sa.samples, 0u);
+    for (bool flat : {false, true})
+        for (double unit : {0.0, 0.3}) {  // exponent ½ (default), and a general one
+            const ModelVolume m = tangleWithQuantiles(flat);
+            RenderSettings s;
+            s.width = 72;
+            s.height = 64;
+            s.camera = defaultCamera(m.bounds, 30.0, 20.0);
+            s.unitDistance = unit;
+            for (bool skip : {true, false}) {
+                s.skipEmpty = skip;
+                for (ModelKind kind :
+                     {ModelKind::Mean, ModelKind::QuantileMean, ModelKind::QuantileMeanMass}) {
+                    RenderStats sa;
+                    const ImageRgba a = renderVolume(m, kind, tf, s, &sa);
+                    const ImageRgba b = renderVolume(m, kind, dense, s);
+                    double worst = 0.0;
+                    for (std::size_t i = 0; i < a.rgba.size(); ++i)
+                        worst =
+                            std::max(worst, std::abs(static_cast<double>(a.rgba[i]) - b.rgba[i]));
+                    // Mean: float both ways; quantile-mean: float against the double kernel.
+                    EXPECT_LE(worst, kind == ModelKind::Mean ? 2e-5 : 1e-4)
+                        << modelName(kind) << " " << unit << " " << skip << " " << flat;
+                    EXPECT_GT(sa.samples, 0u);
+                }
             }
         }
-    }
 }
 
 }  // namespace

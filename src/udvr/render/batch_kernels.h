@@ -174,6 +174,26 @@ struct FastMeanKernel : CellGeometry {
         const auto lerp = [](__m512 u, __m512 v, __m512 f) {
             return _mm512_fmadd_ps(f, _mm512_sub_ps(v, u), u);
         };
+        if (ox == 1) {
+            // x-neighbours are adjacent: one 64-bit gather loads both ends of an x-edge, so a
+            // row of 16 cells takes two 8-lane gathers (half the elements of two 16-lane ones).
+            const __m512i even =
+                _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+            const __m512i odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
+            const __mmask8 liveLo = static_cast<__mmask8>(live & 0xFF);
+            const __mmask8 liveHi = static_cast<__mmask8>(live >> 8);
+            const auto edge = [&](int offset) {  // lerp along x of the row at `offset`
+                const __m512i idx = _mm512_add_epi32(base, _mm512_set1_epi32(offset));
+                const __m512 lo = _mm512_castpd_ps(_mm512_mask_i32gather_pd(
+                    _mm512_setzero_pd(), liveLo, _mm512_castsi512_si256(idx), values, 4));
+                const __m512 hi = _mm512_castpd_ps(_mm512_mask_i32gather_pd(
+                    _mm512_setzero_pd(), liveHi, _mm512_extracti64x4_epi64(idx, 1), values, 4));
+                return lerp(_mm512_permutex2var_ps(lo, even, hi),
+                            _mm512_permutex2var_ps(lo, odd, hi), fx);
+            };
+            const __m512 c00 = edge(0), c10 = edge(oy), c01 = edge(oz), c11 = edge(oz + oy);
+            return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+        }
         const __m512 q000 = _mm512_mask_i32gather_ps(zero, live, base, values, 4);
         const __m512 c00 = lerp(q000, at(ox), fx);
         const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
