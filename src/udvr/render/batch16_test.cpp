@@ -46,26 +46,18 @@ TEST(Simd, PrefixProductAndSums) {
     EXPECT_FLOAT_EQ(sums[3], 0.f);
 }
 
-TEST(Simd, SumHalves) {
-    float a[16], b[16];
-    double alo = 0, ahi = 0, blo = 0, bhi = 0;
+TEST(Simd, Transpose16) {
+    __m512 r[16];
     for (int i = 0; i < 16; ++i) {
-        a[i] = 0.25f * static_cast<float>(i) - 1.f;
-        b[i] = static_cast<float>(i * i) * 0.125f;
-        (i < 8 ? alo : ahi) += a[i];
-        (i < 8 ? blo : bhi) += b[i];
+        alignas(64) float row[16];
+        for (int j = 0; j < 16; ++j) row[j] = static_cast<float>(100 * i + j);
+        r[i] = _mm512_load_ps(row);
     }
-    float lo[4], hi[4];
-    simd::sumHalves4(_mm512_loadu_ps(a), _mm512_loadu_ps(b), _mm512_set1_ps(2.f),
-                     _mm512_setzero_ps(), lo, hi);
-    EXPECT_FLOAT_EQ(lo[0], static_cast<float>(alo));
-    EXPECT_FLOAT_EQ(hi[0], static_cast<float>(ahi));
-    EXPECT_FLOAT_EQ(lo[1], static_cast<float>(blo));
-    EXPECT_FLOAT_EQ(hi[1], static_cast<float>(bhi));
-    EXPECT_FLOAT_EQ(lo[2], 16.f);
-    EXPECT_FLOAT_EQ(hi[2], 16.f);
-    EXPECT_FLOAT_EQ(lo[3], 0.f);
-    EXPECT_FLOAT_EQ(hi[3], 0.f);
+    simd::transpose16(r);
+    for (int i = 0; i < 16; ++i) {
+        const auto row = lanes(r[i]);
+        for (int j = 0; j < 16; ++j) EXPECT_EQ(row[j], static_cast<float>(100 * j + i)) << i << j;
+    }
 }
 
 // The batched float quantile-mean against the double per-sample kernel (SPEC §4 Eq. 5) on random

@@ -213,9 +213,10 @@ struct FastMeanKernel : CellGeometry {
 
 /// Quantile mean (Eq. 5, SPEC §4) in float for 16 samples at a time: per sample the q + 1
 /// boundaries of the 8 corners in one vector each (masked loads of the voxel-major quantile
-/// array), blended by the same lerps as the mean field, then midpoints, widths and weights of
-/// all q quantiles at once and the TF at the midpoints by region permutes (FastTransferFunction)
-/// — two samples per vector when q ≤ 8. Density weights 1/w_j (`quantile-mean`) or equal
+/// array), blended by the same lerps as the mean field; the 16 samples' boundary vectors are
+/// transposed so that midpoints, widths, weights and the TF at the midpoints (region permutes,
+/// FastTransferFunction) run over all 16 samples per quantile, and the sums of Eq. 5 need no
+/// horizontal additions. Density weights 1/w_j (`quantile-mean`) or equal
 /// weights (`quantile-mean-mass`); with density weights, zero-width quantiles (w ≤ zeroWidth)
 /// take all the mass, shared equally, as in QuantileMeanKernel. Same values as
 /// QuantileMeanKernel (double) up to float rounding.
@@ -261,44 +262,49 @@ struct FastQuantileMeanKernel : CellGeometry {
     };
     Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
         alignas(64) int cell[16];
-        alignas(64) float w[3][16], out[4][16];
+        alignas(64) float w[3][16];
         _mm512_store_si512(cell, base);
         _mm512_store_ps(w[0], fx);
         _mm512_store_ps(w[1], fy);
         _mm512_store_ps(w[2], fz);
-        for (auto& o : out) _mm512_store_ps(o, _mm512_setzero_ps());  // dead lanes
-        int lanes[16], count = 0;
-        for (unsigned m = live; m; m &= m - 1) lanes[count++] = __builtin_ctz(m);
-        __m512 mid[2], width[2];
-        const auto sample = [&](int l, int k) {
-            midsAndWidths(boundaries(cell[l], w[0][l], w[1][l], w[2][l]), mid[k], width[k]);
-        };
-        const __mmask16 quantileLanes = static_cast<__mmask16>((1u << q) - 1u);
-        if (q <= 8) {  // two samples per vector: lanes 0–7 and 8–15
-            const __mmask16 valid = static_cast<__mmask16>(quantileLanes | quantileLanes << 8);
-            for (int i = 0; i < count; i += 2) {
-                const int l0 = lanes[i], l1 = i + 1 < count ? lanes[i + 1] : lanes[i];
-                sample(l0, 0);
-                sample(l1, 1);
-                float sums[2][4];
-                expectedTf(_mm512_insertf32x8(mid[0], _mm512_castps512_ps256(mid[1]), 1),
-                           _mm512_insertf32x8(width[0], _mm512_castps512_ps256(width[1]), 1), valid,
-                           true, sums);
-                for (int c = 0; c < 4; ++c) {
-                    out[c][l0] = sums[0][c];
-                    out[c][l1] = sums[1][c];
+        // Row l: the boundaries of sample l; transposed, row j: b_j of every sample.
+        __m512 b[16];
+        for (int l = 0; l < 16; ++l)
+            b[l] = (live >> l & 1) ? boundaries(cell[l], w[0][l], w[1][l], w[2][l])
+                                   : _mm512_setzero_ps();
+        simd::transpose16(b);
+        // Eq. 5 per lane: Σ_j p_j·TF(m_j) / Σ_j p_j, and, for density weights, the same with
+        // p_j = 1 over the zero-width quantiles alone (used where a lane has any).
+        const __m512 one = _mm512_set1_ps(1.f), half = _mm512_set1_ps(0.5f),
+                     zeroWidthV = _mm512_set1_ps(zeroWidth);
+        __m512 sum[4], zeroSum[4], weightSum = _mm512_setzero_ps(), zeroCount = weightSum;
+        for (int c = 0; c < 4; ++c) sum[c] = zeroSum[c] = _mm512_setzero_ps();
+        __mmask16 anyZero = 0;
+        for (int j = 0; j < q; ++j) {
+            const __m512 mid = _mm512_mul_ps(_mm512_add_ps(b[j], b[j + 1]), half);
+            const __m512 width = _mm512_sub_ps(b[j + 1], b[j]);
+            __m512 r, g, bl, a;
+            FastTransferFunction::classify16(*tf->regionArrays(), mid, r, g, bl, a);
+            const __m512 premult[4] = {_mm512_mul_ps(a, r), _mm512_mul_ps(a, g),
+                                       _mm512_mul_ps(a, bl), a};
+            const __m512 weight = densityWeights ? _mm512_div_ps(one, width) : one;
+            for (int c = 0; c < 4; ++c) sum[c] = _mm512_fmadd_ps(weight, premult[c], sum[c]);
+            weightSum = _mm512_add_ps(weightSum, weight);
+            if (densityWeights) {
+                const __mmask16 zero = _mm512_mask_cmp_ps_mask(live, width, zeroWidthV, _CMP_LE_OQ);
+                if (zero) {
+                    anyZero |= zero;
+                    for (int c = 0; c < 4; ++c)
+                        zeroSum[c] = _mm512_mask_add_ps(zeroSum[c], zero, zeroSum[c], premult[c]);
+                    zeroCount = _mm512_mask_add_ps(zeroCount, zero, zeroCount, one);
                 }
             }
-        } else {
-            for (int i = 0; i < count; ++i) {
-                sample(lanes[i], 0);
-                float sums[2][4];
-                expectedTf(mid[0], width[0], quantileLanes, false, sums);
-                for (int c = 0; c < 4; ++c) out[c][lanes[i]] = sums[0][c];
-            }
         }
-        return Loaded16{_mm512_load_ps(out[0]), _mm512_load_ps(out[1]), _mm512_load_ps(out[2]),
-                        _mm512_load_ps(out[3])};
+        __m512 out[4];
+        for (int c = 0; c < 4; ++c)
+            out[c] = _mm512_maskz_mov_ps(live, _mm512_mask_div_ps(_mm512_div_ps(sum[c], weightSum),
+                                                                  anyZero, zeroSum[c], zeroCount));
+        return Loaded16{out[0], out[1], out[2], out[3]};
     }
     void finish16(const Loaded16& l, __m512& pr, __m512& pg, __m512& pb, __m512& pa) const {
         pr = l.r;
@@ -327,50 +333,6 @@ struct FastQuantileMeanKernel : CellGeometry {
         const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
         const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
         return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
-    }
-    /// Midpoints (b_j + b_{j+1})/2 and widths b_{j+1} − b_j of quantile j in lane j (j < q).
-    static void midsAndWidths(__m512 b, __m512& mid, __m512& width) {
-        const __m512 up = _mm512_castsi512_ps(
-            _mm512_alignr_epi32(_mm512_setzero_si512(), _mm512_castps_si512(b), 1));  // b_{j+1}
-        mid = _mm512_mul_ps(_mm512_add_ps(b, up), _mm512_set1_ps(0.5f));
-        width = _mm512_sub_ps(up, b);
-    }
-    /// (E[α·r], E[α·g], E[α·b], E[α]) of Eq. 5 for the quantiles in the `valid` lanes: one
-    /// sample in all 16 lanes (pair = false, result in sums[0]) or two, lanes 0–7 and 8–15
-    /// (sums[0], sums[1]).
-    void expectedTf(__m512 mid, __m512 width, __mmask16 valid, bool pair, float sums[2][4]) const {
-        const __m512 one = _mm512_set1_ps(1.f);
-        __m512 weight = densityWeights ? _mm512_maskz_div_ps(valid, one, width)
-                                       : _mm512_maskz_mov_ps(valid, one);
-        if (densityWeights) {
-            // A sample with zero-width quantiles: those share all the mass equally.
-            const __mmask16 zero =
-                _mm512_mask_cmp_ps_mask(valid, width, _mm512_set1_ps(zeroWidth), _CMP_LE_OQ);
-            if (zero) {
-                const __mmask16 groups[2] = {static_cast<__mmask16>(pair ? 0x00FFu : 0xFFFFu),
-                                             static_cast<__mmask16>(pair ? 0xFF00u : 0u)};
-                for (__mmask16 g : groups)
-                    if (zero & g)
-                        weight = _mm512_mask_mov_ps(weight, g, _mm512_maskz_mov_ps(zero & g, one));
-            }
-        }
-        __m512 r, g, b, a;
-        FastTransferFunction::classify16(*tf->regionArrays(), mid, r, g, b, a);
-        const __m512 wa = _mm512_mul_ps(weight, a);  // 0 outside `valid`
-        const __m512 wr = _mm512_mul_ps(wa, r), wg = _mm512_mul_ps(wa, g),
-                     wb = _mm512_mul_ps(wa, b);
-        if (pair) {
-            float colour[2][4], weights[2][4];
-            simd::sumHalves4(wr, wg, wb, wa, colour[0], colour[1]);
-            simd::sumHalves4(weight, weight, weight, weight, weights[0], weights[1]);
-            for (int h = 0; h < 2; ++h)
-                for (int c = 0; c < 4; ++c) sums[h][c] = colour[h][c] / weights[h][0];
-        } else {
-            float colour[4];
-            simd::sum4(wr, wg, wb, wa, colour);
-            const float total = _mm512_reduce_add_ps(weight);
-            for (int c = 0; c < 4; ++c) sums[0][c] = colour[c] / total;
-        }
     }
 #endif
 };

@@ -63,28 +63,30 @@ inline void sum4(__m512 a, __m512 b, __m512 c, __m512 d, float out[4]) {
     out[3] = lanes[12];
 }
 
-/// The sums of lanes 0–7 and of lanes 8–15 of a, b, c and d, in lo[0 … 3] and hi[0 … 3].
-inline void sumHalves4(__m512 a, __m512 b, __m512 c, __m512 d, float lo[4], float hi[4]) {
-    // 128-bit blocks: [a0+a1, a2+a3, b0+b1, b2+b3] (a's halves, then b's) and the same for c, d.
-    const __m512 ab =
-        _mm512_add_ps(_mm512_shuffle_f32x4(a, b, 0x88), _mm512_shuffle_f32x4(a, b, 0xDD));
-    const __m512 cd =
-        _mm512_add_ps(_mm512_shuffle_f32x4(c, d, 0x88), _mm512_shuffle_f32x4(c, d, 0xDD));
-    const auto within = [](__m512 s) {  // lane 0 of each block ← the block's sum
-        const __m512 t = _mm512_add_ps(s, _mm512_permute_ps(s, 0x4E));
-        return _mm512_add_ps(t, _mm512_permute_ps(t, 0xB1));
-    };
-    alignas(64) float x[16], y[16];
-    _mm512_store_ps(x, within(ab));
-    _mm512_store_ps(y, within(cd));
-    lo[0] = x[0];
-    hi[0] = x[4];
-    lo[1] = x[8];
-    hi[1] = x[12];
-    lo[2] = y[0];
-    hi[2] = y[4];
-    lo[3] = y[8];
-    hi[3] = y[12];
+/// In-place transpose of the 16×16 matrix whose row i is r[i] (unpacks within 128-bit blocks,
+/// then block shuffles).
+inline void transpose16(__m512 r[16]) {
+    __m512 t[16], u[16];
+    for (int i = 0; i < 16; i += 2) {
+        t[i] = _mm512_unpacklo_ps(r[i], r[i + 1]);      // block k: r_i[4k], r_i+1[4k], … [4k+1]
+        t[i + 1] = _mm512_unpackhi_ps(r[i], r[i + 1]);  // … [4k+2], [4k+3]
+    }
+    for (int i = 0; i < 16; i += 4)
+        for (int h = 0; h < 2; ++h) {  // u[i + c]: element 4k + c of rows i … i+3 in block k
+            const __m512d a = _mm512_castps_pd(t[i + h]), b = _mm512_castps_pd(t[i + 2 + h]);
+            u[i + 2 * h] = _mm512_castpd_ps(_mm512_unpacklo_pd(a, b));
+            u[i + 2 * h + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(a, b));
+        }
+    for (int c = 0; c < 4; ++c) {  // columns c, c+4, c+8, c+12 from u[c], u[4+c], u[8+c], u[12+c]
+        const __m512 v0 = _mm512_shuffle_f32x4(u[c], u[4 + c], 0x88);
+        const __m512 v1 = _mm512_shuffle_f32x4(u[8 + c], u[12 + c], 0x88);
+        const __m512 w0 = _mm512_shuffle_f32x4(u[c], u[4 + c], 0xDD);
+        const __m512 w1 = _mm512_shuffle_f32x4(u[8 + c], u[12 + c], 0xDD);
+        r[c] = _mm512_shuffle_f32x4(v0, v1, 0x88);
+        r[c + 8] = _mm512_shuffle_f32x4(v0, v1, 0xDD);
+        r[c + 4] = _mm512_shuffle_f32x4(w0, w1, 0x88);
+        r[c + 12] = _mm512_shuffle_f32x4(w0, w1, 0xDD);
+    }
 }
 
 }  // namespace udvr::simd
