@@ -55,20 +55,24 @@ class FastTransferFunction {
     const RegionArrays* regionArrays() const { return simdFits_ ? &arrays_ : nullptr; }
 
 #if UDVR_HAVE_AVX512
-    /// classify() of 16 values at once (needs regionArrays()): α and the straight colour.
-    static void classify16(const RegionArrays& t, __m512 x, __m512& r, __m512& g, __m512& b,
-                           __m512& a) {
-        // Region by binary search over the padded breakpoints: r ← r + step where x ≥ u_{r+step−1}.
-        const __m512 lo = _mm512_load_ps(t.bound), hi = _mm512_load_ps(t.bound + 16);
+    /// Region (number of breakpoints ≤ x; NaN: 0) of 16 values by binary search over `bound`:
+    /// `count` ≤ 31 sorted breakpoints padded with +inf to 32 floats.
+    static __m512i region16(const float* bound, int count, __m512 x) {
+        const __m512 lo = _mm512_load_ps(bound), hi = _mm512_load_ps(bound + 16);
         __m512i reg = _mm512_setzero_si512();
-        const int firstStep = t.boundCount < 16 ? 8 : 16;
-        for (int step = firstStep; step >= 1; step >>= 1) {
+        // r ← r + step where x ≥ u_{r+step−1}.
+        for (int step = count < 16 ? 8 : 16; step >= 1; step >>= 1) {
             const __m512i cand = _mm512_add_epi32(reg, _mm512_set1_epi32(step));
             const __m512 u =
                 _mm512_permutex2var_ps(lo, _mm512_sub_epi32(cand, _mm512_set1_epi32(1)), hi);
             reg = _mm512_mask_mov_epi32(reg, _mm512_cmp_ps_mask(x, u, _CMP_GE_OQ), cand);
         }
-        reg = _mm512_min_epi32(reg, _mm512_set1_epi32(t.boundCount));  // x = +inf
+        return _mm512_min_epi32(reg, _mm512_set1_epi32(count));  // x = +inf
+    }
+    /// classify() of 16 values at once (needs regionArrays()): α and the straight colour.
+    static void classify16(const RegionArrays& t, __m512 x, __m512& r, __m512& g, __m512& b,
+                           __m512& a) {
+        const __m512i reg = region16(t.bound, t.boundCount, x);
         const auto pick = [&](const float* f) {
             return _mm512_permutex2var_ps(_mm512_load_ps(f), reg, _mm512_load_ps(f + 16));
         };

@@ -60,6 +60,31 @@ TEST(Simd, Transpose16) {
     }
 }
 
+// 16 random index-space points of `grid` (every fifth on a face) with their cells as the ray
+// loop computes them, and a batched kernel's load16 of them.
+struct RandomCells16 {
+    alignas(64) int base[16];
+    alignas(64) float f[3][16], x[3][16];
+    RandomCells16(std::mt19937& rng, const Grid3& grid) {
+        std::uniform_real_distribution<float> u(0.f, 1.f);
+        for (int l = 0; l < 16; ++l) {
+            int i[3];
+            for (int a = 0; a < 3; ++a) {
+                const float m = static_cast<float>(grid.dims[a] - 1);
+                x[a][l] = l % 5 == 0 ? m * static_cast<float>(l % 2) : m * u(rng);
+                i[a] = std::min(static_cast<int>(x[a][l]), grid.dims[a] - 2);
+                f[a][l] = x[a][l] - static_cast<float>(i[a]);
+            }
+            base[l] = i[0] + grid.dims[0] * (i[1] + grid.dims[1] * i[2]);
+        }
+    }
+    template <class Kernel>
+    auto load(const Kernel& k, __mmask16 live) const {
+        return k.load16(_mm512_load_si512(base), _mm512_load_ps(f[0]), _mm512_load_ps(f[1]),
+                        _mm512_load_ps(f[2]), live);
+    }
+};
+
 // The batched float quantile-mean against the double per-sample kernel (SPEC §4 Eq. 5) on random
 // models: every q the batch serves, both weightings, quantiles with ties (zero widths) and
 // voxels whose quantiles are all equal, random points including the grid's faces.
@@ -88,21 +113,10 @@ TEST(FastQuantileMeanKernel, MatchesTheDoubleKernel) {
             const detail::FastQuantileMeanKernel batched(grid, exact, &fast);
             ASSERT_TRUE(batched.batch16());
             for (int trial = 0; trial < 40; ++trial) {
-                alignas(64) int base[16];
-                alignas(64) float f[3][16], x[3][16];
-                for (int l = 0; l < 16; ++l) {
-                    int i[3];
-                    for (int a = 0; a < 3; ++a) {
-                        const float m = static_cast<float>(grid.dims[a] - 1);
-                        x[a][l] = l % 5 == 0 ? m * static_cast<float>(l % 2) : m * u(rng);
-                        i[a] = std::min(static_cast<int>(x[a][l]), grid.dims[a] - 2);
-                        f[a][l] = x[a][l] - static_cast<float>(i[a]);
-                    }
-                    base[l] = i[0] + 5 * i[1] + 20 * i[2];
-                }
+                const RandomCells16 cells(rng, grid);
                 const __mmask16 live = static_cast<__mmask16>(rng() & 0xFFFFu);
-                const auto got = batched.load16(_mm512_load_si512(base), _mm512_load_ps(f[0]),
-                                                _mm512_load_ps(f[1]), _mm512_load_ps(f[2]), live);
+                const auto got = cells.load(batched, live);
+                const auto& x = cells.x;
                 const auto r = lanes(got.r), g = lanes(got.g), b = lanes(got.b), a = lanes(got.a);
                 for (int l = 0; l < 16; ++l) {
                     if (!(live >> l & 1)) {
@@ -118,6 +132,64 @@ TEST(FastQuantileMeanKernel, MatchesTheDoubleKernel) {
                     EXPECT_NEAR(b[l], want.b, 2e-5) << q << " " << density << " " << l;
                 }
             }
+        }
+    }
+}
+
+// The batched float quantile-range against the double per-sample kernel (SPEC §4 Eq. 4):
+// populations of 2 … 16 boundaries (iqr-like, quartile views, whole q), ties (zero-width
+// intervals: TF at the point), intervals inside one TF piece and spanning several, random
+// points including the grid's faces.
+TEST(FastQuantileRangeKernel, MatchesTheDoubleKernel) {
+    std::mt19937 rng(13);
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    TransferFunction1D tf = tangleTransferFunction();
+    tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};  // a step at 0.1
+    tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
+    const TfTableStorage table(tf);
+    const detail::TfPieces16 pieces(table.table());
+    ASSERT_TRUE(pieces.fits);
+    Grid3 grid;
+    grid.dims = {5, 4, 3};
+    const int n = static_cast<int>(grid.pointCount());
+    for (int q : {1, 2, 4, 8, 15}) {
+        std::vector<float> quantiles(static_cast<std::size_t>(n) * (q + 1));
+        for (int v = 0; v < n; ++v) {
+            float b = -8.f + 14.f * u(rng);
+            for (int j = 0; j <= q; ++j) {
+                quantiles[static_cast<std::size_t>(v) * (q + 1) + j] = b;
+                if (u(rng) > 0.2f) b += (u(rng) < 0.5f ? 0.05f : 3.f) * u(rng);  // ties: 20 %
+            }
+        }
+        std::vector<std::pair<int, int>> pops{{0, q}};
+        if (q % 4 == 0) pops.insert(pops.end(), {{0, q / 4}, {q / 4, 3 * q / 4}, {3 * q / 4, q}});
+        for (const auto& [j0, j1] : pops) {
+            const QuantileRangeKernel exact{{5, 4, 3}, quantiles.data(), q + 1, j0,
+                                            j1,        table.table()};
+            const detail::FastQuantileRangeKernel batched(grid, exact, &pieces);
+            ASSERT_TRUE(batched.batch16());
+            double worst = 0.0;
+            for (int trial = 0; trial < 40; ++trial) {
+                const RandomCells16 cells(rng, grid);
+                const __mmask16 live = static_cast<__mmask16>(rng() & 0xFFFFu);
+                const auto got = cells.load(batched, live);
+                const auto& x = cells.x;
+                const std::vector<float> ch[4] = {lanes(got.r), lanes(got.g), lanes(got.b),
+                                                  lanes(got.a)};
+                for (int l = 0; l < 16; ++l) {
+                    const Rgba want = exact.classifyAt(x[0][l], x[1][l], x[2][l]);
+                    const float w[4] = {want.r, want.g, want.b, want.a};
+                    for (int c = 0; c < 4; ++c) {
+                        if (!(live >> l & 1)) {
+                            EXPECT_EQ(ch[c][l], 0.f);
+                            continue;
+                        }
+                        worst = std::max(worst, std::abs(static_cast<double>(ch[c][l]) - w[c]));
+                    }
+                }
+            }
+            // Float boundaries (|b| ≤ 30) against double, as for quantile-mean.
+            EXPECT_LT(worst, 2e-5) << q << " " << j0 << " " << j1;
         }
     }
 }
@@ -228,8 +300,8 @@ TEST(BatchCompositor, MatchesSerialFrontToBack) {
 
 // The same TF written with many redundant (collinear) control points is the same function but
 // has too many regions for the batched loop, so the frame takes the per-sample loop: the two
-// frames agree to float rounding (with or without AVX-512), for the mean field and for
-// quantile-mean with both weightings.
+// frames agree to float rounding (with or without AVX-512), for the mean field, quantile-mean
+// with both weightings and the quantile-range family.
 // The tangle with quantiles around its value (q = 8; a tie in every voxel), for quantile-mean;
 // `flat`: only its plane x = 20 (a 1-point x axis: no x-neighbour to load).
 ModelVolume tangleWithQuantiles(bool flat) {
@@ -251,8 +323,12 @@ ModelVolume tangleWithQuantiles(bool flat) {
     constexpr std::array<float, 9> offsets{-2.5f, -1.f, -0.5f, -0.5f, 0.1f, 0.4f, 0.9f, 7.f, 10.f};
     m.quantileCount = 8;
     m.quantiles.resize(m.voxelCount() * 9);
-    for (std::size_t v = 0; v < m.voxelCount(); ++v)
+    m.iqr.resize(m.voxelCount() * 2);
+    for (std::size_t v = 0; v < m.voxelCount(); ++v) {
         for (int j = 0; j < 9; ++j) m.quantiles[v * 9 + j] = m.mean[v] + offsets[j];
+        m.iqr[2 * v] = m.mean[v] + offsets[2];
+        m.iqr[2 * v + 1] = m.mean[v] + offsets[6];
+    }
     return m;
 }
 
@@ -286,7 +362,8 @@ TEST(Render, BatchedAndPerSampleLoopsGiveTheSameFrame) {
             for (bool skip : {true, false}) {
                 s.skipEmpty = skip;
                 for (ModelKind kind :
-                     {ModelKind::Mean, ModelKind::QuantileMean, ModelKind::QuantileMeanMass}) {
+                     {ModelKind::Mean, ModelKind::QuantileMean, ModelKind::QuantileMeanMass,
+                      ModelKind::QuantileRange, ModelKind::QuartileUpper, ModelKind::Iqr}) {
                     RenderStats sa;
                     const ImageRgba a = renderVolume(m, kind, tf, s, &sa);
                     const ImageRgba b = renderVolume(m, kind, dense, s);
@@ -294,7 +371,7 @@ TEST(Render, BatchedAndPerSampleLoopsGiveTheSameFrame) {
                     for (std::size_t i = 0; i < a.rgba.size(); ++i)
                         worst =
                             std::max(worst, std::abs(static_cast<double>(a.rgba[i]) - b.rgba[i]));
-                    // Mean: float both ways; quantile-mean: float against the double kernel.
+                    // Mean: float both ways; the quantile models: float against the double kernels.
                     EXPECT_LE(worst, kind == ModelKind::Mean ? 2e-5 : 1e-4)
                         << modelName(kind) << " " << unit << " " << skip << " " << flat;
                     EXPECT_GT(sa.samples, 0u);

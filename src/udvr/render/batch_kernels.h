@@ -211,17 +211,91 @@ struct FastMeanKernel : CellGeometry {
 #endif
 };
 
-/// Quantile mean (Eq. 5, SPEC §4) in float for 16 samples at a time: per sample the q + 1
-/// boundaries of the 8 corners in one vector each (masked loads of the voxel-major quantile
-/// array), blended by the same lerps as the mean field; the 16 samples' boundary vectors are
-/// transposed so that midpoints, widths, weights and the TF at the midpoints (region permutes,
-/// FastTransferFunction) run over all 16 samples per quantile, and the sums of Eq. 5 need no
-/// horizontal additions. Density weights 1/w_j (`quantile-mean`) or equal
+#if UDVR_HAVE_AVX512
+/// Premultiplied classified samples (α·r, α·g, α·b, α) of the live lanes; 0 elsewhere.
+struct Rgba16 {
+    __m512 r, g, b, a;
+};
+#endif
+
+/// The boundaries of a quantile population at 16 samples, for the batched quantile kernels:
+/// boundaries first … first + count − 1 of a voxel-major array with `stride` floats per voxel
+/// (count ≤ 16). Per sample the corners' boundaries are one vector each (masked loads), blended
+/// by the lerps of FastMeanKernel::valueAt, so equal corners give exactly equal boundaries (zero
+/// widths stay zero); the 16 samples' vectors are then transposed, so the classification runs
+/// per boundary over all 16 samples and its sums need no horizontal additions.
+struct QuantileRows : CellGeometry {
+    const float* data = nullptr;
+    int stride = 0;  // floats per voxel
+    int first = 0;   // first boundary of the population
+    int count = 0;   // boundaries in the population
+
+    QuantileRows(const Grid3& grid, const float* d, int strideIn, int firstIn, int countIn)
+        : CellGeometry(grid), data(d), stride(strideIn), first(firstIn), count(countIn) {}
+
+#if UDVR_HAVE_AVX512
+    /// A sample costs far more than a cell test: classify the non-empty lanes only.
+    static constexpr bool kLoadDeadLanes = false;
+    /// The derived kernels classify in load16; finish16 hands the result on.
+    using Loaded16 = Rgba16;
+    static void finish16(const Loaded16& l, __m512& pr, __m512& pg, __m512& pb, __m512& pa) {
+        pr = l.r;
+        pg = l.g;
+        pb = l.b;
+        pa = l.a;
+    }
+    bool rowsFit() const { return batchable && count >= 2 && count <= 16; }
+    void prefetchCell(int v) const {
+        const auto n = static_cast<std::size_t>(stride);
+        const float* b = data + static_cast<std::size_t>(v) * n + first;
+        for (int o : {0, next32[1], next32[2], next32[1] + next32[2]}) {
+            __builtin_prefetch(b + static_cast<std::size_t>(o) * n);
+            __builtin_prefetch(b + (static_cast<std::size_t>(o) + 1) * n + count - 1);
+        }
+    }
+    /// rows[j] = boundary first + j at the 16 samples (0 in lanes outside `live`), j < count.
+    void rows16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live,
+                __m512 rows[16]) const {
+        alignas(64) int cell[16];
+        alignas(64) float w[3][16];
+        _mm512_store_si512(cell, base);
+        _mm512_store_ps(w[0], fx);
+        _mm512_store_ps(w[1], fy);
+        _mm512_store_ps(w[2], fz);
+        for (int l = 0; l < 16; ++l)
+            rows[l] = (live >> l & 1) ? boundaries(cell[l], w[0][l], w[1][l], w[2][l])
+                                      : _mm512_setzero_ps();
+        simd::transpose16(rows);
+    }
+
+  private:
+    __m512 boundaries(int v, float fx, float fy, float fz) const {
+        const __mmask16 m = static_cast<__mmask16>((1u << count) - 1u);
+        const auto n = static_cast<std::size_t>(stride);
+        const float* b = data + static_cast<std::size_t>(v) * n + first;
+        const auto at = [&](int o) {
+            return _mm512_maskz_loadu_ps(m, b + static_cast<std::size_t>(o) * n);
+        };
+        const auto lerp = [](__m512 u, __m512 w, float f) {
+            return _mm512_fmadd_ps(_mm512_set1_ps(f), _mm512_sub_ps(w, u), u);
+        };
+        const int ox = next32[0], oy = next32[1], oz = next32[2];
+        const __m512 c00 = lerp(at(0), at(ox), fx);
+        const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
+        const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
+        const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
+        return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+    }
+#endif
+};
+
+/// Quantile mean (Eq. 5, SPEC §4) in float for 16 samples at a time (QuantileRows): per
+/// quantile j the midpoints, widths and weights over all samples and the TF at the midpoints
+/// by region permutes (FastTransferFunction). Density weights 1/w_j (`quantile-mean`) or equal
 /// weights (`quantile-mean-mass`); with density weights, zero-width quantiles (w ≤ zeroWidth)
 /// take all the mass, shared equally, as in QuantileMeanKernel. Same values as
 /// QuantileMeanKernel (double) up to float rounding.
-struct FastQuantileMeanKernel : CellGeometry {
-    const float* quantiles = nullptr;  // q + 1 boundaries per voxel, voxel-major
+struct FastQuantileMeanKernel : QuantileRows {
     int q = 0;
     bool densityWeights = true;
     float zeroWidth = 0.f;  // data units
@@ -230,8 +304,7 @@ struct FastQuantileMeanKernel : CellGeometry {
 
     FastQuantileMeanKernel(const Grid3& grid, const QuantileMeanKernel& k,
                            const FastTransferFunction* t)
-        : CellGeometry(grid),
-          quantiles(k.quantiles),
+        : QuantileRows(grid, k.quantiles, k.q + 1, 0, k.q + 1),
           q(k.q),
           densityWeights(k.densityWeights),
           zeroWidth(static_cast<float>(k.zeroWidth)),
@@ -244,35 +317,11 @@ struct FastQuantileMeanKernel : CellGeometry {
     }
 
 #if UDVR_HAVE_AVX512
-    /// A sample costs far more than a cell test: classify the non-empty lanes only.
-    static constexpr bool kLoadDeadLanes = false;
     /// q + 1 boundaries fit one vector, 32-bit indices, a TF with few enough regions.
-    bool batch16() const { return batchable && q >= 1 && q <= 15 && tf->regionArrays() != nullptr; }
-    void prefetchCell(int v) const {
-        const std::size_t n1 = static_cast<std::size_t>(q) + 1;
-        const float* b = quantiles + static_cast<std::size_t>(v) * n1;
-        for (int o : {0, next32[1], next32[2], next32[1] + next32[2]}) {
-            __builtin_prefetch(b + static_cast<std::size_t>(o) * n1);
-            __builtin_prefetch(b + (static_cast<std::size_t>(o) + 1) * n1 + q);
-        }
-    }
-    /// The classified samples (premultiplied colour and E[α]) of the live lanes.
-    struct Loaded16 {
-        __m512 r, g, b, a;
-    };
+    bool batch16() const { return rowsFit() && tf->regionArrays() != nullptr; }
     Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
-        alignas(64) int cell[16];
-        alignas(64) float w[3][16];
-        _mm512_store_si512(cell, base);
-        _mm512_store_ps(w[0], fx);
-        _mm512_store_ps(w[1], fy);
-        _mm512_store_ps(w[2], fz);
-        // Row l: the boundaries of sample l; transposed, row j: b_j of every sample.
         __m512 b[16];
-        for (int l = 0; l < 16; ++l)
-            b[l] = (live >> l & 1) ? boundaries(cell[l], w[0][l], w[1][l], w[2][l])
-                                   : _mm512_setzero_ps();
-        simd::transpose16(b);
+        rows16(base, fx, fy, fz, live, b);
         // Eq. 5 per lane: Σ_j p_j·TF(m_j) / Σ_j p_j, and, for density weights, the same with
         // p_j = 1 over the zero-width quantiles alone (used where a lane has any).
         const __m512 one = _mm512_set1_ps(1.f), half = _mm512_set1_ps(0.5f),
@@ -306,33 +355,132 @@ struct FastQuantileMeanKernel : CellGeometry {
                                                                   anyZero, zeroSum[c], zeroCount));
         return Loaded16{out[0], out[1], out[2], out[3]};
     }
-    void finish16(const Loaded16& l, __m512& pr, __m512& pg, __m512& pb, __m512& pa) const {
-        pr = l.r;
-        pg = l.g;
-        pb = l.b;
-        pa = l.a;
+#endif
+};
+
+/// The exact TF pieces of a TfTable (SPEC §4; at most 32 pieces) in float arrays for region
+/// permutes: piece k = number of breakpoints ≤ x, channel ch (α·r, α·g, α·b, α) is
+/// a + b·t + c·t² with t = x − origin, cum = ∫ TF from u_0 to the piece's origin.
+struct TfPieces16 {
+    static constexpr int kMax = 32;
+    bool fits = false;
+    int breakCount = 0;
+    alignas(64) float bound[kMax];  // u_0 … u_{N−1}, then +inf
+    alignas(64) float origin[kMax];
+    alignas(64) float a[4][kMax], b[4][kMax], c[4][kMax], cum[4][kMax];
+
+    explicit TfPieces16(const TfTable& t) {
+        fits = t.breakCount + 1 <= kMax;
+        if (!fits) return;
+        breakCount = t.breakCount;
+        for (int k = 0; k < kMax; ++k) {
+            bound[k] = k < t.breakCount ? static_cast<float>(t.breaks[k])
+                                        : std::numeric_limits<float>::infinity();
+            const TfPiece& p = t.pieces[std::min(k, t.breakCount)];
+            origin[k] = static_cast<float>(p.origin);
+            for (int ch = 0; ch < 4; ++ch) {
+                a[ch][k] = static_cast<float>(p.a[ch]);
+                b[ch][k] = static_cast<float>(p.b[ch]);
+                c[ch][k] = static_cast<float>(p.c[ch]);
+                cum[ch][k] = static_cast<float>(p.cum[ch]);
+            }
+        }
     }
 
-  private:
-    /// b_0 … b_q at a sample of the cell based at voxel v (lanes 0 … q; the rest 0): the corner
-    /// vectors blended by the lerps of FastMeanKernel::valueAt, so equal corners give exactly
-    /// equal boundaries (zero widths stay zero).
-    __m512 boundaries(int v, float fx, float fy, float fz) const {
-        const __mmask16 m = static_cast<__mmask16>((1u << (q + 1)) - 1u);
-        const std::size_t n1 = static_cast<std::size_t>(q) + 1;
-        const float* b = quantiles + static_cast<std::size_t>(v) * n1;
-        const auto at = [&](int o) {
-            return _mm512_maskz_loadu_ps(m, b + static_cast<std::size_t>(o) * n1);
+#if UDVR_HAVE_AVX512
+    __m512i pieceOf(__m512 x) const { return FastTransferFunction::region16(bound, breakCount, x); }
+    /// TfTable::meanOver for 16 intervals [lo, hi] with pieces kl, kh: the mean of the TF
+    /// channels over the interval, TF(hi) where hi ≤ lo; partial pieces at both ends plus the
+    /// prefix-sum difference of the full pieces between them (no cancellation for tiny
+    /// intervals).
+    void meanOver(__m512 lo, __m512 hi, __m512i kl, __m512i kh, __m512 out[4]) const {
+        const auto pick = [](const float* f, __m512i k) {
+            return _mm512_permutex2var_ps(_mm512_load_ps(f), k, _mm512_load_ps(f + 16));
         };
-        const auto lerp = [](__m512 u, __m512 w, float f) {
-            return _mm512_fmadd_ps(_mm512_set1_ps(f), _mm512_sub_ps(w, u), u);
+        const __m512 third = _mm512_set1_ps(1.f / 3.f), half = _mm512_set1_ps(0.5f);
+        // Σ of a + b·t + c·t² over [tl, th] divided by th − tl: a + b·s1 + c·s2.
+        const auto s1s2 = [&](__m512 tl, __m512 th, __m512& s1, __m512& s2) {
+            s1 = _mm512_mul_ps(_mm512_add_ps(tl, th), half);
+            s2 = _mm512_mul_ps(
+                _mm512_fmadd_ps(tl, tl, _mm512_fmadd_ps(tl, th, _mm512_mul_ps(th, th))), third);
         };
-        const int ox = next32[0], oy = next32[1], oz = next32[2];
-        const __m512 c00 = lerp(at(0), at(ox), fx);
-        const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
-        const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
-        const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
-        return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+        const auto poly = [&](int ch, __m512i k, __m512 s1, __m512 s2) {
+            return _mm512_fmadd_ps(pick(c[ch], k), s2,
+                                   _mm512_fmadd_ps(pick(b[ch], k), s1, pick(a[ch], k)));
+        };
+        const __m512 ol = pick(origin, kl);
+        const __m512 tl = _mm512_sub_ps(lo, ol), th = _mm512_sub_ps(hi, ol);
+        __m512 s1, s2;
+        s1s2(tl, th, s1, s2);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = poly(ch, kl, s1, s2);  // kl == kh
+        const __mmask16 zero = _mm512_cmp_ps_mask(hi, lo, _CMP_NGT_UQ);
+        const __mmask16 span = _mm512_cmpneq_epi32_mask(kl, kh) & static_cast<__mmask16>(~zero);
+        if (zero) {  // TF(hi) on piece kh
+            const __m512 t = _mm512_sub_ps(hi, pick(origin, kh));
+            for (int ch = 0; ch < 4; ++ch)
+                out[ch] = _mm512_mask_mov_ps(
+                    out[ch], zero,
+                    _mm512_fmadd_ps(t, _mm512_fmadd_ps(t, pick(c[ch], kh), pick(b[ch], kh)),
+                                    pick(a[ch], kh)));
+        }
+        if (span) {
+            // Left: [lo, u_kl] on piece kl; right: [origin_kh, hi] on piece kh; between: full
+            // pieces kl+1 … kh−1, cum[kh] − cum[kl+1].
+            const __m512 end = pick(bound, kl);
+            const __m512 te = _mm512_sub_ps(end, ol), wl = _mm512_sub_ps(end, lo);
+            __m512 ls1, ls2, rs1, rs2;
+            s1s2(tl, te, ls1, ls2);
+            const __m512 tr = _mm512_sub_ps(hi, pick(origin, kh));
+            s1s2(_mm512_setzero_ps(), tr, rs1, rs2);
+            const __m512i next = _mm512_add_epi32(kl, _mm512_set1_epi32(1));
+            const __m512 inv = _mm512_div_ps(_mm512_set1_ps(1.f), _mm512_sub_ps(hi, lo));
+            for (int ch = 0; ch < 4; ++ch) {
+                const __m512 left = _mm512_mul_ps(wl, poly(ch, kl, ls1, ls2));
+                const __m512 right = _mm512_mul_ps(tr, poly(ch, kh, rs1, rs2));
+                const __m512 full = _mm512_sub_ps(pick(cum[ch], kh), pick(cum[ch], next));
+                out[ch] = _mm512_mask_mul_ps(out[ch], span,
+                                             _mm512_add_ps(_mm512_add_ps(left, full), right), inv);
+            }
+        }
+    }
+#endif
+};
+
+/// Quantile range (Eq. 4, SPEC §4) in float for 16 samples at a time (QuantileRows): the mean
+/// of the TF over each quantile interval [b_j, b_{j+1}] of the population (TfPieces16), averaged
+/// with equal weights. Serves quantile-range, the quartile views and iqr, like
+/// QuantileRangeKernel (double), whose values it matches up to float rounding.
+struct FastQuantileRangeKernel : QuantileRows {
+    const TfPieces16* pieces = nullptr;
+    QuantileRangeKernel exact;  // per-sample classification (no AVX-512) and voxel supports
+
+    FastQuantileRangeKernel(const Grid3& grid, const QuantileRangeKernel& k, const TfPieces16* p)
+        : QuantileRows(grid, k.boundaries, k.stride, k.j0, k.j1 - k.j0 + 1), pieces(p), exact(k) {}
+
+    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        exact.voxelSupport(voxel, lo, hi);
+    }
+
+#if UDVR_HAVE_AVX512
+    bool batch16() const { return rowsFit() && pieces->fits; }
+    Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
+        __m512 b[16];
+        rows16(base, fx, fy, fz, live, b);
+        __m512 sum[4];
+        for (auto& v : sum) v = _mm512_setzero_ps();
+        __m512i kLo = pieces->pieceOf(b[0]);
+        for (int j = 0; j + 1 < count; ++j) {
+            const __m512i kHi = pieces->pieceOf(b[j + 1]);
+            __m512 m[4];
+            pieces->meanOver(b[j], b[j + 1], kLo, kHi, m);
+            for (int c = 0; c < 4; ++c) sum[c] = _mm512_add_ps(sum[c], m[c]);
+            kLo = kHi;
+        }
+        const __m512 inv = _mm512_set1_ps(1.f / static_cast<float>(count - 1));
+        return Loaded16{
+            _mm512_maskz_mul_ps(live, sum[0], inv), _mm512_maskz_mul_ps(live, sum[1], inv),
+            _mm512_maskz_mul_ps(live, sum[2], inv), _mm512_maskz_mul_ps(live, sum[3], inv)};
     }
 #endif
 };

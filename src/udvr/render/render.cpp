@@ -232,13 +232,18 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
         const FastTransferFunction fast(tf);
         withKernel(model, kind, tf, options, [&](const auto& kernel) {
             using K = std::decay_t<decltype(kernel)>;
+            // The batched float kernels where the machine and the model allow them.
+            const auto tryBatched = [&](const auto& batched) {
+                if (!detail::batchable16(batched)) return false;
+                renderKernel(batched, p, ranges, image, counters, cacheImpl, &key);
+                return true;
+            };
             if constexpr (std::is_same_v<K, QuantileMeanKernel>) {
-                // Batched float quantile-mean where the machine and the model allow it.
-                const detail::FastQuantileMeanKernel batched(model.grid, kernel, &fast);
-                if (detail::batchable16(batched)) {
-                    renderKernel(batched, p, ranges, image, counters, cacheImpl, &key);
+                if (tryBatched(detail::FastQuantileMeanKernel(model.grid, kernel, &fast))) return;
+            } else if constexpr (std::is_same_v<K, QuantileRangeKernel>) {
+                const detail::TfPieces16 pieces(kernel.tf);
+                if (tryBatched(detail::FastQuantileRangeKernel(model.grid, kernel, &pieces)))
                     return;
-                }
             }
             renderKernel(kernel, p, ranges, image, counters);
         });
