@@ -21,6 +21,14 @@ namespace udvr {
 namespace {
 
 #if UDVR_HAVE_AVX512
+// The tangle TF with its opacity replaced by ramps and a step at 0.1 (two points at one x).
+TransferFunction1D steppedTangleTf() {
+    TransferFunction1D tf = tangleTransferFunction();
+    tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};
+    tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
+    return tf;
+}
+
 std::vector<float> lanes(__m512 v) {
     std::vector<float> out(16);
     _mm512_storeu_ps(out.data(), v);
@@ -85,53 +93,74 @@ struct RandomCells16 {
     }
 };
 
+// What the batched-kernel tests share: a seeded generator, the TF's exact tables and a 5×4×3
+// grid (small, so random points hit faces and every cell).
+struct KernelCase {
+    KernelCase(unsigned seed, const TransferFunction1D& tf)
+        : rng(seed), table(tf), pieces(table.table()) {
+        grid.dims = {5, 4, 3};
+    }
+    float uniform() { return u(rng); }
+    std::mt19937 rng;
+    std::uniform_real_distribution<float> u{0.f, 1.f};
+    TfTableStorage table;
+    detail::TfPieces16 pieces;
+    Grid3 grid;
+};
+
+// The largest |difference| between a batched kernel's load16 and its double per-sample kernel
+// (`exact.classifyAt`) over 40 batches of random points and random live masks; lanes outside
+// the mask must come back 0.
+template <class Batched, class Exact>
+double worstLoad16Error(const Batched& batched, const Exact& exact, std::mt19937& rng,
+                        const Grid3& grid) {
+    double worst = 0.0;
+    for (int trial = 0; trial < 40; ++trial) {
+        const RandomCells16 cells(rng, grid);
+        const __mmask16 live = static_cast<__mmask16>(rng() & 0xFFFFu);
+        const auto got = cells.load(batched, live);
+        const std::vector<float> ch[4] = {lanes(got.r), lanes(got.g), lanes(got.b), lanes(got.a)};
+        for (int l = 0; l < 16; ++l) {
+            const Rgba want = exact.classifyAt(cells.x[0][l], cells.x[1][l], cells.x[2][l]);
+            const float w[4] = {want.r, want.g, want.b, want.a};
+            for (int c = 0; c < 4; ++c) {
+                if (!(live >> l & 1)) {
+                    EXPECT_EQ(ch[c][l], 0.f);
+                    continue;
+                }
+                worst = std::max(worst, std::abs(static_cast<double>(ch[c][l]) - w[c]));
+            }
+        }
+    }
+    return worst;
+}
+
 // The batched float quantile-mean against the double per-sample kernel (SPEC §4 Eq. 5) on random
 // models: every q the batch serves, both weightings, quantiles with ties (zero widths) and
 // voxels whose quantiles are all equal, random points including the grid's faces.
 TEST(FastQuantileMeanKernel, MatchesTheDoubleKernel) {
-    std::mt19937 rng(11);
-    std::uniform_real_distribution<float> u(0.f, 1.f);
-    const TransferFunction1D tf = tangleTransferFunction();
-    const FastTransferFunction fast(tf);
-    const TfTableStorage table(tf);
-    Grid3 grid;
-    grid.dims = {5, 4, 3};
-    const int n = static_cast<int>(grid.pointCount());
+    KernelCase c(11, tangleTransferFunction());
+    const FastTransferFunction fast(tangleTransferFunction());
+    const int n = static_cast<int>(c.grid.pointCount());
     for (int q : {1, 2, 3, 4, 7, 8, 9, 15}) {
         std::vector<float> quantiles(static_cast<std::size_t>(n) * (q + 1));
         for (int v = 0; v < n; ++v) {
-            float b = -7.f + 12.f * u(rng);
+            float b = -7.f + 12.f * c.uniform();
             const bool allEqual = v % 7 == 3;
             for (int j = 0; j <= q; ++j) {
                 quantiles[static_cast<std::size_t>(v) * (q + 1) + j] = b;
-                if (!allEqual && u(rng) > 0.2f) b += 3.f * u(rng) * u(rng);  // ties: 20 %
+                if (!allEqual && c.uniform() > 0.2f)
+                    b += 3.f * c.uniform() * c.uniform();  // ties: 20 %
             }
         }
         for (bool density : {true, false}) {
             const QuantileMeanKernel exact{{5, 4, 3}, quantiles.data(), q,
-                                           density,   1e-12 * 20.0,     table.table()};
-            const detail::FastQuantileMeanKernel batched(grid, exact, &fast);
+                                           density,   1e-12 * 20.0,     c.table.table()};
+            const detail::FastQuantileMeanKernel batched(c.grid, exact, &fast);
             ASSERT_TRUE(batched.batch16());
-            for (int trial = 0; trial < 40; ++trial) {
-                const RandomCells16 cells(rng, grid);
-                const __mmask16 live = static_cast<__mmask16>(rng() & 0xFFFFu);
-                const auto got = cells.load(batched, live);
-                const auto& x = cells.x;
-                const auto r = lanes(got.r), g = lanes(got.g), b = lanes(got.b), a = lanes(got.a);
-                for (int l = 0; l < 16; ++l) {
-                    if (!(live >> l & 1)) {
-                        EXPECT_EQ(a[l], 0.f);
-                        continue;
-                    }
-                    // Float boundaries (|b| ≤ 20, ~7 roundings: ~1e−5·slope in the TF, whose
-                    // steepest opacity slope is 0.9 per unit) against double.
-                    const Rgba want = exact.classifyAt(x[0][l], x[1][l], x[2][l]);
-                    EXPECT_NEAR(a[l], want.a, 2e-5) << q << " " << density << " " << l;
-                    EXPECT_NEAR(r[l], want.r, 2e-5) << q << " " << density << " " << l;
-                    EXPECT_NEAR(g[l], want.g, 2e-5) << q << " " << density << " " << l;
-                    EXPECT_NEAR(b[l], want.b, 2e-5) << q << " " << density << " " << l;
-                }
-            }
+            // Float boundaries (|b| ≤ 20, ~7 roundings: ~1e−5·slope in the TF, whose steepest
+            // opacity slope is 0.9 per unit) against double.
+            EXPECT_LT(worstLoad16Error(batched, exact, c.rng, c.grid), 2e-5) << q << " " << density;
         }
     }
 }
@@ -141,56 +170,80 @@ TEST(FastQuantileMeanKernel, MatchesTheDoubleKernel) {
 // intervals: TF at the point), intervals inside one TF piece and spanning several, random
 // points including the grid's faces.
 TEST(FastQuantileRangeKernel, MatchesTheDoubleKernel) {
-    std::mt19937 rng(13);
-    std::uniform_real_distribution<float> u(0.f, 1.f);
-    TransferFunction1D tf = tangleTransferFunction();
-    tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};  // a step at 0.1
-    tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
-    const TfTableStorage table(tf);
-    const detail::TfPieces16 pieces(table.table());
-    ASSERT_TRUE(pieces.fits);
-    Grid3 grid;
-    grid.dims = {5, 4, 3};
-    const int n = static_cast<int>(grid.pointCount());
+    KernelCase c(13, steppedTangleTf());
+    ASSERT_TRUE(c.pieces.fits);
+    const int n = static_cast<int>(c.grid.pointCount());
     for (int q : {1, 2, 4, 8, 15}) {
         std::vector<float> quantiles(static_cast<std::size_t>(n) * (q + 1));
         for (int v = 0; v < n; ++v) {
-            float b = -8.f + 14.f * u(rng);
+            float b = -8.f + 14.f * c.uniform();
             for (int j = 0; j <= q; ++j) {
                 quantiles[static_cast<std::size_t>(v) * (q + 1) + j] = b;
-                if (u(rng) > 0.2f) b += (u(rng) < 0.5f ? 0.05f : 3.f) * u(rng);  // ties: 20 %
+                if (c.uniform() > 0.2f)
+                    b += (c.uniform() < 0.5f ? 0.05f : 3.f) * c.uniform();  // ties: 20 %
             }
         }
         std::vector<std::pair<int, int>> pops{{0, q}};
         if (q % 4 == 0) pops.insert(pops.end(), {{0, q / 4}, {q / 4, 3 * q / 4}, {3 * q / 4, q}});
         for (const auto& [j0, j1] : pops) {
             const QuantileRangeKernel exact{{5, 4, 3}, quantiles.data(), q + 1, j0,
-                                            j1,        table.table()};
-            const detail::FastQuantileRangeKernel batched(grid, exact, &pieces);
+                                            j1,        c.table.table()};
+            const detail::FastQuantileRangeKernel batched(c.grid, exact, &c.pieces);
             ASSERT_TRUE(batched.batch16());
-            double worst = 0.0;
-            for (int trial = 0; trial < 40; ++trial) {
-                const RandomCells16 cells(rng, grid);
-                const __mmask16 live = static_cast<__mmask16>(rng() & 0xFFFFu);
-                const auto got = cells.load(batched, live);
-                const auto& x = cells.x;
-                const std::vector<float> ch[4] = {lanes(got.r), lanes(got.g), lanes(got.b),
-                                                  lanes(got.a)};
-                for (int l = 0; l < 16; ++l) {
-                    const Rgba want = exact.classifyAt(x[0][l], x[1][l], x[2][l]);
-                    const float w[4] = {want.r, want.g, want.b, want.a};
-                    for (int c = 0; c < 4; ++c) {
-                        if (!(live >> l & 1)) {
-                            EXPECT_EQ(ch[c][l], 0.f);
-                            continue;
-                        }
-                        worst = std::max(worst, std::abs(static_cast<double>(ch[c][l]) - w[c]));
-                    }
-                }
-            }
+
+            const double worst = worstLoad16Error(batched, exact, c.rng, c.grid);
             // Float boundaries (|b| ≤ 30) against double, as for quantile-mean.
             EXPECT_LT(worst, 2e-5) << q << " " << j0 << " " << j1;
         }
+    }
+}
+
+// The batched float Gaussian against the double per-sample kernel (expectedTfGaussian):
+// σ from 0 (point masses) and tiny to wider than the TF, means inside and outside the TF's
+// breakpoints, random points including the grid's faces.
+TEST(FastGaussianKernel, MatchesTheDoubleKernel) {
+    KernelCase c(17, steppedTangleTf());
+    const std::size_t n = c.grid.pointCount();
+    for (float scale : {0.f, 1e-5f, 0.05f, 1.f, 4.f, 40.f}) {
+        std::vector<float> mean(n), stddev(n);
+        for (std::size_t v = 0; v < n; ++v) {
+            mean[v] = -10.f + 20.f * c.uniform();
+            stddev[v] = c.uniform() < 0.2f ? 0.f : scale * c.uniform();
+        }
+        const GaussianKernel exact{{5, 4, 3}, mean.data(), stddev.data(), c.table.table()};
+        const detail::FastGaussianKernel batched(c.grid, exact, &c.pieces);
+        ASSERT_TRUE(batched.batch16());
+
+        const double worst = worstLoad16Error(batched, exact, c.rng, c.grid);
+        // Float μ and σ (|μ| ≤ 10) and float Φ (≈1e−7) against double.
+        EXPECT_LT(worst, 2e-5) << scale;
+    }
+}
+
+// The batched float GMM (ordered) against the double per-sample kernel: K = 1, 2, 4, weights
+// with zeros (and voxels whose weights are all 0), point-mass components (σ = 0).
+TEST(FastGmmOrderedKernel, MatchesTheDoubleKernel) {
+    KernelCase c(19, tangleTransferFunction());
+    const std::size_t n = c.grid.pointCount();
+    for (int k : {1, 2, 4}) {
+        std::vector<float> gmm(n * 3 * k);
+        for (std::size_t v = 0; v < n; ++v) {
+            float* g = gmm.data() + v * 3 * k;
+            float m = -8.f + 4.f * c.uniform();
+            const bool allZero = v % 9 == 4;
+            for (int i = 0; i < k; ++i) {
+                g[i] = allZero || c.uniform() < 0.2f ? 0.f : c.uniform();
+                g[k + i] = m;
+                m += 6.f * c.uniform();  // ranks sorted by mean
+                g[2 * k + i] = c.uniform() < 0.2f ? 0.f : 2.f * c.uniform();
+            }
+        }
+        const GmmOrderedKernel exact{{5, 4, 3}, gmm.data(), k, c.table.table()};
+        const detail::FastGmmOrderedKernel batched(c.grid, exact, &c.pieces);
+        ASSERT_TRUE(batched.batch16());
+
+        const double worst = worstLoad16Error(batched, exact, c.rng, c.grid);
+        EXPECT_LT(worst, 2e-5) << k;
     }
 }
 
@@ -220,9 +273,7 @@ TEST(OpacityCorrection, Apply16MatchesThePower) {
 }
 
 TEST(FastTransferFunction, Classify16MatchesClassify) {
-    TransferFunction1D tf = tangleTransferFunction();
-    tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};  // a step at 0.1
-    tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
+    const TransferFunction1D tf = steppedTangleTf();
     const FastTransferFunction fast(tf);
     ASSERT_NE(fast.regionArrays(), nullptr);
     std::vector<float> xs;
@@ -324,7 +375,12 @@ ModelVolume tangleWithQuantiles(bool flat) {
     m.quantileCount = 8;
     m.quantiles.resize(m.voxelCount() * 9);
     m.iqr.resize(m.voxelCount() * 2);
+    m.gmmComponents = 2;
+    m.gmm.resize(m.voxelCount() * 6);
     for (std::size_t v = 0; v < m.voxelCount(); ++v) {
+        m.stddev[v] = 0.3f + 0.2f * std::sin(static_cast<float>(v));
+        const float g[6] = {0.8f, 0.2f, m.mean[v], m.mean[v] + 8.f, 0.4f, 1.5f};
+        std::copy(g, g + 6, m.gmm.begin() + static_cast<std::ptrdiff_t>(6 * v));
         for (int j = 0; j < 9; ++j) m.quantiles[v * 9 + j] = m.mean[v] + offsets[j];
         m.iqr[2 * v] = m.mean[v] + offsets[2];
         m.iqr[2 * v + 1] = m.mean[v] + offsets[6];
@@ -363,7 +419,8 @@ TEST(Render, BatchedAndPerSampleLoopsGiveTheSameFrame) {
                 s.skipEmpty = skip;
                 for (ModelKind kind :
                      {ModelKind::Mean, ModelKind::QuantileMean, ModelKind::QuantileMeanMass,
-                      ModelKind::QuantileRange, ModelKind::QuartileUpper, ModelKind::Iqr}) {
+                      ModelKind::QuantileRange, ModelKind::QuartileUpper, ModelKind::Iqr,
+                      ModelKind::Gaussian, ModelKind::GmmOrdered}) {
                     RenderStats sa;
                     const ImageRgba a = renderVolume(m, kind, tf, s, &sa);
                     const ImageRgba b = renderVolume(m, kind, dense, s);

@@ -12,7 +12,9 @@
 #include "udvr/classify/fast_tf.h"
 #include "udvr/classify/sample_kernels.h"
 #include "udvr/classify/transfer_function.h"
+#include "udvr/util/fast_math.h"
 #include "udvr/util/grid.h"
+#include "udvr/util/normal_cdf.h"
 #include "udvr/util/simd.h"
 
 namespace udvr::detail {
@@ -52,6 +54,53 @@ struct CellGeometry {
                 next32[a] = static_cast<int>(next[a]);
             }
     }
+
+#if UDVR_HAVE_AVX512
+    /// The ends (x, x + 1) of the x-edge at voxel offset `offset` from each lane's cell base
+    /// voxel, for the `live` lanes (0 elsewhere). Where x-neighbours are adjacent (every grid
+    /// but a 1-point x axis) one 64-bit gather loads both ends, so 16 edges take two 8-lane
+    /// gathers: half the gathered elements of two 16-lane ones.
+    /// `perVoxel` > 1: `values` holds that many floats per voxel and this reads the first.
+    void edge16(const float* values, __m512i base, int offset, __mmask16 live, __m512& v0,
+                __m512& v1, int perVoxel = 1) const {
+        __m512i idx = _mm512_add_epi32(base, _mm512_set1_epi32(offset));
+        if (perVoxel != 1) idx = _mm512_mullo_epi32(idx, _mm512_set1_epi32(perVoxel));
+        if (next32[0] == 1 && perVoxel == 1) {
+            const __m512i even =
+                _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+            const __m512 lo = _mm512_castpd_ps(
+                _mm512_mask_i32gather_pd(_mm512_setzero_pd(), static_cast<__mmask8>(live & 0xFF),
+                                         _mm512_castsi512_si256(idx), values, 4));
+            const __m512 hi = _mm512_castpd_ps(
+                _mm512_mask_i32gather_pd(_mm512_setzero_pd(), static_cast<__mmask8>(live >> 8),
+                                         _mm512_extracti64x4_epi64(idx, 1), values, 4));
+            v0 = _mm512_permutex2var_ps(lo, even, hi);
+            v1 = _mm512_permutex2var_ps(lo, _mm512_add_epi32(even, _mm512_set1_epi32(1)), hi);
+            return;
+        }
+        v0 = _mm512_mask_i32gather_ps(_mm512_setzero_ps(), live, idx, values, 4);
+        v1 = _mm512_mask_i32gather_ps(
+            _mm512_setzero_ps(), live,
+            _mm512_add_epi32(idx, _mm512_set1_epi32(next32[0] * perVoxel)), values, 4);
+    }
+    /// Trilinear interpolation of `values` (one per grid point) at 16 cells, by the lerps of
+    /// FastMeanKernel::valueAt (x, then y, then z), `live` lanes only (0 elsewhere).
+    __m512 trilinear16(const float* values, __m512i base, __m512 fx, __m512 fy, __m512 fz,
+                       __mmask16 live, int perVoxel = 1) const {
+        const auto lerp = [](__m512 u, __m512 v, __m512 f) {
+            return _mm512_fmadd_ps(f, _mm512_sub_ps(v, u), u);
+        };
+        const int oy = next32[1], oz = next32[2];
+        __m512 c[4];
+        const int offsets[4] = {0, oy, oz, oz + oy};
+        for (int r = 0; r < 4; ++r) {
+            __m512 v0, v1;
+            edge16(values, base, offsets[r], live, v0, v1, perVoxel);
+            c[r] = lerp(v0, v1, fx);
+        }
+        return lerp(lerp(c[0], c[1], fy), lerp(c[2], c[3], fy), fz);
+    }
+#endif
 };
 
 /// Mean field with the exact fast TF: TF(trilinear(values)), the kernel of `mean`, of plain
@@ -165,41 +214,7 @@ struct FastMeanKernel : CellGeometry {
     /// cells (base voxel and fractional position, see cellsAt; other lanes are not loaded),
     /// finish16 gives TF(value) premultiplied, (α·r, α·g, α·b, α).
     Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
-        const __m512 zero = _mm512_setzero_ps();
-        const auto at = [&](int offset) {
-            return _mm512_mask_i32gather_ps(
-                zero, live, _mm512_add_epi32(base, _mm512_set1_epi32(offset)), values, 4);
-        };
-        const int ox = next32[0], oy = next32[1], oz = next32[2];
-        const auto lerp = [](__m512 u, __m512 v, __m512 f) {
-            return _mm512_fmadd_ps(f, _mm512_sub_ps(v, u), u);
-        };
-        if (ox == 1) {
-            // x-neighbours are adjacent: one 64-bit gather loads both ends of an x-edge, so a
-            // row of 16 cells takes two 8-lane gathers (half the elements of two 16-lane ones).
-            const __m512i even =
-                _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
-            const __m512i odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
-            const __mmask8 liveLo = static_cast<__mmask8>(live & 0xFF);
-            const __mmask8 liveHi = static_cast<__mmask8>(live >> 8);
-            const auto edge = [&](int offset) {  // lerp along x of the row at `offset`
-                const __m512i idx = _mm512_add_epi32(base, _mm512_set1_epi32(offset));
-                const __m512 lo = _mm512_castpd_ps(_mm512_mask_i32gather_pd(
-                    _mm512_setzero_pd(), liveLo, _mm512_castsi512_si256(idx), values, 4));
-                const __m512 hi = _mm512_castpd_ps(_mm512_mask_i32gather_pd(
-                    _mm512_setzero_pd(), liveHi, _mm512_extracti64x4_epi64(idx, 1), values, 4));
-                return lerp(_mm512_permutex2var_ps(lo, even, hi),
-                            _mm512_permutex2var_ps(lo, odd, hi), fx);
-            };
-            const __m512 c00 = edge(0), c10 = edge(oy), c01 = edge(oz), c11 = edge(oz + oy);
-            return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
-        }
-        const __m512 q000 = _mm512_mask_i32gather_ps(zero, live, base, values, 4);
-        const __m512 c00 = lerp(q000, at(ox), fx);
-        const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
-        const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
-        const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
-        return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+        return trilinear16(values, base, fx, fy, fz, live);
     }
     void finish16(Loaded16 v, __m512& pr, __m512& pg, __m512& pb, __m512& pa) const {
         __m512 r, g, b;
@@ -218,13 +233,28 @@ struct Rgba16 {
 };
 #endif
 
+/// For kernels whose samples cost far more than a cell test: load16 classifies the non-empty
+/// lanes only, and finish16 hands its result on.
+struct ClassifyInLoad16 {
+#if UDVR_HAVE_AVX512
+    static constexpr bool kLoadDeadLanes = false;
+    using Loaded16 = Rgba16;
+    static void finish16(const Loaded16& l, __m512& pr, __m512& pg, __m512& pb, __m512& pa) {
+        pr = l.r;
+        pg = l.g;
+        pb = l.b;
+        pa = l.a;
+    }
+#endif
+};
+
 /// The boundaries of a quantile population at 16 samples, for the batched quantile kernels:
 /// boundaries first … first + count − 1 of a voxel-major array with `stride` floats per voxel
 /// (count ≤ 16). Per sample the corners' boundaries are one vector each (masked loads), blended
 /// by the lerps of FastMeanKernel::valueAt, so equal corners give exactly equal boundaries (zero
 /// widths stay zero); the 16 samples' vectors are then transposed, so the classification runs
 /// per boundary over all 16 samples and its sums need no horizontal additions.
-struct QuantileRows : CellGeometry {
+struct QuantileRows : CellGeometry, ClassifyInLoad16 {
     const float* data = nullptr;
     int stride = 0;  // floats per voxel
     int first = 0;   // first boundary of the population
@@ -234,16 +264,6 @@ struct QuantileRows : CellGeometry {
         : CellGeometry(grid), data(d), stride(strideIn), first(firstIn), count(countIn) {}
 
 #if UDVR_HAVE_AVX512
-    /// A sample costs far more than a cell test: classify the non-empty lanes only.
-    static constexpr bool kLoadDeadLanes = false;
-    /// The derived kernels classify in load16; finish16 hands the result on.
-    using Loaded16 = Rgba16;
-    static void finish16(const Loaded16& l, __m512& pr, __m512& pg, __m512& pb, __m512& pa) {
-        pr = l.r;
-        pg = l.g;
-        pb = l.b;
-        pa = l.a;
-    }
     bool rowsFit() const { return batchable && count >= 2 && count <= 16; }
     void prefetchCell(int v) const {
         const auto n = static_cast<std::size_t>(stride);
@@ -483,6 +503,211 @@ struct FastQuantileRangeKernel : QuantileRows {
             _mm512_maskz_mul_ps(live, sum[2], inv), _mm512_maskz_mul_ps(live, sum[3], inv)};
     }
 #endif
+};
+
+#if UDVR_HAVE_AVX512
+/// expectedTfGaussian for 16 lanes of N(μ, σ²) (var = σ²; σ = 0 is the point mass TF(μ)).
+inline void gaussianExpectation16(const TfPieces16& t, __m512 mu, __m512 sigma, __m512 var,
+                                  __mmask16 live, __m512 out[4]) {
+    const __m512 cutoff = _mm512_mul_ps(_mm512_set1_ps(7.f), sigma);  // kGaussianCutoffSigmas
+    const __m512i kl = t.pieceOf(_mm512_sub_ps(mu, cutoff));
+    const __m512i kh = t.pieceOf(_mm512_add_ps(mu, cutoff));
+    // One piece (also σ = 0, where kl = kh = μ's piece): E[p(X)] = p(μ) + c·σ².
+    {
+        const auto pick = [&](const float* f) {
+            return _mm512_permutex2var_ps(_mm512_load_ps(f), kl, _mm512_load_ps(f + 16));
+        };
+        const __m512 d = _mm512_sub_ps(mu, pick(t.origin));
+        for (int ch = 0; ch < 4; ++ch) {
+            const __m512 c = pick(t.c[ch]);
+            out[ch] = _mm512_fmadd_ps(
+                c, var, _mm512_fmadd_ps(d, _mm512_fmadd_ps(d, c, pick(t.b[ch])), pick(t.a[ch])));
+        }
+    }
+    const __mmask16 spread = _mm512_mask_cmpneq_epi32_mask(live, kl, kh);
+    if (!spread) return;
+    for (int ch = 0; ch < 4; ++ch)
+        out[ch] = _mm512_mask_mov_ps(out[ch], spread, _mm512_setzero_ps());
+    // Φ (cdf), 1 − Φ (upper), φ and z·φ at the left end of the current piece; the first
+    // piece of a lane starts at z = −∞.
+    __m512 cdfA = _mm512_setzero_ps(), upA = _mm512_set1_ps(1.f), pdfA = cdfA, zpdfA = cdfA;
+    __mmask16 upperA = 0;  // z_a ≥ 0
+    const __m512 invSigma = _mm512_div_ps(_mm512_set1_ps(1.f), sigma);
+    const int kFirst = _mm512_mask_reduce_min_epi32(spread, kl);
+    const int kLast = _mm512_mask_reduce_max_epi32(spread, kh);
+    for (int k = kFirst; k <= kLast; ++k) {
+        const __m512i kv = _mm512_set1_epi32(k);
+        const __mmask16 on =
+            spread & _mm512_cmple_epi32_mask(kl, kv) & _mm512_cmpge_epi32_mask(kh, kv);
+        if (!on) continue;
+        const __mmask16 last = on & _mm512_cmpeq_epi32_mask(kh, kv);
+        // z_b at the piece's right end u_k (k < kh), +∞ for the lane's last piece.
+        __m512 cdfB = _mm512_set1_ps(1.f), upB = _mm512_setzero_ps(), pdfB = upB, zpdfB = upB;
+        __mmask16 upperB = last;
+        if (on & ~last) {
+            const __m512 z = _mm512_mul_ps(_mm512_sub_ps(_mm512_set1_ps(t.bound[k]), mu), invSigma);
+            const __m512 g =
+                expNonPositive(_mm512_mul_ps(_mm512_set1_ps(-0.5f), _mm512_mul_ps(z, z)));
+            const __m512 az = _mm512_abs_ps(z);
+            const __m512 tail = _mm512_mul_ps(
+                _mm512_mul_ps(_mm512_set1_ps(0.5f), g),
+                erfcxNonNegative(_mm512_mul_ps(az, _mm512_set1_ps(0.70710678118654752f))));
+            const __mmask16 pos = _mm512_cmp_ps_mask(z, _mm512_setzero_ps(), _CMP_GE_OQ);
+            const __m512 rest = _mm512_sub_ps(_mm512_set1_ps(1.f), tail);
+            const __mmask16 mid = on & ~last;
+            cdfB = _mm512_mask_mov_ps(cdfB, mid, _mm512_mask_mov_ps(tail, pos, rest));
+            upB = _mm512_mask_mov_ps(upB, mid, _mm512_mask_mov_ps(rest, pos, tail));
+            pdfB = _mm512_mask_mov_ps(pdfB, mid,
+                                      _mm512_mul_ps(_mm512_set1_ps(0.39894228040143268f), g));
+            zpdfB = _mm512_mask_mov_ps(zpdfB, mid, _mm512_mul_ps(z, pdfB));
+            upperB = static_cast<__mmask16>((upperB & ~mid) | (pos & mid));
+        }
+        // ∫ z^m φ over [z_a, z_b]: m0 = ΔΦ (between upper tails where z_a ≥ 0),
+        // m1 = φ(z_a) − φ(z_b), m2 = m0 + z_a φ(z_a) − z_b φ(z_b).
+        const __m512 m0 = _mm512_mask_sub_ps(_mm512_sub_ps(cdfB, cdfA), upperA, upA, upB);
+        const __m512 m1 = _mm512_sub_ps(pdfA, pdfB);
+        const __m512 m2 = _mm512_add_ps(m0, _mm512_sub_ps(zpdfA, zpdfB));
+        const __m512 d = _mm512_sub_ps(mu, _mm512_set1_ps(t.origin[k]));  // x − origin = d + σz
+        for (int ch = 0; ch < 4; ++ch) {
+            const __m512 pa = _mm512_set1_ps(t.a[ch][k]), pb = _mm512_set1_ps(t.b[ch][k]),
+                         pc = _mm512_set1_ps(t.c[ch][k]);
+            const __m512 a = _mm512_fmadd_ps(d, _mm512_fmadd_ps(d, pc, pb), pa);
+            const __m512 b = _mm512_mul_ps(_mm512_fmadd_ps(_mm512_add_ps(pc, pc), d, pb), sigma);
+            const __m512 c = _mm512_mul_ps(pc, var);
+            const __m512 term =
+                _mm512_fmadd_ps(a, m0, _mm512_fmadd_ps(b, m1, _mm512_mul_ps(c, m2)));
+            out[ch] = _mm512_mask_add_ps(out[ch], on, out[ch], term);
+        }
+        cdfA = _mm512_mask_mov_ps(cdfA, on, cdfB);
+        upA = _mm512_mask_mov_ps(upA, on, upB);
+        pdfA = _mm512_mask_mov_ps(pdfA, on, pdfB);
+        zpdfA = _mm512_mask_mov_ps(zpdfA, on, zpdfB);
+        upperA = static_cast<__mmask16>((upperA & ~on) | (upperB & on));
+    }
+}
+#endif
+
+/// Gaussian (SPEC §3–4) in float for 16 samples at a time: μ = Σ w_c μ_c by the mean field's
+/// lerps, σ² = Σ w_c² σ_c², then E[TF(X)], X ~ N(μ, σ²), in closed form per TF piece as
+/// expectedTfGaussian: pieces from the one of μ − 7σ to the one of μ + 7σ, each piece's
+/// polynomial against φ by Φ and φ at its ends. The loop runs over the pieces any lane needs;
+/// the piece coefficients are broadcasts. Φ differences of the upper tail are taken between
+/// tails (1 − Φ), so no lane loses digits to 1 − tiny. Same values as GaussianKernel (double)
+/// up to float rounding.
+struct FastGaussianKernel : CellGeometry, ClassifyInLoad16 {
+    const float* mean = nullptr;
+    const float* stddev = nullptr;
+    const TfPieces16* pieces = nullptr;
+    GaussianKernel exact;  // per-sample classification (no AVX-512) and voxel supports
+
+    FastGaussianKernel(const Grid3& grid, const GaussianKernel& k, const TfPieces16* p)
+        : CellGeometry(grid), mean(k.mean), stddev(k.stddev), pieces(p), exact(k) {}
+
+    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        exact.voxelSupport(voxel, lo, hi);
+    }
+
+#if UDVR_HAVE_AVX512
+    bool batch16() const { return batchable && pieces->fits; }
+    void prefetchCell(int v) const {
+        for (const float* a : {mean, stddev})
+            for (int o : {0, next32[1], next32[2], next32[1] + next32[2]})
+                __builtin_prefetch(a + v + o);
+    }
+    Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
+        const __m512 one = _mm512_set1_ps(1.f), zero = _mm512_setzero_ps();
+        const __m512 mu = trilinear16(mean, base, fx, fy, fz, live);
+        // σ² = Σ_c w_c² σ_c², w_c the products of (1 − f) and f per axis.
+        const __m512 gx[2] = {_mm512_sub_ps(one, fx), fx}, gy[2] = {_mm512_sub_ps(one, fy), fy},
+                     gz[2] = {_mm512_sub_ps(one, fz), fz};
+        const int offsets[4] = {0, next32[1], next32[2], next32[1] + next32[2]};
+        __m512 var = zero;
+        for (int r = 0; r < 4; ++r) {
+            __m512 s0, s1;
+            edge16(stddev, base, offsets[r], live, s0, s1);
+            const __m512 wyz = _mm512_mul_ps(gy[r & 1], gz[r >> 1]);
+            const __m512 w0 = _mm512_mul_ps(gx[0], wyz), w1 = _mm512_mul_ps(gx[1], wyz);
+            const __m512 a0 = _mm512_mul_ps(w0, s0), a1 = _mm512_mul_ps(w1, s1);
+            var = _mm512_fmadd_ps(a0, a0, _mm512_fmadd_ps(a1, a1, var));
+        }
+        // σ = 0 (or NaN) is the point mass TF(μ), as in expectedTfGaussian.
+        const __mmask16 spread = _mm512_cmp_ps_mask(var, zero, _CMP_GT_OQ);
+        var = _mm512_maskz_mov_ps(spread, var);
+        const __m512 sigma = _mm512_sqrt_ps(var);
+        __m512 out[4];
+        gaussianExpectation16(*pieces, mu, sigma, var, live, out);
+        return Loaded16{_mm512_maskz_mov_ps(live, out[0]), _mm512_maskz_mov_ps(live, out[1]),
+                        _mm512_maskz_mov_ps(live, out[2]), _mm512_maskz_mov_ps(live, out[3])};
+    }
+
+#endif
+};
+
+/// GMM (ordered) (SPEC §3–4) in float for 16 samples at a time: per rank k, π_k, μ_k and σ_k
+/// interpolated trilinearly from the corners' k'th components (the mean field's lerps), π
+/// normalised to Σπ = 1 (left 0 where all are 0), then Σ_k π_k·E[TF(N(μ_k, σ_k²))]
+/// (gaussianExpectation16). Same values as GmmOrderedKernel (double) up to float rounding.
+struct FastGmmOrderedKernel : CellGeometry, ClassifyInLoad16 {
+    const float* gmm = nullptr;  // π_1..π_K, μ_1..μ_K, σ_1..σ_K per voxel
+    int components = 0;
+    const TfPieces16* pieces = nullptr;
+    GmmOrderedKernel exact;  // per-sample classification (no AVX-512) and voxel supports
+
+    FastGmmOrderedKernel(const Grid3& grid, const GmmOrderedKernel& k, const TfPieces16* p)
+        : CellGeometry(grid), gmm(k.gmm), components(k.components), pieces(p), exact(k) {
+        // Gathers index floats with 32-bit lanes: 3K floats per voxel must keep them in range.
+        fitsInt = static_cast<double>(grid.pointCount()) * 3.0 * components <
+                  static_cast<double>(std::numeric_limits<int>::max());
+    }
+
+    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        exact.voxelSupport(voxel, lo, hi);
+    }
+
+#if UDVR_HAVE_AVX512
+    bool batch16() const {
+        return batchable && fitsInt && components >= 1 && components <= kMaxGmmComponents &&
+               pieces->fits;
+    }
+    void prefetchCell(int v) const {
+        const std::size_t n = 3 * static_cast<std::size_t>(components);
+        for (int o : {0, next32[1], next32[2], next32[1] + next32[2]})
+            __builtin_prefetch(gmm + (static_cast<std::size_t>(v) + o) * n);
+    }
+    Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
+        const int k = components, n = 3 * k;
+        __m512 pi[kMaxGmmComponents], mu[kMaxGmmComponents], sigma[kMaxGmmComponents];
+        __m512 total = _mm512_setzero_ps();
+        for (int i = 0; i < k; ++i) {
+            pi[i] = trilinear16(gmm + i, base, fx, fy, fz, live, n);
+            mu[i] = trilinear16(gmm + k + i, base, fx, fy, fz, live, n);
+            sigma[i] = trilinear16(gmm + 2 * k + i, base, fx, fy, fz, live, n);
+            total = _mm512_add_ps(total, pi[i]);
+        }
+        const __mmask16 normalise = _mm512_cmp_ps_mask(total, _mm512_setzero_ps(), _CMP_GT_OQ);
+        const __m512 inv = _mm512_div_ps(_mm512_set1_ps(1.f), total);
+        __m512 out[4];
+        for (auto& o : out) o = _mm512_setzero_ps();
+        for (int i = 0; i < k; ++i) {
+            const __m512 w = _mm512_mask_mul_ps(pi[i], normalise, pi[i], inv);
+            const __mmask16 on = live & _mm512_cmp_ps_mask(w, _mm512_setzero_ps(), _CMP_NEQ_UQ);
+            if (!on) continue;
+            // σ ≤ 0 (or NaN) is the point mass, as in expectedTfGaussian.
+            const __m512 s = _mm512_maskz_mov_ps(
+                _mm512_cmp_ps_mask(sigma[i], _mm512_setzero_ps(), _CMP_GT_OQ), sigma[i]);
+            __m512 e[4];
+            gaussianExpectation16(*pieces, mu[i], s, _mm512_mul_ps(s, s), on, e);
+            for (int c = 0; c < 4; ++c) out[c] = _mm512_mask3_fmadd_ps(w, e[c], out[c], on);
+        }
+        return Loaded16{_mm512_maskz_mov_ps(live, out[0]), _mm512_maskz_mov_ps(live, out[1]),
+                        _mm512_maskz_mov_ps(live, out[2]), _mm512_maskz_mov_ps(live, out[3])};
+    }
+#endif
+
+  private:
+    bool fitsInt = false;
 };
 
 }  // namespace udvr::detail

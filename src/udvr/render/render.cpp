@@ -240,6 +240,12 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
             };
             if constexpr (std::is_same_v<K, QuantileMeanKernel>) {
                 if (tryBatched(detail::FastQuantileMeanKernel(model.grid, kernel, &fast))) return;
+            } else if constexpr (std::is_same_v<K, GaussianKernel>) {
+                const detail::TfPieces16 pieces(kernel.tf);
+                if (tryBatched(detail::FastGaussianKernel(model.grid, kernel, &pieces))) return;
+            } else if constexpr (std::is_same_v<K, GmmOrderedKernel>) {
+                const detail::TfPieces16 pieces(kernel.tf);
+                if (tryBatched(detail::FastGmmOrderedKernel(model.grid, kernel, &pieces))) return;
             } else if constexpr (std::is_same_v<K, QuantileRangeKernel>) {
                 const detail::TfPieces16 pieces(kernel.tf);
                 if (tryBatched(detail::FastQuantileRangeKernel(model.grid, kernel, &pieces)))

@@ -5,6 +5,8 @@
 // erfcx(z)/t. Max |error| of erfc over z ≥ 0 is 7.2e−10, so |Φ error| < 4e−10; normal_cdf_test.cpp
 // checks |error| < 1e−9 against std::erfc.
 #include <cmath>
+#include <type_traits>
+#include <utility>
 
 #include "udvr/util/check.h"
 
@@ -17,24 +19,35 @@ struct NormalCdfPdf {
 };
 
 namespace detail {
-/// erfc(z)·e^(z²) for z ≥ 0 (the scaled complementary error function erfcx), |rel. err| < 2e−9.
-/// T is double or a vector of doubles (util/fast_math.h evaluates it on 8 lanes).
+/// A value of T's scalar type: T itself, or the element type of a GCC vector type.
+template <class T>
+UDVR_CPU_GPU constexpr auto scalarOf() {
+    if constexpr (std::is_arithmetic_v<T>)
+        return T{};
+    else
+        return std::decay_t<decltype(std::declval<T&>()[0])>{};
+}
+
+/// erfc(z)·e^(z²) for z ≥ 0 (the scaled complementary error function erfcx), |rel. err| < 2e−9
+/// in double (float lanes: float rounding, ~1e−7). T is double or a vector of doubles or floats
+/// (util/fast_math.h and the batched ray loop evaluate it on lanes).
 template <class T>
 UDVR_CPU_GPU inline T erfcxNonNegative(T z) {
-    const T t = 1.0 / (1.0 + 0.5 * z);
-    T q = T{} - 0.034835435706290684;  // T{} broadcasts for vectors
-    q = q * t + 0.20629037933280478;
-    q = q * t - 0.49051169818528501;
-    q = q * t + 0.55717139941080052;
-    q = q * t - 0.25002314249156715;
-    q = q * t + 0.0053214629887724484;
-    q = q * t - 0.057358821500754352;
-    q = q * t - 0.0079980889492288418;
-    q = q * t + 0.084723131459079976;
-    q = q * t + 0.17619189480161779;
-    q = q * t + 0.24683946872731444;
-    q = q * t + 0.28209465716430537;
-    q = q * t + 0.28209479222970868;
+    using S = decltype(scalarOf<T>());  // double, or the lane type of a vector (float or double)
+    const T t = S(1) / (S(1) + S(0.5) * z);
+    T q = T{} - S(0.034835435706290684);  // T{} broadcasts for vectors
+    q = q * t + S(0.20629037933280478);
+    q = q * t - S(0.49051169818528501);
+    q = q * t + S(0.55717139941080052);
+    q = q * t - S(0.25002314249156715);
+    q = q * t + S(0.0053214629887724484);
+    q = q * t - S(0.057358821500754352);
+    q = q * t - S(0.0079980889492288418);
+    q = q * t + S(0.084723131459079976);
+    q = q * t + S(0.17619189480161779);
+    q = q * t + S(0.24683946872731444);
+    q = q * t + S(0.28209465716430537);
+    q = q * t + S(0.28209479222970868);
     return t * q;
 }
 }  // namespace detail
