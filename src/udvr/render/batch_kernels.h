@@ -273,23 +273,32 @@ struct QuantileRows : CellGeometry, ClassifyInLoad16 {
             __builtin_prefetch(b + (static_cast<std::size_t>(o) + 1) * n + count - 1);
         }
     }
-    /// rows[j] = boundary first + j at the 16 samples (0 in lanes outside `live`), j < count.
-    void rows16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live,
-                __m512 rows[16]) const {
+    /// rows[j] = boundary first + j at the 16 samples (0 in lanes outside `live`), j < count;
+    /// with `widths`, also widths[j] = b_{j+1} − b_j interpolated from the corners' own widths
+    /// (not the difference of two interpolated boundaries, which loses the digits of |b| and
+    /// which 1/w would magnify), j < count − 1.
+    void rows16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live, __m512 rows[16],
+                __m512* widths = nullptr) const {
         alignas(64) int cell[16];
         alignas(64) float w[3][16];
         _mm512_store_si512(cell, base);
         _mm512_store_ps(w[0], fx);
         _mm512_store_ps(w[1], fy);
         _mm512_store_ps(w[2], fz);
-        for (int l = 0; l < 16; ++l)
-            rows[l] = (live >> l & 1) ? boundaries(cell[l], w[0][l], w[1][l], w[2][l])
-                                      : _mm512_setzero_ps();
+        for (int l = 0; l < 16; ++l) {
+            rows[l] = _mm512_setzero_ps();
+            if (widths) widths[l] = _mm512_setzero_ps();
+            if (live >> l & 1)
+                rows[l] =
+                    boundaries(cell[l], w[0][l], w[1][l], w[2][l], widths ? &widths[l] : nullptr);
+        }
         simd::transpose16(rows);
+        if (widths) simd::transpose16(widths);
     }
 
   private:
-    __m512 boundaries(int v, float fx, float fy, float fz) const {
+    /// The boundaries (and, with `width`, the widths) at one sample.
+    __m512 boundaries(int v, float fx, float fy, float fz, __m512* width = nullptr) const {
         const __mmask16 m = static_cast<__mmask16>((1u << count) - 1u);
         const auto n = static_cast<std::size_t>(stride);
         const float* b = data + static_cast<std::size_t>(v) * n + first;
@@ -300,11 +309,24 @@ struct QuantileRows : CellGeometry, ClassifyInLoad16 {
             return _mm512_fmadd_ps(_mm512_set1_ps(f), _mm512_sub_ps(w, u), u);
         };
         const int ox = next32[0], oy = next32[1], oz = next32[2];
-        const __m512 c00 = lerp(at(0), at(ox), fx);
-        const __m512 c10 = lerp(at(oy), at(oy + ox), fx);
-        const __m512 c01 = lerp(at(oz), at(oz + ox), fx);
-        const __m512 c11 = lerp(at(oz + oy), at(oz + oy + ox), fx);
-        return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+        const int offsets[8] = {0, ox, oy, oy + ox, oz, oz + ox, oz + oy, oz + oy + ox};
+        __m512 corner[8];
+        for (int c = 0; c < 8; ++c) corner[c] = at(offsets[c]);
+        const auto blend = [&](const __m512* q) {
+            const __m512 c00 = lerp(q[0], q[1], fx), c10 = lerp(q[2], q[3], fx);
+            const __m512 c01 = lerp(q[4], q[5], fx), c11 = lerp(q[6], q[7], fx);
+            return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+        };
+        if (width) {
+            __m512 cw[8];  // each corner's b_{j+1} − b_j in lane j
+            for (int c = 0; c < 8; ++c)
+                cw[c] =
+                    _mm512_sub_ps(_mm512_castsi512_ps(_mm512_alignr_epi32(
+                                      _mm512_setzero_si512(), _mm512_castps_si512(corner[c]), 1)),
+                                  corner[c]);
+            *width = blend(cw);
+        }
+        return blend(corner);
     }
 #endif
 };
@@ -340,8 +362,8 @@ struct FastQuantileMeanKernel : QuantileRows {
     /// q + 1 boundaries fit one vector, 32-bit indices, a TF with few enough regions.
     bool batch16() const { return rowsFit() && tf->regionArrays() != nullptr; }
     Loaded16 load16(__m512i base, __m512 fx, __m512 fy, __m512 fz, __mmask16 live) const {
-        __m512 b[16];
-        rows16(base, fx, fy, fz, live, b);
+        __m512 b[16], widths[16];
+        rows16(base, fx, fy, fz, live, b, widths);
         // Eq. 5 per lane: Σ_j p_j·TF(m_j) / Σ_j p_j, and, for density weights, the same with
         // p_j = 1 over the zero-width quantiles alone (used where a lane has any).
         const __m512 one = _mm512_set1_ps(1.f), half = _mm512_set1_ps(0.5f),
@@ -351,7 +373,7 @@ struct FastQuantileMeanKernel : QuantileRows {
         __mmask16 anyZero = 0;
         for (int j = 0; j < q; ++j) {
             const __m512 mid = _mm512_mul_ps(_mm512_add_ps(b[j], b[j + 1]), half);
-            const __m512 width = _mm512_sub_ps(b[j + 1], b[j]);
+            const __m512 width = widths[j];
             __m512 r, g, bl, a;
             FastTransferFunction::classify16(*tf->regionArrays(), mid, r, g, bl, a);
             const __m512 premult[4] = {_mm512_mul_ps(a, r), _mm512_mul_ps(a, g),
@@ -387,7 +409,10 @@ struct TfPieces16 {
     int breakCount = 0;
     alignas(64) float bound[kMax];  // u_0 … u_{N−1}, then +inf
     alignas(64) float origin[kMax];
-    alignas(64) float a[4][kMax], b[4][kMax], c[4][kMax], cum[4][kMax];
+    alignas(64) float a[4][kMax], b[4][kMax], c[4][kMax];
+    // cum = cumHi + cumLo (a float pair, ~48 bits): the difference of two prefix sums for the
+    // full pieces inside an interval then keeps its digits when the sums are large.
+    alignas(64) float cumHi[4][kMax], cumLo[4][kMax];
 
     explicit TfPieces16(const TfTable& t) {
         fits = t.breakCount + 1 <= kMax;
@@ -402,7 +427,8 @@ struct TfPieces16 {
                 a[ch][k] = static_cast<float>(p.a[ch]);
                 b[ch][k] = static_cast<float>(p.b[ch]);
                 c[ch][k] = static_cast<float>(p.c[ch]);
-                cum[ch][k] = static_cast<float>(p.cum[ch]);
+                cumHi[ch][k] = static_cast<float>(p.cum[ch]);
+                cumLo[ch][k] = static_cast<float>(p.cum[ch] - static_cast<double>(cumHi[ch][k]));
             }
         }
     }
@@ -457,7 +483,9 @@ struct TfPieces16 {
             for (int ch = 0; ch < 4; ++ch) {
                 const __m512 left = _mm512_mul_ps(wl, poly(ch, kl, ls1, ls2));
                 const __m512 right = _mm512_mul_ps(tr, poly(ch, kh, rs1, rs2));
-                const __m512 full = _mm512_sub_ps(pick(cum[ch], kh), pick(cum[ch], next));
+                const __m512 full =
+                    _mm512_add_ps(_mm512_sub_ps(pick(cumHi[ch], kh), pick(cumHi[ch], next)),
+                                  _mm512_sub_ps(pick(cumLo[ch], kh), pick(cumLo[ch], next)));
                 out[ch] = _mm512_mask_mul_ps(out[ch], span,
                                              _mm512_add_ps(_mm512_add_ps(left, full), right), inv);
             }
