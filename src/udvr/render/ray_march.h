@@ -238,7 +238,7 @@ struct OpacityCorrection {
     /// cancellation for small a: ln(1 − a) = 2·atanh(s) with s = −a/(2 − a) for a ≤ ¼ (no 1 − a
     /// formed), α' = −expm1(e·ln(1 − a)) from the series of e^y − 1 near 0. Error ≈ 1e−7
     /// relative in α' (the scalar table allows 1e−6 absolute).
-    void apply16(__m512 a, __m512& alpha, __m512& keep) const {
+    void apply16(__m512 a, __m512& alpha, __m512& keep, __mmask16 live = 0xFFFF) const {
         const __m512 one = _mm512_set1_ps(1.f);
         if (mode == kIdentity) {
             alpha = a;
@@ -255,16 +255,22 @@ struct OpacityCorrection {
         const __mmask16 opaque = _mm512_cmp_ps_mask(a, one, _CMP_GE_OQ);
         // ln x: for x = 1 − a ≥ ¾ as 2·atanh(−a/(2 − a)), otherwise logPositive (x is normal
         // for a < 1; the opaque lanes take x = 1 and are set below).
-        const __m512 lnx =
-            _mm512_mask_mov_ps(logPositive(_mm512_mask_mov_ps(x, opaque, one)), small,
-                               logOfAtanhArg(_mm512_div_ps(_mm512_sub_ps(_mm512_setzero_ps(), a),
-                                                           _mm512_add_ps(one, x))));
+        // Lanes outside `live` do not matter: each branch runs only if a live lane needs it.
+        const auto needed = [&](__mmask16 m) { return (m & live) != 0; };
+        __m512 lnx = logOfAtanhArg(
+            _mm512_div_ps(_mm512_sub_ps(_mm512_setzero_ps(), a), _mm512_add_ps(one, x)));
+        if (needed(static_cast<__mmask16>(~small)))
+            lnx = _mm512_mask_mov_ps(logPositive(_mm512_mask_mov_ps(x, opaque, one)), small, lnx);
         const __m512 y = _mm512_mul_ps(lnx, _mm512_set1_ps(exponent));  // ≤ 0
         // e^y − 1: y·expm1OverX(y) for |y| ≤ ln2/2 (no cancellation), else e^y − 1.
-        keep = expNonPositive(y);
-        __m512 em1 = _mm512_sub_ps(keep, one);
         const __mmask16 near0 = _mm512_cmp_ps_mask(y, _mm512_set1_ps(-0.34657359f), _CMP_GE_OQ);
-        if (near0) em1 = _mm512_mask_mov_ps(em1, near0, _mm512_mul_ps(expm1OverX(y), y));
+        keep = one;
+        __m512 em1 = _mm512_setzero_ps();
+        if (needed(static_cast<__mmask16>(~near0))) {
+            keep = expNonPositive(y);
+            em1 = _mm512_sub_ps(keep, one);
+        }
+        if (needed(near0)) em1 = _mm512_mask_mov_ps(em1, near0, _mm512_mul_ps(expm1OverX(y), y));
         alpha = _mm512_mask_mov_ps(_mm512_sub_ps(_mm512_setzero_ps(), em1), opaque, one);
         keep = _mm512_mask_mov_ps(keep, near0, _mm512_add_ps(em1, one));
         keep = _mm512_mask_mov_ps(keep, opaque, _mm512_setzero_ps());
@@ -292,7 +298,7 @@ struct BatchCompositor {
         if (!live) return false;
         const __m512 aClamped = _mm512_min_ps(a, one);
         __m512 alpha, keep;
-        correct.apply16(aClamped, alpha, keep);
+        correct.apply16(aClamped, alpha, keep, live);
         keep = _mm512_mask_mov_ps(one, live, keep);
         const __m512 after = simd::prefixProduct(keep);  // T after lane i, over T
         const __m512 before = simd::shiftUp<1>(after, one);
