@@ -7,8 +7,8 @@
 #include <cstring>
 #include <limits>
 
-#include "udvr/util/fast_math.h"
 #include "udvr/util/check.h"
+#include "udvr/util/fast_math.h"
 #include "udvr/util/random.h"
 
 namespace udvr {

@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "udvr/util/fast_math.h"
 #include "udvr/util/check.h"
+#include "udvr/util/fast_math.h"
 
 namespace udvr {
 
