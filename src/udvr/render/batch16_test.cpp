@@ -390,6 +390,59 @@ TEST(BatchCompositor, MatchesSerialFrontToBack) {
 }
 #endif
 
+// The brick walk of the batched loop never jumps a sample whose brick is not empty, and walks
+// past every empty brick the per-brick test would: random rays (inside, outside and through
+// the grid, axis-parallel ones too) over random brick tables.
+TEST(SkipTable, BrickWalkSkipsOnlyEmptyBricks) {
+    std::mt19937 rng(23);
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    detail::SkipTable t;
+    for (int a = 0; a < 3; ++a) {
+        t.dims[a] = 70 + 9 * a;
+        t.cells[a] = t.dims[a] - 1;
+        t.bricks[a] = (t.cells[a] + detail::kBrickCells - 1) / detail::kBrickCells;
+    }
+    const std::size_t nBricks = static_cast<std::size_t>(t.bricks[0]) * t.bricks[1] * t.bricks[2];
+    const auto brickOf = [&](const detail::RaySamples& r, std::int64_t k) {
+        int br[3];
+        for (int a = 0; a < 3; ++a) {
+            const float v = r.a[a] + static_cast<float>(k) * r.b[a];
+            const float vc = std::clamp(v, 0.f, static_cast<float>(t.cells[a]));
+            br[a] = std::min(static_cast<int>(vc), t.cells[a] - 1) / detail::kBrickCells;
+        }
+        return t.index(br[0], br[1], br[2]);
+    };
+    int jumps = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        t.empty.assign(nBricks, 0);
+        const float fill = u(rng);
+        for (auto& e : t.empty) e = u(rng) < fill ? 1 : 0;
+        detail::RaySamples r;
+        for (int a = 0; a < 3; ++a) {
+            r.a[a] = -20.f + (static_cast<float>(t.dims[a]) + 40.f) * u(rng);
+            r.b[a] = trial % 7 == a ? 0.f : 0.8f * (u(rng) - 0.5f);
+            r.invB[a] = r.b[a] != 0.f ? 1.f / r.b[a] : 0.f;
+        }
+        r.n = 200 + static_cast<std::int64_t>(300 * u(rng));
+        std::int64_t s = 0;
+        while (s < r.n) {
+            const std::int64_t s0 = s;
+            std::uint64_t skipped = 0;
+            if (detail::skipEmptyBricks(t, r, s, skipped)) {
+                ++jumps;
+                ASSERT_GT(s, s0);
+                ASSERT_EQ(skipped, static_cast<std::uint64_t>(s - s0));
+                for (std::int64_t k = s0; k < std::min(s, r.n); ++k)
+                    ASSERT_TRUE(t.empty[brickOf(r, k)]) << trial << " sample " << k;
+            } else {
+                ASSERT_FALSE(t.empty[brickOf(r, s)]) << trial << " sample " << s;
+                ++s;
+            }
+        }
+    }
+    EXPECT_GT(jumps, 300);  // the walks were exercised (606 with this seed)
+}
+
 // The same TF written with many redundant (collinear) control points is the same function but
 // has too many regions for the batched loop, so the frame takes the per-sample loop: the two
 // frames agree to float rounding (with or without AVX-512), for the mean field, quantile-mean

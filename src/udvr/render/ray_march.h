@@ -430,6 +430,54 @@ inline bool skipEmptyBrick(const SkipTable& bricks, const RaySamples& r, std::in
     return false;
 }
 
+/// skipEmptyBrick over a run of empty bricks: from the brick of sample s, walk brick to brick
+/// while they are empty (a 3-D DDA in sample units: per axis the next slab crossing, advanced
+/// by kBrickCells/|b| per brick), then move s to the last whole sample before the first
+/// non-empty brick (or to n). Returns whether s moved. The batches after the jump test every
+/// cell, and a crossing is off by far less than a sample, so rounding never skips a visible
+/// sample.
+inline bool skipEmptyBricks(const SkipTable& bricks, const RaySamples& r, std::int64_t& s,
+                            std::uint64_t& skipped) {
+    const float inf = std::numeric_limits<float>::infinity();
+    const float sf = static_cast<float>(s);
+    int br[3], dir[3];
+    float next[3], delta[3];
+    for (int ax = 0; ax < 3; ++ax) {
+        const float v = r.a[ax] + sf * r.b[ax];
+        const float vc = std::clamp(v, 0.f, static_cast<float>(bricks.cells[ax]));
+        const int cell = std::min(static_cast<int>(vc), bricks.cells[ax] - 1);
+        br[ax] = cell / kBrickCells;
+        next[ax] = delta[ax] = inf;
+        dir[ax] = 0;
+        if (r.b[ax] > 0.f && br[ax] != bricks.bricks[ax] - 1) {
+            next[ax] = (static_cast<float>((br[ax] + 1) * kBrickCells) - r.a[ax]) * r.invB[ax];
+            delta[ax] = static_cast<float>(kBrickCells) * r.invB[ax];
+            dir[ax] = 1;
+        } else if (r.b[ax] < 0.f && br[ax] != 0) {
+            next[ax] = (static_cast<float>(br[ax] * kBrickCells) - r.a[ax]) * r.invB[ax];
+            delta[ax] = -static_cast<float>(kBrickCells) * r.invB[ax];
+            dir[ax] = -1;
+        }
+    }
+    const float nf = static_cast<float>(r.n);
+    float exitAt = -1.f;  // where the ray leaves the last empty brick walked
+    while (bricks.empty[bricks.index(br[0], br[1], br[2])]) {
+        const int ax = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2)
+                                          : (next[1] <= next[2] ? 1 : 2);
+        exitAt = std::min(next[ax], nf);
+        if (!(next[ax] < nf)) break;  // the ray ends in this brick
+        br[ax] += dir[ax];
+        const bool last = dir[ax] > 0 ? br[ax] == bricks.bricks[ax] - 1 : br[ax] == 0;
+        next[ax] = last ? inf : next[ax] + delta[ax];
+    }
+    if (exitAt < 0.f) return false;  // s's own brick is not empty
+    const std::int64_t target =
+        std::max(s + 1, static_cast<std::int64_t>(std::max(exitAt, 0.f)));  // ⌊exitAt⌋
+    skipped += static_cast<std::uint64_t>(target - s);
+    s = target;
+    return true;
+}
+
 /// Straight RGB over the background and the accumulated α (SPEC §5) from premultiplied sums.
 inline void writePixel(float* out, float r, float g, float b, float a, const MarchParams& p) {
     const float rest = 1.f - a;
@@ -494,8 +542,8 @@ bool step16(const Kernel& kernel, const SkipTable& bricks, bool skipEmpty, Ray16
     }
     if (ray.s >= r.n) return true;
     if (skipEmpty && ray.checkBrick) {
-        std::int64_t end;
-        if (skipEmptyBrick(bricks, r, ray.s, end, skipped)) return ray.s >= r.n;
+        // Jump the empty bricks ahead, then go on with a batch in the same step.
+        if (skipEmptyBricks(bricks, r, ray.s, skipped) && ray.s >= r.n) return true;
         ray.checkBrick = false;
     }
     const __m512 zero = _mm512_setzero_ps();
