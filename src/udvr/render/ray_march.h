@@ -462,8 +462,8 @@ inline bool skipEmptyBricks(const SkipTable& bricks, const RaySamples& r, std::i
     const float nf = static_cast<float>(r.n);
     float exitAt = -1.f;  // where the ray leaves the last empty brick walked
     while (bricks.empty[bricks.index(br[0], br[1], br[2])]) {
-        const int ax = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2)
-                                          : (next[1] <= next[2] ? 1 : 2);
+        const int ax =
+            next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2) : (next[1] <= next[2] ? 1 : 2);
         exitAt = std::min(next[ax], nf);
         if (!(next[ax] < nf)) break;  // the ray ends in this brick
         br[ax] += dir[ax];
