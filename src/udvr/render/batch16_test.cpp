@@ -209,31 +209,47 @@ TEST(FastQuantileRangeKernel, MatchesTheDoubleKernel) {
 // The batched float Gaussian against the double per-sample kernel (expectedTfGaussian):
 // σ from 0 (point masses) and tiny to wider than the TF, means inside and outside the TF's
 // breakpoints, random points including the grid's faces.
-TEST(FastGaussianKernel, MatchesTheDoubleKernel) {
-    KernelCase c(17, steppedTangleTf());
-    const std::size_t n = c.grid.pointCount();
-    for (float scale : {0.f, 1e-5f, 0.05f, 1.f, 4.f, 40.f}) {
-        std::vector<float> mean(n), stddev(n);
-        for (std::size_t v = 0; v < n; ++v) {
-            mean[v] = -10.f + 20.f * c.uniform();
-            stddev[v] = c.uniform() < 0.2f ? 0.f : scale * c.uniform();
-        }
-        const GaussianKernel exact{{5, 4, 3}, mean.data(), stddev.data(), c.table.table()};
-        const detail::FastGaussianKernel batched(c.grid, exact, &c.pieces);
-        ASSERT_TRUE(batched.batch16());
+// A TF with a narrow feature: an opacity tent 0.02 wide with a colour ramp across it (where a
+// float Gaussian expectation would lose (σ/w)² × float rounding).
+TransferFunction1D narrowTentTf() {
+    TransferFunction1D tf;
+    tf.opacityX = {-5.0, 0.0, 0.01, 0.02, 5.0};
+    tf.opacity = {0.0, 0.0, 1.0, 0.0, 0.0};
+    tf.colorX = {-5.0, 0.0, 0.02, 5.0};
+    tf.color = {{0.2, 0.2, 0.2}, {1.0, 0.0, 0.0}, {0.0, 0.0, 1.0}, {0.2, 0.2, 0.2}};
+    return tf;
+}
 
-        const double worst = worstLoad16Error(batched, exact, c.rng, c.grid);
-        // Float μ and σ (|μ| ≤ 10) and float Φ (≈1e−7) against double.
-        EXPECT_LT(worst, 2e-5) << scale;
+TEST(FastGaussianKernel, MatchesTheDoubleKernel) {
+    for (bool narrow : {false, true}) {
+        KernelCase c(17, narrow ? narrowTentTf() : steppedTangleTf());
+        const std::size_t n = c.grid.pointCount();
+        for (float scale : {0.f, 1e-5f, 0.05f, 0.4f, 1.f, 4.f, 40.f, 400.f}) {
+            std::vector<float> mean(n), stddev(n);
+            for (std::size_t v = 0; v < n; ++v) {
+                mean[v] = narrow ? scale * (c.uniform() - 0.5f) : -10.f + 20.f * c.uniform();
+                stddev[v] = c.uniform() < 0.2f ? 0.f : scale * c.uniform();
+            }
+            const GaussianKernel exact{{5, 4, 3}, mean.data(), stddev.data(), c.table.table()};
+            const detail::FastGaussianKernel batched(c.grid, exact, &c.pieces);
+            ASSERT_TRUE(batched.batch16());
+
+            const double worst = worstLoad16Error(batched, exact, c.rng, c.grid);
+            // Float μ and σ (|μ| ≤ 10) and float Φ (≈1e−7) against double; σ wider than 8× the
+            // narrowest piece takes the double kernel (the float one was off by 3e−4 at σ = 40w,
+            // 0.15 at σ = 1000w).
+            EXPECT_LT(worst, 2e-5) << scale << " " << narrow;
+        }
     }
 }
 
-// The batched float GMM (ordered) against the double per-sample kernel: K = 1, 2, 4, weights
-// with zeros (and voxels whose weights are all 0), point-mass components (σ = 0).
+// The batched float GMM (ordered) against the double per-sample kernel: K = 1, 2, 4, 16, weights
+// with zeros (and voxels whose weights are all 0), point-mass components (σ = 0), components too
+// wide for the float expectation (their samples take the double kernel).
 TEST(FastGmmOrderedKernel, MatchesTheDoubleKernel) {
     KernelCase c(19, tangleTransferFunction());
     const std::size_t n = c.grid.pointCount();
-    for (int k : {1, 2, 4}) {
+    for (int k : {1, 2, 4, 16}) {
         std::vector<float> gmm(n * 3 * k);
         for (std::size_t v = 0; v < n; ++v) {
             float* g = gmm.data() + v * 3 * k;
@@ -243,7 +259,9 @@ TEST(FastGmmOrderedKernel, MatchesTheDoubleKernel) {
                 g[i] = allZero || c.uniform() < 0.2f ? 0.f : c.uniform();
                 g[k + i] = m;
                 m += 6.f * c.uniform();  // ranks sorted by mean
-                g[2 * k + i] = c.uniform() < 0.2f ? 0.f : 2.f * c.uniform();
+                // Point masses (σ = 0), and a few σ beyond the float limit (8 × 0.6).
+                const float r = c.uniform();
+                g[2 * k + i] = r < 0.2f ? 0.f : (r > 0.95f ? 20.f : 2.f) * c.uniform();
             }
         }
         const GmmOrderedKernel exact{{5, 4, 3}, gmm.data(), k, c.table.table()};

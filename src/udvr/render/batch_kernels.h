@@ -413,11 +413,21 @@ struct TfPieces16 {
     // cum = cumHi + cumLo (a float pair, ~48 bits): the difference of two prefix sums for the
     // full pieces inside an interval then keeps its digits when the sums are large.
     alignas(64) float cumHi[4][kMax], cumLo[4][kMax];
+    // The float Gaussian expectation differences Φ and φ at the ends of a piece; their float
+    // rounding (~6e−8) is multiplied by up to (σ/w)² for a piece of width w, so lanes with
+    // σ > kMaxSigmaOverWidth × (narrowest interior piece) take the double kernel (error then
+    // < 6e−8·8² ≈ 4e−6).
+    static constexpr float kMaxSigmaOverWidth = 8.f;
+    float maxFloatSigma = std::numeric_limits<float>::infinity();
 
     explicit TfPieces16(const TfTable& t) {
         fits = t.breakCount + 1 <= kMax;
         if (!fits) return;
         breakCount = t.breakCount;
+        for (int k = 0; k + 1 < t.breakCount; ++k)
+            maxFloatSigma =
+                std::min(maxFloatSigma,
+                         kMaxSigmaOverWidth * static_cast<float>(t.breaks[k + 1] - t.breaks[k]));
         for (int k = 0; k < kMax; ++k) {
             bound[k] = k < t.breakCount ? static_cast<float>(t.breaks[k])
                                         : std::numeric_limits<float>::infinity();
@@ -615,13 +625,44 @@ inline void gaussianExpectation16(const TfPieces16& t, __m512 mu, __m512 sigma, 
 }
 #endif
 
+#if UDVR_HAVE_AVX512
+/// out[c] ← the double kernel's classification in the `lanes` of a batch (cells from base and
+/// fractions, as the ray loop computes them; the point is base index + fraction).
+template <class Exact>
+void exactLanes(const Exact& exact, const CellGeometry& g, __m512i base, __m512 fx, __m512 fy,
+                __m512 fz, __mmask16 lanes, __m512 out[4]) {
+    alignas(64) int cell[16];
+    alignas(64) float f[3][16], o[4][16];
+    _mm512_store_si512(cell, base);
+    _mm512_store_ps(f[0], fx);
+    _mm512_store_ps(f[1], fy);
+    _mm512_store_ps(f[2], fz);
+    for (int c = 0; c < 4; ++c) _mm512_store_ps(o[c], out[c]);
+    for (unsigned m = lanes; m; m &= m - 1) {
+        const int l = __builtin_ctz(m);
+        const auto v = static_cast<std::size_t>(cell[l]);
+        const std::size_t iz = v / g.stride[2], rest = v % g.stride[2];
+        const std::size_t iy = rest / g.stride[1], ix = rest % g.stride[1];
+        const Rgba c =
+            exact.classifyAt(static_cast<float>(ix) + f[0][l], static_cast<float>(iy) + f[1][l],
+                             static_cast<float>(iz) + f[2][l]);
+        o[0][l] = c.r;
+        o[1][l] = c.g;
+        o[2][l] = c.b;
+        o[3][l] = c.a;
+    }
+    for (int c = 0; c < 4; ++c) out[c] = _mm512_load_ps(o[c]);
+}
+#endif
+
 /// Gaussian (SPEC §3–4) in float for 16 samples at a time: μ = Σ w_c μ_c by the mean field's
 /// lerps, σ² = Σ w_c² σ_c², then E[TF(X)], X ~ N(μ, σ²), in closed form per TF piece as
 /// expectedTfGaussian: pieces from the one of μ − 7σ to the one of μ + 7σ, each piece's
 /// polynomial against φ by Φ and φ at its ends. The loop runs over the pieces any lane needs;
 /// the piece coefficients are broadcasts. Φ differences of the upper tail are taken between
-/// tails (1 − Φ), so no lane loses digits to 1 − tiny. Same values as GaussianKernel (double)
-/// up to float rounding.
+/// tails (1 − Φ), so no lane loses digits to 1 − tiny. Lanes whose σ is wide against the TF's
+/// narrowest piece take the double kernel (TfPieces16::maxFloatSigma). Same values as
+/// GaussianKernel (double) up to float rounding.
 struct FastGaussianKernel : CellGeometry, ClassifyInLoad16 {
     const float* mean = nullptr;
     const float* stddev = nullptr;
@@ -663,8 +704,11 @@ struct FastGaussianKernel : CellGeometry, ClassifyInLoad16 {
         const __mmask16 spread = _mm512_cmp_ps_mask(var, zero, _CMP_GT_OQ);
         var = _mm512_maskz_mov_ps(spread, var);
         const __m512 sigma = _mm512_sqrt_ps(var);
+        const __mmask16 wide =
+            live & _mm512_cmp_ps_mask(sigma, _mm512_set1_ps(pieces->maxFloatSigma), _CMP_GT_OQ);
         __m512 out[4];
-        gaussianExpectation16(*pieces, mu, sigma, var, live, out);
+        gaussianExpectation16(*pieces, mu, sigma, var, live & ~wide, out);
+        if (wide) exactLanes(exact, *this, base, fx, fy, fz, wide, out);
         return Loaded16{_mm512_maskz_mov_ps(live, out[0]), _mm512_maskz_mov_ps(live, out[1]),
                         _mm512_maskz_mov_ps(live, out[2]), _mm512_maskz_mov_ps(live, out[3])};
     }
@@ -715,12 +759,17 @@ struct FastGmmOrderedKernel : CellGeometry, ClassifyInLoad16 {
             total = _mm512_add_ps(total, pi[i]);
         }
         const __mmask16 normalise = _mm512_cmp_ps_mask(total, _mm512_setzero_ps(), _CMP_GT_OQ);
+        __mmask16 wide = 0;  // a component too wide for the float expectation: double lanes
+        for (int i = 0; i < k; ++i)
+            wide |= _mm512_cmp_ps_mask(sigma[i], _mm512_set1_ps(pieces->maxFloatSigma), _CMP_GT_OQ);
+        wide &= live;
         const __m512 inv = _mm512_div_ps(_mm512_set1_ps(1.f), total);
         __m512 out[4];
         for (auto& o : out) o = _mm512_setzero_ps();
         for (int i = 0; i < k; ++i) {
             const __m512 w = _mm512_mask_mul_ps(pi[i], normalise, pi[i], inv);
-            const __mmask16 on = live & _mm512_cmp_ps_mask(w, _mm512_setzero_ps(), _CMP_NEQ_UQ);
+            const __mmask16 on =
+                live & ~wide & _mm512_cmp_ps_mask(w, _mm512_setzero_ps(), _CMP_NEQ_UQ);
             if (!on) continue;
             // σ ≤ 0 (or NaN) is the point mass, as in expectedTfGaussian.
             const __m512 s = _mm512_maskz_mov_ps(
@@ -729,6 +778,7 @@ struct FastGmmOrderedKernel : CellGeometry, ClassifyInLoad16 {
             gaussianExpectation16(*pieces, mu[i], s, _mm512_mul_ps(s, s), on, e);
             for (int c = 0; c < 4; ++c) out[c] = _mm512_mask3_fmadd_ps(w, e[c], out[c], on);
         }
+        if (wide) exactLanes(exact, *this, base, fx, fy, fz, wide, out);
         return Loaded16{_mm512_maskz_mov_ps(live, out[0]), _mm512_maskz_mov_ps(live, out[1]),
                         _mm512_maskz_mov_ps(live, out[2]), _mm512_maskz_mov_ps(live, out[3])};
     }

@@ -471,8 +471,9 @@ inline bool skipEmptyBricks(const SkipTable& bricks, const RaySamples& r, std::i
         next[ax] = last ? inf : next[ax] + delta[ax];
     }
     if (exitAt < 0.f) return false;  // s's own brick is not empty
+    // ⌊exitAt⌋; NaN (a denormal b times a start on a slab: 0·∞) lands on the next sample.
     const std::int64_t target =
-        std::max(s + 1, static_cast<std::int64_t>(std::max(exitAt, 0.f)));  // ⌊exitAt⌋
+        std::max(s + 1, static_cast<std::int64_t>(exitAt > 0.f ? exitAt : 0.f));
     skipped += static_cast<std::uint64_t>(target - s);
     s = target;
     return true;
