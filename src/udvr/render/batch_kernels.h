@@ -248,6 +248,18 @@ struct ClassifyInLoad16 {
 #endif
 };
 
+/// The double per-sample kernel a batched kernel stands in for: it classifies where the batched
+/// loop does not run (no AVX-512, or the kernel's batch16() says no) and gives the voxel
+/// supports for the skip tables.
+template <class Exact>
+struct PerSampleKernel {
+    Exact exact;
+    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        exact.voxelSupport(voxel, lo, hi);
+    }
+};
+
 /// The boundaries of a quantile population at 16 samples, for the batched quantile kernels:
 /// boundaries first … first + count − 1 of a voxel-major array with `stride` floats per voxel
 /// (count ≤ 16). Per sample the corners' boundaries are one vector each (masked loads), blended
@@ -337,26 +349,20 @@ struct QuantileRows : CellGeometry, ClassifyInLoad16 {
 /// weights (`quantile-mean-mass`); with density weights, zero-width quantiles (w ≤ zeroWidth)
 /// take all the mass, shared equally, as in QuantileMeanKernel. Same values as
 /// QuantileMeanKernel (double) up to float rounding.
-struct FastQuantileMeanKernel : QuantileRows {
+struct FastQuantileMeanKernel : QuantileRows, PerSampleKernel<QuantileMeanKernel> {
     int q = 0;
     bool densityWeights = true;
     float zeroWidth = 0.f;  // data units
     const FastTransferFunction* tf = nullptr;
-    QuantileMeanKernel exact;  // per-sample classification (no AVX-512) and voxel supports
 
     FastQuantileMeanKernel(const Grid3& grid, const QuantileMeanKernel& k,
                            const FastTransferFunction* t)
         : QuantileRows(grid, k.quantiles, k.q + 1, 0, k.q + 1),
+          PerSampleKernel<QuantileMeanKernel>{k},
           q(k.q),
           densityWeights(k.densityWeights),
           zeroWidth(static_cast<float>(k.zeroWidth)),
-          tf(t),
-          exact(k) {}
-
-    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
-    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
-        exact.voxelSupport(voxel, lo, hi);
-    }
+          tf(t) {}
 
 #if UDVR_HAVE_AVX512
     /// q + 1 boundaries fit one vector, 32-bit indices, a TF with few enough regions.
@@ -508,17 +514,13 @@ struct TfPieces16 {
 /// of the TF over each quantile interval [b_j, b_{j+1}] of the population (TfPieces16), averaged
 /// with equal weights. Serves quantile-range, the quartile views and iqr, like
 /// QuantileRangeKernel (double), whose values it matches up to float rounding.
-struct FastQuantileRangeKernel : QuantileRows {
+struct FastQuantileRangeKernel : QuantileRows, PerSampleKernel<QuantileRangeKernel> {
     const TfPieces16* pieces = nullptr;
-    QuantileRangeKernel exact;  // per-sample classification (no AVX-512) and voxel supports
 
     FastQuantileRangeKernel(const Grid3& grid, const QuantileRangeKernel& k, const TfPieces16* p)
-        : QuantileRows(grid, k.boundaries, k.stride, k.j0, k.j1 - k.j0 + 1), pieces(p), exact(k) {}
-
-    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
-    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
-        exact.voxelSupport(voxel, lo, hi);
-    }
+        : QuantileRows(grid, k.boundaries, k.stride, k.j0, k.j1 - k.j0 + 1),
+          PerSampleKernel<QuantileRangeKernel>{k},
+          pieces(p) {}
 
 #if UDVR_HAVE_AVX512
     bool batch16() const { return rowsFit() && pieces->fits; }
@@ -663,19 +665,17 @@ void exactLanes(const Exact& exact, const CellGeometry& g, __m512i base, __m512 
 /// tails (1 − Φ), so no lane loses digits to 1 − tiny. Lanes whose σ is wide against the TF's
 /// narrowest piece take the double kernel (TfPieces16::maxFloatSigma). Same values as
 /// GaussianKernel (double) up to float rounding.
-struct FastGaussianKernel : CellGeometry, ClassifyInLoad16 {
+struct FastGaussianKernel : CellGeometry, ClassifyInLoad16, PerSampleKernel<GaussianKernel> {
     const float* mean = nullptr;
     const float* stddev = nullptr;
     const TfPieces16* pieces = nullptr;
-    GaussianKernel exact;  // per-sample classification (no AVX-512) and voxel supports
 
     FastGaussianKernel(const Grid3& grid, const GaussianKernel& k, const TfPieces16* p)
-        : CellGeometry(grid), mean(k.mean), stddev(k.stddev), pieces(p), exact(k) {}
-
-    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
-    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
-        exact.voxelSupport(voxel, lo, hi);
-    }
+        : CellGeometry(grid),
+          PerSampleKernel<GaussianKernel>{k},
+          mean(k.mean),
+          stddev(k.stddev),
+          pieces(p) {}
 
 #if UDVR_HAVE_AVX512
     bool batch16() const { return batchable && pieces->fits; }
@@ -720,22 +720,20 @@ struct FastGaussianKernel : CellGeometry, ClassifyInLoad16 {
 /// interpolated trilinearly from the corners' k'th components (the mean field's lerps), π
 /// normalised to Σπ = 1 (left 0 where all are 0), then Σ_k π_k·E[TF(N(μ_k, σ_k²))]
 /// (gaussianExpectation16). Same values as GmmOrderedKernel (double) up to float rounding.
-struct FastGmmOrderedKernel : CellGeometry, ClassifyInLoad16 {
+struct FastGmmOrderedKernel : CellGeometry, ClassifyInLoad16, PerSampleKernel<GmmOrderedKernel> {
     const float* gmm = nullptr;  // π_1..π_K, μ_1..μ_K, σ_1..σ_K per voxel
     int components = 0;
     const TfPieces16* pieces = nullptr;
-    GmmOrderedKernel exact;  // per-sample classification (no AVX-512) and voxel supports
 
     FastGmmOrderedKernel(const Grid3& grid, const GmmOrderedKernel& k, const TfPieces16* p)
-        : CellGeometry(grid), gmm(k.gmm), components(k.components), pieces(p), exact(k) {
+        : CellGeometry(grid),
+          PerSampleKernel<GmmOrderedKernel>{k},
+          gmm(k.gmm),
+          components(k.components),
+          pieces(p) {
         // Gathers index floats with 32-bit lanes: 3K floats per voxel must keep them in range.
         fitsInt = static_cast<double>(grid.pointCount()) * 3.0 * components <
                   static_cast<double>(std::numeric_limits<int>::max());
-    }
-
-    Rgba classifyAt(float x, float y, float z) const { return exact.classifyAt(x, y, z); }
-    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
-        exact.voxelSupport(voxel, lo, hi);
     }
 
 #if UDVR_HAVE_AVX512
