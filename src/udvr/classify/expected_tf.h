@@ -1,13 +1,20 @@
 #pragma once
 // Expected transfer function E[TF(X)] = ∫ TF(x) pdf_X(x) dx (Athawale et al. 2021, Eq. 3; SPEC §4)
-// for each reconstructed distribution, against the exact piecewise-polynomial TF of tf_table.h.
-// Channels are (α·r, α·g, α·b, α); results before opacity correction. All closed forms, exact up
-// to double rounding unless a comment says otherwise.
+// for each family of reconstructed distributions, against the exact pieces of tf_pieces.h.
+// Channels are (α·r, α·g, α·b, α); results before opacity correction.
+//
+// Each body is written once over a value type T: double (the exact path, probe and references),
+// float (one GPU thread) or lanes::Vf (16 samples of the CPU batch, with a mask of live lanes).
+// Branches are taken per lane with masks; `if (anyOf(m))` skips work no lane needs, which for
+// scalars is the plain branch. Closed forms throughout: exact up to the rounding of T, except
+// where a comment states an error.
 #include <cmath>
 #include <new>
 
-#include "udvr/classify/tf_table.h"
+#include "udvr/classify/tf_pieces.h"
 #include "udvr/reconstruct/box_spline.h"
+#include "udvr/util/fast_math.h"
+#include "udvr/util/lanes.h"
 #include "udvr/util/normal_cdf.h"
 
 namespace udvr {
@@ -16,87 +23,281 @@ namespace udvr {
 /// nearest TF piece inside (extended as a polynomial), so the cutoff error is < 1e−10.
 inline constexpr double kGaussianCutoffSigmas = 7.0;
 
-/// E[TF(X)], X ~ N(mean, σ²); σ = 0 is the point mass TF(mean). Per TF piece the polynomial
-/// a + b·t + c·t² integrates against φ in closed form (Φ and φ terms).
-UDVR_CPU_GPU inline void expectedTfGaussian(const TfTable& tf, double mean, double sigma,
-                                            double out[4]) {
-    if (!(sigma > 0.0)) {
-        tf.eval(mean, out);
-        return;
+namespace detail {
+using lanes::fma;
+using lanes::select;
+
+/// The TF view whose real type matches T.
+template <class T>
+using TfFor = TfPieces<lanes::ScalarOf<T>>;
+
+/// Smallest kl / largest kh over the live lanes (scalars: the value).
+UDVR_CPU_GPU inline int lowestOf(int k, bool) { return k; }
+inline int lowestOf(lanes::Vi k, lanes::Mask live) { return lanes::minOf(k, live); }
+UDVR_CPU_GPU inline int highestOf(int k, bool) { return k; }
+inline int highestOf(lanes::Vi k, lanes::Mask live) { return lanes::maxOf(k, live); }
+
+/// e^x for x ≤ 0: std::exp in double; expNonPositive on float lanes (relative error < 2.5e−7).
+UDVR_CPU_GPU inline double expNonPositiveOf(double x) { return std::exp(x); }
+UDVR_CPU_GPU inline float expNonPositiveOf(float x) { return std::exp(x); }
+inline lanes::Vf expNonPositiveOf(lanes::Vf x) { return expNonPositive(x); }
+
+/// Φ(z), 1 − Φ(z), φ(z) and whether z ≥ 0, each from one exp and erfcx (util/normal_cdf.h;
+/// |Φ error| < 1e−9 in double, float rounding on float lanes). The tail is computed directly,
+/// never as 1 − Φ, so differences of upper tails keep their digits.
+template <class T>
+struct NormalAt {
+    T cdf, upper, pdf;
+    lanes::MaskOf<T> nonNegative;
+};
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE NormalAt<T> normalAt(T z) {
+    using S = lanes::ScalarOf<T>;
+    const T g = expNonPositiveOf(z * z * S(-0.5));
+    const T tail = S(0.5) * g * erfcxNonNegative(lanes::abs(z) * S(0.70710678118654752440));
+    const auto pos = z >= S(0);
+    const T rest = S(1) - tail;
+    return {select(pos, rest, tail), select(pos, tail, rest), S(0.39894228040143267794) * g, pos};
+}
+}  // namespace detail
+
+/// TF(x): (α·c, α) from the piece's lines, premultiplied.
+template <class T, class Tf>
+UDVR_CPU_GPU UDVR_INLINE void tfAt(const Tf& tf, T x, T out[4]) {
+    const auto k = tf.pieceOf(x);
+    const T dx = x - tf.at(kTfOrigin, k);
+    const T a = lanes::fma(tf.at(kTfAlphaSlope, k), dx, tf.at(kTfAlpha0, k));
+    for (int ch = 0; ch < 3; ++ch)
+        out[ch] = a * lanes::fma(tf.at(kTfColorSlope + ch, k), dx, tf.at(kTfColor0 + ch, k));
+    out[3] = a;
+}
+
+/// The piece polynomials of piece k at x (x in or near piece k).
+template <class T, class Tf, class K>
+UDVR_CPU_GPU UDVR_INLINE void tfPolynomialAt(const Tf& tf, K k, T x, T out[4]) {
+    const T t = x - tf.at(kTfOrigin, k);
+    for (int ch = 0; ch < 4; ++ch)
+        out[ch] = lanes::fma(t, lanes::fma(t, tf.at(kTfC + ch, k), tf.at(kTfB + ch, k)),
+                             tf.at(kTfA + ch, k));
+}
+
+/// Mean of TF over [lo, hi] given the pieces kl, kh of lo and hi; TF(hi) where hi ≤ lo.
+/// Partial pieces at both ends plus the prefix-sum difference of the full pieces between
+/// them, so tiny intervals never suffer cancellation.
+template <class T, class Tf, class K>
+UDVR_CPU_GPU UDVR_INLINE void tfMeanOver(const Tf& tf, T lo, T hi, K kl, K kh, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    using detail::fma;
+    // ∫ of a + b·t + c·t² over [tl, th] divided by th − tl: a + b·s1 + c·s2.
+    const auto moments = [](T tl, T th, T& s1, T& s2) {
+        s1 = (tl + th) * S(0.5);
+        s2 = fma(tl, tl, fma(tl, th, th * th)) * S(1.0 / 3.0);
+    };
+    const auto poly = [&](int ch, K k, T s1, T s2) {
+        return fma(tf.at(kTfC + ch, k), s2, fma(tf.at(kTfB + ch, k), s1, tf.at(kTfA + ch, k)));
+    };
+    const T ol = tf.at(kTfOrigin, kl);
+    const T tl = lo - ol;
+    T s1, s2;
+    moments(tl, hi - ol, s1, s2);
+    for (int ch = 0; ch < 4; ++ch) out[ch] = poly(ch, kl, s1, s2);  // lo, hi on one piece
+    const auto empty = !(hi > lo);
+    const auto span = (kl != kh) & !empty;
+    if (lanes::anyOf(empty)) {  // TF(hi)
+        T v[4];
+        tfPolynomialAt<T>(tf, kh, hi, v);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = detail::select(empty, v[ch], out[ch]);
     }
-    const int kl = tf.pieceOf(mean - kGaussianCutoffSigmas * sigma);
-    const int kh = tf.pieceOf(mean + kGaussianCutoffSigmas * sigma);
-    const double var = sigma * sigma;
-    if (kl == kh) {  // one quadratic: E[p(X)] = p(μ) + c·σ²
-        const TfPiece& p = tf.pieces[kl];
-        const double t = mean - p.origin;
-        for (int ch = 0; ch < 4; ++ch)
-            out[ch] = p.a[ch] + t * (p.b[ch] + t * p.c[ch]) + p.c[ch] * var;
-        return;
-    }
-    for (int ch = 0; ch < 4; ++ch) out[ch] = 0.0;
-    // Φ, φ and z·φ at the left end z_a of piece k; the first piece starts at z_a = −∞.
-    double cdfA = 0.0, pdfA = 0.0, zpdfA = 0.0;
-    for (int k = kl; k <= kh; ++k) {
-        double zb, cdfB, pdfB, zpdfB;
-        if (k == kh) {
-            zb = INFINITY;
-            cdfB = 1.0;
-            pdfB = zpdfB = 0.0;
-        } else {
-            zb = (tf.breaks[k] - mean) / sigma;
-            const NormalCdfPdf n = normalCdfPdf(zb);  // |Φ error| < 1e−9 (util/normal_cdf.h)
-            cdfB = n.cdf;
-            pdfB = n.pdf;
-            zpdfB = zb * pdfB;
-        }
-        // ∫ z^m φ over [za, zb]: m0 = ΔΦ, m1 = φ(za) − φ(zb), m2 = m0 + zaφ(za) − zbφ(zb).
-        const double m0 = cdfB - cdfA, m1 = pdfA - pdfB, m2 = m0 + zpdfA - zpdfB;
-        const TfPiece& p = tf.pieces[k];
-        const double d = mean - p.origin;  // x − origin = d + σz
+    if (lanes::anyOf(span)) {
+        // Left: [lo, u_kl] on piece kl; right: [origin_kh, hi] on piece kh; between: the full
+        // pieces kl+1 … kh−1, cum[kh] − cum[kl+1].
+        const T end = tf.at(kTfBound, kl);
+        const T wl = end - lo, tr = hi - tf.at(kTfOrigin, kh);
+        T ls1, ls2, rs1, rs2;
+        moments(tl, end - ol, ls1, ls2);
+        moments(T{}, tr, rs1, rs2);
+        const K next = kl + 1;
+        const T inv = S(1) / (hi - lo);
         for (int ch = 0; ch < 4; ++ch) {
-            const double a = p.a[ch] + d * (p.b[ch] + d * p.c[ch]);
-            const double b = (p.b[ch] + 2.0 * p.c[ch] * d) * sigma;
-            const double c = p.c[ch] * var;
-            out[ch] += a * m0 + b * m1 + c * m2;
+            const T full = (tf.at(kTfCum + ch, kh) - tf.at(kTfCum + ch, next)) +
+                           (tf.at(kTfCumLo + ch, kh) - tf.at(kTfCumLo + ch, next));
+            const T v = (wl * poly(ch, kl, ls1, ls2) + full + tr * poly(ch, kh, rs1, rs2)) * inv;
+            out[ch] = detail::select(span, v, out[ch]);
         }
-        cdfA = cdfB;
-        pdfA = pdfB;
-        zpdfA = zpdfB;
     }
 }
 
-/// E[TF(X)] for a sum of scaled uniforms (box spline), exact: TF = p_0 + Σ_{breaks u in the
-/// support} Σ_d Δ_d·(x − u)_+^d with p_0 the quadratic of the support's first piece, so
-/// E[TF(X)] = E[p_0(X)] (from mean and variance) + Σ Δ_d·E[(X − u)_+^d] (BoxSplineTail).
-UDVR_CPU_GPU inline void expectedTfUniformSum(const TfTable& tf, const UniformSum& u,
+/// Quantile-range expectation (Eq. 4) over the count − 1 quantiles between boundaries
+/// boundary(0) ≤ … ≤ boundary(count−1), each weighted equally: the mean over j of (mean of TF
+/// over [b_{j−1}, b_j]); a zero-width quantile contributes TF(b_j). O(count).
+template <class T, class Tf, class Boundary>
+UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Boundary& boundary,
+                                                      int count, T out[4]) {
+    for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
+    T bPrev = boundary(0);
+    auto kPrev = tf.pieceOf(bPrev);
+    for (int j = 1; j < count; ++j) {
+        const T b = boundary(j);
+        const auto k = tf.pieceOf(b);
+        T m[4];
+        tfMeanOver<T>(tf, bPrev, b, kPrev, k, m);
+        for (int ch = 0; ch < 4; ++ch) out[ch] += m[ch];
+        kPrev = k;
+        bPrev = b;
+    }
+    const lanes::ScalarOf<T> inv =
+        lanes::ScalarOf<T>(1) / static_cast<lanes::ScalarOf<T>>(count - 1);
+    for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
+}
+
+/// Quantile-mean expectation (Eq. 5): Σ_j TF(m_j)·p_j / Σ p_j over the q quantiles between
+/// boundaries boundary(0 … q), m_j the midpoint of quantile j, p_j = (1/q)/w_j (densityWeights;
+/// width(j) the width of quantile j, interpolated from the corners' own widths so that 1/w does not
+/// magnify the rounding of large boundaries) or 1/q (`quantile-mean-mass`). With density
+/// weights, quantiles of width ≤ zeroWidth are point masses of infinite density: they share
+/// all the weight equally (SPEC §4).
+template <class T, class Tf, class Boundary, class Width>
+UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundary& boundary,
+                                                     const Width& width, int q, bool densityWeights,
+                                                     T zeroWidth, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    T sum[4] = {}, zeroSum[4] = {}, weightSum{}, zeroCount{};
+    bool anyZeroSeen = false;
+    auto anyZero = lanes::MaskOf<T>{};
+    T bPrev = boundary(0);
+    for (int j = 0; j < q; ++j) {
+        const T b = boundary(j + 1);
+        T v[4];
+        tfAt<T>(tf, (bPrev + b) * S(0.5), v);
+        bPrev = b;
+        const T w = densityWeights ? width(j) : T{};
+        const T weight = densityWeights ? S(1) / w : lanes::splat<T>(S(1));  // 1/q cancels
+        for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
+        weightSum += weight;
+        if (densityWeights) {
+            const auto zero = w <= zeroWidth;
+            if (lanes::anyOf(zero)) {
+                anyZeroSeen = true;
+                anyZero = anyZero | zero;
+                for (int ch = 0; ch < 4; ++ch)
+                    zeroSum[ch] = detail::select(zero, zeroSum[ch] + v[ch], zeroSum[ch]);
+                zeroCount = detail::select(zero, zeroCount + S(1), zeroCount);
+            }
+        }
+    }
+    for (int ch = 0; ch < 4; ++ch) out[ch] = sum[ch] / weightSum;
+    if (anyZeroSeen)
+        for (int ch = 0; ch < 4; ++ch)
+            out[ch] = detail::select(anyZero, zeroSum[ch] / zeroCount, out[ch]);
+}
+
+/// E[TF(X)], X ~ N(μ, σ²), in the `live` lanes; σ ≤ 0 (or NaN) is the point mass TF(μ). Per TF
+/// piece from the one of μ − 7σ to the one of μ + 7σ, the polynomial a + b·t + c·t² integrates
+/// against φ in closed form from Φ and φ at the piece ends; differences of Φ in the upper half
+/// are taken between upper tails (1 − Φ), so no lane loses digits to 1 − tiny. On float lanes
+/// the result has error ~6e−8·(σ/w)² for a piece of width w: callers keep σ ≤ 8·(narrowest
+/// piece) in float (kMaxFloatSigmaOverPiece) and take the double body beyond.
+template <class T, class Tf>
+UDVR_CPU_GPU UDVR_INLINE void expectedTfGaussian(const Tf& tf, T mu, T sigma, lanes::MaskOf<T> live,
+                                                 T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    using detail::fma;
+    sigma = detail::select(sigma > S(0), sigma, T{});
+    const T var = sigma * sigma;
+    const T cutoff = sigma * S(kGaussianCutoffSigmas);
+    const auto kl = tf.pieceOf(mu - cutoff);
+    const auto kh = tf.pieceOf(mu + cutoff);
+    {  // one piece (also σ = 0, where kl = kh = μ's piece): E[p(X)] = p(μ) + c·σ²
+        const T d = mu - tf.at(kTfOrigin, kl);
+        for (int ch = 0; ch < 4; ++ch) {
+            const T c = tf.at(kTfC + ch, kl);
+            out[ch] = fma(c, var, fma(d, fma(d, c, tf.at(kTfB + ch, kl)), tf.at(kTfA + ch, kl)));
+        }
+    }
+    const auto spread = live & (kl != kh);
+    if (!lanes::anyOf(spread)) return;
+    for (int ch = 0; ch < 4; ++ch) out[ch] = detail::select(spread, T{}, out[ch]);
+    // Φ, 1 − Φ, φ, z·φ and z ≥ 0 at the left end z_a of the current piece; a lane's first piece
+    // starts at z = −∞.
+    T cdfA{}, upA = lanes::splat<T>(S(1)), pdfA{}, zpdfA{};
+    auto upperA = lanes::MaskOf<T>{};
+    const T invSigma = S(1) / sigma;
+    const int kFirst = detail::lowestOf(kl, spread), kLast = detail::highestOf(kh, spread);
+    for (int k = kFirst; k <= kLast; ++k) {
+        const auto on = spread & (kl <= k) & (kh >= k);
+        if (!lanes::anyOf(on)) continue;
+        const auto last = on & (kh == k);
+        const auto mid = on & !last;
+        // z_b at the piece's right end u_k (k < kh), +∞ for the lane's last piece.
+        T cdfB = lanes::splat<T>(S(1)), upB{}, pdfB{}, zpdfB{};
+        auto upperB = last;
+        if (lanes::anyOf(mid)) {
+            const T z = (lanes::splat<T>(tf.at(kTfBound, k)) - mu) * invSigma;
+            const detail::NormalAt<T> n = detail::normalAt(z);
+            cdfB = detail::select(mid, n.cdf, cdfB);
+            upB = detail::select(mid, n.upper, upB);
+            pdfB = detail::select(mid, n.pdf, pdfB);
+            zpdfB = detail::select(mid, z * n.pdf, zpdfB);
+            upperB = last | (mid & n.nonNegative);
+        }
+        // ∫ z^m φ over [z_a, z_b]: m0 = ΔΦ (between upper tails where z_a ≥ 0),
+        // m1 = φ(z_a) − φ(z_b), m2 = m0 + z_a φ(z_a) − z_b φ(z_b).
+        const T m0 = detail::select(upperA, upA - upB, cdfB - cdfA);
+        const T m1 = pdfA - pdfB;
+        const T m2 = m0 + (zpdfA - zpdfB);
+        const T d = mu - tf.at(kTfOrigin, k);  // x − origin = d + σz
+        for (int ch = 0; ch < 4; ++ch) {
+            const S pa = tf.at(kTfA + ch, k), pb = tf.at(kTfB + ch, k), pc = tf.at(kTfC + ch, k);
+            const T a =
+                fma(d, fma(d, lanes::splat<T>(pc), lanes::splat<T>(pb)), lanes::splat<T>(pa));
+            const T b = fma(lanes::splat<T>(pc + pc), d, lanes::splat<T>(pb)) * sigma;
+            const T c = var * pc;
+            out[ch] = detail::select(on, out[ch] + fma(a, m0, fma(b, m1, c * m2)), out[ch]);
+        }
+        cdfA = detail::select(on, cdfB, cdfA);
+        upA = detail::select(on, upB, upA);
+        pdfA = detail::select(on, pdfB, pdfA);
+        zpdfA = detail::select(on, zpdfB, zpdfA);
+        upperA = (upperA & !on) | (upperB & on);
+    }
+}
+
+/// Float lanes with σ above this many times the TF's narrowest piece take the double Gaussian
+/// body: the float closed form loses (σ/w)²× its rounding (0.15 at σ = 1000·w; < 4e−6 at 8·w).
+inline constexpr float kMaxFloatSigmaOverPiece = 8.f;
+
+/// E[TF(X)] for a sum of scaled uniforms (box spline), exact, in double: TF = p_0 +
+/// Σ_{breaks u in the support} Σ_d Δ_d·(x − u)_+^d with p_0 the quadratic of the support's first
+/// piece, so E[TF(X)] = E[p_0(X)] (from mean and variance) + Σ Δ_d·E[(X − u)_+^d]
+/// (BoxSplineTail).
+UDVR_CPU_GPU inline void expectedTfUniformSum(const TfPieces<double>& tf, const UniformSum& u,
                                               double out[4]) {
     if (u.n == 0) {
-        tf.eval(u.shift, out);
+        tfPolynomialAt<double>(tf, tf.pieceOf(u.shift), u.shift, out);
         return;
     }
     const double lo = u.shift, hi = u.shift + u.total;
     const int kl = tf.pieceOf(lo), kh = tf.pieceOf(hi);
-    const TfPiece& p0 = tf.pieces[kl];
-    const double et = u.mean() - p0.origin, et2 = u.variance() + et * et;
-    for (int ch = 0; ch < 4; ++ch) out[ch] = p0.a[ch] + p0.b[ch] * et + p0.c[ch] * et2;
+    const double et = u.mean() - tf.at(kTfOrigin, kl), et2 = u.variance() + et * et;
+    for (int ch = 0; ch < 4; ++ch)
+        out[ch] = tf.at(kTfA + ch, kl) + tf.at(kTfB + ch, kl) * et + tf.at(kTfC + ch, kl) * et2;
     if (kl == kh) return;
     // Breaks where the TF's polynomial does not change (e.g. a colour point where α = 0 on both
     // sides, so α·c is 0 throughout) add nothing: skip them, and build the tail only if needed.
     alignas(BoxSplineTail) unsigned char storage[sizeof(BoxSplineTail)];
     const BoxSplineTail* tail = nullptr;
     for (int k = kl; k < kh; ++k) {
-        const double x = tf.breaks[k];  // piece k ends, piece k+1 (origin x) starts
-        const TfPiece& p = tf.pieces[k];
-        const TfPiece& q = tf.pieces[k + 1];
-        const double len = x - p.origin;
+        const double x = tf.at(kTfBound, k);  // piece k ends, piece k+1 (origin x) starts
+        const double len = x - tf.at(kTfOrigin, k);
         double da[4], db[4], dc[4];
         bool any = false;
         for (int ch = 0; ch < 4; ++ch) {
             // Piece k re-expanded about x, subtracted from piece k+1.
-            da[ch] = q.a[ch] - (p.a[ch] + len * (p.b[ch] + len * p.c[ch]));
-            db[ch] = q.b[ch] - (p.b[ch] + 2.0 * len * p.c[ch]);
-            dc[ch] = q.c[ch] - p.c[ch];
+            const double pa = tf.at(kTfA + ch, k), pb = tf.at(kTfB + ch, k),
+                         pc = tf.at(kTfC + ch, k);
+            da[ch] = tf.at(kTfA + ch, k + 1) - (pa + len * (pb + len * pc));
+            db[ch] = tf.at(kTfB + ch, k + 1) - (pb + 2.0 * len * pc);
+            dc[ch] = tf.at(kTfC + ch, k + 1) - pc;
             any = any || da[ch] != 0.0 || db[ch] != 0.0 || dc[ch] != 0.0;
         }
         if (!any) continue;
@@ -104,62 +305,6 @@ UDVR_CPU_GPU inline void expectedTfUniformSum(const TfTable& tf, const UniformSu
         double t[3];
         tail->at(u.shift - x, t);  // E[(X − x)_+^d]
         for (int ch = 0; ch < 4; ++ch) out[ch] += da[ch] * t[0] + db[ch] * t[1] + dc[ch] * t[2];
-    }
-}
-
-/// Quantile-range expectation (Eq. 4) over quantiles j = j0+1 … j1, each weighted equally: the
-/// mean over j of (mean of TF over [b_{j−1}, b_j]); a zero-width quantile contributes TF(b_j).
-/// `boundary(j)` returns b_j (data units). O(j1 − j0): one piece search per boundary.
-template <class Boundary>
-UDVR_CPU_GPU inline void expectedTfQuantileRange(const TfTable& tf, const Boundary& boundary,
-                                                 int j0, int j1, double out[4]) {
-    for (int ch = 0; ch < 4; ++ch) out[ch] = 0.0;
-    double bPrev = boundary(j0);
-    int kPrev = tf.pieceOf(bPrev);
-    for (int j = j0 + 1; j <= j1; ++j) {
-        const double b = boundary(j);
-        const int k = tf.pieceOf(b);
-        double m[4];
-        tf.meanOver(bPrev, b, kPrev, k, m);
-        for (int ch = 0; ch < 4; ++ch) out[ch] += m[ch];
-        bPrev = b;
-        kPrev = k;
-    }
-    const double inv = 1.0 / (j1 - j0);
-    for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
-}
-
-/// Quantile-mean expectation (Eq. 5): Σ_j TF(m_j)·p_j / Σ p_j over j = 1 … q, m_j the midpoint of
-/// quantile j, p_j = (1/q)/w_j (densityWeights) or 1/q (mass weights, `quantile-mean-mass`).
-/// With density weights, quantiles of width ≤ zeroWidth are point masses of infinite density:
-/// they share all the weight equally (SPEC §4). One pass: both sums are kept.
-template <class Boundary>
-UDVR_CPU_GPU inline void expectedTfQuantileMean(const TfTable& tf, const Boundary& boundary, int q,
-                                                bool densityWeights, double zeroWidth,
-                                                double out[4]) {
-    double sum[4] = {0, 0, 0, 0}, zeroSum[4] = {0, 0, 0, 0};
-    double wsum = 0.0;
-    int zeroCount = 0;
-    double bPrev = boundary(0);
-    for (int j = 1; j <= q; ++j) {
-        const double b = boundary(j);
-        const double w = b - bPrev;
-        double v[4];
-        tf.eval(0.5 * (bPrev + b), v);
-        if (densityWeights && w <= zeroWidth) {
-            ++zeroCount;
-            for (int ch = 0; ch < 4; ++ch) zeroSum[ch] += v[ch];
-        } else {
-            const double weight = densityWeights ? 1.0 / w : 1.0;  // 1/q cancels
-            for (int ch = 0; ch < 4; ++ch) sum[ch] += weight * v[ch];
-            wsum += weight;
-        }
-        bPrev = b;
-    }
-    if (zeroCount > 0) {
-        for (int ch = 0; ch < 4; ++ch) out[ch] = zeroSum[ch] / zeroCount;
-    } else {
-        for (int ch = 0; ch < 4; ++ch) out[ch] = sum[ch] / wsum;
     }
 }
 

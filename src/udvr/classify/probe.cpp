@@ -53,51 +53,59 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
                 pz = static_cast<float>(point[2]);
     ProbeResult r{kind, point, {}, json::object(), {}};
     withKernel(model, kind, tf, options,
-               [&](const auto& k) { r.expected = k.classifyAt(px, py, pz); });
+               [&](const auto& k) { r.expected = classifyExact(k, px, py, pz); });
 
-    const TrilinearCell cell = trilinearCell(model.grid.dims.data(), px, py, pz);
+    const TfPiecesStorage pieces(tf);
+    const CellGeometry geometry(model.grid);
+    const Cell<double> cell = cellAt<double>(geometry, px, py, pz);
+    double weights[8];
+    trilinearWeights(cell, weights);
     json& j = r.json;
     j["model"] = std::string(modelName(kind));
     j["point"] = {point[0], point[1], point[2]};
     j["expected_rgba"] = {r.expected.r, r.expected.g, r.expected.b, r.expected.a};
     json corners = json::array();
     for (int c = 0; c < 8; ++c)
-        if (cell.weight[c] > 0.f)
-            corners.push_back({{"voxel", cell.corner[c]}, {"weight", cell.weight[c]}});
+        if (weights[c] > 0.0)
+            corners.push_back(
+                {{"voxel", cornerVoxel(geometry, cell.base, c)}, {"weight", weights[c]}});
     j["corners"] = corners;
-    if (!model.mean.empty()) j["value"] = interpolateMean(cell, model.mean.data());
+    const auto meanAt = [&](const float* values, int perVoxel = 1) {
+        return trilinear(geometry, values, perVoxel, cell, true);
+    };
+    if (!model.mean.empty()) j["value"] = meanAt(model.mean.data());
 
     ProbeDistribution& d = r.distribution;
-    const auto range = modelDataRange(model);
     switch (kind) {
         case ModelKind::Mean: {
-            const double v = interpolateMean(cell, model.mean.data());
+            const double v = meanAt(model.mean.data());
             d.lo = d.hi = v;
             sampleCdf(d, [](double) { return 0.0; });
             break;
         }
         case ModelKind::Gaussian: {
-            const GaussianParams g =
-                interpolateGaussian(cell, model.mean.data(), model.stddev.data());
-            j["mean"] = g.mean;
-            j["stddev"] = g.sigma;
-            d.lo = g.mean - 4 * g.sigma, d.hi = g.mean + 4 * g.sigma;
-            sampleCdf(d, [&](double x) { return normalCdf((x - g.mean) / g.sigma); });
+            double mu, sigma;
+            GaussianKernel(model.grid, model.mean.data(), model.stddev.data(), pieces)
+                .paramsAt<double>(cell, true, mu, sigma);
+            j["mean"] = mu;
+            j["stddev"] = sigma;
+            d.lo = mu - 4 * sigma, d.hi = mu + 4 * sigma;
+            sampleCdf(d, [&](double x) { return normalCdf((x - mu) / sigma); });
             break;
         }
         case ModelKind::Uniform: {
-            UniformKernel uk{};
-            withKernel(model, kind, tf, options, [&](const auto& k) {
-                if constexpr (std::is_same_v<std::decay_t<decltype(k)>, UniformKernel>) uk = k;
-            });
+            const auto range = modelDataRange(model);
+            const UniformKernel uk(
+                model.grid, options.uniformMinMax ? model.min.data() : model.mean.data(),
+                options.uniformMinMax ? model.max.data() : model.stddev.data(),
+                options.uniformMinMax, kUniformTinyWidth * (range.second - range.first), pieces);
             json terms = json::array();
             for (int c = 0; c < 8; ++c) {
-                if (cell.weight[c] == 0.f) continue;
+                if (weights[c] == 0.0) continue;
                 double lo, hi;
-                uk.interval(cell.corner[c], lo, hi);
-                terms.push_back({{"weight", cell.weight[c]},
-                                 {"low", cell.weight[c] * lo},
-                                 {"high", cell.weight[c] * hi}});
+                uk.interval(cornerVoxel(geometry, cell.base, c), lo, hi);
+                terms.push_back(
+                    {{"weight", weights[c]}, {"low", weights[c] * lo}, {"high", weights[c] * hi}});
             }
             const UniformSum u = uk.sumAt(cell);
             j["terms"] = terms;
@@ -123,7 +131,8 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
         case ModelKind::GmmOrdered: {
             const int K = model.gmmComponents;
             std::vector<double> pi(K), mu(K), sg(K);
-            interpolateGmmOrdered(cell, model.gmm.data(), K, pi.data(), mu.data(), sg.data());
+            GmmOrderedKernel(model.grid, model.gmm.data(), K, pieces)
+                .componentsAt<double>(cell, true, pi.data(), mu.data(), sg.data());
             j["weights"] = pi;
             j["means"] = mu;
             j["sigmas"] = sg;
@@ -167,8 +176,9 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
             const bool iqr = kind == ModelKind::Iqr;
             const int q = iqr ? 1 : model.quantileCount;
             std::vector<double> b(static_cast<std::size_t>(q) + 1);
-            interpolateBoundaries(cell, iqr ? model.iqr.data() : model.quantiles.data(), q, 0, q,
-                                  b.data());
+            for (int i = 0; i <= q; ++i)
+                b[i] = boundaryAt<double>(geometry, iqr ? model.iqr.data() : model.quantiles.data(),
+                                          q + 1, i, cell, true);
             j["boundaries"] = b;
             int j0 = 0, j1 = q;
             if (!iqr && kind != ModelKind::QuantileMean && kind != ModelKind::QuantileMeanMass) {
@@ -177,6 +187,7 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
             }
             if (kind == ModelKind::QuantileMean || kind == ModelKind::QuantileMeanMass) {
                 // Discrete: midpoints m_j with weights p_j (Eq. 5).
+                const auto range = modelDataRange(model);
                 const double zero = kQuantileZeroWidth * (range.second - range.first);
                 int zeros = 0;
                 for (int i = 1; i <= q; ++i) zeros += (b[i] - b[i - 1] <= zero);

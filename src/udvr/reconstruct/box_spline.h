@@ -16,7 +16,7 @@
 // Lipschitz bound on the mean); exact zeros (w_c = 0 or σ_c = 0) are exact.
 #include <cstddef>
 
-#include "udvr/reconstruct/trilinear.h"
+#include "udvr/util/check.h"
 
 namespace udvr {
 
@@ -39,7 +39,7 @@ struct UniformSum {
 
 /// The sum for 8 terms U[lo_c, hi_c] scaled by w_c; widths ≤ tinyWidth go into the shift.
 UDVR_CPU_GPU inline UniformSum makeUniformSum(const double lo[8], const double hi[8],
-                                              const float w[8], double tinyWidth) {
+                                              const double w[8], double tinyWidth) {
     UniformSum u;
     for (int c = 0; c < 8; ++c) {
         const double wc = w[c];

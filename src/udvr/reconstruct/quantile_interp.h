@@ -6,32 +6,70 @@
 // on [b_{j−1}(p), b_j(p)]. Cost O(q) per point.
 #include <cstddef>
 
-#include "udvr/reconstruct/trilinear.h"
+#include "udvr/reconstruct/cell.h"
 
 namespace udvr {
 
-/// b_j(p) for j = j0…j1 into out[0 … j1−j0] (data units). `quantiles` holds q+1 boundaries per
-/// voxel, contiguous. Summed in double in a fixed order, so b_j(p) stays non-decreasing in j.
-UDVR_CPU_GPU inline void interpolateBoundaries(const TrilinearCell& cell, const float* quantiles,
-                                               int q, int j0, int j1, double* out) {
-    const std::size_t stride = static_cast<std::size_t>(q) + 1;
-    for (int j = j0; j <= j1; ++j) out[j - j0] = 0.0;
-    for (int c = 0; c < 8; ++c) {
-        const double w = cell.weight[c];
-        if (w == 0.0) continue;
-        const float* b = quantiles + cell.corner[c] * stride;
-        for (int j = j0; j <= j1; ++j) out[j - j0] += w * static_cast<double>(b[j]);
-    }
+/// Boundary j of a voxel-major array with `stride` floats per voxel, interpolated at a cell
+/// (Eq. 2): b_j(p) = Σ_c w_c b_{j,c} by lerps. Lanes outside `live` are 0.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T boundaryAt(const CellGeometry& g, const float* data, int stride, int j,
+                                      const Cell<T>& c, lanes::MaskOf<T> live) {
+    return trilinearBy(g, c, [&](std::int64_t o, T& v0, T& v1) {
+        edgeOf<T>(g, data + j, stride, c.base, o, live, v0, v1);
+    });
 }
 
-/// One interpolated boundary Σ_c w_c b_{j,c} (Eq. 2); `stride` floats per voxel (q+1).
-UDVR_CPU_GPU inline double interpolateBoundary(const TrilinearCell& cell, const float* quantiles,
-                                               std::size_t stride, int j) {
-    double s = 0.0;
-    for (int c = 0; c < 8; ++c)
-        s += static_cast<double>(cell.weight[c]) *
-             static_cast<double>(quantiles[cell.corner[c] * stride + static_cast<std::size_t>(j)]);
-    return s;
+/// The width b_{j+1} − b_j at a cell, interpolated from the corners' own widths — not the
+/// difference of two interpolated boundaries, which loses the digits of |b| that 1/w would
+/// then magnify. ≥ 0 wherever the corners' boundaries are sorted.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T widthAt(const CellGeometry& g, const float* data, int stride, int j,
+                                   const Cell<T>& c, lanes::MaskOf<T> live) {
+    return trilinearBy(g, c, [&](std::int64_t o, T& v0, T& v1) {
+        T u0, u1;
+        edgeOf<T>(g, data + j, stride, c.base, o, live, v0, v1);
+        edgeOf<T>(g, data + j + 1, stride, c.base, o, live, u0, u1);
+        v0 = u0 - v0;
+        v1 = u1 - v1;
+    });
+}
+
+/// boundaryAt and widthAt for boundaries first … first + count − 1 (count ≤ 16) of 16 samples
+/// at once: each live sample's 8 corner rows are one vector each (masked loads), blended by the
+/// same lerps, then the 16 samples' rows are transposed, so b[j] holds boundary first + j of
+/// every sample and the classification runs per boundary without horizontal sums. With `w`,
+/// also w[j] = the width of boundaries j, j + 1 (j < count − 1). Lanes outside `live` are 0.
+UDVR_INLINE void boundaryRows(const CellGeometry& g, const float* data, int stride, int first,
+                              int count, const Cell<lanes::Vf>& c, lanes::Mask live,
+                              lanes::Vf b[16], lanes::Vf* w = nullptr) {
+    using lanes::Vf;
+    const std::int64_t ox = g.next[0], oy = g.next[1], oz = g.next[2];
+    const std::int64_t offsets[8] = {0, ox, oy, oy + ox, oz, oz + ox, oz + oy, oz + oy + ox};
+    const std::uint32_t liveBits = lanes::bits(live);
+    for (int l = 0; l < lanes::kWidth; ++l) {
+        b[l] = Vf{};
+        if (w) w[l] = Vf{};
+        if (!(liveBits >> l & 1u)) continue;
+        const Vf fx = lanes::splat<Vf>(c.fx[l]), fy = lanes::splat<Vf>(c.fy[l]),
+                 fz = lanes::splat<Vf>(c.fz[l]);
+        const auto blend = [&](const Vf* q) {
+            return lerp(lerp(lerp(q[0], q[1], fx), lerp(q[2], q[3], fx), fy),
+                        lerp(lerp(q[4], q[5], fx), lerp(q[6], q[7], fx), fy), fz);
+        };
+        Vf corner[8];
+        for (int k = 0; k < 8; ++k)
+            corner[k] = lanes::loadFirst(
+                data + (c.base[l] + offsets[k]) * static_cast<std::int64_t>(stride) + first, count);
+        b[l] = blend(corner);
+        if (w) {
+            Vf cw[8];  // each corner's b_{j+1} − b_j in lane j
+            for (int k = 0; k < 8; ++k) cw[k] = lanes::shiftDown1(corner[k], Vf{}) - corner[k];
+            w[l] = blend(cw);
+        }
+    }
+    lanes::transpose16(b);
+    if (w) lanes::transpose16(w);
 }
 
 /// The paper's Eq. 2 written as in the paper: Pr(Q_j) at cell parameters (α, β, γ) from the

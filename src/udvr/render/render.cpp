@@ -5,7 +5,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "udvr/classify/sample_kernels.h"
+#include "udvr/classify/model_kernels.h"
 #include "udvr/render/ray_march.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
@@ -118,29 +118,22 @@ void RenderCache::clear() { impl_->valid = false; }
 
 namespace {
 
-// March with the skip table; the mean kernel tests cells itself (see FastMeanKernel).
-template <class Kernel>
-void march(const Kernel& kernel, const detail::SkipTable& table, const detail::MarchParams& p,
-           ImageRgba& image, detail::MarchCounters& counters) {
-    if constexpr (std::is_base_of_v<detail::CellGeometry, Kernel>) {
-        Kernel k = kernel;
-        if (!table.cellEmptyBits.empty()) k.cellEmpty = table.cellEmptyBits.data();
-        detail::marchFrame(k, table, p, image, counters);
-    } else {
-        detail::marchFrame(kernel, table, p, image, counters);
-    }
-}
-
 // Build (or reuse from `cache` under `key`) the skipping tables and march the frame.
 template <class Kernel>
 void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
                   const std::vector<std::pair<double, double>>& ranges, ImageRgba& image,
                   detail::MarchCounters& counters, RenderCache::Impl* cache = nullptr,
                   const CacheKey* key = nullptr) {
+    if (!kernel.geometry.fitsInt32)
+        UDVR_FAIL("the model grid has " << p.grid.pointCount()
+                                        << " points; the renderer handles at most 2^31 - 1");
     if (!p.skipEmpty) {
-        detail::marchFrame(kernel, detail::SkipTable{}, p, image, counters);
+        detail::marchFrame(kernel, detail::SkipTable{}, nullptr, p, image, counters);
         return;
     }
+    const auto march = [&](const detail::SkipTable& table) {
+        detail::marchFrame(kernel, table, table.cellEmptyBits.data(), p, image, counters);
+    };
     if (cache && key) {
         if (!cache->valid || !(cache->key == *key)) {
             cache->valid = false;
@@ -148,11 +141,10 @@ void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
             cache->key = *key;
             cache->valid = true;
         }
-        march(kernel, cache->table, p, image, counters);
+        march(cache->table);
         return;
     }
-    const detail::SkipTable table = detail::buildSkipTable(kernel, p.grid, ranges);
-    march(kernel, table, p, image, counters);
+    march(detail::buildSkipTable(kernel, p.grid, ranges));
 }
 
 // Draw one gmm-mc realization: every voxel independently from its own mixture (SPEC §3),
@@ -198,26 +190,19 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
     RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
     const CacheKey key = cache ? makeKey(model, kind, tf, settings.uniformMinMax) : CacheKey{};
 
-    if (kind == ModelKind::Mean) {
-        if (model.mean.size() != model.voxelCount())
-            UDVR_FAIL("model has no 'mean' array, needed by model 'mean'");
-        const FastTransferFunction fast(tf);
-        const detail::FastMeanKernel kernel(model.grid, model.mean.data(), &fast);
-        renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
-    } else if (kind == ModelKind::GmmMc) {
+    if (kind == ModelKind::GmmMc) {
         if (!model.hasGmm() || model.gmm.size() != model.voxelCount() * 3 * model.gmmComponents)
             UDVR_FAIL("model has no 'gmm' array, needed by model 'gmm-mc' (build with --gmm K)");
         if (settings.realizations < 1)
             UDVR_FAIL("--realizations must be >= 1, got " << settings.realizations);
-        const FastTransferFunction fast(tf);
+        const TfPiecesStorage pieces(tf);
         std::vector<double> sum(image.rgba.size(), 0.0);
         std::vector<float> values;
         ImageRgba frame = blankImage(settings.width, settings.height);
         ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
         for (int r = 0; r < settings.realizations; ++r) {
             drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
-            const detail::FastMeanKernel kernel(model.grid, values.data(), &fast);
-            renderKernel(kernel, p, ranges, frame, counters);
+            renderKernel(MeanKernel(model.grid, values.data(), pieces), p, ranges, frame, counters);
             for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += frame.rgba[i];
             bar.advance();
         }
@@ -229,29 +214,8 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
     } else {
         ClassifyOptions options;
         options.uniformMinMax = settings.uniformMinMax;
-        const FastTransferFunction fast(tf);
         withKernel(model, kind, tf, options, [&](const auto& kernel) {
-            using K = std::decay_t<decltype(kernel)>;
-            // The batched float kernels where the machine and the model allow them.
-            const auto tryBatched = [&](const auto& batched) {
-                if (!detail::batchable16(batched)) return false;
-                renderKernel(batched, p, ranges, image, counters, cacheImpl, &key);
-                return true;
-            };
-            if constexpr (std::is_same_v<K, QuantileMeanKernel>) {
-                if (tryBatched(detail::FastQuantileMeanKernel(model.grid, kernel, &fast))) return;
-            } else if constexpr (std::is_same_v<K, GaussianKernel>) {
-                const detail::TfPieces16 pieces(kernel.tf);
-                if (tryBatched(detail::FastGaussianKernel(model.grid, kernel, &pieces))) return;
-            } else if constexpr (std::is_same_v<K, GmmOrderedKernel>) {
-                const detail::TfPieces16 pieces(kernel.tf);
-                if (tryBatched(detail::FastGmmOrderedKernel(model.grid, kernel, &pieces))) return;
-            } else if constexpr (std::is_same_v<K, QuantileRangeKernel>) {
-                const detail::TfPieces16 pieces(kernel.tf);
-                if (tryBatched(detail::FastQuantileRangeKernel(model.grid, kernel, &pieces)))
-                    return;
-            }
-            renderKernel(kernel, p, ranges, image, counters);
+            renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
         });
     }
 

@@ -62,3 +62,6 @@ namespace detail {
 #else
 #define UDVR_CPU_GPU
 #endif
+/// For the small bodies of the per-sample kernels: inlined into the ray loop even where GCC's
+/// heuristics would call them (a call passes 16-lane vectors through memory).
+#define UDVR_INLINE inline __attribute__((always_inline))

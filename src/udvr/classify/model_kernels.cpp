@@ -1,4 +1,4 @@
-#include "udvr/classify/sample_kernels.h"
+#include "udvr/classify/model_kernels.h"
 
 #include <algorithm>
 #include <limits>
@@ -92,9 +92,9 @@ void checkModelHasArrays(const ModelVolume& model, ModelKind kind, const Classif
                 UDVR_FAIL(
                     "model has no 'gmm' array, needed by model 'gmm-ordered' (build with "
                     "--gmm K)");
-            if (model.gmmComponents > kMaxGmmComponents)
+            if (model.gmmComponents > kMaxKernelGmmComponents)
                 UDVR_FAIL("model has " << model.gmmComponents << " GMM components; at most "
-                                       << kMaxGmmComponents << " are supported");
+                                       << kMaxKernelGmmComponents << " are supported");
             requireArray(model.gmm, n * 3 * model.gmmComponents, "gmm", kind);
             return;
         case ModelKind::Iqr:

@@ -1,0 +1,524 @@
+#pragma once
+// The kernel of each model family (SPEC §3–4): reconstruction at a cell (reconstruct/) and the
+// expected TF (expected_tf.h), each written once over T ∈ {double, float, lanes::Vf}: double is
+// the exact path (probe, references, lanes too wide for float), lanes::Vf the CPU batch of 16
+// samples, float one GPU thread.
+//
+// Every kernel K provides
+//   template <class T> using Loaded = …;
+//   template <class T> Loaded<T> load(const Cell<T>& cell, MaskOf<T> live) const;
+//       reads the corners of the live lanes' cells and reconstructs (for the costly models it
+//       classifies too);
+//   template <class T> void finish(const Loaded<T>&, T out[4]) const;
+//       (E[α·r], E[α·g], E[α·b], E[α]) before opacity correction, 0 in lanes that were not live;
+//   void voxelSupport(std::size_t voxel, float& lo, float& hi) const;
+//       a value interval outside which the voxel's distribution has no (or negligible) mass, for
+//       the empty-space tables. The distribution at a point of a cell lies inside the hull of its
+//       corners' supports (supports interpolate linearly: Σ w(μ ± kσ) ⊇ μ(p) ± kσ(p) since
+//       sqrt(Σw²σ²) ≤ Σwσ), so a cell whose hull has α = 0 everywhere can be skipped;
+//   void prefetch(int voxel) const;   the cache lines of the cell based at a voxel;
+//   static constexpr bool kLoadDeadLanes;   whether the ray loop loads lanes in empty cells too
+//       (cheap loads need not wait for the emptiness test).
+// Kernels are plain structs of sizes and pointers into storage that outlives them (a
+// ModelVolume and the TfPiecesStorage owned by withKernel).
+#include <cmath>
+#include <cstddef>
+#include <utility>
+
+#include "udvr/classify/expected_tf.h"
+#include "udvr/classify/model_kind.h"
+#include "udvr/classify/tf_pieces.h"
+#include "udvr/classify/transfer_function.h"
+#include "udvr/reconstruct/box_spline.h"
+#include "udvr/reconstruct/cell.h"
+#include "udvr/reconstruct/quantile_interp.h"
+#include "udvr/stats/model_volume.h"
+
+namespace udvr {
+
+/// Gaussian supports for skipping are μ ± kSupportSigmas·σ (mass outside: 2·Φ(−6) ≈ 2e−9).
+inline constexpr double kSupportSigmas = 6.0;
+/// Uniform widths ≤ this × data range are folded into the shift (SPEC §3 uniform).
+inline constexpr double kUniformTinyWidth = 1e-9;
+/// Quantile widths ≤ this × data range are zero widths for quantile-mean (SPEC §4).
+inline constexpr double kQuantileZeroWidth = 1e-12;
+/// Largest GMM K the kernels handle (stack arrays).
+inline constexpr int kMaxKernelGmmComponents = 16;
+
+/// A classified sample: (E[α·r], E[α·g], E[α·b], E[α]).
+template <class T>
+struct Classified {
+    T v[4];
+};
+
+/// What every kernel holds: the cell geometry of its grid and the TF in both real types.
+struct KernelBase {
+    CellGeometry geometry;
+    TfPieces<double> tfExact;
+    TfPieces<float> tfFast;
+
+    KernelBase(const Grid3& grid, const TfPiecesStorage& tf)
+        : geometry(grid), tfExact(tf.exact()), tfFast(tf.fast()) {}
+    /// The TF over T's real type.
+    template <class T>
+    UDVR_CPU_GPU const detail::TfFor<T>& tf() const {
+        if constexpr (std::is_same_v<lanes::ScalarOf<T>, float>)
+            return tfFast;
+        else
+            return tfExact;
+    }
+    /// f(tf) with the TF over T's real type; float lanes get a view whose lookups are register
+    /// permutes when the TF is small (kTfSmall), decided here once per call, not per lookup.
+    template <class T, class F>
+    UDVR_INLINE void withTf(const F& f) const {
+        if constexpr (lanes::kIsVector<T>) {
+            if (tfFast.stride == kTfSmall)
+                f(tfFast.template sized<kTfSmall>());
+            else
+                f(tfFast);
+        } else {
+            f(tf<T>());
+        }
+    }
+    /// Prefetch the four x-rows of the cell based at voxel v of an array with perVoxel floats.
+    void prefetchRows(const float* a, int v, int perVoxel) const {
+        const int g1 = geometry.next32[1], g2 = geometry.next32[2];
+        for (int o : {0, g1, g2, g1 + g2}) {
+            const float* p = a + static_cast<std::ptrdiff_t>(v + o) * perVoxel;
+            __builtin_prefetch(p);
+            if (perVoxel > 1) __builtin_prefetch(p + 2 * perVoxel - 1);
+        }
+    }
+};
+
+namespace detail {
+/// out ← 0 outside `live`.
+template <class T>
+UDVR_CPU_GPU inline void keepLive(lanes::MaskOf<T> live, T out[4]) {
+    for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::select(live, out[ch], T{});
+}
+/// The double body of kernel k in the `lanes` of a batch (out elsewhere unchanged): for models
+/// without a float body, and for lanes a float body cannot serve accurately.
+template <class K>
+inline void exactLanes(const K& k, const Cell<lanes::Vf>& cell, lanes::Mask which,
+                       lanes::Vf out[4]) {
+    for (std::uint32_t m = lanes::bits(which); m; m &= m - 1) {
+        const int l = std::countr_zero(m);
+        double v[4];
+        k.finish(k.template load<double>(laneCell(cell, l), true), v);
+        for (int ch = 0; ch < 4; ++ch) out[ch][l] = static_cast<float>(v[ch]);
+    }
+}
+/// exactLanes for the lanes of T in `which` (a float thread: the double body when true; the
+/// double body itself needs nothing).
+template <class K, class T>
+UDVR_CPU_GPU inline void exactWhere(const K& k, const Cell<T>& cell, lanes::MaskOf<T> which,
+                                    T out[4]) {
+    if constexpr (lanes::kIsVector<T>) {
+        if (lanes::anyOf(which)) exactLanes(k, cell, which, out);
+    } else if constexpr (!std::is_same_v<T, double>) {
+        if (which) {
+            double v[4];
+            k.finish(
+                k.template load<double>(Cell<double>{cell.base, cell.fx, cell.fy, cell.fz}, true),
+                v);
+            for (int ch = 0; ch < 4; ++ch) out[ch] = static_cast<T>(v[ch]);
+        }
+    }
+}
+/// Kernels that classify in load(): finish() hands the result on.
+struct ClassifyInLoad {
+    template <class T>
+    using Loaded = Classified<T>;
+    static constexpr bool kLoadDeadLanes = false;
+    template <class T>
+    UDVR_CPU_GPU static void finish(const Classified<T>& c, T out[4]) {
+        for (int ch = 0; ch < 4; ++ch) out[ch] = c.v[ch];
+    }
+};
+}  // namespace detail
+
+/// Classify at an index-space point (clamped into the grid) with the body over T.
+template <class T, class K>
+UDVR_CPU_GPU inline void classifyAt(const K& k, float x, float y, float z, T out[4]) {
+    const Cell<T> cell = cellAt<T>(k.geometry, x, y, z);
+    k.finish(k.template load<T>(cell, lanes::allTrue<T>()), out);
+}
+/// classifyAt with the exact (double) body, as an Rgba.
+template <class K>
+inline Rgba classifyExact(const K& k, float x, float y, float z) {
+    double v[4];
+    classifyAt<double>(k, x, y, z, v);
+    return Rgba{static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]),
+                static_cast<float>(v[3])};
+}
+
+/// Mean field (SPEC §3–4 `mean`; also plain fields and each gmm-mc realization): TF(Σ w_c μ_c).
+struct MeanKernel : KernelBase {
+    const float* values;  // one per grid point
+
+    MeanKernel(const Grid3& grid, const float* v, const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), values(v) {}
+    template <class T>
+    using Loaded = T;
+    static constexpr bool kLoadDeadLanes = true;
+    template <class T>
+    UDVR_CPU_GPU T load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        return trilinear(geometry, values, 1, c, live);
+    }
+    template <class T>
+    UDVR_CPU_GPU void finish(T value, T out[4]) const {
+        withTf<T>([&](const auto& t) { tfAt<T>(t, value, out); });
+    }
+    void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = values[v]; }
+    void prefetch(int v) const { prefetchRows(values, v, 1); }
+};
+
+/// Uniform (box spline, SPEC §3): X = Σ w_c U[lo_c, hi_c], exact expectation in double (every
+/// lane of a batch takes the double body). lo/hi = μ ∓ √3σ (`first` = mean, `second` = stddev)
+/// or [min, max] (`minMax`).
+struct UniformKernel : KernelBase, detail::ClassifyInLoad {
+    const float* first;
+    const float* second;
+    bool minMax;
+    double tinyWidth;  // data units; widths at or below go into the shift
+
+    UniformKernel(const Grid3& grid, const float* a, const float* b, bool mm, double tiny,
+                  const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), first(a), second(b), minMax(mm), tinyWidth(tiny) {}
+    UDVR_CPU_GPU void interval(std::int64_t voxel, double& lo, double& hi) const {
+        if (minMax) {
+            lo = first[voxel];
+            hi = second[voxel];
+        } else {
+            const double h = 1.7320508075688772 * static_cast<double>(second[voxel]);
+            lo = static_cast<double>(first[voxel]) - h;
+            hi = static_cast<double>(first[voxel]) + h;
+        }
+    }
+    /// The box spline's terms at a cell.
+    UDVR_CPU_GPU UniformSum sumAt(const Cell<double>& c) const {
+        double w[8], lo[8], hi[8];
+        trilinearWeights(c, w);
+        for (int k = 0; k < 8; ++k) interval(cornerVoxel(geometry, c.base, k), lo[k], hi[k]);
+        return makeUniformSum(lo, hi, w, tinyWidth);
+    }
+    template <class T>
+    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r{};
+        if constexpr (lanes::kIsVector<T>) {
+            detail::exactLanes(*this, c, live, r.v);
+        } else if constexpr (std::is_same_v<T, double>) {
+            expectedTfUniformSum(tfExact, sumAt(c), r.v);
+        } else {  // one float thread: the double body
+            const Classified<double> d = load<double>(Cell<double>{c.base, c.fx, c.fy, c.fz}, live);
+            for (int ch = 0; ch < 4; ++ch) r.v[ch] = static_cast<T>(d.v[ch]);
+        }
+        return r;
+    }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        double l, h;
+        interval(static_cast<std::int64_t>(voxel), l, h);
+        lo = static_cast<float>(l);
+        hi = static_cast<float>(h);
+    }
+    void prefetch(int) const {}
+};
+
+/// Gaussian (SPEC §3–4): N(Σ w_c μ_c, Σ w_c² σ_c²), E[TF] in closed form per TF piece.
+struct GaussianKernel : KernelBase, detail::ClassifyInLoad {
+    const float* mean;
+    const float* stddev;
+
+    GaussianKernel(const Grid3& grid, const float* m, const float* s, const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), mean(m), stddev(s) {}
+    /// μ and σ at a cell.
+    template <class T>
+    UDVR_CPU_GPU void paramsAt(const Cell<T>& c, lanes::MaskOf<T> live, T& mu, T& sigma) const {
+        mu = trilinear(geometry, mean, 1, c, live);
+        // σ² = Σ_c (w_c σ_c)², w_c the products of (1 − f) and f per axis.
+        const T one = lanes::splat<T>(1);
+        const T gx[2] = {one - c.fx, c.fx}, gy[2] = {one - c.fy, c.fy}, gz[2] = {one - c.fz, c.fz};
+        const std::int64_t offsets[4] = {0, geometry.next[1], geometry.next[2],
+                                         geometry.next[1] + geometry.next[2]};
+        T var{};
+        for (int r = 0; r < 4; ++r) {
+            T s0, s1;
+            edgeOf<T>(geometry, stddev, 1, c.base, offsets[r], live, s0, s1);
+            const T wyz = gy[r & 1] * gz[r >> 1];
+            const T a0 = gx[0] * wyz * s0, a1 = gx[1] * wyz * s1;
+            var = lanes::fma(a0, a0, lanes::fma(a1, a1, var));
+        }
+        sigma = lanes::sqrt(lanes::select(var > 0, var, T{}));  // σ = 0: the point mass TF(μ)
+    }
+    template <class T>
+    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r;
+        T mu, sigma;
+        paramsAt(c, live, mu, sigma);
+        // Float lanes whose σ is wide against the TF's narrowest piece lose (σ/w)² × the float
+        // rounding: they take the double body (kMaxFloatSigmaOverPiece).
+        auto wide = lanes::MaskOf<T>{};
+        if constexpr (!std::is_same_v<T, double>)
+            wide = live & (sigma > kMaxFloatSigmaOverPiece * tfFast.narrowestPiece);
+        withTf<T>([&](const auto& t) { expectedTfGaussian<T>(t, mu, sigma, live & !wide, r.v); });
+        detail::exactWhere(*this, c, wide, r.v);
+        detail::keepLive<T>(live, r.v);
+        return r;
+    }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);
+        lo = static_cast<float>(mean[voxel] - s);
+        hi = static_cast<float>(mean[voxel] + s);
+    }
+    void prefetch(int v) const {
+        prefetchRows(mean, v, 1);
+        prefetchRows(stddev, v, 1);
+    }
+};
+
+/// GMM (ordered) (Hollister & Pang 2013; SPEC §3–4): per rank k, π_k, μ_k, σ_k interpolated
+/// trilinearly from the corners' k'th components, π normalised to Σπ = 1 (left 0 where all are
+/// 0), then Σ_k π_k·E[TF(N(μ_k, σ_k²))].
+struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
+    const float* gmm;  // π_1..π_K, μ_1..μ_K, σ_1..σ_K per voxel
+    int components;    // K ≤ kMaxKernelGmmComponents
+
+    GmmOrderedKernel(const Grid3& grid, const float* g, int k, const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), gmm(g), components(k) {}
+    /// π_k (normalised), μ_k, σ_k at a cell; returns Σπ before normalisation.
+    template <class T>
+    UDVR_CPU_GPU T componentsAt(const Cell<T>& c, lanes::MaskOf<T> live, T* pi, T* mu,
+                                T* sigma) const {
+        const int k = components, n = 3 * k;
+        T total{};
+        for (int i = 0; i < k; ++i) {
+            pi[i] = trilinear(geometry, gmm + i, n, c, live);
+            mu[i] = trilinear(geometry, gmm + k + i, n, c, live);
+            sigma[i] = trilinear(geometry, gmm + 2 * k + i, n, c, live);
+            total += pi[i];
+        }
+        const auto normalise = total > 0;
+        const T inv = lanes::splat<T>(1) / total;
+        for (int i = 0; i < k; ++i) pi[i] = lanes::select(normalise, pi[i] * inv, pi[i]);
+        return total;
+    }
+    /// Σ_k π_k E_k in the `on` lanes (0 elsewhere); returns the lanes too wide for float.
+    template <class T>
+    UDVR_CPU_GPU lanes::MaskOf<T> expectation(const Cell<T>& c, lanes::MaskOf<T> on,
+                                              T out[4]) const {
+        T pi[kMaxKernelGmmComponents], mu[kMaxKernelGmmComponents], sigma[kMaxKernelGmmComponents];
+        componentsAt(c, on, pi, mu, sigma);
+        auto wide = lanes::MaskOf<T>{};
+        if constexpr (!std::is_same_v<T, double>) {
+            const float maxSigma = kMaxFloatSigmaOverPiece * tfFast.narrowestPiece;
+            for (int i = 0; i < components; ++i) wide = wide | (sigma[i] > maxSigma);
+            wide = wide & on;
+        }
+        for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
+        withTf<T>([&](const auto& t) {
+            for (int i = 0; i < components; ++i) {
+                const auto use = on & !wide & (pi[i] != 0);
+                if (!lanes::anyOf(use)) continue;
+                T e[4];
+                expectedTfGaussian<T>(t, mu[i], sigma[i], use, e);
+                for (int ch = 0; ch < 4; ++ch)
+                    out[ch] = lanes::select(use, lanes::fma(pi[i], e[ch], out[ch]), out[ch]);
+            }
+        });
+        return wide;
+    }
+    template <class T>
+    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r;
+        detail::exactWhere(*this, c, expectation(c, live, r.v), r.v);
+        return r;
+    }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* g = gmm + voxel * 3 * static_cast<std::size_t>(components);
+        double l = INFINITY, h = -INFINITY;
+        for (int k = 0; k < components; ++k) {
+            if (!(g[k] > 0.f)) continue;
+            const double s = kSupportSigmas * static_cast<double>(g[2 * components + k]);
+            l = std::fmin(l, g[components + k] - s);
+            h = std::fmax(h, g[components + k] + s);
+        }
+        if (l > h) l = h = g[components];  // all weights 0: any component mean
+        lo = static_cast<float>(l);
+        hi = static_cast<float>(h);
+    }
+    void prefetch(int v) const { prefetchRows(gmm, v, 3 * components); }
+};
+
+/// Quantile range (Eq. 4) over the quantiles j0+1 … j1 of boundaries stored with `stride`
+/// floats per voxel: quantile-range (0…q), the quartile views (0…q/4, q/4…3q/4, 3q/4…q) and iqr
+/// (the 2-boundary iqr array, 0…1).
+struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
+    const float* boundaries;
+    int stride;  // boundaries per voxel
+    int j0, j1;  // population: quantiles j0+1 … j1
+
+    QuantileRangeKernel(const Grid3& grid, const float* b, int s, int lo, int hi,
+                        const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), boundaries(b), stride(s), j0(lo), j1(hi) {}
+    template <class T>
+    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r;
+        const int count = j1 - j0 + 1;
+        if constexpr (lanes::kIsVector<T>) {
+            if (count <= lanes::kWidth) {
+                lanes::Vf b[lanes::kWidth];
+                boundaryRows(geometry, boundaries, stride, j0, count, c, live, b);
+                withTf<T>([&](const auto& t) {
+                    expectedTfQuantileRange<T>(
+                        t, [&](int j) { return b[j]; }, count, r.v);
+                });
+                detail::keepLive<T>(live, r.v);
+                return r;
+            }
+        }
+        withTf<T>([&](const auto& t) {
+            expectedTfQuantileRange<T>(
+                t,
+                [&](int j) { return boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live); },
+                count, r.v);
+        });
+        detail::keepLive<T>(live, r.v);
+        return r;
+    }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
+        lo = b[j0];
+        hi = b[j1];
+    }
+    void prefetch(int v) const { prefetchRows(boundaries + j0, v, stride); }
+};
+
+/// Quantile mean (Eq. 5) with density weights p_j ∝ 1/w_j (`quantile-mean`) or equal weights
+/// (`quantile-mean-mass`).
+struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
+    const float* quantiles;
+    int q;
+    bool densityWeights;
+    double zeroWidth;  // data units
+
+    QuantileMeanKernel(const Grid3& grid, const float* b, int qIn, bool density, double zero,
+                       const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), quantiles(b), q(qIn), densityWeights(density), zeroWidth(zero) {}
+    template <class T>
+    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        using S = lanes::ScalarOf<T>;
+        Classified<T> r;
+        const int stride = q + 1;
+        const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
+        if constexpr (lanes::kIsVector<T>) {
+            if (stride <= lanes::kWidth) {
+                lanes::Vf b[lanes::kWidth], w[lanes::kWidth];
+                boundaryRows(geometry, quantiles, stride, 0, stride, c, live, b,
+                             densityWeights ? w : nullptr);
+                withTf<T>([&](const auto& t) {
+                    expectedTfQuantileMean<T>(
+                        t, [&](int j) { return b[j]; }, [&](int j) { return w[j]; }, q,
+                        densityWeights, zero, r.v);
+                });
+                detail::keepLive<T>(live, r.v);
+                return r;
+            }
+        }
+        withTf<T>([&](const auto& t) {
+            expectedTfQuantileMean<T>(
+                t, [&](int j) { return boundaryAt<T>(geometry, quantiles, stride, j, c, live); },
+                [&](int j) { return widthAt<T>(geometry, quantiles, stride, j, c, live); }, q,
+                densityWeights, zero, r.v);
+        });
+        detail::keepLive<T>(live, r.v);
+        return r;
+    }
+    /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
+    /// the corners' midpoints (m_j(p) = Σ w_c m_{j,c}), so [m_0, m_{q−1}] of each voxel is a
+    /// support: narrower than [b_0, b_q] by half the outer quantiles (often the outliers).
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* b = quantiles + voxel * (static_cast<std::size_t>(q) + 1);
+        lo = static_cast<float>(0.5 * (static_cast<double>(b[0]) + b[1]));
+        hi = static_cast<float>(0.5 * (static_cast<double>(b[q - 1]) + b[q]));
+    }
+    void prefetch(int v) const { prefetchRows(quantiles, v, q + 1); }
+};
+
+/// Options that change classification but are not part of the model file.
+struct ClassifyOptions {
+    int quartileDivisor = 4;     // quartile views need q divisible by this
+    bool uniformMinMax = false;  // `--uniform-width minmax`: U[min, max] instead of μ ± √3σ
+};
+
+/// The model's data range (SPEC §4): [min b_0, max b_q] with quantiles, else [min of `min`,
+/// max of `max`], else the range of `mean`. Used to scale zero-width thresholds.
+std::pair<double, double> modelDataRange(const ModelVolume& model);
+
+/// Throws UdvrError unless `model` has the arrays `kind` needs (sizes checked too).
+void checkModelHasArrays(const ModelVolume& model, ModelKind kind,
+                         const ClassifyOptions& options = {});
+
+/// The quantile population [j0, j1] (boundary indices) of a quantile-range-family kind for q
+/// quantiles: quantile-range (0, q), quartile views (0, q/4), (q/4, 3q/4), (3q/4, q).
+std::pair<int, int> quantilePopulation(ModelKind kind, int q, const ClassifyOptions& options = {});
+
+/// Call f(kernel) with the kernel for `kind` built over `model` and `tf` (the TF pieces live
+/// for the call). Throws UdvrError when the model lacks an array the kind needs. gmm-mc has no
+/// per-sample kernel (render only: its realizations are mean fields, see MeanKernel).
+template <class F>
+void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                const ClassifyOptions& options, F&& f) {
+    checkModelHasArrays(model, kind, options);
+    const TfPiecesStorage pieces(tf);
+    const Grid3& g = model.grid;
+    const auto range = modelDataRange(model);
+    const double span = range.second - range.first;
+    switch (kind) {
+        case ModelKind::Mean:
+            f(MeanKernel(g, model.mean.data(), pieces));
+            return;
+        case ModelKind::Uniform:
+            f(UniformKernel(g, options.uniformMinMax ? model.min.data() : model.mean.data(),
+                            options.uniformMinMax ? model.max.data() : model.stddev.data(),
+                            options.uniformMinMax, kUniformTinyWidth * span, pieces));
+            return;
+        case ModelKind::Gaussian:
+            f(GaussianKernel(g, model.mean.data(), model.stddev.data(), pieces));
+            return;
+        case ModelKind::GmmOrdered:
+            f(GmmOrderedKernel(g, model.gmm.data(), model.gmmComponents, pieces));
+            return;
+        case ModelKind::QuantileRange:
+        case ModelKind::QuartileLower:
+        case ModelKind::QuartileMiddle:
+        case ModelKind::QuartileUpper: {
+            const auto pop = quantilePopulation(kind, model.quantileCount, options);
+            f(QuantileRangeKernel(g, model.quantiles.data(), model.quantileCount + 1, pop.first,
+                                  pop.second, pieces));
+            return;
+        }
+        case ModelKind::Iqr:
+            f(QuantileRangeKernel(g, model.iqr.data(), 2, 0, 1, pieces));
+            return;
+        case ModelKind::QuantileMean:
+        case ModelKind::QuantileMeanMass:
+            f(QuantileMeanKernel(g, model.quantiles.data(), model.quantileCount,
+                                 kind == ModelKind::QuantileMean, kQuantileZeroWidth * span,
+                                 pieces));
+            return;
+        case ModelKind::GmmMc:
+            UDVR_FAIL(
+                "model 'gmm-mc' has no per-sample kernel: it is rendered as the average of "
+                "mean-field realizations");
+    }
+    UDVR_FAIL("model '" << modelName(kind) << "' has no kernel");
+}
+
+/// withKernel with default options.
+template <class F>
+void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
+    withKernel(model, kind, tf, ClassifyOptions{}, std::forward<F>(f));
+}
+
+}  // namespace udvr
