@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "udvr/classify/model_kernels.h"
+#include "udvr/classify/model_families.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function.h"
 #include "udvr/stats/model_volume.h"

@@ -13,7 +13,7 @@
 #include <numbers>
 #include <sstream>
 
-#include "udvr/classify/model_kind.h"
+#include "udvr/classify/model_families.h"
 #include "udvr/data/noise.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/eval/figure.h"
@@ -99,10 +99,7 @@ std::string slug(const std::string& label) {
 
 std::string modelLabel(ModelKind kind, int q) {
     std::string s(modelName(kind));
-    if (needsQuantiles(kind) && kind != ModelKind::QuartileLower &&
-        kind != ModelKind::QuartileMiddle && kind != ModelKind::QuartileUpper &&
-        kind != ModelKind::Iqr)
-        s += " q=" + std::to_string(q);
+    if (modelFamily(kind).labelShowsQ) s += " q=" + std::to_string(q);
     return s;
 }
 
@@ -111,7 +108,9 @@ std::string densityName(DensityEstimate d) {
 }
 
 /// Whether a model's classification reads the quantile boundaries (the IQR's come from them too).
-bool usesQuantiles(ModelKind kind) { return needsQuantiles(kind) || kind == ModelKind::Iqr; }
+bool usesQuantiles(ModelKind kind) {
+    return (modelFamily(kind).arrays(ClassifyOptions{}) & (kArrayQuantiles | kArrayIqr)) != 0;
+}
 
 /// A rendered image on its way into the panel.
 struct PanelItem {
@@ -246,7 +245,7 @@ class Run {
                   const std::string& labelSuffix = "", bool inPanel = true, bool withDiff = true) {
         const int q = usesQuantiles(kind) ? model.quantileCount : 0;
         const int k =
-            (kind == ModelKind::GmmMc || kind == ModelKind::GmmOrdered) ? model.gmmComponents : 0;
+            (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayGmm) ? model.gmmComponents : 0;
         ResultRow row;
         row.experiment = result_.name;
         row.label = modelLabel(kind, q) + labelSuffix;

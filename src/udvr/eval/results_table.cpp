@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "udvr/classify/model_families.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
 
@@ -116,21 +117,7 @@ std::string readText(const std::filesystem::path& path) {
 }  // namespace
 
 double memoryRatio(ModelKind kind, int quantiles, int gmmComponents) {
-    if (needsQuantiles(kind)) return quantiles + 1.0;  // b_0..b_q
-    switch (kind) {
-        case ModelKind::Mean:
-            return 1.0;
-        case ModelKind::Uniform:
-        case ModelKind::Gaussian:
-        case ModelKind::Iqr:
-            return 2.0;
-        case ModelKind::GmmOrdered:
-        case ModelKind::GmmMc:
-            return 3.0 * gmmComponents;
-        default:
-            break;
-    }
-    return 0.0;
+    return modelFamily(kind).floatsPerVoxel(quantiles, gmmComponents);
 }
 
 std::string resultsToCsv(const std::vector<ResultRow>& rows) {

@@ -5,7 +5,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "udvr/classify/model_kernels.h"
+#include "udvr/classify/model_families.h"
 #include "udvr/render/ray_march.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
@@ -190,9 +190,8 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
     RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
     const CacheKey key = cache ? makeKey(model, kind, tf, settings.uniformMinMax) : CacheKey{};
 
-    if (kind == ModelKind::GmmMc) {
-        if (!model.hasGmm() || model.gmm.size() != model.voxelCount() * 3 * model.gmmComponents)
-            UDVR_FAIL("model has no 'gmm' array, needed by model 'gmm-mc' (build with --gmm K)");
+    if (modelFamily(kind).realizations) {
+        checkModelHasArrays(model, kind);
         if (settings.realizations < 1)
             UDVR_FAIL("--realizations must be >= 1, got " << settings.realizations);
         const TfPiecesStorage pieces(tf);

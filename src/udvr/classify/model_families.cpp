@@ -1,0 +1,208 @@
+#include "udvr/classify/model_families.h"
+
+#include <array>
+#include <string>
+
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace {
+
+// Arrays per option set.
+unsigned meanArrays(const ClassifyOptions&) { return kArrayMean; }
+unsigned momentArrays(const ClassifyOptions&) { return kArrayMean | kArrayStddev; }
+unsigned uniformArrays(const ClassifyOptions& o) {
+    return o.uniformMinMax ? kArrayMin | kArrayMax : kArrayMean | kArrayStddev;
+}
+unsigned gmmArrays(const ClassifyOptions&) { return kArrayGmm; }
+unsigned quantileArrays(const ClassifyOptions&) { return kArrayQuantiles; }
+unsigned iqrArrays(const ClassifyOptions&) { return kArrayIqr; }
+
+// Floats per voxel.
+double one(int, int) { return 1.0; }
+double two(int, int) { return 2.0; }
+double perComponent(int, int k) { return 3.0 * k; }
+double perBoundary(int q, int) { return q + 1.0; }
+
+double span(const ModelVolume& model) {
+    const auto range = modelDataRange(model);
+    return range.second - range.first;
+}
+
+AnyKernel makeMean(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                   const ModelFamily&) {
+    return MeanKernel(m.grid, m.mean.data(), tf);
+}
+AnyKernel makeUniform(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
+                      const ModelFamily&) {
+    return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
+                         o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
+                         kUniformTinyWidth * span(m), tf);
+}
+AnyKernel makeGaussian(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                       const ModelFamily&) {
+    return GaussianKernel(m.grid, m.mean.data(), m.stddev.data(), tf);
+}
+AnyKernel makeGmmOrdered(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                         const ModelFamily&) {
+    return GmmOrderedKernel(m.grid, m.gmm.data(), m.gmmComponents, tf);
+}
+AnyKernel makeQuantileRange(const ModelVolume& m, const TfPiecesStorage& tf,
+                            const ClassifyOptions& o, const ModelFamily& f) {
+    const auto pop = quantilePopulation(f.kind, m.quantileCount, o);
+    return QuantileRangeKernel(m.grid, m.quantiles.data(), m.quantileCount + 1, pop.first,
+                               pop.second, tf);
+}
+AnyKernel makeIqr(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                  const ModelFamily&) {
+    return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, tf);
+}
+AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                           const ModelFamily& f) {
+    return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount,
+                              f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m), tf);
+}
+
+// kind, name, arrays, floats per voxel, population, label shows q, realizations, kernel.
+constexpr std::array<ModelFamily, 12> kFamilies{{
+    {ModelKind::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean},
+    {ModelKind::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform},
+    {ModelKind::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian},
+    {ModelKind::GmmOrdered,
+     "gmm-ordered",
+     gmmArrays,
+     perComponent,
+     {0, 0},
+     false,
+     false,
+     makeGmmOrdered},
+    {ModelKind::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr},
+    {ModelKind::QuantileRange,
+     "quantile-range",
+     quantileArrays,
+     perBoundary,
+     {0, 1},
+     true,
+     false,
+     makeQuantileRange},
+    {ModelKind::QuantileMean,
+     "quantile-mean",
+     quantileArrays,
+     perBoundary,
+     {0, 0},
+     true,
+     false,
+     makeQuantileMean},
+    {ModelKind::QuantileMeanMass,
+     "quantile-mean-mass",
+     quantileArrays,
+     perBoundary,
+     {0, 0},
+     true,
+     false,
+     makeQuantileMean},
+    {ModelKind::Iqr, "iqr", iqrArrays, two, {0, 0}, false, false, makeIqr},
+    {ModelKind::QuartileLower,
+     "quartile-lower",
+     quantileArrays,
+     perBoundary,
+     {0, 0.25},
+     false,
+     false,
+     makeQuantileRange},
+    {ModelKind::QuartileMiddle,
+     "quartile-middle",
+     quantileArrays,
+     perBoundary,
+     {0.25, 0.75},
+     false,
+     false,
+     makeQuantileRange},
+    {ModelKind::QuartileUpper,
+     "quartile-upper",
+     quantileArrays,
+     perBoundary,
+     {0.75, 1},
+     false,
+     false,
+     makeQuantileRange},
+}};
+
+// An array of SPEC §7: its bit, name, values per voxel and how to rebuild a model that lacks it.
+struct ArrayInfo {
+    ModelArray bit;
+    const char* name;
+    const std::vector<float> ModelVolume::*values;
+    const char* hint;
+};
+constexpr std::array<ArrayInfo, 7> kArrays{{
+    {kArrayMean, "mean", &ModelVolume::mean, "rebuild it with `udvr build`"},
+    {kArrayStddev, "stddev", &ModelVolume::stddev, "rebuild it with `udvr build`"},
+    {kArrayMin, "min", &ModelVolume::min, "rebuild it with `udvr build`"},
+    {kArrayMax, "max", &ModelVolume::max, "rebuild it with `udvr build`"},
+    {kArrayQuantiles, "quantiles", &ModelVolume::quantiles, "build with --quantiles Q"},
+    {kArrayIqr, "iqr", &ModelVolume::iqr, "rebuild it with `udvr build`"},
+    {kArrayGmm, "gmm", &ModelVolume::gmm, "build with --gmm K"},
+}};
+
+std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
+    switch (a) {
+        case kArrayQuantiles:
+            return static_cast<std::size_t>(m.quantileCount) + 1;
+        case kArrayIqr:
+            return 2;
+        case kArrayGmm:
+            return 3 * static_cast<std::size_t>(m.gmmComponents);
+        default:
+            return 1;
+    }
+}
+
+}  // namespace
+
+std::span<const ModelFamily> modelFamilies() { return kFamilies; }
+
+const ModelFamily& modelFamily(ModelKind kind) {
+    for (const ModelFamily& f : kFamilies)
+        if (f.kind == kind) return f;
+    UDVR_FAIL("unknown model kind " << static_cast<int>(kind));
+}
+
+std::pair<int, int> quantilePopulation(ModelKind kind, int q, const ClassifyOptions& options) {
+    const ModelFamily& f = modelFamily(kind);
+    if (!(f.population.second > f.population.first))
+        UDVR_FAIL("model '" << f.name << "' is not a quantile-range model");
+    const bool whole = f.population.first == 0.0 && f.population.second == 1.0;
+    const int d = options.quartileDivisor;
+    if (!whole && (d <= 0 || q % d != 0))
+        UDVR_FAIL("model '" << f.name << "' needs a quantile count divisible by " << d
+                            << ", but the model has q = " << q
+                            << " (rebuild with e.g. --quantiles 8)");
+    return {static_cast<int>(f.population.first * q + 0.5),
+            static_cast<int>(f.population.second * q + 0.5)};
+}
+
+void checkModelHasArrays(const ModelVolume& model, ModelKind kind, const ClassifyOptions& options) {
+    const std::size_t n = model.voxelCount();
+    if (n == 0) UDVR_FAIL("model has an empty grid");
+    const ModelFamily& f = modelFamily(kind);
+    const unsigned need = f.arrays(options);
+    for (const ArrayInfo& a : kArrays) {
+        if (!(need & a.bit)) continue;
+        const std::vector<float>& v = model.*a.values;
+        const std::size_t per = valuesPerVoxel(a.bit, model);
+        if (v.empty() || per == 0)
+            UDVR_FAIL("model has no '" << a.name << "' array, needed by model '" << f.name << "' ("
+                                       << a.hint << ")");
+        if (v.size() != n * per)
+            UDVR_FAIL("model array '" << a.name << "' has " << v.size() << " values, expected "
+                                      << n * per);
+    }
+    if ((need & kArrayGmm) && f.makeKernel && model.gmmComponents > kMaxKernelGmmComponents)
+        UDVR_FAIL("model has " << model.gmmComponents << " GMM components; at most "
+                               << kMaxKernelGmmComponents << " are supported");
+    if (f.population.second > f.population.first)
+        quantilePopulation(kind, model.quantileCount, options);
+}
+
+}  // namespace udvr

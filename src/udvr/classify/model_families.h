@@ -1,0 +1,80 @@
+#pragma once
+// The model families of SPEC §3–4 in one table: the only place that says, per model, its CLI
+// name, the arrays of SPEC §7 it reads and their size, its memory per voxel, its quantile
+// population and how its kernel is made. Everything that differs by model (render, probe,
+// checks, the experiments' tables) reads the row; adding a model is its kernel (a reconstruction
+// and an expectation over T, classify/model_kernels.h), a probe description (probe.cpp) and a
+// row in model_families.cpp.
+#include <span>
+#include <string_view>
+#include <utility>
+#include <variant>
+
+#include "udvr/classify/model_kernels.h"
+#include "udvr/classify/model_kind.h"
+#include "udvr/stats/model_volume.h"
+
+namespace udvr {
+
+/// The per-voxel arrays of SPEC §7.
+enum ModelArray : unsigned {
+    kArrayMean = 1u << 0,
+    kArrayStddev = 1u << 1,
+    kArrayMin = 1u << 2,
+    kArrayMax = 1u << 3,
+    kArrayQuantiles = 1u << 4,  // q + 1 per voxel
+    kArrayIqr = 1u << 5,        // 2 per voxel
+    kArrayGmm = 1u << 6,        // 3K per voxel
+};
+
+/// Any model's kernel.
+using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrderedKernel,
+                               QuantileRangeKernel, QuantileMeanKernel>;
+
+struct ModelFamily {
+    ModelKind kind;
+    std::string_view name;  // the CLI name (SPEC §3–4)
+    /// Arrays the classification reads (for the options given).
+    unsigned (*arrays)(const ClassifyOptions& options);
+    /// Floats stored per voxel for the model, relative to the mean field's one.
+    double (*floatsPerVoxel)(int quantiles, int gmmComponents);
+    /// For the quantile-range family: the covered rank interval [lo, hi] of [0, 1] (SPEC §4
+    /// quartile views); {0, 0} for other models.
+    std::pair<double, double> population;
+    /// Its label names q (models that read q + 1 boundaries of the `quantiles` array).
+    bool labelShowsQ;
+    /// gmm-mc: rendered as the screen-space average of mean-field realizations; no kernel.
+    bool realizations;
+    /// The kernel over `model` with the TF pieces `tf` (both outlive it). Null for gmm-mc.
+    AnyKernel (*makeKernel)(const ModelVolume& model, const TfPiecesStorage& tf,
+                            const ClassifyOptions& options, const ModelFamily& family);
+};
+
+/// Every model family, in the order of SPEC §3–4.
+std::span<const ModelFamily> modelFamilies();
+/// The row of a model.
+const ModelFamily& modelFamily(ModelKind kind);
+
+/// Call f(kernel) with the kernel for `kind` built over `model` and `tf` (the TF pieces live
+/// for the call). Throws UdvrError when the model lacks an array the kind needs, or for gmm-mc,
+/// which has no per-sample kernel (render only: its realizations are mean fields).
+template <class F>
+void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                const ClassifyOptions& options, F&& f) {
+    checkModelHasArrays(model, kind, options);
+    const ModelFamily& family = modelFamily(kind);
+    if (!family.makeKernel)
+        UDVR_FAIL("model '" << family.name
+                            << "' has no per-sample kernel: it is rendered as the average of "
+                               "mean-field realizations");
+    const TfPiecesStorage pieces(tf);
+    std::visit(f, family.makeKernel(model, pieces, options, family));
+}
+
+/// withKernel with default options.
+template <class F>
+void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
+    withKernel(model, kind, tf, ClassifyOptions{}, std::forward<F>(f));
+}
+
+}  // namespace udvr
