@@ -19,6 +19,7 @@
 #include "udvr/io/transfer_function_io.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/model_volume.h"
+#include "udvr/util/build_info.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
 
@@ -123,6 +124,8 @@ ModelVolume modelFromArrays(
 
 PYBIND11_MODULE(udvr, m) {
     m.doc() = "udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021)";
+    // e.g. "target native: AVX-512, 16-float lanes in 1 register of 512 bits" (as `udvr --version`)
+    m.attr("__build__") = std::string(udvr::build::buildDescription());
     py::register_exception<UdvrError>(m, "UdvrError", PyExc_ValueError);
 
     py::class_<Grid3>(m, "Grid")

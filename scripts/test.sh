@@ -1,6 +1,8 @@
 #!/bin/bash
 # The whole test suite: installs missing packages, builds (Release), runs the GoogleTest suite
 # through CTest, the Python tests, and the format check. Exit status is non-zero on any failure.
+# With UDVR_TEST_ARCHES="x86-64-v3 generic" (CI sets it) it then builds and tests those CPU
+# targets too, each in its own build directory (scripts/test_arch.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -20,4 +22,9 @@ echo "== ctest" >&2
 if [ -d python/tests ] && ls python/tests/test_*.py >/dev/null 2>&1; then
     echo "== pytest" >&2
     UDVR_BINARY="$PWD/$build_dir/udvr" /usr/bin/python3 -m pytest -q python/tests
+fi
+
+if [ -n "${UDVR_TEST_ARCHES:-}" ]; then
+    echo "== other CPU targets: $UDVR_TEST_ARCHES" >&2
+    bash scripts/test_arch.sh
 fi

@@ -5,6 +5,7 @@
 
 #include "udvr/cmd/commands.h"
 #include "udvr/cmd/parse_util.h"
+#include "udvr/util/build_info.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
 
@@ -29,7 +30,8 @@ std::string firstCommandWord(int argc, char** argv) {
 int main(int argc, char** argv) {
     CLI::App app{"udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021)"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", "udvr 0.1.0");
+    // The version, the CPU target (UDVR_ARCH) and the vector registers in use.
+    app.set_version_flag("--version", std::string(udvr::build::versionLine()));
     int threads = 0;
     app.add_option("--threads", threads, "worker threads (0 = all cores)")
         ->check(udvr::cmd::wholeNumberIn(0, 4096));
