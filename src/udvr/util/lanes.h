@@ -53,6 +53,26 @@ using IntOf = std::conditional_t<kIsVector<T>, Vi, int>;
 template <class T>
 using ScalarOf = std::conditional_t<kIsVector<T>, float, T>;
 
+#if defined(__AVX2__) && !defined(__AVX512F__)
+/// The two 256-bit halves of a 16-lane vector, and back (AVX2: one batch is two registers).
+inline __m256 lowHalf(Vf v) { return __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7); }
+inline __m256 highHalf(Vf v) { return __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15); }
+inline __m256i lowHalf(Vi v) {
+    return std::bit_cast<__m256i>(__builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7));
+}
+inline __m256i highHalf(Vi v) {
+    return std::bit_cast<__m256i>(__builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15));
+}
+inline Vf join(__m256 lo, __m256 hi) {
+    return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+}
+inline Vi join(__m256i lo, __m256i hi) {
+    using V8i = std::int32_t __attribute__((vector_size(32)));
+    return __builtin_shufflevector(std::bit_cast<V8i>(lo), std::bit_cast<V8i>(hi), 0, 1, 2, 3, 4, 5,
+                                   6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+}
+#endif
+
 // ---- construction --------------------------------------------------------------------------
 /// Every lane = s (scalars: s itself).
 template <class T>
@@ -228,13 +248,23 @@ UDVR_INLINE Vf lookup(const float* table, Vi idx) {
     else
         return _mm512_i32gather_ps(std::bit_cast<__m512i>(idx), table, 4);
 #elif defined(__AVX2__)
-    const __m256 lo = _mm256_i32gather_ps(
-        table, std::bit_cast<__m256i>(__builtin_shufflevector(idx, idx, 0, 1, 2, 3, 4, 5, 6, 7)),
-        4);
-    const __m256 hi = _mm256_i32gather_ps(
-        table,
-        std::bit_cast<__m256i>(__builtin_shufflevector(idx, idx, 8, 9, 10, 11, 12, 13, 14, 15)), 4);
-    return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const auto half = [&](__m256i i) {
+        if constexpr (Size == 32) {
+            // Four in-register 8-entry permutes, picked by bits 3 and 4 of the index (blendv
+            // reads the sign bit, so the bit is shifted up to it).
+            const __m256 p0 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table), i);
+            const __m256 p1 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 8), i);
+            const __m256 p2 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 16), i);
+            const __m256 p3 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 24), i);
+            const __m256 bit3 = _mm256_castsi256_ps(_mm256_slli_epi32(i, 28));
+            const __m256 bit4 = _mm256_castsi256_ps(_mm256_slli_epi32(i, 27));
+            return _mm256_blendv_ps(_mm256_blendv_ps(p0, p1, bit3), _mm256_blendv_ps(p2, p3, bit3),
+                                    bit4);
+        } else {
+            return _mm256_i32gather_ps(table, i, 4);
+        }
+    };
+    return join(half(lowHalf(idx)), half(highHalf(idx)));
 #else
     Vf r;
     for (int i = 0; i < kWidth; ++i) r[i] = table[idx[i]];
@@ -249,15 +279,10 @@ inline Vf gather(const float* base, Vi idx, Mask live) {
     return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), static_cast<__mmask16>(bits(live)),
                                     std::bit_cast<__m512i>(idx), base, 4);
 #elif defined(__AVX2__)
-    const auto half = [&](auto i, auto m) {
-        return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, std::bit_cast<__m256i>(i),
-                                        _mm256_castsi256_ps(std::bit_cast<__m256i>(m)), 4);
+    const auto half = [&](__m256i i, __m256i m) {
+        return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, i, _mm256_castsi256_ps(m), 4);
     };
-    const __m256 lo = half(__builtin_shufflevector(idx, idx, 0, 1, 2, 3, 4, 5, 6, 7),
-                           __builtin_shufflevector(live, live, 0, 1, 2, 3, 4, 5, 6, 7));
-    const __m256 hi = half(__builtin_shufflevector(idx, idx, 8, 9, 10, 11, 12, 13, 14, 15),
-                           __builtin_shufflevector(live, live, 8, 9, 10, 11, 12, 13, 14, 15));
-    return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    return join(half(lowHalf(idx), lowHalf(live)), half(highHalf(idx), highHalf(live)));
 #else
     Vf r{};
     for (int i = 0; i < kWidth; ++i)
@@ -289,6 +314,9 @@ inline void gatherPair(const float* base, Vi idx, Mask live, Vf& v0, Vf& v1) {
 inline Vf loadFirst(const float* p, int n) {
 #if defined(__AVX512F__)
     return _mm512_maskz_loadu_ps(static_cast<__mmask16>((1u << n) - 1u), p);
+#elif defined(__AVX2__)
+    const Mask m = firstLanes(n);
+    return join(_mm256_maskload_ps(p, lowHalf(m)), _mm256_maskload_ps(p + 8, highHalf(m)));
 #else
     Vf r{};
     for (int i = 0; i < n; ++i) r[i] = p[i];
@@ -302,11 +330,19 @@ inline Mask testBits(const std::uint32_t* table, Vi v, Mask live) {
         _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), static_cast<__mmask16>(bits(live)),
                                     std::bit_cast<__m512i>(v >> 5), table, 4);
     return live & (((std::bit_cast<Vi>(words) >> (v & 31)) & 1) != 0);
+#elif defined(__AVX2__)
+    const auto half = [&](__m256i i, __m256i m) {
+        return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
+                                           reinterpret_cast<const int*>(table), i, m, 4);
+    };
+    const Vi words =
+        join(half(lowHalf(v >> 5), lowHalf(live)), half(highHalf(v >> 5), highHalf(live)));
+    return live & (((std::bit_cast<Vu>(words) >> std::bit_cast<Vu>(v & 31)) & 1u) != 0u);
 #else
     Vi words{};
     for (int i = 0; i < kWidth; ++i)
         if (live[i]) words[i] = static_cast<std::int32_t>(table[v[i] >> 5]);
-    return live & ((std::bit_cast<Vu>(words) >> std::bit_cast<Vu>(v & 31)) & 1u) != 0u;
+    return live & (((std::bit_cast<Vu>(words) >> std::bit_cast<Vu>(v & 31)) & 1u) != 0u);
 #endif
 }
 
@@ -335,32 +371,17 @@ inline void transpose16(Vf r[16]) {
         r[c + 12] = _mm512_shuffle_f32x4(w0, w1, 0xDD);
     }
 #else
-    // Four rounds of interleaving pairs of rows (a perfect-shuffle network): after round s,
-    // rows exchange blocks of 8 >> s lanes.
+    // Four rounds of interleaving row i with row i + 8 (a perfect shuffle of the 8-bit index
+    // (row, column): each round rotates it by one bit, so four rounds swap row and column).
     Vf t[16];
-    for (int i = 0; i < 8; ++i) {
-        t[2 * i] = __builtin_shufflevector(r[i], r[i + 8], 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21,
-                                           6, 22, 7, 23);
-        t[2 * i + 1] = __builtin_shufflevector(r[i], r[i + 8], 8, 24, 9, 25, 10, 26, 11, 27, 12, 28,
-                                               13, 29, 14, 30, 15, 31);
-    }
-    for (int i = 0; i < 8; ++i) {
-        r[2 * i] = __builtin_shufflevector(t[i], t[i + 8], 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21,
-                                           6, 22, 7, 23);
-        r[2 * i + 1] = __builtin_shufflevector(t[i], t[i + 8], 8, 24, 9, 25, 10, 26, 11, 27, 12, 28,
-                                               13, 29, 14, 30, 15, 31);
-    }
-    for (int i = 0; i < 8; ++i) {
-        t[2 * i] = __builtin_shufflevector(r[i], r[i + 8], 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21,
-                                           6, 22, 7, 23);
-        t[2 * i + 1] = __builtin_shufflevector(r[i], r[i + 8], 8, 24, 9, 25, 10, 26, 11, 27, 12, 28,
-                                               13, 29, 14, 30, 15, 31);
-    }
-    for (int i = 0; i < 8; ++i) {
-        r[2 * i] = __builtin_shufflevector(t[i], t[i + 8], 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21,
-                                           6, 22, 7, 23);
-        r[2 * i + 1] = __builtin_shufflevector(t[i], t[i + 8], 8, 24, 9, 25, 10, 26, 11, 27, 12, 28,
-                                               13, 29, 14, 30, 15, 31);
+    for (int round = 0; round < 4; ++round) {
+        for (int i = 0; i < 8; ++i) {
+            t[2 * i] = __builtin_shufflevector(r[i], r[i + 8], 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5,
+                                               21, 6, 22, 7, 23);
+            t[2 * i + 1] = __builtin_shufflevector(r[i], r[i + 8], 8, 24, 9, 25, 10, 26, 11, 27, 12,
+                                                   28, 13, 29, 14, 30, 15, 31);
+        }
+        for (int i = 0; i < 16; ++i) r[i] = t[i];
     }
 #endif
 }
