@@ -1,12 +1,16 @@
 // Classification cost per sample (reconstruct + expected TF) for every model at q = 2, 4, 8, 16,
-// one core, on a random 32³ model volume with a tangle-like TF (docs/models.md has the table).
+// one core, on a random 32³ model volume with a tangle-like TF (docs/models.md has the table):
+// the exact body (classifyAt<double>, the probe's path) and the lane body the ray loop runs
+// (load<Vf>/finish on a batch of lanes::kWidth samples).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
-#include "udvr/classify/sample_kernels.h"
+#include "udvr/classify/model_families.h"
+#include "udvr/classify/model_kernels.h"
+#include "udvr/util/lanes.h"
 #include "udvr/util/random.h"
 
 namespace {
@@ -61,22 +65,65 @@ TransferFunction1D benchTf() {
     return tf;
 }
 
-void BM_Classify(benchmark::State& state) {
-    const ModelKind kind = allModelKinds()[static_cast<std::size_t>(state.range(0))];
-    const int q = static_cast<int>(state.range(1));
+// The model for q (built once per q) and 4096 random index-space points.
+const ModelVolume& modelFor(int q) {
     static std::vector<ModelVolume> models(17);
     if (models[q].voxelCount() == 0) models[q] = benchModel(q);
-    const ModelVolume& m = models[q];
-    const TransferFunction1D tf = benchTf();
+    return models[q];
+}
+std::vector<float> benchPoints() {
     std::vector<float> pts(3 * 4096);
     CounterRng rng(5, 0, 0);
     for (auto& p : pts) p = static_cast<float>(rng.uniform() * 31.0);
+    return pts;
+}
+
+// The exact (double) body, one sample at a time.
+void BM_ClassifyExact(benchmark::State& state) {
+    const ModelKind kind = allModelKinds()[static_cast<std::size_t>(state.range(0))];
+    const int q = static_cast<int>(state.range(1));
+    const ModelVolume& m = modelFor(q);
+    const TransferFunction1D tf = benchTf();
+    const std::vector<float> pts = benchPoints();
     state.SetLabel(std::string(modelName(kind)) + " q=" + std::to_string(q));
     withKernel(m, kind, tf, [&](const auto& k) {
         for (auto _ : state) {
-            float acc = 0.f;
-            for (std::size_t i = 0; i < pts.size(); i += 3)
-                acc += k.classifyAt(pts[i], pts[i + 1], pts[i + 2]).a;
+            double acc = 0.0;
+            for (std::size_t i = 0; i < pts.size(); i += 3) {
+                double v[4];
+                classifyAt<double>(k, pts[i], pts[i + 1], pts[i + 2], v);
+                acc += v[3];
+            }
+            benchmark::DoNotOptimize(acc);
+        }
+    });
+    state.SetItemsProcessed(state.iterations() * 4096);
+}
+
+// The lane body, lanes::kWidth samples per call (all lanes live).
+void BM_ClassifyLanes(benchmark::State& state) {
+    using lanes::Vf;
+    const ModelKind kind = allModelKinds()[static_cast<std::size_t>(state.range(0))];
+    const int q = static_cast<int>(state.range(1));
+    const ModelVolume& m = modelFor(q);
+    const TransferFunction1D tf = benchTf();
+    const std::vector<float> pts = benchPoints();
+    // Structure of arrays: the points in batches of lanes::kWidth.
+    std::vector<float> soa(pts.size());
+    for (std::size_t i = 0; i < 4096; ++i)
+        for (std::size_t a = 0; a < 3; ++a) soa[a * 4096 + i] = pts[3 * i + a];
+    state.SetLabel(std::string(modelName(kind)) + " q=" + std::to_string(q));
+    withKernel(m, kind, tf, [&](const auto& k) {
+        for (auto _ : state) {
+            Vf acc{};
+            for (std::size_t i = 0; i < 4096; i += lanes::kWidth) {
+                const Cell<Vf> cell =
+                    cellAt<Vf>(k.geometry, lanes::load(&soa[i]), lanes::load(&soa[4096 + i]),
+                               lanes::load(&soa[2 * 4096 + i]));
+                Vf v[4];
+                k.finish(k.template load<Vf>(cell, lanes::allTrue<Vf>()), v);
+                acc += v[3];
+            }
             benchmark::DoNotOptimize(acc);
         }
     });
@@ -98,7 +145,8 @@ void args(benchmark::internal::Benchmark* b) {
         }
     }
 }
-BENCHMARK(BM_Classify)->Apply(args);
+BENCHMARK(BM_ClassifyExact)->Apply(args);
+BENCHMARK(BM_ClassifyLanes)->Apply(args);
 
 }  // namespace
 

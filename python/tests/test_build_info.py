@@ -9,8 +9,8 @@ udvr = pytest.importorskip("udvr")
 
 BUILD_RE = re.compile(
     r"target (native|x86-64-v4|x86-64-v3|generic): (AVX-512|AVX2\+FMA|AVX2|AVX|SSE2|NEON|scalar), "
-    r"16-float lanes in (1 register of 512 bits|2 registers of 256 bits|4 registers of 128 bits"
-    r"|scalar operations)")
+    r"batches of (16 floats \(512 bits\)|8 floats \(256 bits\)|4 floats \(128 bits\)"
+    r"|4 floats \(scalar operations\))")
 
 
 def test_build_string_has_the_documented_form():

@@ -33,6 +33,14 @@ inline TransferFunction1D randomTf(CounterRng& rng, double lo, double hi) {
     return tf;
 }
 
+/// The TF with every control point's x rounded to float, so that the float TF pieces have the
+/// double pieces' breakpoints (steps sit at the same x in both views).
+inline TransferFunction1D withFloatBreaks(TransferFunction1D tf) {
+    for (double& x : tf.colorX) x = static_cast<float>(x);
+    for (double& x : tf.opacityX) x = static_cast<float>(x);
+    return tf;
+}
+
 /// Samples of one voxel: kind 0 normal, 1 skewed (lognormal), 2 bimodal, 3 tied (rounded),
 /// 4 constant.
 inline std::vector<double> randomSamples(CounterRng& rng, int kind, int n, double center,

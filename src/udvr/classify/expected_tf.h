@@ -224,6 +224,10 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfGaussian(const Tf& tf, T mu, T sigma, la
     const T invSigma = S(1) / sigma;
     const int kFirst = detail::lowestOf(kl, spread), kLast = detail::highestOf(kh, spread);
     for (int k = kFirst; k <= kLast; ++k) {
+        // Pieces where the TF is 0 add nothing, and Φ at a bound between two of them is never
+        // read (a lane's next non-zero piece starts at a bound computed below).
+        const bool zeroHere = tf.at(kTfZero, k) != 0;
+        if (zeroHere && (k == kLast || tf.at(kTfZero, k + 1) != 0)) continue;
         const auto on = spread & (kl <= k) & (kh >= k);
         if (!lanes::anyOf(on)) continue;
         const auto last = on & (kh == k);
@@ -246,7 +250,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfGaussian(const Tf& tf, T mu, T sigma, la
         const T m1 = pdfA - pdfB;
         const T m2 = m0 + (zpdfA - zpdfB);
         const T d = mu - tf.at(kTfOrigin, k);  // x − origin = d + σz
-        for (int ch = 0; ch < 4; ++ch) {
+        for (int ch = 0; ch < 4 && !zeroHere; ++ch) {
             const S pa = tf.at(kTfA + ch, k), pb = tf.at(kTfB + ch, k), pc = tf.at(kTfC + ch, k);
             const T a =
                 fma(d, fma(d, lanes::splat<T>(pc), lanes::splat<T>(pb)), lanes::splat<T>(pa));

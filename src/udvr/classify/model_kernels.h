@@ -10,7 +10,9 @@
 //       reads the corners of the live lanes' cells and reconstructs (for the costly models it
 //       classifies too);
 //   template <class T> void finish(const Loaded<T>&, T out[4]) const;
-//       (E[α·r], E[α·g], E[α·b], E[α]) before opacity correction, 0 in lanes that were not live;
+//       (E[α·r], E[α·g], E[α·b], E[α]) before opacity correction; 0 in lanes that were not
+//       live, except for kernels with kLoadDeadLanes (the mean: dead lanes hold TF of whatever
+//       was loaded, and the ray loop's compositor masks them);
 //   void voxelSupport(std::size_t voxel, float& lo, float& hi) const;
 //       a value interval outside which the voxel's distribution has no (or negligible) mass, for
 //       the empty-space tables. The distribution at a point of a cell lies inside the hull of its
@@ -23,6 +25,7 @@
 // ModelVolume and the TfPiecesStorage owned by withKernel).
 #include <cmath>
 #include <cstddef>
+#include <iterator>
 #include <utility>
 
 #include "udvr/classify/expected_tf.h"
@@ -67,17 +70,26 @@ struct KernelBase {
         else
             return tfExact;
     }
-    /// f(tf) with the TF over T's real type; float lanes get a view whose lookups are register
-    /// permutes when the TF is small (kTfSmall), decided here once per call, not per lookup.
+    /// f(tf) with the TF over T's real type; on lanes a view whose lookups are register
+    /// permutes of the smallest table that holds the TF (lanes::kPermuteSizes), decided here
+    /// once per call, not per lookup.
     template <class T, class F>
     UDVR_INLINE void withTf(const F& f) const {
-        if constexpr (lanes::kIsVector<T>) {
-            if (tfFast.stride == kTfSmall)
-                f(tfFast.template sized<kTfSmall>());
-            else
-                f(tfFast);
-        } else {
+        if constexpr (lanes::kIsVector<T>)
+            withSizedTf<0>(f);
+        else
             f(tf<T>());
+    }
+    template <int I, class F>
+    UDVR_INLINE void withSizedTf(const F& f) const {
+        if constexpr (I < static_cast<int>(std::size(lanes::kPermuteSizes))) {
+            constexpr int kSize = lanes::kPermuteSizes[I];
+            if (kSize > 0 && tfFast.breakCount < kSize)
+                f(tfFast.template sized<kSize>());
+            else
+                withSizedTf<I + 1>(f);
+        } else {
+            f(tfFast);
         }
     }
     /// Prefetch the four x-rows of the cell based at voxel v of an array with perVoxel floats.
@@ -100,8 +112,8 @@ UDVR_CPU_GPU inline void keepLive(lanes::MaskOf<T> live, T out[4]) {
 /// The double body of kernel k in the `lanes` of a batch (out elsewhere unchanged): for models
 /// without a float body, and for lanes a float body cannot serve accurately.
 template <class K>
-inline void exactLanes(const K& k, const Cell<lanes::Vf>& cell, lanes::Mask which,
-                       lanes::Vf out[4]) {
+UDVR_NOINLINE void exactLanes(const K& k, const Cell<lanes::Vf>& cell, lanes::Mask which,
+                              lanes::Vf out[4]) {
     for (std::uint32_t m = lanes::bits(which); m; m &= m - 1) {
         const int l = std::countr_zero(m);
         double v[4];
@@ -163,11 +175,11 @@ struct MeanKernel : KernelBase {
     using Loaded = T;
     static constexpr bool kLoadDeadLanes = true;
     template <class T>
-    UDVR_CPU_GPU T load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+    UDVR_CPU_GPU UDVR_INLINE T load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         return trilinear(geometry, values, 1, c, live);
     }
     template <class T>
-    UDVR_CPU_GPU void finish(T value, T out[4]) const {
+    UDVR_CPU_GPU UDVR_INLINE void finish(T value, T out[4]) const {
         withTf<T>([&](const auto& t) { tfAt<T>(t, value, out); });
     }
     void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = values[v]; }
@@ -204,7 +216,7 @@ struct UniformKernel : KernelBase, detail::ClassifyInLoad {
         return makeUniformSum(lo, hi, w, tinyWidth);
     }
     template <class T>
-    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r{};
         if constexpr (lanes::kIsVector<T>) {
             detail::exactLanes(*this, c, live, r.v);
@@ -252,7 +264,7 @@ struct GaussianKernel : KernelBase, detail::ClassifyInLoad {
         sigma = lanes::sqrt(lanes::select(var > 0, var, T{}));  // σ = 0: the point mass TF(μ)
     }
     template <class T>
-    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
         T mu, sigma;
         paramsAt(c, live, mu, sigma);
@@ -329,7 +341,7 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
         return wide;
     }
     template <class T>
-    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
         detail::exactWhere(*this, c, expectation(c, live, r.v), r.v);
         return r;
@@ -362,12 +374,12 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
                         const TfPiecesStorage& tf)
         : KernelBase(grid, tf), boundaries(b), stride(s), j0(lo), j1(hi) {}
     template <class T>
-    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
         const int count = j1 - j0 + 1;
         if constexpr (lanes::kIsVector<T>) {
-            if (count <= lanes::kWidth) {
-                lanes::Vf b[lanes::kWidth];
+            if (count <= kMaxRowBoundaries) {
+                lanes::Vf b[kMaxRowBoundaries];
                 boundaryRows(geometry, boundaries, stride, j0, count, c, live, b);
                 withTf<T>([&](const auto& t) {
                     expectedTfQuantileRange<T>(
@@ -406,14 +418,14 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
                        const TfPiecesStorage& tf)
         : KernelBase(grid, tf), quantiles(b), q(qIn), densityWeights(density), zeroWidth(zero) {}
     template <class T>
-    UDVR_CPU_GPU Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         using S = lanes::ScalarOf<T>;
         Classified<T> r;
         const int stride = q + 1;
         const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
         if constexpr (lanes::kIsVector<T>) {
-            if (stride <= lanes::kWidth) {
-                lanes::Vf b[lanes::kWidth], w[lanes::kWidth];
+            if (stride <= kMaxRowBoundaries) {
+                lanes::Vf b[kMaxRowBoundaries], w[kMaxRowBoundaries];
                 boundaryRows(geometry, quantiles, stride, 0, stride, c, live, b,
                              densityWeights ? w : nullptr);
                 withTf<T>([&](const auto& t) {

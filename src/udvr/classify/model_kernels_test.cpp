@@ -1,11 +1,19 @@
-// Every model's kernel against Monte Carlo of its own definition (SPEC §3–4), plus edge cases.
-#include "udvr/classify/sample_kernels.h"
+// Every model's kernel against Monte Carlo of its own definition (SPEC §3–4), plus edge cases,
+// and the lane (CPU batch) and float (one GPU thread) bodies of every kernel against its double
+// body.
+#include "udvr/classify/model_kernels.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <functional>
+#include <string>
 
 #include "udvr/classify/classify_test_util.h"
+#include "udvr/classify/model_families.h"
+#include "udvr/data/synthetic.h"
 
 namespace udvr {
 namespace {
@@ -15,8 +23,39 @@ constexpr int kMc = 100000;
 Rgba classify(const ModelVolume& m, ModelKind kind, const TransferFunction1D& tf, float x, float y,
               float z, const ClassifyOptions& o = {}) {
     Rgba out;
-    withKernel(m, kind, tf, o, [&](const auto& k) { out = k.classifyAt(x, y, z); });
+    withKernel(m, kind, tf, o, [&](const auto& k) { out = classifyExact(k, x, y, z); });
     return out;
+}
+
+// The 8 corners and trilinear weights of index-space point (x, y, z), written out here (SPEC
+// §1, §3) independently of reconstruct/cell.h: clamped into the grid, the last plane in the cell
+// below it with fraction 1, a 1-point axis has fraction 0.
+struct RefCell {
+    std::size_t corner[8];
+    double weight[8];
+};
+RefCell refCell(const std::array<int, 3>& dims, float x, float y, float z) {
+    const float p[3] = {x, y, z};
+    int base[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        const double v = std::clamp(static_cast<double>(p[a]), 0.0, dims[a] - 1.0);
+        base[a] = dims[a] == 1 ? 0 : std::min(static_cast<int>(std::floor(v)), dims[a] - 2);
+        f[a] = v - base[a];
+    }
+    RefCell c;
+    for (int k = 0; k < 8; ++k) {
+        std::size_t idx[3];
+        c.weight[k] = 1.0;
+        for (int a = 0; a < 3; ++a) {
+            const bool up = (k >> a) & 1;
+            idx[a] = static_cast<std::size_t>(base[a] + (up && dims[a] > 1 ? 1 : 0));
+            c.weight[k] *= up ? f[a] : 1.0 - f[a];
+        }
+        c.corner[k] = idx[0] + static_cast<std::size_t>(dims[0]) *
+                                   (idx[1] + static_cast<std::size_t>(dims[1]) * idx[2]);
+    }
+    return c;
 }
 
 // |kernel − MC| ≤ 5 standard errors (+ float rounding of the result).
@@ -42,7 +81,7 @@ struct Case {
     ModelVolume model;
     TransferFunction1D tf;
     float p[3];
-    TrilinearCell cell;
+    RefCell cell;
 };
 
 Case makeCase(std::uint64_t seed, int q) {
@@ -54,7 +93,7 @@ Case makeCase(std::uint64_t seed, int q) {
     c.tf = testing::randomTf(rng, lo, r.second);
     for (int a = 0; a < 3; ++a)
         c.p[a] = static_cast<float>(rng.uniform() * (c.model.grid.dims[a] - 1));
-    c.cell = trilinearCell(c.model.grid.dims.data(), c.p[0], c.p[1], c.p[2]);
+    c.cell = refCell(c.model.grid.dims, c.p[0], c.p[1], c.p[2]);
     return c;
 }
 
@@ -64,7 +103,7 @@ TEST_P(KernelMc, EveryModelMatchesMonteCarloOfItsDefinition) {
     const int q = 8;
     Case c = makeCase(100 + static_cast<std::uint64_t>(GetParam()), q);
     const ModelVolume& m = c.model;
-    const TrilinearCell& cell = c.cell;
+    const RefCell& cell = c.cell;
     CounterRng rng(999, static_cast<std::uint64_t>(GetParam()), 0);
     auto at = [&](ModelKind k) { return classify(m, k, c.tf, c.p[0], c.p[1], c.p[2]); };
 
@@ -350,40 +389,160 @@ TEST(Kernels, VoxelSupportHoldsTheMass) {
     }
 }
 
-TEST(Kernels, FixedSizeQuantilePathsEqualTheGenericExpectations) {
-    // The vectorised q = 2, 4, 8, 16 paths (and iqr) must give exactly the generic
-    // expectedTfQuantile* results over interpolateBoundary.
-    for (int q : {2, 4, 8, 16}) {
-        const Case c = makeCase(static_cast<std::uint64_t>(100 + q), q);
-        const TfTableStorage table(c.tf);
-        const int dims[3] = {c.model.grid.dims[0], c.model.grid.dims[1], c.model.grid.dims[2]};
-        const auto span = modelDataRange(c.model);
-        CounterRng rng(7, static_cast<std::uint64_t>(q), 0);
-        for (int i = 0; i < 200; ++i) {
-            const float x = static_cast<float>(rng.uniform() * 2.2 - 0.1);
-            const float y = static_cast<float>(rng.uniform() * 2.2 - 0.1);
-            const float z = static_cast<float>(rng.uniform() * 1.2 - 0.1);
-            const TrilinearCell cell = trilinearCell(dims, x, y, z);
-            const std::size_t s = static_cast<std::size_t>(q) + 1;
-            auto boundary = [&](int j) {
-                return interpolateBoundary(cell, c.model.quantiles.data(), s, j);
-            };
-            double want[4];
-            for (bool density : {true, false}) {
-                expectedTfQuantileMean(table.table(), boundary, q, density,
-                                       kQuantileZeroWidth * (span.second - span.first), want);
-                const Rgba got = classify(
-                    c.model, density ? ModelKind::QuantileMean : ModelKind::QuantileMeanMass, c.tf,
-                    x, y, z);
-                EXPECT_EQ(got.a, static_cast<float>(want[3])) << q;
-                EXPECT_EQ(got.r, static_cast<float>(want[0])) << q;
+// ---- the lane and float bodies against the double body --------------------------------------
+
+// The tangle TF (kinks only; pieces ≥ 0.5 wide, slopes ≤ 0.9 per data unit) or, with `step`,
+// its opacity replaced by ramps with a step at 0.1 (pieces ≥ 0.1 wide); `dense`: the same
+// function with 30 more (collinear) breakpoints, > 31 in all, so the columns are 64 long and
+// lane lookups are gathers instead of 32-entry permutes. Moved by `offset` along x.
+TransferFunction1D laneTestTf(bool step, bool dense, double offset) {
+    TransferFunction1D tf = tangleTransferFunction();
+    if (step) {
+        tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};
+        tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
+    }
+    if (dense) {  // α = 0 from 5 on in both: points every ~0.98 up to 35.24 change nothing
+        while (tf.opacityX.back() >= 5.0) {
+            tf.opacityX.pop_back();
+            tf.opacity.pop_back();
+        }
+        tf.opacityX.push_back(5.0);
+        tf.opacity.push_back(0.0);
+        for (int i = 1; i <= 30; ++i) {
+            tf.opacityX.push_back(5.0 + i * (30.24 / 31.0));
+            tf.opacity.push_back(0.0);
+        }
+        tf.opacityX.push_back(35.24);
+        tf.opacity.push_back(0.0);
+    }
+    for (double& x : tf.colorX) x += offset;
+    for (double& x : tf.opacityX) x += offset;
+    return testing::withFloatBreaks(tf);
+}
+
+// The model with every value (means, bounds, quantiles, GMM means) moved by `offset`.
+void shiftModel(ModelVolume& m, float offset) {
+    for (auto* a : {&m.mean, &m.min, &m.max, &m.quantiles, &m.iqr})
+        for (float& v : *a) v += offset;
+    const int k = m.gmmComponents;
+    for (std::size_t v = 0; v < m.voxelCount(); ++v)
+        for (int i = 0; i < k; ++i) m.gmm[v * 3 * k + k + i] += offset;
+}
+
+// kWidth random index-space points of a grid: inside, on faces and corners, on grid planes and
+// outside (clamped).
+void randomPoints(CounterRng& rng, const std::array<int, 3>& dims, lanes::Vf p[3]) {
+    for (int l = 0; l < lanes::kWidth; ++l)
+        for (int a = 0; a < 3; ++a) {
+            const double m = dims[a] - 1.0, kind = rng.uniform(), u = rng.uniform();
+            double v = m * rng.uniform();
+            if (kind < 0.2) {  // a face
+                v = u < 0.5 ? 0.0 : m;
+            } else if (kind < 0.35) {  // outside
+                v = u < 0.5 ? -0.6 * u : m + 2.0 * u;
+            } else if (kind < 0.45) {  // a grid plane
+                v = std::floor(v);
             }
-            expectedTfQuantileRange(table.table(), boundary, 0, q, want);
-            const Rgba got = classify(c.model, ModelKind::QuantileRange, c.tf, x, y, z);
-            EXPECT_EQ(got.a, static_cast<float>(want[3])) << q;
-            EXPECT_EQ(got.b, static_cast<float>(want[2])) << q;
+            p[a][l] = static_cast<float>(v);
+        }
+}
+
+// The worst |lane − double| and |float − double| over the live lanes of 100 batches of kernel k
+// (lanes of cells from cellAt<Vf> at random points, random live masks); lanes that were not
+// live must be 0.
+template <class K>
+double worstLaneError(const K& k, CounterRng& rng, const std::array<int, 3>& dims,
+                      const std::string& what) {
+    using lanes::Vf;
+    double worst = 0.0;
+    for (int trial = 0; trial < 100; ++trial) {
+        Vf p[3];
+        randomPoints(rng, dims, p);
+        const lanes::Mask live = trial == 0 ? lanes::allTrue<Vf>()
+                                            : lanes::fromBits(static_cast<std::uint32_t>(
+                                                  rng.nextBits() & ((1u << lanes::kWidth) - 1u)));
+        const Cell<Vf> cell = cellAt<Vf>(k.geometry, p[0], p[1], p[2]);
+        Vf got[4];
+        k.finish(k.template load<Vf>(cell, live), got);
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            if (!live[l]) {
+                // Kernels that load dead lanes too (kLoadDeadLanes: MeanKernel) classify the
+                // value 0 there, TF(0), not 0 as model_kernels.h's contract says; the ray loop
+                // masks those lanes itself (Compositor::add with the live mask).
+                for (int ch = 0; ch < 4; ++ch)
+                    if (!K::kLoadDeadLanes)
+                        EXPECT_EQ(got[ch][l], 0.f) << what << " dead lane " << l << " ch " << ch;
+                    else
+                        EXPECT_TRUE(std::isfinite(got[ch][l])) << what << " dead lane " << l;
+                continue;
+            }
+            double want[4];
+            classifyAt<double>(k, p[0][l], p[1][l], p[2][l], want);
+            float one[4];  // the "one GPU thread" instantiation
+            classifyAt<float>(k, p[0][l], p[1][l], p[2][l], one);
+            for (int ch = 0; ch < 4; ++ch) {
+                EXPECT_FALSE(std::isnan(got[ch][l])) << what;
+                worst = std::max(
+                    {worst, std::abs(got[ch][l] - want[ch]), std::abs(one[ch] - want[ch])});
+            }
         }
     }
+    return worst;
+}
+
+// Every kernel's lane body (load<Vf>/finish on kWidth cells) and float body (classifyAt<float>)
+// against its double body (classifyAt<double>) at the same points. The quantile models take a
+// transposed-row path while a population's boundaries fill a vector or two of kWidth, and
+// per-boundary gathers beyond: q = 2, 3, 7, 8, 15, 16, 31, 32, 40 fill 4, 8, 16 or 32 lanes
+// exactly or spill one boundary past them, at every width. Also GMM K = 1 and 4, the TF's
+// lookups by permutes (≤ 13 breakpoints) and by gathers (≥ 43), a grid with a 1-point x axis, and
+// values near 0 and near 1000. Tolerance: float boundaries, weights and Φ against double; for
+// |b| ≤ 10 a few float roundings (6e−8·|b|) times the TF's slope (≤ 0.9) and the Gaussian
+// bodies' ~6e−8·(σ/w)² (σ ≤ 8w): 2e−5; for |b| ~ 1000 the roundings are 100× larger: 3e−4.
+// Measured worst (AVX-512): 2.3e−6 and 5.6e−5.
+TEST(Kernels, LaneAndFloatBodiesMatchTheDoubleBody) {
+    CounterRng rng(77, 0, 0);
+    for (const std::array<int, 3>& dims :
+         {std::array<int, 3>{5, 4, 3}, std::array<int, 3>{1, 4, 3}})
+        for (int gmmK : {1, 4})
+            for (int q : {2, 3, 7, 8, 15, 16, 31, 32, 40}) {
+                ModelVolume base = testing::randomModel(rng, dims, q, gmmK);
+                for (float offset : {0.f, 1000.f}) {
+                    ModelVolume m = base;
+                    shiftModel(m, offset);
+                    const double tol = offset > 0.f ? 3e-4 : 2e-5;
+                    for (bool dense : {false, true}) {
+                        // A step moves by a boundary's float rounding (×100 at 1000) into or
+                        // out of a quantile, by (jump / quantile width) × that: steps only near 0.
+                        const TransferFunction1D tf = laneTestTf(offset == 0.f, dense, offset);
+                        for (ModelKind kind : allModelKinds()) {
+                            if (kind == ModelKind::GmmMc) continue;
+                            const bool quantile = needsQuantiles(kind);
+                            const bool quartile = kind == ModelKind::QuartileLower ||
+                                                  kind == ModelKind::QuartileMiddle ||
+                                                  kind == ModelKind::QuartileUpper;
+                            if (quartile && q % 4 != 0) continue;
+                            if (!quantile && q != 8) continue;  // q matters to quantile models
+                            if (kind != ModelKind::GmmOrdered && gmmK != 4) continue;  // K: GMM
+                            for (bool minMax : {false, true}) {
+                                if (minMax && kind != ModelKind::Uniform) continue;
+                                ClassifyOptions o;
+                                o.uniformMinMax = minMax;
+                                const std::string what = std::string(modelName(kind)) +
+                                                         " q=" + std::to_string(q) +
+                                                         " K=" + std::to_string(gmmK) +
+                                                         " dense=" + std::to_string(dense) +
+                                                         " offset=" + std::to_string(offset) +
+                                                         " dims.x=" + std::to_string(dims[0]);
+                                withKernel(m, kind, tf, o, [&](const auto& k) {
+                                    const double worst = worstLaneError(k, rng, dims, what);
+                                    EXPECT_LE(worst, tol) << what;
+                                });
+                            }
+                        }
+                    }
+                }
+            }
 }
 
 }  // namespace

@@ -102,6 +102,10 @@ void fillColumns(const std::vector<double>& breaks, const std::vector<Piece>& pi
             col(kTfCum + ch, k) = hi;
             col(kTfCumLo + ch, k) = static_cast<Real>(exact.cum[ch] - static_cast<double>(hi));
         }
+        bool zero = true;
+        for (int ch = 0; ch < 4; ++ch)
+            zero = zero && exact.a[ch] == 0.0 && exact.b[ch] == 0.0 && exact.c[ch] == 0.0;
+        col(kTfZero, k) = zero ? Real(1) : Real(0);
         col(kTfAlpha0, k) = static_cast<Real>(p.alpha0);
         col(kTfAlphaSlope, k) = static_cast<Real>(p.alphaSlope);
         for (int ch = 0; ch < 3; ++ch) {

@@ -17,6 +17,7 @@
 //   cum, cumLo   ∫_{u_0}^{origin} TF_ch as the pair cum + cumLo (cumLo = 0 in double): a
 //                difference of two prefix sums then keeps its digits when the sums are large
 //   alpha0, alphaSlope, color0, colorSlope   α and c as lines a0 + s·t (TF(x) = (α·c, α))
+//   zero         1 on pieces where the TF is 0 (integrals over them can be skipped)
 // In float the origin is rounded first and the coefficients re-expanded about the rounded
 // origin in double, so float pieces are the exact pieces up to the rounding of the coefficients.
 #include <cstddef>
@@ -42,15 +43,16 @@ enum TfColumn : int {
     kTfAlphaSlope = 23,
     kTfColor0 = 24,      // 3
     kTfColorSlope = 27,  // 3
-    kTfColumns = 30,
+    kTfZero = 30,        // 1 where every channel is 0 on the whole piece (α = 0 there), else 0
+    kTfColumns = 31,
 };
 
-/// Entries per column when the TF has at most 31 breakpoints: lane lookups are then register
-/// permutes where the target has them (TfPieces<float, kTfSmall>).
+/// Entries per column of a TF with at most 31 breakpoints (more: the next power of two).
 inline constexpr int kTfSmall = 32;
 
 /// Read-only view of the exact TF pieces over Real (double or float); device-copyable.
-/// LookupSize = kTfSmall promises stride == kTfSmall (lane lookups by permutes); 0: any stride.
+/// LookupSize > 0 promises fewer than LookupSize breakpoints (lane lookups by register permutes,
+/// lanes::lookup); 0: any TF (gathers).
 template <class Real, int LookupSize = 0>
 struct TfPieces {
     int breakCount = 0;  // N ≥ 1 distinct breakpoints
@@ -70,10 +72,11 @@ struct TfPieces {
     lanes::Vf at(int f, lanes::Vi k) const requires std::is_same_v<Real, float> {
         return lanes::lookup<LookupSize>(column(f), k);
     }
-    /// The same view with lookups of a fixed table size (stride must equal Size).
+    /// The same view with lookups of a fixed table size (the TF must have fewer than Size
+    /// breakpoints, so every piece index and every bound the search reads is below Size).
     template <int Size>
     TfPieces<Real, Size> sized() const {
-        UDVR_DCHECK(stride == Size);
+        UDVR_DCHECK(breakCount < Size && stride >= Size);
         return TfPieces<Real, Size>{breakCount,     stride,  data,          bucketCount,
                                     bucketInvWidth, buckets, narrowestPiece};
     }

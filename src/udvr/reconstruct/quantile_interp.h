@@ -35,41 +35,78 @@ UDVR_CPU_GPU UDVR_INLINE T widthAt(const CellGeometry& g, const float* data, int
     });
 }
 
-/// boundaryAt and widthAt for boundaries first … first + count − 1 (count ≤ 16) of 16 samples
-/// at once: each live sample's 8 corner rows are one vector each (masked loads), blended by the
-/// same lerps, then the 16 samples' rows are transposed, so b[j] holds boundary first + j of
-/// every sample and the classification runs per boundary without horizontal sums. With `w`,
-/// also w[j] = the width of boundaries j, j + 1 (j < count − 1). Lanes outside `live` are 0.
+/// Boundaries a batch's row path handles (two blocks of kWidth): q ≤ 31 on AVX-512, 15 on
+/// AVX2, 7 on SSE2/NEON; larger populations gather each boundary (boundaryAt).
+inline constexpr int kMaxRowBoundaries = 2 * lanes::kWidth;
+
+/// boundaryAt and widthAt for boundaries first … first + count − 1 (count ≤ kMaxRowBoundaries)
+/// of a batch's samples at once: per block of kWidth boundaries, each live sample's 8 corner
+/// rows are one vector each (masked loads), blended by the same lerps, then the samples' rows
+/// are transposed, so b[j] holds boundary first + j of every sample and the classification runs
+/// per boundary without horizontal sums. With `w`, also w[j] = the width of boundaries j, j + 1
+/// (j < count − 1), blended from the corners' own widths. Lanes outside `live` are 0.
 UDVR_INLINE void boundaryRows(const CellGeometry& g, const float* data, int stride, int first,
-                              int count, const Cell<lanes::Vf>& c, lanes::Mask live,
-                              lanes::Vf b[16], lanes::Vf* w = nullptr) {
+                              int count, const Cell<lanes::Vf>& c, lanes::Mask live, lanes::Vf* b,
+                              lanes::Vf* w = nullptr) {
     using lanes::Vf;
+    constexpr int W = lanes::kWidth;
     const std::int64_t ox = g.next[0], oy = g.next[1], oz = g.next[2];
     const std::int64_t offsets[8] = {0, ox, oy, oy + ox, oz, oz + ox, oz + oy, oz + oy + ox};
     const std::uint32_t liveBits = lanes::bits(live);
-    for (int l = 0; l < lanes::kWidth; ++l) {
-        b[l] = Vf{};
-        if (w) w[l] = Vf{};
-        if (!(liveBits >> l & 1u)) continue;
-        const Vf fx = lanes::splat<Vf>(c.fx[l]), fy = lanes::splat<Vf>(c.fy[l]),
-                 fz = lanes::splat<Vf>(c.fz[l]);
-        const auto blend = [&](const Vf* q) {
-            return lerp(lerp(lerp(q[0], q[1], fx), lerp(q[2], q[3], fx), fy),
-                        lerp(lerp(q[4], q[5], fx), lerp(q[6], q[7], fx), fy), fz);
-        };
-        Vf corner[8];
-        for (int k = 0; k < 8; ++k)
-            corner[k] = lanes::loadFirst(
-                data + (c.base[l] + offsets[k]) * static_cast<std::int64_t>(stride) + first, count);
-        b[l] = blend(corner);
-        if (w) {
-            Vf cw[8];  // each corner's b_{j+1} − b_j in lane j
-            for (int k = 0; k < 8; ++k) cw[k] = lanes::shiftDown1(corner[k], Vf{}) - corner[k];
-            w[l] = blend(cw);
+    alignas(64) std::int32_t base[W];
+    alignas(64) float f[3][W];
+    lanes::store(base, c.base);
+    lanes::store(f[0], c.fx);
+    lanes::store(f[1], c.fy);
+    lanes::store(f[2], c.fz);
+    // With widths, a last boundary alone in its block is b_{n−2} + w_{n−2} (saves a block).
+    const int rowCount = w && count > 1 && (count - 1) % W == 0 ? count - 1 : count;
+    for (int block = 0; block * W < count - 1 || block * W < rowCount; ++block) {
+        const int j0 = block * W;
+        const auto clampW = [](int n) { return n < 0 ? 0 : (n < W ? n : W); };
+        const int nb = clampW(rowCount - j0);           // boundaries in this block
+        const int nw = w ? clampW(count - 1 - j0) : 0;  // widths in this block
+        // A single block is transposed in place in the output.
+        const bool direct = nb == W || (j0 == 0 && nb == count);
+        Vf rowsLocal[W], widthsLocal[W];
+        Vf* rows = direct ? b + j0 : rowsLocal;
+        Vf* widths = nw == W ? w + j0 : widthsLocal;
+        for (int l = 0; l < W; ++l) {
+            rows[l] = Vf{};
+            if (nw > 0) widths[l] = Vf{};
+            if (!(liveBits >> l & 1u)) continue;
+            const Vf fx = lanes::splat<Vf>(f[0][l]), fy = lanes::splat<Vf>(f[1][l]),
+                     fz = lanes::splat<Vf>(f[2][l]);
+            const auto blend = [&](const Vf* q) {
+                return lerp(lerp(lerp(q[0], q[1], fx), lerp(q[2], q[3], fx), fy),
+                            lerp(lerp(q[4], q[5], fx), lerp(q[6], q[7], fx), fy), fz);
+            };
+            Vf corner[8], cw[8] = {};
+            for (int k = 0; k < 8; ++k) {
+                const float* row =
+                    data + (base[l] + offsets[k]) * static_cast<std::int64_t>(stride) + first + j0;
+                corner[k] = lanes::loadFirst(row, nb);
+                // Each corner's b_{j+1} − b_j in lane j: by a lane shift where the block holds
+                // b_{j+1} of its every width, else from a second load one boundary on.
+                if (nw > 0)
+                    cw[k] = nw < nb ? lanes::shiftDown1(corner[k], Vf{}) - corner[k]
+                                    : lanes::loadFirst(row + 1, nw) - lanes::loadFirst(row, nw);
+            }
+            rows[l] = blend(corner);
+            if (nw > 0) widths[l] = blend(cw);
+        }
+        if (nb > 0) {
+            lanes::transpose(rows);
+            if (!direct)
+                for (int j = 0; j < nb; ++j) b[j0 + j] = rows[j];
+        }
+        if (nw > 0) {
+            lanes::transpose(widths);
+            if (nw != W)
+                for (int j = 0; j < nw; ++j) w[j0 + j] = widths[j];
         }
     }
-    lanes::transpose16(b);
-    if (w) lanes::transpose16(w);
+    if (rowCount < count) b[count - 1] = b[count - 2] + w[count - 2];
 }
 
 /// The paper's Eq. 2 written as in the paper: Pr(Q_j) at cell parameters (α, β, γ) from the

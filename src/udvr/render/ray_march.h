@@ -249,7 +249,7 @@ struct Compositor {
         const Vf after = lanes::prefixProduct(keep);  // T after lane i, over T
         const Vf before = lanes::shiftUp<1>(after, one);
         const std::uint32_t exit = lanes::bits(live & (after * transmittance < exitTransmittance));
-        int last = 15;
+        int last = lanes::kWidth - 1;
         if (exit) {
             last = std::countr_zero(exit);
             live = live & lanes::firstLanes(last + 1);
@@ -405,9 +405,10 @@ struct RayInFlight {
 /// load. A batch whose cells are all empty hands back to the brick walk; other batches run on
 /// across brick borders. Returns true when the ray is finished.
 template <class Kernel>
-bool stepRay(const Kernel& kernel, const SkipTable& bricks, const std::uint32_t* cellEmpty,
-             bool skipEmpty, RayInFlight<Kernel>& ray, const OpacityCorrection& correct,
-             float exitTransmittance, std::uint64_t& samples, std::uint64_t& skipped) {
+UDVR_FLATTEN bool stepRay(const Kernel& kernel, const SkipTable& bricks,
+                          const std::uint32_t* cellEmpty, bool skipEmpty, RayInFlight<Kernel>& ray,
+                          const OpacityCorrection& correct, float exitTransmittance,
+                          std::uint64_t& samples, std::uint64_t& skipped) {
     using lanes::Vf;
     const RaySamples& r = ray.r;
     if (ray.pending) {
@@ -442,9 +443,9 @@ bool stepRay(const Kernel& kernel, const SkipTable& bricks, const std::uint32_t*
         return ray.s >= r.n;
     }
     samples += static_cast<std::uint64_t>(nLive);
-    // Prefetch the cells two batches ahead (lanes 0, 8, 15).
-    const Cell<Vf> ahead = cellsAt(sf + 32.f);
-    for (int l : {0, 8, 15}) kernel.prefetch(ahead.base[l]);
+    // Prefetch the cells two batches ahead (first, middle and last lane).
+    const Cell<Vf> ahead = cellsAt(sf + static_cast<float>(2 * lanes::kWidth));
+    for (int l : {0, lanes::kWidth / 2, lanes::kWidth - 1}) kernel.prefetch(ahead.base[l]);
     ray.loaded = kernel.template load<Vf>(cell, Kernel::kLoadDeadLanes ? inRay : live);
     ray.pendingLive = live;
     ray.pending = true;

@@ -6,7 +6,8 @@
 #include <cmath>
 #include <vector>
 
-#include "udvr/classify/fast_tf.h"
+#include "udvr/classify/expected_tf.h"
+#include "udvr/classify/tf_pieces.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/render/camera.h"
 #include "udvr/render/ray_march.h"
@@ -423,49 +424,38 @@ TEST(Render, BadSettingsAreUserErrors) {
     EXPECT_THROW(renderVolume(m, ModelKind::GmmMc, tf, s), UdvrError);  // no gmm array
 }
 
-TEST(FastTransferFunction, MatchesTheReferenceEvaluator) {
+// The float TF pieces the batched ray loop classifies with, a batch of lanes at a time, against the
+// reference evaluator (a step, a colour-only point, clamping at both ends).
+TEST(TfPiecesFloat, LanesMatchTheReferenceEvaluator) {
     TransferFunction1D tf = tangleTransferFunction();
     // Add a step (two points at the same x) and an interior colour-only point.
     tf.opacityX = {-3.0, -1.0, 0.1, 0.1, 2.0, 5.0};
     tf.opacity = {0.2, 0.7, 0.1, 0.9, 0.4, 0.0};
-    const FastTransferFunction fast(tf);
-    for (int i = -2000; i <= 4000; ++i) {
-        const float x = static_cast<float>(i) * 0.0123f;
-        const Rgba want = tf.classify(x), got = fast.classify(x);
-        EXPECT_NEAR(got.r, want.r, 2e-6) << x;
-        EXPECT_NEAR(got.g, want.g, 2e-6) << x;
-        EXPECT_NEAR(got.b, want.b, 2e-6) << x;
-        EXPECT_NEAR(got.a, want.a, 2e-6) << x;
+    const TfPiecesStorage pieces(tf);
+    std::vector<float> xs;
+    for (int i = -2000; i <= 4000; ++i) xs.push_back(static_cast<float>(i) * 0.0123f);
+    xs.insert(xs.end(), {0.1f, 0.0999f, -1e6f, 1e6f});
+    while (xs.size() % lanes::kWidth) xs.push_back(0.f);
+    for (std::size_t i = 0; i < xs.size(); i += lanes::kWidth) {
+        lanes::Vf got[4];
+        tfAt<lanes::Vf>(pieces.fast().sized<kTfSmall>(), lanes::load(&xs[i]), got);
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            const Rgba want = tf.classify(xs[i + l]);  // premultiplied, at the float x
+            EXPECT_NEAR(got[0][l], want.r, 2e-6) << xs[i + l];
+            EXPECT_NEAR(got[1][l], want.g, 2e-6) << xs[i + l];
+            EXPECT_NEAR(got[2][l], want.b, 2e-6) << xs[i + l];
+            EXPECT_NEAR(got[3][l], want.a, 2e-6) << xs[i + l];
+        }
     }
-    EXPECT_NEAR(fast.classify(0.1f).a, 0.9f, 1e-6);  // right-continuous at the step
-    EXPECT_NEAR(fast.classify(0.0999f).a, tf.opacityAt(0.0999f), 1e-6);
-    EXPECT_NEAR(fast.classify(-1e6f).a, 0.2f, 1e-7);  // clamped
-    EXPECT_NEAR(fast.classify(1e6f).a, 0.0f, 1e-7);
+    // Right-continuous at the step (0.1f > 0.1), clamped outside.
+    float one[4];
+    tfAt<float>(pieces.fast(), 0.1f, one);
+    EXPECT_NEAR(one[3], 0.9f, 1e-6);
+    tfAt<float>(pieces.fast(), -1e6f, one);
+    EXPECT_NEAR(one[3], 0.2f, 1e-7);
+    tfAt<float>(pieces.fast(), 1e6f, one);
+    EXPECT_NEAR(one[3], 0.0f, 1e-7);
 }
 
 }  // namespace
 }  // namespace udvr
-
-TEST(OpacityCorrection, TableMatchesThePowerWithin1e6) {
-    // Exponents Δ/u that take the table path (not 1 or ½), α on a fine grid and near 0 and 1.
-    for (float e : {0.001f, 0.1234568f, 0.25f, 0.7f, 1.5f, 4.f, 30.f}) {
-        const udvr::detail::OpacityCorrection correct(e);
-        double worstA = 0, worstS = 0;
-        for (int i = 1; i <= 100000; ++i) {
-            float a = static_cast<float>(i) / 100000.f;
-            if (i < 50) a = static_cast<float>(i) * 1e-7f;
-            if (i > 99950) a = 1.f - static_cast<float>(100000 - i) * 0x1p-24f;
-            float alpha, scale;
-            correct(a, alpha, scale);
-            const double exact =
-                1.0 - std::pow(1.0 - static_cast<double>(a), static_cast<double>(e));
-            worstA = std::max(worstA, std::abs(alpha - exact));
-            // The scale multiplies a premultiplied colour ≤ α: its error counts times α.
-            worstS = std::max(worstS, std::abs(scale - exact / a) * a);
-        }
-        // Table error ≤ 1e−6; the powf fallback (near α = 1, or everywhere for steep large
-        // exponents) loses up to e·2^−25 to the float rounding of 1 − α, as it always did.
-        EXPECT_LT(worstA, 1.2e-6) << e;
-        EXPECT_LT(worstS, 1.2e-6) << e;
-    }
-}

@@ -65,3 +65,8 @@ namespace detail {
 /// For the small bodies of the per-sample kernels: inlined into the ray loop even where GCC's
 /// heuristics would call them (a call passes 16-lane vectors through memory).
 #define UDVR_INLINE inline __attribute__((always_inline))
+/// For the ray loop's step: everything it calls is inlined into it (GCC's inliner otherwise stops
+/// at its growth limits and passes the batch's vectors through memory: +30 % on quantile-range).
+#define UDVR_FLATTEN __attribute__((flatten))
+/// For cold paths inside flattened code (the double fallback of a few lanes).
+#define UDVR_NOINLINE __attribute__((noinline))

@@ -1,12 +1,14 @@
 #pragma once
 // Portable lanes for the batched ray loop and the generic classification bodies.
 //
-// A batch is 16 float lanes written with GCC vector extensions (`Vf`, 64 bytes): the same source
-// compiles to one AVX-512 register, two AVX2 registers, four SSE2 or NEON registers. Masks are
-// int32 lanes of −1 (true) or 0 (`Mask`), the value of a vector comparison. Arithmetic, compares
-// and selects are plain operators; only what the vector extensions cannot say is written per
-// instruction set here, each with a portable fallback: gathers, small-table lookups (permutes),
-// masked loads, FMA, square roots, mask reductions and the 16×16 transpose.
+// A batch is kWidth float lanes written with GCC vector extensions (`Vf`), kWidth the width of
+// the target's vector register in floats: 16 on AVX-512, 8 on AVX2, 4 on SSE2 and NEON. (Vectors
+// wider than the register compile badly: GCC 12 lowers a 16-float compare-and-select on AVX2 to
+// about 100–350 scalar instructions, against 7 at the native width.) Masks are int32 lanes of −1
+// (true) or 0 (`Mask`), the value of a vector comparison. Arithmetic, compares and selects are
+// plain operators; only what the vector extensions cannot say is written per instruction set
+// here, each with a portable fallback: gathers, small-table lookups (permutes), masked loads,
+// FMA, square roots, mask bits, reductions and the kWidth×kWidth transpose.
 //
 // The generic classification bodies (classify/, reconstruct/) take a value type T that is either
 // a scalar (double for the exact path and probe, float for one GPU thread) or Vf; the overloads
@@ -16,11 +18,11 @@
 #include <cstdint>
 #include <cstring>
 #include <type_traits>
+#include <utility>
 
 #include "udvr/util/check.h"
 
-#if defined(__AVX512F__) || defined(__AVX2__)
-#define UDVR_LANES_X86 1
+#if defined(__AVX512F__) || defined(__AVX2__) || defined(__SSE2__)
 // GCC 12's AVX-512 headers start many intrinsics from _mm512_undefined_ps(), which its
 // -W(maybe-)uninitialized flag wherever they inline (GCC bug 105593, fixed in 13).
 #pragma GCC diagnostic push
@@ -29,16 +31,25 @@
 #include <immintrin.h>
 #pragma GCC diagnostic pop
 #endif
+#if defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
+#endif
 
 namespace udvr::lanes {
 
-/// Lanes per batch on every target.
+/// Lanes per batch: the target's vector register in floats.
+#if defined(__AVX512F__)
 inline constexpr int kWidth = 16;
+#elif defined(__AVX__)
+inline constexpr int kWidth = 8;
+#else
+inline constexpr int kWidth = 4;
+#endif
 
-using Vf = float __attribute__((vector_size(64)));          // 16 floats
-using Vi = std::int32_t __attribute__((vector_size(64)));   // 16 int32, also the mask type
-using Vu = std::uint32_t __attribute__((vector_size(64)));  // 16 uint32 (bit tables)
-using Mask = Vi;                                            // lanes −1 (true) or 0
+using Vf = float __attribute__((vector_size(4 * kWidth)));          // kWidth floats
+using Vi = std::int32_t __attribute__((vector_size(4 * kWidth)));   // kWidth int32, also masks
+using Vu = std::uint32_t __attribute__((vector_size(4 * kWidth)));  // kWidth uint32 (bit tables)
+using Mask = Vi;                                                    // lanes −1 (true) or 0
 
 /// Whether T is a lane vector (else a scalar).
 template <class T>
@@ -53,26 +64,6 @@ using IntOf = std::conditional_t<kIsVector<T>, Vi, int>;
 template <class T>
 using ScalarOf = std::conditional_t<kIsVector<T>, float, T>;
 
-#if defined(__AVX2__) && !defined(__AVX512F__)
-/// The two 256-bit halves of a 16-lane vector, and back (AVX2: one batch is two registers).
-inline __m256 lowHalf(Vf v) { return __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7); }
-inline __m256 highHalf(Vf v) { return __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15); }
-inline __m256i lowHalf(Vi v) {
-    return std::bit_cast<__m256i>(__builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7));
-}
-inline __m256i highHalf(Vi v) {
-    return std::bit_cast<__m256i>(__builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15));
-}
-inline Vf join(__m256 lo, __m256 hi) {
-    return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-}
-inline Vi join(__m256i lo, __m256i hi) {
-    using V8i = std::int32_t __attribute__((vector_size(32)));
-    return __builtin_shufflevector(std::bit_cast<V8i>(lo), std::bit_cast<V8i>(hi), 0, 1, 2, 3, 4, 5,
-                                   6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-}
-#endif
-
 // ---- construction --------------------------------------------------------------------------
 /// Every lane = s (scalars: s itself).
 template <class T>
@@ -84,7 +75,10 @@ UDVR_CPU_GPU inline T splat(ScalarOf<T> s) {
 }
 inline Vi splati(std::int32_t s) { return Vi{} + s; }
 /// Lane i = i.
-inline Vi iota() { return Vi{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15}; }
+inline Vi iota() {
+    return []<int... I>(std::integer_sequence<int, I...>) { return Vi{I...}; }
+    (std::make_integer_sequence<int, kWidth>{});
+}
 inline Vf load(const float* p) {
     Vf v;
     std::memcpy(&v, p, sizeof v);
@@ -98,19 +92,18 @@ inline void store(std::int32_t* p, Vi v) { std::memcpy(p, &v, sizeof v); }
 inline std::uint32_t bits(Mask m) {
 #if defined(__AVX512F__)
     return _mm512_cmplt_epi32_mask(std::bit_cast<__m512i>(m), _mm512_setzero_si512());
-#elif defined(__AVX2__)
-    const __m256i lo =
-        std::bit_cast<__m256i>(__builtin_shufflevector(m, m, 0, 1, 2, 3, 4, 5, 6, 7));
-    const __m256i hi =
-        std::bit_cast<__m256i>(__builtin_shufflevector(m, m, 8, 9, 10, 11, 12, 13, 14, 15));
-    return static_cast<std::uint32_t>(_mm256_movemask_ps(_mm256_castsi256_ps(lo))) |
-           static_cast<std::uint32_t>(_mm256_movemask_ps(_mm256_castsi256_ps(hi))) << 8;
+#elif defined(__AVX__)
+    return static_cast<std::uint32_t>(_mm256_movemask_ps(std::bit_cast<__m256>(m)));
+#elif defined(__SSE2__)
+    return static_cast<std::uint32_t>(_mm_movemask_ps(std::bit_cast<__m128>(m)));
 #else
     std::uint32_t b = 0;
     for (int i = 0; i < kWidth; ++i) b |= (m[i] < 0 ? 1u : 0u) << i;
     return b;
 #endif
 }
+/// All kWidth bits set.
+inline constexpr std::uint32_t kAllBits = (1u << kWidth) - 1u;
 /// Lane i = bit i of b.
 inline Mask fromBits(std::uint32_t b) {
     return ((splati(static_cast<std::int32_t>(b)) >> iota()) & 1) != 0;
@@ -122,8 +115,8 @@ inline bool anyOf(Mask m) { return bits(m) != 0; }
 UDVR_CPU_GPU inline bool noneOf(bool m) { return !m; }
 inline bool noneOf(Mask m) { return bits(m) == 0; }
 UDVR_CPU_GPU inline bool allOf(bool m) { return m; }
-inline bool allOf(Mask m) { return bits(m) == 0xFFFFu; }
-/// The constant true/false mask of T.
+inline bool allOf(Mask m) { return bits(m) == kAllBits; }
+/// The constant true mask of T.
 template <class T>
 UDVR_CPU_GPU inline MaskOf<T> allTrue() {
     if constexpr (kIsVector<T>)
@@ -149,13 +142,9 @@ inline Vf fma(Vf a, Vf b, Vf c) {
 #if defined(__AVX512F__)
     return _mm512_fmadd_ps(a, b, c);
 #elif defined(__FMA__)
-    const __m256 lo = _mm256_fmadd_ps(__builtin_shufflevector(a, a, 0, 1, 2, 3, 4, 5, 6, 7),
-                                      __builtin_shufflevector(b, b, 0, 1, 2, 3, 4, 5, 6, 7),
-                                      __builtin_shufflevector(c, c, 0, 1, 2, 3, 4, 5, 6, 7));
-    const __m256 hi = _mm256_fmadd_ps(__builtin_shufflevector(a, a, 8, 9, 10, 11, 12, 13, 14, 15),
-                                      __builtin_shufflevector(b, b, 8, 9, 10, 11, 12, 13, 14, 15),
-                                      __builtin_shufflevector(c, c, 8, 9, 10, 11, 12, 13, 14, 15));
-    return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    return _mm256_fmadd_ps(a, b, c);
+#elif defined(__ARM_FEATURE_FMA) && defined(__aarch64__)
+    return vfmaq_f32(c, a, b);
 #else
     return a * b + c;
 #endif
@@ -166,9 +155,11 @@ inline Vf sqrt(Vf x) {
 #if defined(__AVX512F__)
     return _mm512_sqrt_ps(x);
 #elif defined(__AVX__)
-    const __m256 lo = _mm256_sqrt_ps(__builtin_shufflevector(x, x, 0, 1, 2, 3, 4, 5, 6, 7));
-    const __m256 hi = _mm256_sqrt_ps(__builtin_shufflevector(x, x, 8, 9, 10, 11, 12, 13, 14, 15));
-    return __builtin_shufflevector(lo, hi, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    return _mm256_sqrt_ps(x);
+#elif defined(__SSE2__)
+    return _mm_sqrt_ps(x);
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+    return vsqrtq_f32(x);
 #else
     Vf r;
     for (int i = 0; i < kWidth; ++i) r[i] = std::sqrt(x[i]);
@@ -189,85 +180,106 @@ inline Vf abs(Vf x) { return std::bit_cast<Vf>(std::bit_cast<Vi>(x) & 0x7FFFFFFF
 /// Float of an int, int of a float truncated toward 0 (lanes in range).
 inline Vf toFloat(Vi v) { return __builtin_convertvector(v, Vf); }
 inline Vi truncToInt(Vf v) { return __builtin_convertvector(v, Vi); }
-/// Smallest and largest lane of v among the `live` lanes (live must not be empty), by a
-/// shuffle tree.
-template <bool Largest>
-inline int extremeOf(Vi v, Mask live) {
-    const auto pick = [](auto a, auto b) { return Largest ? (a > b ? a : b) : (a < b ? a : b); };
-    const Vi w = select(live, v, splati(Largest ? -0x7FFFFFFF - 1 : 0x7FFFFFFF));
-    const auto a = pick(__builtin_shufflevector(w, w, 0, 1, 2, 3, 4, 5, 6, 7),
-                        __builtin_shufflevector(w, w, 8, 9, 10, 11, 12, 13, 14, 15));
-    const auto b =
-        pick(__builtin_shufflevector(a, a, 0, 1, 2, 3), __builtin_shufflevector(a, a, 4, 5, 6, 7));
-    const auto c = pick(__builtin_shufflevector(b, b, 0, 1), __builtin_shufflevector(b, b, 2, 3));
-    return c[0] > c[1] ? (Largest ? c[0] : c[1]) : (Largest ? c[1] : c[0]);
+/// Smallest and largest lane of v among the `live` lanes (live must not be empty).
+inline int minOf(Vi v, Mask live) {
+#if defined(__AVX512F__)
+    return _mm512_mask_reduce_min_epi32(static_cast<__mmask16>(bits(live)),
+                                        std::bit_cast<__m512i>(v));
+#else
+    const Vi w = select(live, v, splati(0x7FFFFFFF));
+    int m = w[0];
+    for (int i = 1; i < kWidth; ++i) m = w[i] < m ? w[i] : m;
+    return m;
+#endif
 }
-inline int minOf(Vi v, Mask live) { return extremeOf<false>(v, live); }
-inline int maxOf(Vi v, Mask live) { return extremeOf<true>(v, live); }
-/// Sum of the lanes (pairwise).
+inline int maxOf(Vi v, Mask live) {
+#if defined(__AVX512F__)
+    return _mm512_mask_reduce_max_epi32(static_cast<__mmask16>(bits(live)),
+                                        std::bit_cast<__m512i>(v));
+#else
+    const Vi w = select(live, v, splati(-0x7FFFFFFF - 1));
+    int m = w[0];
+    for (int i = 1; i < kWidth; ++i) m = w[i] > m ? w[i] : m;
+    return m;
+#endif
+}
+/// Sum of the lanes (pairwise: log2(kWidth) dependent adds).
 inline float sum(Vf v) {
-    const auto a = __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7) +
-                   __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
-    const auto b =
-        __builtin_shufflevector(a, a, 0, 1, 2, 3) + __builtin_shufflevector(a, a, 4, 5, 6, 7);
-    const auto c = __builtin_shufflevector(b, b, 0, 1) + __builtin_shufflevector(b, b, 2, 3);
-    return c[0] + c[1];
+#if defined(__AVX512F__)
+    return _mm512_reduce_add_ps(v);
+#else
+    float a[kWidth];
+    std::memcpy(a, &v, sizeof v);
+    for (int w = kWidth / 2; w >= 1; w /= 2)
+        for (int i = 0; i < w; ++i) a[i] += a[i + w];
+    return a[0];
+#endif
 }
 
 // ---- lane movement (permutes) ---------------------------------------------------------------
-/// Lane i ← v[i − K] for i ≥ K, fill[i] below (K in 1 … 15).
+/// Lane i ← v[i − K] for i ≥ K, fill[i] below (0 < K < kWidth).
 template <int K>
 inline Vf shiftUp(Vf v, Vf fill) {
-    static_assert(K >= 1 && K <= 15);
-    const Vi idx = iota() >= K ? iota() - K : iota() + kWidth;
-    return __builtin_shuffle(v, fill, idx);
+    static_assert(K >= 1 && K < kWidth);
+    return __builtin_shuffle(v, fill, iota() >= K ? iota() - K : iota() + kWidth);
 }
-/// Lane i ← v[i + 1] for i < 15, fill[15] in lane 15.
-inline Vf shiftDown1(Vf v, Vf fill) {
-    return __builtin_shufflevector(v, fill, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 31);
-}
-/// Inclusive prefix products: lane i ← v[0]·v[1]·…·v[i] (Hillis–Steele, four steps).
+/// Lane i ← v[i + 1] for i < kWidth − 1, fill[kWidth − 1] in the last lane.
+inline Vf shiftDown1(Vf v, Vf fill) { return __builtin_shuffle(v, fill, iota() + 1); }
+/// Inclusive prefix products: lane i ← v[0]·v[1]·…·v[i] (Hillis–Steele, log2(kWidth) steps).
 inline Vf prefixProduct(Vf v) {
     const Vf one = splat<Vf>(1.f);
     v = v * shiftUp<1>(v, one);
     v = v * shiftUp<2>(v, one);
-    v = v * shiftUp<4>(v, one);
-    v = v * shiftUp<8>(v, one);
+    if constexpr (kWidth > 4) v = v * shiftUp<4>(v, one);
+    if constexpr (kWidth > 8) v = v * shiftUp<8>(v, one);
     return v;
 }
 
-/// table[idx] per lane, idx in [0, size): with Size = 32 (a table of 32 floats) a register
-/// permute on AVX-512; with Size = 0 a table of any size (a gather). The size is a template
-/// argument so that the choice costs nothing in the loop.
+/// Table sizes for which lookup<Size> is made of register permutes (the kernels pick the
+/// smallest that holds a TF; other tables gather): AVX-512 one permute of 32 entries, AVX2 two
+/// (16 entries) or four (32) 8-entry permutes and a blend tree.
+#if defined(__AVX512F__)
+inline constexpr int kPermuteSizes[] = {32};
+#elif defined(__AVX2__)
+inline constexpr int kPermuteSizes[] = {16, 32};
+#else
+inline constexpr int kPermuteSizes[] = {0};
+#endif
+
+/// table[idx] per lane, idx in [0, Size) for Size ∈ {8, 16, 32} (a table of at least Size
+/// floats; register permutes where the target has them), or any index into any table for
+/// Size = 0 (a gather). The size is a template argument so the choice costs nothing in a loop.
 template <int Size>
 UDVR_INLINE Vf lookup(const float* table, Vi idx) {
+    static_assert(Size == 0 || Size == 8 || Size == 16 || Size == 32);
 #if defined(__AVX512F__)
     if constexpr (Size == 32)
         return _mm512_permutex2var_ps(_mm512_loadu_ps(table), std::bit_cast<__m512i>(idx),
                                       _mm512_loadu_ps(table + 16));
+    else if constexpr (Size != 0)
+        return _mm512_permutexvar_ps(std::bit_cast<__m512i>(idx), _mm512_loadu_ps(table));
     else
         return _mm512_i32gather_ps(std::bit_cast<__m512i>(idx), table, 4);
 #elif defined(__AVX2__)
-    const auto half = [&](__m256i i) {
-        if constexpr (Size == 32) {
-            // Four in-register 8-entry permutes, picked by bits 3 and 4 of the index (blendv
-            // reads the sign bit, so the bit is shifted up to it).
-            const __m256 p0 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table), i);
-            const __m256 p1 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 8), i);
-            const __m256 p2 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 16), i);
-            const __m256 p3 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 24), i);
-            const __m256 bit3 = _mm256_castsi256_ps(_mm256_slli_epi32(i, 28));
-            const __m256 bit4 = _mm256_castsi256_ps(_mm256_slli_epi32(i, 27));
-            return _mm256_blendv_ps(_mm256_blendv_ps(p0, p1, bit3), _mm256_blendv_ps(p2, p3, bit3),
-                                    bit4);
-        } else {
-            return _mm256_i32gather_ps(table, i, 4);
-        }
-    };
-    return join(half(lowHalf(idx)), half(highHalf(idx)));
+    const __m256i i = std::bit_cast<__m256i>(idx);
+    if constexpr (Size != 0) {
+        // 8-entry permutes, picked by bits 3 and 4 of the index (blendv reads the sign bit, so
+        // each bit is shifted up to it).
+        const auto permute = [&](int k) {
+            return _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 8 * k), i);
+        };
+        if constexpr (Size == 8) return permute(0);
+        const __m256 bit3 = _mm256_castsi256_ps(_mm256_slli_epi32(i, 28));
+        const __m256 low = _mm256_blendv_ps(permute(0), permute(1), bit3);
+        if constexpr (Size == 16) return low;
+        const __m256 high = _mm256_blendv_ps(permute(2), permute(3), bit3);
+        return _mm256_blendv_ps(low, high, _mm256_castsi256_ps(_mm256_slli_epi32(i, 27)));
+    } else {
+        return _mm256_i32gather_ps(table, i, 4);
+    }
 #else
     Vf r;
-    for (int i = 0; i < kWidth; ++i) r[i] = table[idx[i]];
+    for (int l = 0; l < kWidth; ++l) r[l] = table[idx[l]];
     return r;
 #endif
 }
@@ -279,14 +291,12 @@ inline Vf gather(const float* base, Vi idx, Mask live) {
     return _mm512_mask_i32gather_ps(_mm512_setzero_ps(), static_cast<__mmask16>(bits(live)),
                                     std::bit_cast<__m512i>(idx), base, 4);
 #elif defined(__AVX2__)
-    const auto half = [&](__m256i i, __m256i m) {
-        return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, i, _mm256_castsi256_ps(m), 4);
-    };
-    return join(half(lowHalf(idx), lowHalf(live)), half(highHalf(idx), highHalf(live)));
+    return _mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, std::bit_cast<__m256i>(idx),
+                                    std::bit_cast<__m256>(live), 4);
 #else
     Vf r{};
-    for (int i = 0; i < kWidth; ++i)
-        if (live[i]) r[i] = base[idx[i]];
+    for (int l = 0; l < kWidth; ++l)
+        if (live[l]) r[l] = base[idx[l]];
     return r;
 #endif
 }
@@ -310,13 +320,12 @@ inline void gatherPair(const float* base, Vi idx, Mask live, Vf& v0, Vf& v1) {
     v1 = gather(base, idx + 1, live);
 #endif
 }
-/// p[0 … n−1] in lanes 0 … n−1 (n ≤ 16), 0 above; reads nothing past p[n − 1].
+/// p[0 … n−1] in lanes 0 … n−1 (n ≤ kWidth), 0 above; reads nothing past p[n − 1].
 inline Vf loadFirst(const float* p, int n) {
 #if defined(__AVX512F__)
     return _mm512_maskz_loadu_ps(static_cast<__mmask16>((1u << n) - 1u), p);
-#elif defined(__AVX2__)
-    const Mask m = firstLanes(n);
-    return join(_mm256_maskload_ps(p, lowHalf(m)), _mm256_maskload_ps(p + 8, highHalf(m)));
+#elif defined(__AVX__)
+    return _mm256_maskload_ps(p, std::bit_cast<__m256i>(firstLanes(n)));
 #else
     Vf r{};
     for (int i = 0; i < n; ++i) r[i] = p[i];
@@ -331,23 +340,20 @@ inline Mask testBits(const std::uint32_t* table, Vi v, Mask live) {
                                     std::bit_cast<__m512i>(v >> 5), table, 4);
     return live & (((std::bit_cast<Vi>(words) >> (v & 31)) & 1) != 0);
 #elif defined(__AVX2__)
-    const auto half = [&](__m256i i, __m256i m) {
-        return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
-                                           reinterpret_cast<const int*>(table), i, m, 4);
-    };
-    const Vi words =
-        join(half(lowHalf(v >> 5), lowHalf(live)), half(highHalf(v >> 5), highHalf(live)));
+    const __m256i words = _mm256_mask_i32gather_epi32(
+        _mm256_setzero_si256(), reinterpret_cast<const int*>(table), std::bit_cast<__m256i>(v >> 5),
+        std::bit_cast<__m256i>(live), 4);
     return live & (((std::bit_cast<Vu>(words) >> std::bit_cast<Vu>(v & 31)) & 1u) != 0u);
 #else
-    Vi words{};
-    for (int i = 0; i < kWidth; ++i)
-        if (live[i]) words[i] = static_cast<std::int32_t>(table[v[i] >> 5]);
-    return live & (((std::bit_cast<Vu>(words) >> std::bit_cast<Vu>(v & 31)) & 1u) != 0u);
+    Vu words{};
+    for (int l = 0; l < kWidth; ++l)
+        if (live[l]) words[l] = table[v[l] >> 5];
+    return live & (((words >> std::bit_cast<Vu>(v & 31)) & 1u) != 0u);
 #endif
 }
 
-/// In-place transpose of the 16×16 matrix whose row i is r[i].
-inline void transpose16(Vf r[16]) {
+/// In-place transpose of the kWidth×kWidth matrix whose row i is r[i].
+inline void transpose(Vf r[kWidth]) {
 #if defined(__AVX512F__)
     __m512 t[16], u[16];
     for (int i = 0; i < 16; i += 2) {
@@ -371,17 +377,20 @@ inline void transpose16(Vf r[16]) {
         r[c + 12] = _mm512_shuffle_f32x4(w0, w1, 0xDD);
     }
 #else
-    // Four rounds of interleaving row i with row i + 8 (a perfect shuffle of the 8-bit index
-    // (row, column): each round rotates it by one bit, so four rounds swap row and column).
-    Vf t[16];
-    for (int round = 0; round < 4; ++round) {
-        for (int i = 0; i < 8; ++i) {
-            t[2 * i] = __builtin_shufflevector(r[i], r[i + 8], 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5,
-                                               21, 6, 22, 7, 23);
-            t[2 * i + 1] = __builtin_shufflevector(r[i], r[i + 8], 8, 24, 9, 25, 10, 26, 11, 27, 12,
-                                                   28, 13, 29, 14, 30, 15, 31);
+    // log2(kWidth) rounds of interleaving row i with row i + kWidth/2 (a perfect shuffle of the
+    // index bits (row, column): each round rotates them by one, so the rounds swap row and
+    // column).
+    constexpr int kHalf = kWidth / 2;
+    const Vi odd = iota() & 1, pos = iota() >> 1;
+    const Vi lower = odd != 0 ? pos + kWidth : pos;
+    const Vi upper = lower + kHalf;
+    Vf t[kWidth];
+    for (int round = 1; round < kWidth; round *= 2) {
+        for (int i = 0; i < kHalf; ++i) {
+            t[2 * i] = __builtin_shuffle(r[i], r[i + kHalf], lower);
+            t[2 * i + 1] = __builtin_shuffle(r[i], r[i + kHalf], upper);
         }
-        for (int i = 0; i < 16; ++i) r[i] = t[i];
+        for (int i = 0; i < kWidth; ++i) r[i] = t[i];
     }
 #endif
 }
