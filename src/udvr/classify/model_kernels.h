@@ -34,6 +34,8 @@
 #include "udvr/classify/transfer_function.h"
 #include "udvr/reconstruct/box_spline.h"
 #include "udvr/reconstruct/cell.h"
+#include "udvr/reconstruct/gaussian_interp.h"
+#include "udvr/reconstruct/gmm_ordered.h"
 #include "udvr/reconstruct/quantile_interp.h"
 #include "udvr/stats/model_volume.h"
 
@@ -244,24 +246,10 @@ struct GaussianKernel : KernelBase, detail::ClassifyInLoad {
 
     GaussianKernel(const Grid3& grid, const float* m, const float* s, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), mean(m), stddev(s) {}
-    /// μ and σ at a cell.
+    /// μ and σ at a cell (reconstruct/gaussian_interp.h).
     template <class T>
     UDVR_CPU_GPU void paramsAt(const Cell<T>& c, lanes::MaskOf<T> live, T& mu, T& sigma) const {
-        mu = trilinear(geometry, mean, 1, c, live);
-        // σ² = Σ_c (w_c σ_c)², w_c the products of (1 − f) and f per axis.
-        const T one = lanes::splat<T>(1);
-        const T gx[2] = {one - c.fx, c.fx}, gy[2] = {one - c.fy, c.fy}, gz[2] = {one - c.fz, c.fz};
-        const std::int64_t offsets[4] = {0, geometry.next[1], geometry.next[2],
-                                         geometry.next[1] + geometry.next[2]};
-        T var{};
-        for (int r = 0; r < 4; ++r) {
-            T s0, s1;
-            edgeOf<T>(geometry, stddev, 1, c.base, offsets[r], live, s0, s1);
-            const T wyz = gy[r & 1] * gz[r >> 1];
-            const T a0 = gx[0] * wyz * s0, a1 = gx[1] * wyz * s1;
-            var = lanes::fma(a0, a0, lanes::fma(a1, a1, var));
-        }
-        sigma = lanes::sqrt(lanes::select(var > 0, var, T{}));  // σ = 0: the point mass TF(μ)
+        gaussianAt(geometry, mean, stddev, c, live, mu, sigma);
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
@@ -298,22 +286,12 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
 
     GmmOrderedKernel(const Grid3& grid, const float* g, int k, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), gmm(g), components(k) {}
-    /// π_k (normalised), μ_k, σ_k at a cell; returns Σπ before normalisation.
+    /// π_k (normalised), μ_k, σ_k at a cell; returns Σπ before normalisation
+    /// (reconstruct/gmm_ordered.h).
     template <class T>
     UDVR_CPU_GPU T componentsAt(const Cell<T>& c, lanes::MaskOf<T> live, T* pi, T* mu,
                                 T* sigma) const {
-        const int k = components, n = 3 * k;
-        T total{};
-        for (int i = 0; i < k; ++i) {
-            pi[i] = trilinear(geometry, gmm + i, n, c, live);
-            mu[i] = trilinear(geometry, gmm + k + i, n, c, live);
-            sigma[i] = trilinear(geometry, gmm + 2 * k + i, n, c, live);
-            total += pi[i];
-        }
-        const auto normalise = total > 0;
-        const T inv = lanes::splat<T>(1) / total;
-        for (int i = 0; i < k; ++i) pi[i] = lanes::select(normalise, pi[i] * inv, pi[i]);
-        return total;
+        return gmmOrderedAt(geometry, gmm, components, c, live, pi, mu, sigma);
     }
     /// Σ_k π_k E_k in the `on` lanes (0 elsewhere); returns the lanes too wide for float.
     template <class T>
