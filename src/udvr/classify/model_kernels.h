@@ -94,6 +94,12 @@ struct KernelBase {
             f(tfFast);
         }
     }
+    /// Whether int32 lane gathers reach every float of an array with perVoxel floats per voxel
+    /// (else the lanes take the double body: their index would wrap past 2³¹).
+    bool gathersFit(int perVoxel) const {
+        return geometry.fitsInt32 &&
+               static_cast<double>(geometry.stride[2]) * geometry.dims[2] * perVoxel < 2147483647.0;
+    }
     /// Prefetch the four x-rows of the cell based at voxel v of an array with perVoxel floats.
     void prefetchRows(const float* a, int v, int perVoxel) const {
         const int g1 = geometry.next32[1], g2 = geometry.next32[2];
@@ -320,7 +326,13 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r;
+        Classified<T> r{};
+        if constexpr (lanes::kIsVector<T>) {
+            if (!gathersFit(3 * components)) {  // 3K floats per voxel past int32 indices
+                detail::exactLanes(*this, c, live, r.v);
+                return r;
+            }
+        }
         detail::exactWhere(*this, c, expectation(c, live, r.v), r.v);
         return r;
     }
@@ -364,6 +376,12 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
                         t, [&](int j) { return b[j]; }, count, r.v);
                 });
                 detail::keepLive<T>(live, r.v);
+                return r;
+            }
+        }
+        if constexpr (lanes::kIsVector<T>) {
+            if (!gathersFit(stride)) {  // q + 1 floats per voxel past int32 indices
+                detail::exactLanes(*this, c, live, r.v);
                 return r;
             }
         }
@@ -412,6 +430,12 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
                         densityWeights, zero, r.v);
                 });
                 detail::keepLive<T>(live, r.v);
+                return r;
+            }
+        }
+        if constexpr (lanes::kIsVector<T>) {
+            if (!gathersFit(stride)) {  // q + 1 floats per voxel past int32 indices
+                detail::exactLanes(*this, c, live, r.v);
                 return r;
             }
         }

@@ -500,6 +500,28 @@ double worstLaneError(const K& k, CounterRng& rng, const std::array<int, 3>& dim
 // |b| ≤ 10 a few float roundings (6e−8·|b|) times the TF's slope (≤ 0.9) and the Gaussian
 // bodies' ~6e−8·(σ/w)² (σ ≤ 8w): 2e−5; for |b| ~ 1000 the roundings are 100× larger: 3e−4.
 // Measured worst (AVX-512): 2.3e−6 and 5.6e−5.
+// Lane gathers index floats with int32: arrays of several floats per voxel past 2³¹ floats must
+// take the double body (reviewer's finding: a 512³ GMM with K = 6 reaches 2.4e9).
+TEST(Kernels, LaneGathersKnowWhereInt32IndicesEnd) {
+    TransferFunction1D tf;
+    tf.colorX = {0.0, 1.0};
+    tf.color = {{1, 1, 1}, {1, 1, 1}};
+    tf.opacityX = {0.0, 1.0};
+    tf.opacity = {0.0, 1.0};
+    const TfPiecesStorage pieces(tf);
+    Grid3 big;
+    big.dims = {512, 512, 512};  // 1.34e8 voxels: int32 voxel indices, not ×18 floats
+    const GmmOrderedKernel gmm(big, nullptr, 6, pieces);
+    EXPECT_TRUE(gmm.geometry.fitsInt32);
+    EXPECT_TRUE(gmm.gathersFit(1));
+    EXPECT_TRUE(gmm.gathersFit(15));   // 2.01e9 < 2³¹
+    EXPECT_FALSE(gmm.gathersFit(16));  // 2.15e9
+    EXPECT_FALSE(gmm.gathersFit(18));
+    Grid3 huge;
+    huge.dims = {1300, 1300, 1300};  // 2.2e9 voxels: no int32 voxel index at all
+    EXPECT_FALSE(GmmOrderedKernel(huge, nullptr, 1, pieces).gathersFit(1));
+}
+
 TEST(Kernels, LaneAndFloatBodiesMatchTheDoubleBody) {
     CounterRng rng(77, 0, 0);
     for (const std::array<int, 3>& dims :

@@ -39,7 +39,8 @@ UDVR_CPU_GPU UDVR_INLINE T widthAt(const CellGeometry& g, const float* data, int
 /// AVX2, 7 on SSE2/NEON; larger populations gather each boundary (boundaryAt).
 inline constexpr int kMaxRowBoundaries = 2 * lanes::kWidth;
 
-/// boundaryAt and widthAt for boundaries first … first + count − 1 (count ≤ kMaxRowBoundaries)
+/// boundaryAt and widthAt for boundaries first … first + count − 1 (count ≤ kMaxRowBoundaries;
+/// b and w hold kMaxRowBoundaries vectors)
 /// of a batch's samples at once: per block of kWidth boundaries, each live sample's 8 corner
 /// rows are one vector each (masked loads), blended by the same lerps, then the samples' rows
 /// are transposed, so b[j] holds boundary first + j of every sample and the classification runs
@@ -66,11 +67,9 @@ UDVR_INLINE void boundaryRows(const CellGeometry& g, const float* data, int stri
         const auto clampW = [](int n) { return n < 0 ? 0 : (n < W ? n : W); };
         const int nb = clampW(rowCount - j0);           // boundaries in this block
         const int nw = w ? clampW(count - 1 - j0) : 0;  // widths in this block
-        // A single block is transposed in place in the output.
-        const bool direct = nb == W || (j0 == 0 && nb == count);
-        Vf rowsLocal[W], widthsLocal[W];
-        Vf* rows = direct ? b + j0 : rowsLocal;
-        Vf* widths = nw == W ? w + j0 : widthsLocal;
+        // Each block is transposed in place in the outputs (they hold 2·kWidth vectors).
+        Vf* rows = b + j0;
+        Vf* widths = w ? w + j0 : nullptr;
         for (int l = 0; l < W; ++l) {
             rows[l] = Vf{};
             if (nw > 0) widths[l] = Vf{};
@@ -95,16 +94,8 @@ UDVR_INLINE void boundaryRows(const CellGeometry& g, const float* data, int stri
             rows[l] = blend(corner);
             if (nw > 0) widths[l] = blend(cw);
         }
-        if (nb > 0) {
-            lanes::transpose(rows);
-            if (!direct)
-                for (int j = 0; j < nb; ++j) b[j0 + j] = rows[j];
-        }
-        if (nw > 0) {
-            lanes::transpose(widths);
-            if (nw != W)
-                for (int j = 0; j < nw; ++j) w[j0 + j] = widths[j];
-        }
+        if (nb > 0) lanes::transpose(rows);
+        if (nw > 0) lanes::transpose(widths);
     }
     if (rowCount < count) b[count - 1] = b[count - 2] + w[count - 2];
 }

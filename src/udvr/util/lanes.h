@@ -223,7 +223,7 @@ inline Vf shiftUp(Vf v, Vf fill) {
     static_assert(K >= 1 && K < kWidth);
     return __builtin_shuffle(v, fill, iota() >= K ? iota() - K : iota() + kWidth);
 }
-/// Lane i ← v[i + 1] for i < kWidth − 1, fill[kWidth − 1] in the last lane.
+/// Lane i ← v[i + 1] for i < kWidth − 1, fill[0] in the last lane.
 inline Vf shiftDown1(Vf v, Vf fill) { return __builtin_shuffle(v, fill, iota() + 1); }
 /// Inclusive prefix products: lane i ← v[0]·v[1]·…·v[i] (Hillis–Steele, log2(kWidth) steps).
 inline Vf prefixProduct(Vf v) {
