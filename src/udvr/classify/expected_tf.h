@@ -155,11 +155,12 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Bounda
 /// width(j) the width of quantile j, interpolated from the corners' own widths so that 1/w does not
 /// magnify the rounding of large boundaries) or 1/q (`quantile-mean-mass`). With density
 /// weights, quantiles of width ≤ zeroWidth are point masses of infinite density: they share
-/// all the weight equally (SPEC §4).
+/// all the weight equally (SPEC §4). Only `live` lanes are looked at for zero widths (dead lanes
+/// of a batch have width 0 and would send every quantile down the zero-width path).
 template <class T, class Tf, class Boundary, class Width>
 UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundary& boundary,
                                                      const Width& width, int q, bool densityWeights,
-                                                     T zeroWidth, T out[4]) {
+                                                     T zeroWidth, lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     T sum[4] = {}, zeroSum[4] = {}, weightSum{}, zeroCount{};
     bool anyZeroSeen = false;
@@ -175,7 +176,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundar
         for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
         weightSum += weight;
         if (densityWeights) {
-            const auto zero = w <= zeroWidth;
+            const auto zero = live & (w <= zeroWidth);
             if (lanes::anyOf(zero)) {
                 anyZeroSeen = true;
                 anyZero = anyZero | zero;

@@ -427,7 +427,7 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
                 withTf<T>([&](const auto& t) {
                     expectedTfQuantileMean<T>(
                         t, [&](int j) { return b[j]; }, [&](int j) { return w[j]; }, q,
-                        densityWeights, zero, r.v);
+                        densityWeights, zero, live, r.v);
                 });
                 detail::keepLive<T>(live, r.v);
                 return r;
@@ -443,7 +443,7 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
             expectedTfQuantileMean<T>(
                 t, [&](int j) { return boundaryAt<T>(geometry, quantiles, stride, j, c, live); },
                 [&](int j) { return widthAt<T>(geometry, quantiles, stride, j, c, live); }, q,
-                densityWeights, zero, r.v);
+                densityWeights, zero, live, r.v);
         });
         detail::keepLive<T>(live, r.v);
         return r;
