@@ -239,7 +239,7 @@ inline Vf prefixProduct(Vf v) {
 /// smallest that holds a TF; other tables gather): AVX-512 one permute of 32 entries, AVX2 two
 /// (16 entries) or four (32) 8-entry permutes and a blend tree.
 #if defined(__AVX512F__)
-inline constexpr int kPermuteSizes[] = {32};
+inline constexpr int kPermuteSizes[] = {16, 32};
 #elif defined(__AVX2__)
 inline constexpr int kPermuteSizes[] = {16, 32};
 #else
