@@ -156,6 +156,41 @@ struct ClassifyInLoad {
         for (int ch = 0; ch < 4; ++ch) out[ch] = c.v[ch];
     }
 };
+/// The load of the quantile kernels: body(tf, boundary, width, out) with boundary(j), width(j)
+/// callables over boundaries first … first + count − 1 of a voxel-major array (`stride` floats
+/// per voxel) — the batch's transposed rows where they fit (kMaxRowBoundaries), else one
+/// trilinear blend per boundary; lanes whose int32 float index would pass 2³¹ take the double
+/// body. Dead lanes are 0.
+template <class T, class K, class Body>
+UDVR_CPU_GPU UDVR_INLINE Classified<T> quantileLoad(const K& k, const float* data, int stride,
+                                                    int first, int count, bool widths,
+                                                    const Cell<T>& c, lanes::MaskOf<T> live,
+                                                    const Body& body) {
+    Classified<T> r;
+    if constexpr (lanes::kIsVector<T>) {
+        if (count <= kMaxRowBoundaries) {
+            lanes::Vf b[kMaxRowBoundaries], w[kMaxRowBoundaries];
+            boundaryRows(k.geometry, data, stride, first, count, c, live, b, widths ? w : nullptr);
+            k.template withTf<T>([&](const auto& t) {
+                body(
+                    t, [&](int j) { return b[j]; }, [&](int j) { return w[j]; }, r.v);
+            });
+            keepLive<T>(live, r.v);
+            return r;
+        }
+        if (!k.gathersFit(stride)) {
+            exactLanes(k, c, live, r.v);
+            return r;
+        }
+    }
+    k.template withTf<T>([&](const auto& t) {
+        body(
+            t, [&](int j) { return boundaryAt<T>(k.geometry, data, stride, first + j, c, live); },
+            [&](int j) { return widthAt<T>(k.geometry, data, stride, first + j, c, live); }, r.v);
+    });
+    keepLive<T>(live, r.v);
+    return r;
+}
 }  // namespace detail
 
 /// Classify at an index-space point (clamped into the grid) with the body over T.
@@ -365,34 +400,12 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
         : KernelBase(grid, tf), boundaries(b), stride(s), j0(lo), j1(hi) {}
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r;
         const int count = j1 - j0 + 1;
-        if constexpr (lanes::kIsVector<T>) {
-            if (count <= kMaxRowBoundaries) {
-                lanes::Vf b[kMaxRowBoundaries];
-                boundaryRows(geometry, boundaries, stride, j0, count, c, live, b);
-                withTf<T>([&](const auto& t) {
-                    expectedTfQuantileRange<T>(
-                        t, [&](int j) { return b[j]; }, count, r.v);
-                });
-                detail::keepLive<T>(live, r.v);
-                return r;
-            }
-        }
-        if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(stride)) {  // q + 1 floats per voxel past int32 indices
-                detail::exactLanes(*this, c, live, r.v);
-                return r;
-            }
-        }
-        withTf<T>([&](const auto& t) {
-            expectedTfQuantileRange<T>(
-                t,
-                [&](int j) { return boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live); },
-                count, r.v);
-        });
-        detail::keepLive<T>(live, r.v);
-        return r;
+        return detail::quantileLoad<T>(
+            *this, boundaries, stride, j0, count, false, c, live,
+            [&](const auto& t, const auto& boundary, const auto&, T* out) {
+                expectedTfQuantileRange<T>(t, boundary, count, out);
+            });
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
@@ -415,38 +428,12 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
         : KernelBase(grid, tf), quantiles(b), q(qIn), densityWeights(density), zeroWidth(zero) {}
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        using S = lanes::ScalarOf<T>;
-        Classified<T> r;
-        const int stride = q + 1;
-        const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
-        if constexpr (lanes::kIsVector<T>) {
-            if (stride <= kMaxRowBoundaries) {
-                lanes::Vf b[kMaxRowBoundaries], w[kMaxRowBoundaries];
-                boundaryRows(geometry, quantiles, stride, 0, stride, c, live, b,
-                             densityWeights ? w : nullptr);
-                withTf<T>([&](const auto& t) {
-                    expectedTfQuantileMean<T>(
-                        t, [&](int j) { return b[j]; }, [&](int j) { return w[j]; }, q,
-                        densityWeights, zero, live, r.v);
-                });
-                detail::keepLive<T>(live, r.v);
-                return r;
-            }
-        }
-        if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(stride)) {  // q + 1 floats per voxel past int32 indices
-                detail::exactLanes(*this, c, live, r.v);
-                return r;
-            }
-        }
-        withTf<T>([&](const auto& t) {
-            expectedTfQuantileMean<T>(
-                t, [&](int j) { return boundaryAt<T>(geometry, quantiles, stride, j, c, live); },
-                [&](int j) { return widthAt<T>(geometry, quantiles, stride, j, c, live); }, q,
-                densityWeights, zero, live, r.v);
-        });
-        detail::keepLive<T>(live, r.v);
-        return r;
+        const T zero = lanes::splat<T>(static_cast<lanes::ScalarOf<T>>(zeroWidth));
+        return detail::quantileLoad<T>(
+            *this, quantiles, q + 1, 0, q + 1, densityWeights, c, live,
+            [&](const auto& t, const auto& boundary, const auto& width, T* out) {
+                expectedTfQuantileMean<T>(t, boundary, width, q, densityWeights, zero, live, out);
+            });
     }
     /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
     /// the corners' midpoints (m_j(p) = Σ w_c m_{j,c}), so [m_0, m_{q−1}] of each voxel is a
