@@ -150,27 +150,25 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Bounda
     for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
 }
 
-/// Quantile-mean expectation (Eq. 5): Σ_j TF(m_j)·p_j / Σ p_j over the q quantiles between
-/// boundaries boundary(0 … q), m_j the midpoint of quantile j, p_j = (1/q)/w_j (densityWeights;
-/// width(j) the width of quantile j, interpolated from the corners' own widths so that 1/w does not
-/// magnify the rounding of large boundaries) or 1/q (`quantile-mean-mass`). With density
-/// weights, quantiles of width ≤ zeroWidth are point masses of infinite density: they share
-/// all the weight equally (SPEC §4). Only `live` lanes are looked at for zero widths (dead lanes
-/// of a batch have width 0 and would send every quantile down the zero-width path).
-template <class T, class Tf, class Boundary, class Width>
-UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundary& boundary,
-                                                     const Width& width, int q, bool densityWeights,
-                                                     T zeroWidth, lanes::MaskOf<T> live, T out[4]) {
+/// Eq. 5's weighting, for any classification of the quantiles (1D TF or TF2): Σ_j v_j·p_j / Σ p_j
+/// over quantiles j = 0 … q − 1, valueAt(j, v) writing v_j (the TF at quantile j's midpoint),
+/// p_j = (1/q)/w_j (densityWeights; width(j) the width of quantile j, interpolated from the
+/// corners' own widths so that 1/w does not magnify the rounding of large boundaries) or 1/q
+/// (`quantile-mean-mass`). With density weights, quantiles of width ≤ zeroWidth are point masses
+/// of infinite density: they share all the weight equally (SPEC §4). Only `live` lanes are looked
+/// at for zero widths (dead lanes of a batch have width 0 and would send every quantile down the
+/// zero-width path). valueAt is called for j = 0, 1, … in order.
+template <class T, class ValueAt, class Width>
+UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const Width& width,
+                                                   int q, bool densityWeights, T zeroWidth,
+                                                   lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     T sum[4] = {}, zeroSum[4] = {}, weightSum{}, zeroCount{};
     bool anyZeroSeen = false;
     auto anyZero = lanes::MaskOf<T>{};
-    T bPrev = boundary(0);
     for (int j = 0; j < q; ++j) {
-        const T b = boundary(j + 1);
         T v[4];
-        tfAt<T>(tf, (bPrev + b) * S(0.5), v);
-        bPrev = b;
+        valueAt(j, v);
         const T w = densityWeights ? width(j) : T{};
         const T weight = densityWeights ? S(1) / w : lanes::splat<T>(S(1));  // 1/q cancels
         for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
@@ -190,6 +188,23 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundar
     if (anyZeroSeen)
         for (int ch = 0; ch < 4; ++ch)
             out[ch] = detail::select(anyZero, zeroSum[ch] / zeroCount, out[ch]);
+}
+
+/// Quantile-mean expectation (Eq. 5) with a 1D TF: quantileMeanWeighted of TF(m_j), m_j the
+/// midpoint of quantile j between boundaries boundary(0 … q).
+template <class T, class Tf, class Boundary, class Width>
+UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundary& boundary,
+                                                     const Width& width, int q, bool densityWeights,
+                                                     T zeroWidth, lanes::MaskOf<T> live, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    T bPrev = boundary(0);
+    quantileMeanWeighted<T>(
+        [&](int j, T v[4]) {
+            const T b = boundary(j + 1);
+            tfAt<T>(tf, (bPrev + b) * S(0.5), v);
+            bPrev = b;
+        },
+        width, q, densityWeights, zeroWidth, live, out);
 }
 
 /// E[TF(X)], X ~ N(μ, σ²), in the `live` lanes; σ ≤ 0 (or NaN) is the point mass TF(μ). Per TF

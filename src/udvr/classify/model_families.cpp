@@ -3,6 +3,7 @@
 #include <array>
 #include <string>
 
+#include "udvr/reconstruct/gradient_field.h"
 #include "udvr/util/check.h"
 
 namespace udvr {
@@ -63,22 +64,56 @@ AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf, cons
                               f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m), tf);
 }
 
-// kind, name, arrays, floats per voxel, population, label shows q, realizations, kernel.
+// 2D kernels (SPEC §9).
+AnyKernel2D makeMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+                       const ModelFamily&) {
+    return Mean2DKernel(m.grid, m.mean.data(), s.exact, s.fast, s.meanGradient.data());
+}
+// Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
+AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const float* data, int stride, int lo,
+                       int hi, bool quantileMean, bool density) {
+    if (hi - lo + 1 > kMaxBoundaries2D)
+        UDVR_FAIL("2D transfer functions handle at most " << kMaxBoundaries2D - 1
+                                                          << " quantiles, the model has "
+                                                          << hi - lo);
+    s.boundaryGradients = gridGradients(m.grid, data, stride, lo, hi - lo + 1);
+    return Quantile2DKernel(m.grid, data, stride, lo, hi, s.boundaryGradients.data(), quantileMean,
+                            density, kQuantileZeroWidth * span(m), s.exact, s.fast,
+                            s.meanGradient.data());
+}
+AnyKernel2D makeQuantileRange2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
+                                const ModelFamily& f) {
+    const auto pop = quantilePopulation(f.kind, m.quantileCount, o);
+    return quantile2D(m, s, m.quantiles.data(), m.quantileCount + 1, pop.first, pop.second, false,
+                      false);
+}
+AnyKernel2D makeIqr2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+                      const ModelFamily&) {
+    return quantile2D(m, s, m.iqr.data(), 2, 0, 1, false, false);
+}
+AnyKernel2D makeQuantileMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+                               const ModelFamily& f) {
+    return quantile2D(m, s, m.quantiles.data(), m.quantileCount + 1, 0, m.quantileCount, true,
+                      f.kind == ModelKind::QuantileMean);
+}
+
+// kind, name, arrays, floats per voxel, population, label shows q, realizations, kernel,
+// 2D kernel.
 using K = ModelKind;
 // clang-format off
 constexpr std::array<ModelFamily, 12> kFamilies{{
-    {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean},
-    {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform},
-    {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian},
-    {K::GmmOrdered, "gmm-ordered", gmmArrays, perComponent, {0, 0}, false, false, makeGmmOrdered},
-    {K::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr},
-    {K::QuantileRange, "quantile-range", quantileArrays, perBoundary, {0, 1}, true, false, makeQuantileRange},
-    {K::QuantileMean, "quantile-mean", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean},
-    {K::QuantileMeanMass, "quantile-mean-mass", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean},
-    {K::Iqr, "iqr", iqrArrays, two, {0, 0}, false, false, makeIqr},
-    {K::QuartileLower, "quartile-lower", quantileArrays, perBoundary, {0, .25}, false, false, makeQuantileRange},
-    {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange},
-    {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange},
+    {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D},
+    {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
+    {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, nullptr},
+    {K::GmmOrdered, "gmm-ordered", gmmArrays, perComponent, {0, 0}, false, false, makeGmmOrdered, nullptr},
+    {K::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr, nullptr},
+    {K::QuantileRange, "quantile-range", quantileArrays, perBoundary, {0, 1}, true, false, makeQuantileRange, makeQuantileRange2D},
+    {K::QuantileMean, "quantile-mean", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D},
+    {K::QuantileMeanMass, "quantile-mean-mass", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D},
+    {K::Iqr, "iqr", iqrArrays, two, {0, 0}, false, false, makeIqr, makeIqr2D},
+    {K::QuartileLower, "quartile-lower", quantileArrays, perBoundary, {0, .25}, false, false, makeQuantileRange, makeQuantileRange2D},
+    {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D},
+    {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D},
 }};
 // clang-format on
 
@@ -113,6 +148,22 @@ std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
 }
 
 }  // namespace
+
+Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model) {
+    tf.validate();
+    exact.width = fast.width = tf.width;
+    exact.height = fast.height = tf.height;
+    exact.x0 = tf.x0;
+    exact.y0 = tf.y0;
+    exact.invDx = (tf.width - 1) / (tf.x1 - tf.x0);
+    exact.invDy = (tf.height - 1) / (tf.y1 - tf.y0);
+    exact.rgba = fast.rgba = tf.rgba.data();
+    fast.x0 = static_cast<float>(exact.x0);
+    fast.y0 = static_cast<float>(exact.y0);
+    fast.invDx = static_cast<float>(exact.invDx);
+    fast.invDy = static_cast<float>(exact.invDy);
+    meanGradient = gridGradients(model.grid, model.mean.data(), 1, 0, 1);
+}
 
 std::span<const ModelFamily> modelFamilies() { return kFamilies; }
 

@@ -11,6 +11,8 @@
 #include <variant>
 
 #include "udvr/classify/model_kernels.h"
+#include "udvr/classify/model_kernels_2d.h"
+#include "udvr/classify/transfer_function_2d.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/stats/model_volume.h"
 
@@ -31,6 +33,22 @@ enum ModelArray : unsigned {
 using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrderedKernel,
                                QuantileRangeKernel, QuantileMeanKernel>;
 
+/// Any model's kernel with a 2D TF (SPEC §9).
+using AnyKernel2D = std::variant<Mean2DKernel, Quantile2DKernel>;
+
+/// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends.
+struct Tf2Setup {
+    Tf2Raster<double> exact;
+    Tf2Raster<float> fast;
+    std::vector<float> meanGradient;      // of the `mean` array, 3 per voxel
+    std::vector<float> boundaryGradients;  // quantile models: of each boundary used, 3 each
+
+    /// Views of `tf` (validated; it must outlive the setup) and the mean's grid gradients.
+    Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model);
+    Tf2Setup(const Tf2Setup&) = delete;
+    Tf2Setup& operator=(const Tf2Setup&) = delete;
+};
+
 struct ModelFamily {
     ModelKind kind;
     std::string_view name;  // the CLI name (SPEC §3–4)
@@ -48,6 +66,10 @@ struct ModelFamily {
     /// The kernel over `model` with the TF pieces `tf` (both outlive it). Null for gmm-mc.
     AnyKernel (*makeKernel)(const ModelVolume& model, const TfPiecesStorage& tf,
                             const ClassifyOptions& options, const ModelFamily& family);
+    /// The kernel with a 2D TF (SPEC §9) over `model`, filling the gradients it needs in
+    /// `setup` (which outlives it). Null where SPEC §9 gives the model no 2D classification.
+    AnyKernel2D (*makeKernel2D)(const ModelVolume& model, Tf2Setup& setup,
+                                const ClassifyOptions& options, const ModelFamily& family);
 };
 
 /// Every model family, in the order of SPEC §3–4.
@@ -69,6 +91,23 @@ void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction
                                "mean-field realizations");
     const TfPiecesStorage pieces(tf);
     std::visit(f, family.makeKernel(model, pieces, options, family));
+}
+
+/// withKernel for a 2D TF (SPEC §9): f(kernel) with the model's 2D kernel. Throws UdvrError for
+/// models without one, a model without a `mean` array (n̂ needs it) or an invalid TF2.
+template <class F>
+void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+                  const ClassifyOptions& options, F&& f) {
+    checkModelHasArrays(model, kind, options);
+    checkModelHasArrays(model, ModelKind::Mean, options);
+    const ModelFamily& family = modelFamily(kind);
+    if (!family.makeKernel2D)
+        UDVR_FAIL("model '" << family.name
+                            << "' has no 2D transfer-function classification (SPEC 9: mean, "
+                               "quantile-range, quantile-mean, quantile-mean-mass, iqr and the "
+                               "quartile views)");
+    Tf2Setup setup(tf, model);
+    std::visit(f, family.makeKernel2D(model, setup, options, family));
 }
 
 /// withKernel with default options.

@@ -56,14 +56,35 @@ struct Classified {
     T v[4];
 };
 
-/// What every kernel holds: the cell geometry of its grid and the TF in both real types.
-struct KernelBase {
+/// What every kernel holds: the cell geometry of its grid (1D and 2D TF kernels alike).
+struct GridKernel {
     CellGeometry geometry;
+
+    explicit GridKernel(const Grid3& grid) : geometry(grid) {}
+    /// Whether int32 lane gathers reach every float of an array with perVoxel floats per voxel
+    /// (else the lanes take the double body: their index would wrap past 2³¹).
+    bool gathersFit(int perVoxel) const {
+        return geometry.fitsInt32 &&
+               static_cast<double>(geometry.stride[2]) * geometry.dims[2] * perVoxel < 2147483647.0;
+    }
+    /// Prefetch the four x-rows of the cell based at voxel v of an array with perVoxel floats.
+    void prefetchRows(const float* a, int v, int perVoxel) const {
+        const int g1 = geometry.next32[1], g2 = geometry.next32[2];
+        for (int o : {0, g1, g2, g1 + g2}) {
+            const float* p = a + static_cast<std::ptrdiff_t>(v + o) * perVoxel;
+            __builtin_prefetch(p);
+            if (perVoxel > 1) __builtin_prefetch(p + 2 * perVoxel - 1);
+        }
+    }
+};
+
+/// A 1D TF kernel: the grid and the TF in both real types.
+struct KernelBase : GridKernel {
     TfPieces<double> tfExact;
     TfPieces<float> tfFast;
 
     KernelBase(const Grid3& grid, const TfPiecesStorage& tf)
-        : geometry(grid), tfExact(tf.exact()), tfFast(tf.fast()) {}
+        : GridKernel(grid), tfExact(tf.exact()), tfFast(tf.fast()) {}
     /// The TF over T's real type.
     template <class T>
     UDVR_CPU_GPU const detail::TfFor<T>& tf() const {
@@ -92,21 +113,6 @@ struct KernelBase {
                 withSizedTf<I + 1>(f);
         } else {
             f(tfFast);
-        }
-    }
-    /// Whether int32 lane gathers reach every float of an array with perVoxel floats per voxel
-    /// (else the lanes take the double body: their index would wrap past 2³¹).
-    bool gathersFit(int perVoxel) const {
-        return geometry.fitsInt32 &&
-               static_cast<double>(geometry.stride[2]) * geometry.dims[2] * perVoxel < 2147483647.0;
-    }
-    /// Prefetch the four x-rows of the cell based at voxel v of an array with perVoxel floats.
-    void prefetchRows(const float* a, int v, int perVoxel) const {
-        const int g1 = geometry.next32[1], g2 = geometry.next32[2];
-        for (int o : {0, g1, g2, g1 + g2}) {
-            const float* p = a + static_cast<std::ptrdiff_t>(v + o) * perVoxel;
-            __builtin_prefetch(p);
-            if (perVoxel > 1) __builtin_prefetch(p + 2 * perVoxel - 1);
         }
     }
 };

@@ -20,19 +20,28 @@ UDVR_CPU_GPU UDVR_INLINE T boundaryAt(const CellGeometry& g, const float* data, 
     });
 }
 
-/// The width b_{j+1} − b_j at a cell, interpolated from the corners' own widths — not the
-/// difference of two interpolated boundaries, which loses the digits of |b| that 1/w would
-/// then magnify. ≥ 0 wherever the corners' boundaries are sorted.
+/// The width b_{j+1} − b_j at a cell, Σ_c w_c (b_{j+1,c} − b_{j,c}) from the corners' own widths
+/// — not the difference of two interpolated boundaries, which loses the digits of |b| that 1/w
+/// would then magnify — and as a sum of non-negative terms with the 8 trilinear weights, not by
+/// lerps: u + f·(v − u) cancels when the sample is near a corner of width 0 beside corners of
+/// large widths (float: an absolute error ~ulp(u), 0.4 % of a width of 2e−6 in a test). ≥ 0
+/// wherever the corners' boundaries are sorted.
 template <class T>
 UDVR_CPU_GPU UDVR_INLINE T widthAt(const CellGeometry& g, const float* data, int stride, int j,
                                    const Cell<T>& c, lanes::MaskOf<T> live) {
-    return trilinearBy(g, c, [&](std::int64_t o, T& v0, T& v1) {
-        T u0, u1;
-        edgeOf<T>(g, data + j, stride, c.base, o, live, v0, v1);
-        edgeOf<T>(g, data + j + 1, stride, c.base, o, live, u0, u1);
-        v0 = u0 - v0;
-        v1 = u1 - v1;
-    });
+    T w[8];
+    trilinearWeights(c, w);
+    const std::int64_t oy = g.next[1], oz = g.next[2];
+    const std::int64_t offsets[4] = {0, oy, oz, oz + oy};
+    T sum{};
+    for (int r = 0; r < 4; ++r) {
+        T v0, v1, u0, u1;
+        edgeOf<T>(g, data + j, stride, c.base, offsets[r], live, v0, v1);
+        edgeOf<T>(g, data + j + 1, stride, c.base, offsets[r], live, u0, u1);
+        sum = lanes::fma(w[2 * r], u0 - v0, sum);
+        sum = lanes::fma(w[2 * r + 1], u1 - v1, sum);
+    }
+    return sum;
 }
 
 /// Boundaries a batch's row path handles (two blocks of kWidth): q ≤ 31 on AVX-512, 15 on

@@ -177,6 +177,16 @@ void drawRealization(const ModelVolume& model, std::uint64_t seed, std::uint64_t
     });
 }
 
+void fillStats(RenderStats* stats, std::chrono::steady_clock::time_point start,
+               const detail::MarchCounters& counters) {
+    if (!stats) return;
+    stats->milliseconds =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count();
+    stats->samples = counters.samples.load();
+    stats->skippedSamples = counters.skipped.load();
+}
+
 }  // namespace
 
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
@@ -218,13 +228,24 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
         });
     }
 
-    if (stats) {
-        stats->milliseconds =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                .count();
-        stats->samples = counters.samples.load();
-        stats->skippedSamples = counters.skipped.load();
-    }
+    fillStats(stats, start, counters);
+    return image;
+}
+
+ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+                       const RenderSettings& settings, RenderStats* stats) {
+    const auto start = std::chrono::steady_clock::now();
+    const detail::MarchParams p = makeParams(model, settings);
+    tf.validate();
+    const auto ranges = tf.nonZeroOpacityXRanges();
+    ImageRgba image = blankImage(settings.width, settings.height);
+    detail::MarchCounters counters;
+    ClassifyOptions options;
+    options.uniformMinMax = settings.uniformMinMax;
+    withKernel2D(model, kind, tf, options, [&](const auto& kernel) {
+        renderKernel(kernel, p, ranges, image, counters);
+    });
+    fillStats(stats, start, counters);
     return image;
 }
 

@@ -8,6 +8,7 @@
 
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function.h"
+#include "udvr/classify/transfer_function_2d.h"
 #include "udvr/io/image.h"
 #include "udvr/stats/model_volume.h"
 
@@ -74,5 +75,11 @@ class RenderCache {
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
                        const RenderSettings& settings, RenderStats* stats = nullptr,
                        RenderCache* cache = nullptr);
+
+/// Render with a 2D transfer function (SPEC §9): x the value, y the gradient magnitude G along
+/// the mean gradient. Models: those with a 2D kernel (classify/model_families.h). Skipping uses
+/// the x ranges where the TF2 has α > 0 for some y.
+ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+                       const RenderSettings& settings, RenderStats* stats = nullptr);
 
 }  // namespace udvr

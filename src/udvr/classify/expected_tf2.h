@@ -1,0 +1,228 @@
+#pragma once
+// Classification with 2D transfer functions (SPEC §9): TF2 on a raster, colour and α each
+// bilinear between the points and clamped outside the domain. Each body is written once over
+// T ∈ {double, float, lanes::Vf} as expected_tf.h; lanes read the raster by gathers.
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "udvr/util/lanes.h"
+
+namespace udvr {
+
+/// Read-only view of a raster TF2 (classify/transfer_function_2d.h) with coordinates over Real;
+/// device-copyable. Points: rgba[(j·width + i)·4 + ch], (r, g, b, α).
+template <class Real>
+struct Tf2Raster {
+    int width = 2, height = 2;
+    Real x0 = 0, y0 = 0;           // domain origin
+    Real invDx = 1, invDy = 1;     // raster cells per data unit along x and y
+    const float* rgba = nullptr;
+};
+
+namespace detail {
+/// Raster index coordinate of v (cells from the origin), clamped to [0, n − 1]; NaN → 0.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T rasterCoordinate(T v, lanes::ScalarOf<T> origin,
+                                            lanes::ScalarOf<T> inv, int n) {
+    using S = lanes::ScalarOf<T>;
+    const T s = (v - origin) * inv;
+    return lanes::select(s > S(0), lanes::min(s, lanes::splat<T>(S(n - 1))), T{});
+}
+/// Cell index (≤ n − 2) and fraction of a clamped raster coordinate.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void rasterCell(T s, int n, lanes::IntOf<T>& i, T& f) {
+    if constexpr (lanes::kIsVector<T>) {
+        i = lanes::min(lanes::truncToInt(s), lanes::splati(n - 2));
+        f = s - lanes::toFloat(i);
+    } else {
+        i = static_cast<int>(s);
+        i = i < n - 2 ? i : n - 2;
+        f = s - static_cast<T>(i);
+    }
+}
+/// rgba[idx + ch] per lane (live lanes only) or for a scalar index.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T rasterLoad(const float* rgba, lanes::IntOf<T> idx, lanes::MaskOf<T> live) {
+    if constexpr (lanes::kIsVector<T>)
+        return lanes::gather(rgba, idx, live);
+    else
+        return static_cast<T>(rgba[idx]);
+}
+}  // namespace detail
+
+/// Colour and α of the TF2 at raster coordinates (s, t) (clamped, see rasterCoordinate):
+/// out = (c_r, c_g, c_b, α), each bilinear.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void tf2ColorOpacityAtRaster(const Tf2Raster<Real>& r, T s, T t,
+                                                      lanes::MaskOf<T> live, T out[4]) {
+    lanes::IntOf<T> i, j;
+    T fx, fy;
+    detail::rasterCell(s, r.width, i, fx);
+    detail::rasterCell(t, r.height, j, fy);
+    const lanes::IntOf<T> p00 = (j * r.width + i) * 4, p01 = p00 + r.width * 4;
+    for (int ch = 0; ch < 4; ++ch) {
+        const T a = detail::rasterLoad<T>(r.rgba, p00 + ch, live);
+        const T b = detail::rasterLoad<T>(r.rgba, p00 + (4 + ch), live);
+        const T c = detail::rasterLoad<T>(r.rgba, p01 + ch, live);
+        const T d = detail::rasterLoad<T>(r.rgba, p01 + (4 + ch), live);
+        const T lo = lanes::fma(fx, b - a, a), hi = lanes::fma(fx, d - c, c);
+        out[ch] = lanes::fma(fy, hi - lo, lo);
+    }
+}
+
+/// TF2(x, y) premultiplied: (α·r, α·g, α·b, α). Dead lanes read nothing (their result is junk).
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void tf2At(const Tf2Raster<Real>& r, T x, T y, lanes::MaskOf<T> live,
+                                    T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    const T s = detail::rasterCoordinate<T>(x, static_cast<S>(r.x0), static_cast<S>(r.invDx),
+                                            r.width);
+    const T t = detail::rasterCoordinate<T>(y, static_cast<S>(r.y0), static_cast<S>(r.invDy),
+                                            r.height);
+    T v[4];
+    tf2ColorOpacityAtRaster<T>(r, s, t, live, v);
+    for (int ch = 0; ch < 3; ++ch) out[ch] = v[3] * v[ch];
+    out[3] = v[3];
+}
+
+namespace detail {
+/// The next raster line (integer coordinate in [0, n − 1]) a coordinate moving from s with
+/// slope ds crosses, the step to the one after it (±1), or none (line = −1, step 0).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void firstLine(T s, T ds, int n, lanes::IntOf<T>& line,
+                                        lanes::IntOf<T>& step) {
+    using S = lanes::ScalarOf<T>;
+    using I = lanes::IntOf<T>;
+    // s is clamped to [−1, n] first: lines lie in [0, n − 1] only, and the int must not wrap.
+    const T c = lanes::min(lanes::max(s, lanes::splat<T>(S(-1))), lanes::splat<T>(S(n)));
+    const T fl = [&] {
+        if constexpr (lanes::kIsVector<T>) {
+            const T tr = lanes::toFloat(lanes::truncToInt(c));
+            return lanes::select(tr > c, tr - S(1), tr);
+        } else {
+            return std::floor(c);
+        }
+    }();
+    const T ce = lanes::select(fl < c, fl + S(1), fl);
+    const auto toInt = [](T v) {
+        if constexpr (lanes::kIsVector<T>)
+            return lanes::truncToInt(v);
+        else
+            return static_cast<int>(v);
+    };
+    const I up = lanes::max(toInt(fl) + 1, I{} + 0);      // ds > 0
+    const I down = lanes::min(toInt(ce) - 1, I{} + (n - 1));  // ds < 0
+    const auto rising = ds > S(0), falling = ds < S(0);
+    const auto upOk = rising & (up <= n - 1);
+    const auto downOk = falling & (down >= 0);
+    if constexpr (lanes::kIsVector<T>) {
+        line = lanes::select(upOk, up, lanes::select(downOk, down, I{} - 1));
+        step = lanes::select(upOk, I{} + 1, lanes::select(downOk, I{} - 1, I{}));
+    } else {
+        line = upOk ? up : (downOk ? down : -1);
+        step = upOk ? 1 : (downOk ? -1 : 0);
+    }
+}
+/// Segment parameter where the coordinate s0 + u·ds reaches `line` (+∞ for none).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T lineParameter(T s0, T ds, lanes::IntOf<T> line, lanes::IntOf<T> step) {
+    using S = lanes::ScalarOf<T>;
+    T l;
+    if constexpr (lanes::kIsVector<T>)
+        l = lanes::toFloat(line);
+    else
+        l = static_cast<T>(line);
+    const T u = (l - s0) / lanes::select(step != 0, ds, lanes::splat<T>(S(1)));
+    return lanes::select(step != 0, u, lanes::splat<T>(std::numeric_limits<S>::infinity()));
+}
+}  // namespace detail
+
+/// Mean of TF2 (α·c and α) along the segment from (xa, ya) to (xb, yb) in data units:
+/// ∫₀¹ TF2(P_a + u·(P_b − P_a)) du, exactly. The segment is split where it crosses a raster
+/// line (including the domain's edges, where clamping starts); on each piece α and c are
+/// quadratic in u, α·c quartic, so 3-point Gauss–Legendre is exact. A zero-length segment gives
+/// TF2 at the point. Cost: 3 lookups per piece; lanes loop until their longest segment is done.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa, T ya, T xb,
+                                                  T yb, lanes::MaskOf<T> live, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    using I = lanes::IntOf<T>;
+    const S ox = static_cast<S>(r.x0), oy = static_cast<S>(r.y0);
+    const S ix = static_cast<S>(r.invDx), iy = static_cast<S>(r.invDy);
+    // Raster coordinates, unclamped (pieces outside the domain clamp at evaluation).
+    const T sa = (xa - ox) * ix, ta = (ya - oy) * iy;
+    const T ds = (xb - ox) * ix - sa, dt = (yb - oy) * iy - ta;
+    I lineX, stepX, lineY, stepY;
+    detail::firstLine<T>(sa, ds, r.width, lineX, stepX);
+    detail::firstLine<T>(ta, dt, r.height, lineY, stepY);
+    T ux = detail::lineParameter<T>(sa, ds, lineX, stepX);
+    T uy = detail::lineParameter<T>(ta, dt, lineY, stepY);
+    for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
+    T u0{};
+    auto active = live;
+    // Gauss–Legendre on [0, 1]: nodes ½ ∓ ½√(3/5), ½; weights 5/18, 8/18, 5/18.
+    constexpr S kNode = S(0.38729833462074168852), kW0 = S(5.0 / 18.0), kW1 = S(8.0 / 18.0);
+    while (lanes::anyOf(active)) {
+        const T u1 = lanes::min(lanes::min(ux, uy), lanes::splat<T>(S(1)));
+        const T len = u1 - u0;
+        const T mid = (u0 + u1) * S(0.5);
+        const T nodes[3] = {mid - kNode * len, mid, mid + kNode * len};
+        const S weights[3] = {kW0, kW1, kW0};
+        for (int n = 0; n < 3; ++n) {
+            const T s = detail::rasterCoordinate<T>(lanes::fma(nodes[n], ds, sa), S(0), S(1),
+                                                    r.width);
+            const T t = detail::rasterCoordinate<T>(lanes::fma(nodes[n], dt, ta), S(0), S(1),
+                                                    r.height);
+            T v[4];
+            tf2ColorOpacityAtRaster<T>(r, s, t, active, v);
+            const T wl = lanes::select(active, len * weights[n], T{});
+            for (int ch = 0; ch < 3; ++ch) out[ch] = lanes::fma(wl, v[3] * v[ch], out[ch]);
+            out[3] = lanes::fma(wl, v[3], out[3]);
+        }
+        // Step past the line(s) reached at u1; a lane is done at u = 1.
+        const auto atX = ux <= u1, atY = uy <= u1;
+        if constexpr (lanes::kIsVector<T>) {
+            lineX = lanes::select(atX, lineX + stepX, lineX);
+            lineY = lanes::select(atY, lineY + stepY, lineY);
+            stepX = lanes::select(atX & ((lineX < 0) | (lineX > r.width - 1)), I{}, stepX);
+            stepY = lanes::select(atY & ((lineY < 0) | (lineY > r.height - 1)), I{}, stepY);
+        } else {
+            if (atX) {
+                lineX += stepX;
+                if (lineX < 0 || lineX > r.width - 1) stepX = 0;
+            }
+            if (atY) {
+                lineY += stepY;
+                if (lineY < 0 || lineY > r.height - 1) stepY = 0;
+            }
+        }
+        ux = lanes::select(atX, detail::lineParameter<T>(sa, ds, lineX, stepX), ux);
+        uy = lanes::select(atY, detail::lineParameter<T>(ta, dt, lineY, stepY), uy);
+        u0 = u1;
+        active = active & (u1 < S(1));
+    }
+}
+
+/// Quantile-range with a TF2 (SPEC §9): the rank-coupled polyline (X(t), G(t)) through the
+/// vertices (x(j), g(j)), j = 0 … count − 1; Σ_j 1/(count − 1) × mean of TF2 along segment j.
+template <class T, class Real, class X, class G>
+UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const X& x,
+                                                       const G& g, int count,
+                                                       lanes::MaskOf<T> live, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
+    T xPrev = x(0), gPrev = g(0);
+    for (int j = 1; j < count; ++j) {
+        const T xj = x(j), gj = g(j);
+        T m[4];
+        tf2MeanAlongSegment<T>(r, xPrev, gPrev, xj, gj, live, m);
+        for (int ch = 0; ch < 4; ++ch) out[ch] += m[ch];
+        xPrev = xj;
+        gPrev = gj;
+    }
+    const S inv = S(1) / static_cast<S>(count - 1);
+    for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
+}
+
+}  // namespace udvr

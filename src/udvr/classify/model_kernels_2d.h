@@ -1,0 +1,174 @@
+#pragma once
+// Kernels for 2D transfer functions (SPEC §9): x the value at the sample, y the gradient
+// magnitude G = n̂·Y along the mean gradient n̂ = μ_Y/|μ_Y| (+x where μ_Y = 0). The same
+// interface as the 1D kernels (model_kernels.h), so the same ray loop and probe serve them.
+//
+// Gradients come from grid gradients computed once per model (reconstruct/gradient_field.h):
+// the sample's gradient is their trilinear blend, which is SPEC §9's 32-voxel form exactly.
+// The mean gradient μ_Y blends the grid gradients of the `mean` array (every model); the quantile
+// models blend, per boundary j, the grid gradients of the field of every voxel's boundary j
+// (the rank coupling: all voxels at the same rank).
+#include <cmath>
+
+#include "udvr/classify/expected_tf.h"
+#include "udvr/classify/expected_tf2.h"
+#include "udvr/classify/model_kernels.h"
+#include "udvr/reconstruct/cell.h"
+#include "udvr/reconstruct/quantile_interp.h"
+
+namespace udvr {
+
+/// Boundaries a 2D quantile kernel handles per sample (q ≤ 127).
+inline constexpr int kMaxBoundaries2D = 128;
+
+/// What every 2D kernel holds: the grid, the TF2 raster over double and float, and the grid
+/// gradients of the `mean` array (3 floats per voxel, world units).
+struct Kernel2DBase : GridKernel {
+    Tf2Raster<double> tfExact;
+    Tf2Raster<float> tfFast;
+    const float* meanGradient;
+
+    Kernel2DBase(const Grid3& grid, const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
+                 const float* meanGrad)
+        : GridKernel(grid), tfExact(exact), tfFast(fast), meanGradient(meanGrad) {}
+    /// The raster over T's real type.
+    template <class T>
+    UDVR_CPU_GPU const Tf2Raster<lanes::ScalarOf<T>>& tf2() const {
+        if constexpr (std::is_same_v<lanes::ScalarOf<T>, float>)
+            return tfFast;
+        else
+            return tfExact;
+    }
+    /// μ_Y at a cell: the trilinear blend of the mean's grid gradients.
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE void meanGradientAt(const Cell<T>& c, lanes::MaskOf<T> live,
+                                                 T y[3]) const {
+        for (int a = 0; a < 3; ++a) y[a] = trilinear(geometry, meanGradient + a, 3, c, live);
+    }
+    /// n̂ = μ_Y/|μ_Y| (+x where |μ_Y| = 0) and |μ_Y| at a cell.
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE T meanDirectionAt(const Cell<T>& c, lanes::MaskOf<T> live,
+                                               T n[3]) const {
+        using S = lanes::ScalarOf<T>;
+        T y[3];
+        meanGradientAt(c, live, y);
+        const T norm = lanes::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+        const auto zero = !(norm > S(0));
+        const T inv = S(1) / lanes::select(zero, lanes::splat<T>(S(1)), norm);
+        n[0] = lanes::select(zero, lanes::splat<T>(S(1)), y[0] * inv);
+        n[1] = lanes::select(zero, T{}, y[1] * inv);
+        n[2] = lanes::select(zero, T{}, y[2] * inv);
+        return norm;
+    }
+};
+
+/// Mean field and ground truth with a TF2 (SPEC §9 `mean`): TF2(x̄, |μ_Y|).
+struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
+    const float* values;  // one per grid point (the `mean` array, or a plain field)
+
+    Mean2DKernel(const Grid3& grid, const float* v, const Tf2Raster<double>& exact,
+                 const Tf2Raster<float>& fast, const float* meanGrad)
+        : Kernel2DBase(grid, exact, fast, meanGrad), values(v) {}
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r;
+        T y[3];
+        meanGradientAt(c, live, y);
+        const T g = lanes::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+        tf2At<T>(tf2<T>(), trilinear(geometry, values, 1, c, live), g, live, r.v);
+        detail::keepLive<T>(live, r.v);
+        return r;
+    }
+    void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = values[v]; }
+    void prefetch(int v) const {
+        prefetchRows(values, v, 1);
+        prefetchRows(meanGradient, v, 3);
+    }
+};
+
+/// The quantile models with a TF2 through the rank coupling of SPEC §9: boundaries j0 … j1 of
+/// an array with `stride` floats per voxel give the polyline (X_j, G_j), X_j = Σ w_c b_{j,c},
+/// G_j = n̂·Y_j. quantile-range (and the quartile views, iqr): Σ_j mean of TF2 along segment j
+/// / (j1 − j0); quantile-mean(-mass): TF2 at the segment midpoints with Eq. 5's weights.
+struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
+    const float* boundaries;
+    int stride;                      // floats per voxel of `boundaries`
+    int j0, j1;                      // boundaries j0 … j1 (j1 − j0 + 1 ≤ kMaxBoundaries2D)
+    const float* boundaryGradients;  // per voxel, per boundary j0 … j1: 3 floats (world units)
+    bool quantileMean;               // Eq. 5 at midpoints (else Eq. 4 along segments)
+    bool densityWeights;             // quantile-mean: 1/w_j weights (else equal)
+    double zeroWidth;                // quantile-mean: widths at or below are point masses
+
+    Quantile2DKernel(const Grid3& grid, const float* b, int s, int lo, int hi,
+                     const float* bGrad, bool qm, bool density, double zero,
+                     const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
+                     const float* meanGrad)
+        : Kernel2DBase(grid, exact, fast, meanGrad),
+          boundaries(b),
+          stride(s),
+          j0(lo),
+          j1(hi),
+          boundaryGradients(bGrad),
+          quantileMean(qm),
+          densityWeights(density),
+          zeroWidth(zero) {}
+
+    /// The polyline's vertices X[0 … count−1], G[…] at a cell; returns count.
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE int polylineAt(const Cell<T>& c, lanes::MaskOf<T> live, T* x,
+                                            T* g) const {
+        const int count = j1 - j0 + 1;
+        T n[3];
+        meanDirectionAt(c, live, n);
+        for (int j = 0; j < count; ++j) {
+            x[j] = boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live);
+            T gj{};
+            for (int a = 0; a < 3; ++a)
+                gj = lanes::fma(n[a],
+                                trilinear(geometry, boundaryGradients + 3 * j + a, 3 * count, c,
+                                          live),
+                                gj);
+            g[j] = gj;
+        }
+        return count;
+    }
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        using S = lanes::ScalarOf<T>;
+        Classified<T> r;
+        if constexpr (lanes::kIsVector<T>) {
+            if (!gathersFit(3 * (j1 - j0 + 1)) || !gathersFit(stride)) {
+                detail::exactLanes(*this, c, live, r.v);
+                return r;
+            }
+        }
+        T x[kMaxBoundaries2D], g[kMaxBoundaries2D];
+        const int count = polylineAt(c, live, x, g);
+        const auto& t = tf2<T>();
+        if (!quantileMean) {
+            expectedTf2QuantileRange<T>(
+                t, [&](int j) { return x[j]; }, [&](int j) { return g[j]; }, count, live, r.v);
+        } else {
+            const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
+            quantileMeanWeighted<T>(
+                [&](int j, T v[4]) {
+                    tf2At<T>(t, (x[j] + x[j + 1]) * S(0.5), (g[j] + g[j + 1]) * S(0.5), live, v);
+                },
+                [&](int j) { return widthAt<T>(geometry, boundaries, stride, j0 + j, c, live); },
+                count - 1, densityWeights, zero, live, r.v);
+        }
+        detail::keepLive<T>(live, r.v);
+        return r;
+    }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
+        lo = b[j0];
+        hi = b[j1];
+    }
+    void prefetch(int v) const {
+        prefetchRows(boundaries + j0, v, stride);
+        prefetchRows(meanGradient, v, 3);
+    }
+};
+
+}  // namespace udvr

@@ -1,0 +1,376 @@
+// 2D transfer functions (SPEC §9): gradients against closed forms, the exact segment mean
+// against dense quadrature, every 2D kernel against an independent evaluation of its
+// definition (the rank coupling integrated over t with the 32-voxel gradient form and the host
+// TF2), a TF2 constant in y against the 1D kernels, and the lane and float bodies against the
+// double body.
+#include "udvr/classify/model_kernels_2d.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "udvr/classify/classify_test_util.h"
+#include "udvr/classify/kernel_test_util.h"
+#include "udvr/classify/model_families.h"
+#include "udvr/classify/transfer_function_2d.h"
+#include "udvr/reconstruct/gradient.h"
+#include "udvr/reconstruct/gradient_field.h"
+
+namespace udvr {
+namespace {
+
+Grid3 randomGrid(CounterRng& rng, std::array<int, 3> dims) {
+    Grid3 g;
+    g.dims = dims;
+    for (int a = 0; a < 3; ++a) {
+        g.origin[a] = 4.0 * rng.uniform() - 2.0;
+        g.spacing[a] = 0.3 + 1.5 * rng.uniform();
+    }
+    return g;
+}
+
+// A random raster TF2 of w×h points over [x0, x1] × [y0, y1], some α exactly 0.
+TransferFunction2D randomTf2(CounterRng& rng, int w, int h, double x0, double x1, double y0,
+                             double y1) {
+    TransferFunction2D t;
+    t.width = w;
+    t.height = h;
+    t.x0 = x0;
+    t.x1 = x1;
+    t.y0 = y0;
+    t.y1 = y1;
+    for (int k = 0; k < w * h; ++k) {
+        for (int ch = 0; ch < 3; ++ch) t.rgba.push_back(static_cast<float>(rng.uniform()));
+        t.rgba.push_back(rng.uniform() < 0.25 ? 0.f : static_cast<float>(rng.uniform()));
+    }
+    t.validate();
+    return t;
+}
+
+TEST(Gradient, LinearFieldsAreDifferentiatedExactlyEverywhere) {
+    CounterRng rng(3, 0, 0);
+    for (const std::array<int, 3>& dims : {std::array<int, 3>{5, 4, 6}, std::array<int, 3>{2, 3, 1},
+                                           std::array<int, 3>{1, 5, 2}}) {
+        const Grid3 grid = randomGrid(rng, dims);
+        const double a[3] = {rng.normal(), rng.normal(), rng.normal()}, c = rng.normal();
+        std::vector<float> f(grid.pointCount());
+        for (int k = 0; k < dims[2]; ++k)
+            for (int j = 0; j < dims[1]; ++j)
+                for (int i = 0; i < dims[0]; ++i)
+                    f[grid.index(i, j, k)] =
+                        static_cast<float>(c + a[0] * grid.world(0, i) + a[1] * grid.world(1, j) +
+                                           a[2] * grid.world(2, k));
+        const std::vector<float> d = gridGradients(grid, f.data(), 1, 0, 1);
+        for (std::size_t v = 0; v < grid.pointCount(); ++v)
+            for (int ax = 0; ax < 3; ++ax) {
+                const double want = dims[ax] > 1 ? a[ax] : 0.0;  // 0 along a 1-point axis
+                EXPECT_NEAR(d[3 * v + ax], want, 2e-5 * (1 + std::abs(c) + 10)) << v << " " << ax;
+            }
+        // At samples: the 32-voxel form gives the same constant gradient.
+        const CellGeometry g(grid);
+        const GradientGeometry gg(grid);
+        for (int trial = 0; trial < 50; ++trial) {
+            const Cell<double> cell =
+                cellAt<double>(g, static_cast<float>(rng.uniform() * (dims[0] - 1)),
+                               static_cast<float>(rng.uniform() * (dims[1] - 1)),
+                               static_cast<float>(rng.uniform() * (dims[2] - 1)));
+            const GradientForm form = gradientFormAt(g, gg, cell);
+            ASSERT_LE(form.count, 32);
+            double y[3] = {0, 0, 0}, wsum = 0;
+            for (int s = 0; s < form.count; ++s) {
+                wsum += form.w[s];
+                for (int ax = 0; ax < 3; ++ax) y[ax] += form.coeff[s][ax] * f[form.voxel[s]];
+            }
+            EXPECT_NEAR(wsum, 1.0, 1e-12);
+            for (int ax = 0; ax < 3; ++ax)
+                EXPECT_NEAR(y[ax], dims[ax] > 1 ? a[ax] : 0.0, 1e-4);
+        }
+    }
+}
+
+TEST(Gradient, QuadraticFieldsGetCentralAndOneSidedDifferences) {
+    CounterRng rng(4, 0, 0);
+    const Grid3 grid = randomGrid(rng, {6, 5, 4});
+    // f = x²: central difference (f(x+h) − f(x−h))/2h = 2x exactly; one-sided (f(x+h) − f(x))/h
+    // = 2x + h at the first point, 2x − h at the last.
+    std::vector<float> f(grid.pointCount());
+    for (int k = 0; k < 4; ++k)
+        for (int j = 0; j < 5; ++j)
+            for (int i = 0; i < 6; ++i) {
+                const double x = grid.world(0, i);
+                f[grid.index(i, j, k)] = static_cast<float>(x * x);
+            }
+    const std::vector<float> d = gridGradients(grid, f.data(), 1, 0, 1);
+    const double h = grid.spacing[0];
+    for (int i = 0; i < 6; ++i) {
+        const double x = grid.world(0, i);
+        const double want = i == 0 ? 2 * x + h : (i == 5 ? 2 * x - h : 2 * x);
+        EXPECT_NEAR(d[3 * grid.index(i, 2, 1)], want, 1e-4) << i;
+        EXPECT_EQ(d[3 * grid.index(i, 2, 1) + 1], 0.f);
+    }
+    // The 32-voxel form is the trilinear blend of those grid gradients.
+    const CellGeometry g(grid);
+    const GradientGeometry gg(grid);
+    for (int trial = 0; trial < 50; ++trial) {
+        std::vector<float> r(grid.pointCount());
+        for (float& v : r) v = static_cast<float>(rng.normal());
+        const std::vector<float> dr = gridGradients(grid, r.data(), 1, 0, 1);
+        const Cell<double> cell = cellAt<double>(g, static_cast<float>(rng.uniform() * 5),
+                                                 static_cast<float>(rng.uniform() * 4),
+                                                 static_cast<float>(rng.uniform() * 3));
+        const GradientForm form = gradientFormAt(g, gg, cell);
+        for (int ax = 0; ax < 3; ++ax) {
+            double y = 0;
+            for (int s = 0; s < form.count; ++s) y += form.coeff[s][ax] * r[form.voxel[s]];
+            EXPECT_NEAR(y, trilinear(g, dr.data() + ax, 3, cell, true), 1e-5);
+        }
+    }
+}
+
+// (α·r, α·g, α·b, α) of the host TF2 in double.
+std::array<double, 4> classify2(const TransferFunction2D& t, double x, double y) {
+    const auto v = t.colorOpacityAt(x, y);
+    return {v[3] * v[0], v[3] * v[1], v[3] * v[2], v[3]};
+}
+
+// Dense midpoint rule of TF2 along a segment (host TF2, independent of the raster view).
+std::array<double, 4> denseSegmentMean(const TransferFunction2D& t, double xa, double ya,
+                                       double xb, double yb, int n) {
+    std::array<double, 4> s{};
+    for (int i = 0; i < n; ++i) {
+        const double u = (i + 0.5) / n;
+        const auto c = classify2(t, xa + u * (xb - xa), ya + u * (yb - ya));
+        for (int ch = 0; ch < 4; ++ch) s[ch] += c[ch];
+    }
+    for (double& v : s) v /= n;
+    return s;
+}
+
+// The first 2D kernel a model family makes, over a TF2 (storage kept alive by the caller).
+template <class F>
+void with2D(const ModelVolume& m, ModelKind kind, const TransferFunction2D& t, F&& f) {
+    withKernel2D(m, kind, t, ClassifyOptions{}, std::forward<F>(f));
+}
+
+TEST(Tf2, SegmentMeanIsExactAgainstDenseQuadrature) {
+    CounterRng rng(5, 0, 0);
+    const TransferFunction2D t = randomTf2(rng, 7, 5, -2.0, 3.0, 0.0, 4.0);
+    ModelVolume unit;  // a 1-voxel model: only the raster views matter here
+    unit.grid.dims = {1, 1, 1};
+    unit.mean = {0.f};
+    const Tf2Setup setup(t, unit);
+    double worst = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        // Segments inside, crossing the domain's edges, far outside, axis-aligned, zero-length.
+        double p[4];
+        for (double& v : p) v = -4.0 + 10.0 * rng.uniform();
+        if (trial % 10 == 1) p[2] = p[0];
+        if (trial % 10 == 2) p[3] = p[1];
+        if (trial % 10 == 3) {
+            p[2] = p[0];
+            p[3] = p[1];
+        }
+        if (trial % 10 == 4) p[0] = 0.5 * std::round(2 * p[0]);  // on a raster line? (x step 5/6)
+        double got[4];
+        tf2MeanAlongSegment<double>(setup.exact, p[0], p[1], p[2], p[3], true, got);
+        const auto want = denseSegmentMean(t, p[0], p[1], p[2], p[3], 200000);
+        for (int ch = 0; ch < 4; ++ch) worst = std::max(worst, std::abs(got[ch] - want[ch]));
+    }
+    // The midpoint rule's own error with 2e5 points: up to ~1e−8 on these kinked integrands.
+    EXPECT_LE(worst, 5e-8);
+}
+
+// Quantile-range and quantile-mean with a TF2, evaluated independently at a point: the rank
+// coupling X_i(t) = F_i⁻¹(t) (piecewise linear through (j/q, b_{j,i})) pushed through the
+// 32-voxel form of SPEC §9 (X = Σ w_i X_i, G = n̂·Σ g_i X_i, n̂ from the means), then
+// ∫ TF2(X(t), G(t)) dt by the midpoint rule over nT points (range), or TF2 at t = (j + ½)/q with
+// weights 1/w_j (mean).
+std::array<double, 4> coupledReference(const ModelVolume& m, const TransferFunction2D& t,
+                                       const Cell<double>& cell, bool quantileMean, int nT) {
+    const CellGeometry g(m.grid);
+    const GradientGeometry gg(m.grid);
+    const GradientForm form = gradientFormAt(g, gg, cell);
+    const int q = m.quantileCount;
+    double my[3] = {0, 0, 0};
+    for (int s = 0; s < form.count; ++s)
+        for (int a = 0; a < 3; ++a) my[a] += form.coeff[s][a] * m.mean[form.voxel[s]];
+    const double norm = std::sqrt(my[0] * my[0] + my[1] * my[1] + my[2] * my[2]);
+    const double n[3] = {norm > 0 ? my[0] / norm : 1.0, norm > 0 ? my[1] / norm : 0.0,
+                         norm > 0 ? my[2] / norm : 0.0};
+    const auto xg = [&](double tt, double& x, double& gm) {
+        const double pos = std::min(tt * q, q - 1e-12);
+        const int j = static_cast<int>(pos);
+        const double f = pos - j;
+        x = gm = 0;
+        for (int s = 0; s < form.count; ++s) {
+            const float* b = m.quantiles.data() + form.voxel[s] * (q + 1);
+            const double xi = b[j] + f * (b[j + 1] - b[j]);
+            x += form.w[s] * xi;
+            gm += (n[0] * form.coeff[s][0] + n[1] * form.coeff[s][1] + n[2] * form.coeff[s][2]) *
+                  xi;
+        }
+    };
+    std::array<double, 4> out{};
+    const auto add = [&](double tt, double weight) {
+        double x, gm;
+        xg(tt, x, gm);
+        const auto c = classify2(t, x, gm);
+        for (int ch = 0; ch < 4; ++ch) out[ch] += weight * c[ch];
+    };
+    if (!quantileMean) {
+        for (int i = 0; i < nT; ++i) add((i + 0.5) / nT, 1.0 / nT);
+        return out;
+    }
+    double wsum = 0;
+    for (int j = 0; j < q; ++j) {
+        double width = 0;
+        for (int s = 0; s < form.count; ++s) {
+            const float* b = m.quantiles.data() + form.voxel[s] * (q + 1);
+            width += form.w[s] * (static_cast<double>(b[j + 1]) - b[j]);
+        }
+        add((j + 0.5) / q, 1.0 / width);
+        wsum += 1.0 / width;
+    }
+    for (double& v : out) v /= wsum;
+    return out;
+}
+
+TEST(Tf2, QuantileKernelsMatchTheRankCouplingOfTheirDefinition) {
+    CounterRng rng(6, 0, 0);
+    for (int q : {2, 5, 8}) {
+        ModelVolume m = testing::randomModel(rng, {4, 3, 3}, q);
+        m.grid = randomGrid(rng, m.grid.dims);
+        // Continuous quantiles (no zero widths): the reference's 1/w stays finite.
+        for (std::size_t v = 0; v < m.voxelCount(); ++v)
+            for (int j = 1; j <= q; ++j) {
+                float* b = m.quantiles.data() + v * (q + 1);
+                b[j] = std::max(b[j], b[j - 1] + 0.05f);
+            }
+        const auto range = modelDataRange(m);
+        const TransferFunction2D t =
+            randomTf2(rng, 9, 6, range.first - 0.5, range.second + 0.5, -3.0, 6.0);
+        for (ModelKind kind : {ModelKind::QuantileRange, ModelKind::QuantileMean}) {
+            with2D(m, kind, t, [&](const auto& k) {
+                for (int trial = 0; trial < 20; ++trial) {
+                    const float p[3] = {static_cast<float>(rng.uniform() * 3),
+                                        static_cast<float>(rng.uniform() * 2),
+                                        static_cast<float>(rng.uniform() * 2)};
+                    double got[4];
+                    classifyAt<double>(k, p[0], p[1], p[2], got);
+                    const auto want = coupledReference(
+                        m, t, cellAt<double>(k.geometry, p[0], p[1], p[2]),
+                        kind == ModelKind::QuantileMean, 200000);
+                    for (int ch = 0; ch < 4; ++ch)
+                        EXPECT_NEAR(got[ch], want[ch], 2e-7)
+                            << modelName(kind) << " q=" << q << " ch " << ch;
+                }
+            });
+        }
+    }
+}
+
+TEST(Tf2, MeanKernelIsTheTf2AtTheMeanValueAndGradientMagnitude) {
+    CounterRng rng(7, 0, 0);
+    ModelVolume m = testing::randomModel(rng, {5, 4, 3}, 4);
+    m.grid = randomGrid(rng, m.grid.dims);
+    const TransferFunction2D t = randomTf2(rng, 6, 7, -4.0, 4.0, 0.0, 5.0);
+    const CellGeometry g(m.grid);
+    const GradientGeometry gg(m.grid);
+    with2D(m, ModelKind::Mean, t, [&](const auto& k) {
+        for (int trial = 0; trial < 50; ++trial) {
+            const float p[3] = {static_cast<float>(rng.uniform() * 4),
+                                static_cast<float>(rng.uniform() * 3),
+                                static_cast<float>(rng.uniform() * 2)};
+            const Cell<double> cell = cellAt<double>(g, p[0], p[1], p[2]);
+            const GradientForm form = gradientFormAt(g, gg, cell);
+            double x = 0, y[3] = {0, 0, 0};
+            for (int s = 0; s < form.count; ++s) {
+                x += form.w[s] * m.mean[form.voxel[s]];
+                for (int a = 0; a < 3; ++a) y[a] += form.coeff[s][a] * m.mean[form.voxel[s]];
+            }
+            const auto want =
+                classify2(t, x, std::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]));
+            double got[4];
+            classifyAt<double>(k, p[0], p[1], p[2], got);
+            for (int ch = 0; ch < 4; ++ch) EXPECT_NEAR(got[ch], want[ch], 1e-7);  // float gradients
+        }
+    });
+}
+
+// A TF2 constant in y gives the 1D classification of the same model (SPEC §9): the 1D TF's
+// breakpoints on the raster's columns, so the two are the same function of x.
+TEST(Tf2, ConstantInYReproducesThe1DKernels) {
+    CounterRng rng(8, 0, 0);
+    for (int q : {4, 8}) {
+        const ModelVolume m = testing::randomModel(rng, {4, 4, 3}, q);
+        TransferFunction1D tf = testing::randomTf(rng, -5.0, 5.0);
+        for (double& x : tf.colorX) x = 0.25 * std::round(4 * x);
+        for (double& x : tf.opacityX) x = 0.25 * std::round(4 * x);
+        // Steps cannot be rasterised: move repeated points apart by one column.
+        for (auto* xs : {&tf.colorX, &tf.opacityX})
+            for (std::size_t i = 1; i < xs->size(); ++i)
+                (*xs)[i] = std::max((*xs)[i], (*xs)[i - 1] + 0.25);
+        const TransferFunction2D t = transferFunction2DFrom1D(tf, 81, -10.0, 10.0, -1.0, 2.0);
+        for (ModelKind kind : allModelKinds()) {
+            if (!modelFamily(kind).makeKernel2D) continue;
+            for (int trial = 0; trial < 20; ++trial) {
+                const float p[3] = {static_cast<float>(rng.uniform() * 3),
+                                    static_cast<float>(rng.uniform() * 3),
+                                    static_cast<float>(rng.uniform() * 2)};
+                double one[4], two[4];
+                withKernel(m, kind, tf, [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], one); });
+                with2D(m, kind, t, [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], two); });
+                for (int ch = 0; ch < 4; ++ch)
+                    EXPECT_NEAR(two[ch], one[ch], 2e-7) << modelName(kind) << " ch " << ch;
+            }
+        }
+    }
+}
+
+// The lane body (16, 8 or 4 samples) and the float body against the double body, for every
+// 2D kernel; raster lookups in float on data near 0: a few float roundings.
+TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
+    CounterRng rng(9, 0, 0);
+    for (const std::array<int, 3>& dims :
+         {std::array<int, 3>{5, 4, 3}, std::array<int, 3>{1, 4, 3}})
+        for (int q : {2, 8, 40}) {
+            ModelVolume m = testing::randomModel(rng, dims, q);
+            m.grid = randomGrid(rng, dims);
+            const auto range = modelDataRange(m);
+            const TransferFunction2D t =
+                randomTf2(rng, 12, 9, range.first, range.second, 0.0, 3.0);
+            for (ModelKind kind : allModelKinds()) {
+                if (!modelFamily(kind).makeKernel2D) continue;
+                const bool quartile = kind == ModelKind::QuartileLower ||
+                                      kind == ModelKind::QuartileMiddle ||
+                                      kind == ModelKind::QuartileUpper;
+                if (quartile && q % 4 != 0) continue;
+                const std::string what = std::string(modelName(kind)) + " q=" + std::to_string(q) +
+                                         " dims.x=" + std::to_string(dims[0]);
+                with2D(m, kind, t, [&](const auto& k) {
+                    EXPECT_LE(testing::worstLaneError(k, rng, dims, what), 5e-5) << what;
+                });
+            }
+        }
+}
+
+TEST(Tf2, ModelsWithoutA2DClassificationAreUserErrors) {
+    CounterRng rng(10, 0, 0);
+    const ModelVolume m = testing::randomModel(rng, {2, 2, 2}, 4);
+    const TransferFunction2D t = randomTf2(rng, 3, 3, -1, 1, 0, 1);
+    for (ModelKind kind : {ModelKind::GmmOrdered, ModelKind::GmmMc})
+        EXPECT_THROW(with2D(m, kind, t, [](const auto&) {}), UdvrError) << modelName(kind);
+    ModelVolume noMean = m;
+    noMean.mean.clear();
+    EXPECT_THROW(with2D(noMean, ModelKind::QuantileRange, t, [](const auto&) {}), UdvrError);
+    TransferFunction2D bad = t;
+    bad.rgba[3] = 1.5f;
+    EXPECT_THROW(with2D(m, ModelKind::Mean, bad, [](const auto&) {}), UdvrError);
+}
+
+}  // namespace
+}  // namespace udvr

@@ -1,0 +1,130 @@
+#include "udvr/classify/transfer_function_2d.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace {
+
+// Cell index and fraction of coordinate v on n points over [lo, hi], clamped.
+void locate(double v, double lo, double hi, int n, int& i, double& f) {
+    const double s = (v - lo) / (hi - lo) * (n - 1);
+    if (!(s > 0.0)) {  // also NaN → first point
+        i = 0;
+        f = 0.0;
+    } else if (s >= n - 1) {
+        i = n - 2;
+        f = 1.0;
+    } else {
+        i = std::min(static_cast<int>(s), n - 2);
+        f = s - i;
+    }
+}
+
+// Merged closed ranges of axis coordinates whose line (column or row) or the cell beside it has
+// α > 0; `positive(k)` says whether line k has any α > 0.
+template <class Positive>
+std::vector<std::pair<double, double>> lineRanges(int n, double lo, double hi, Positive positive) {
+    const double inf = std::numeric_limits<double>::infinity();
+    const auto at = [&](int k) { return lo + (hi - lo) * k / (n - 1); };
+    std::vector<std::pair<double, double>> out;
+    const auto add = [&](double a, double b) {
+        if (!out.empty() && a <= out.back().second)
+            out.back().second = std::max(out.back().second, b);
+        else
+            out.emplace_back(a, b);
+    };
+    if (positive(0)) add(-inf, at(0));
+    for (int k = 0; k + 1 < n; ++k)
+        if (positive(k) || positive(k + 1)) add(at(k), at(k + 1));
+    if (positive(n - 1)) add(at(n - 1), inf);
+    return out;
+}
+
+}  // namespace
+
+std::array<double, 4> TransferFunction2D::colorOpacityAt(double x, double y) const {
+    int i, j;
+    double fx, fy;
+    locate(x, x0, x1, width, i, fx);
+    locate(y, y0, y1, height, j, fy);
+    std::array<double, 4> out{};
+    const float *p00 = point(i, j), *p10 = point(i + 1, j);
+    const float *p01 = point(i, j + 1), *p11 = point(i + 1, j + 1);
+    for (int ch = 0; ch < 4; ++ch) {
+        const double lo = p00[ch] + fx * (p10[ch] - p00[ch]);
+        const double hi = p01[ch] + fx * (p11[ch] - p01[ch]);
+        out[ch] = lo + fy * (hi - lo);
+    }
+    return out;
+}
+
+Rgba TransferFunction2D::classify(double x, double y) const {
+    const auto v = colorOpacityAt(x, y);
+    return Rgba{static_cast<float>(v[3] * v[0]), static_cast<float>(v[3] * v[1]),
+                static_cast<float>(v[3] * v[2]), static_cast<float>(v[3])};
+}
+
+std::vector<std::pair<double, double>> TransferFunction2D::nonZeroOpacityXRanges() const {
+    return lineRanges(width, x0, x1, [&](int i) {
+        for (int j = 0; j < height; ++j)
+            if (point(i, j)[3] > 0.f) return true;
+        return false;
+    });
+}
+
+std::vector<std::pair<double, double>> TransferFunction2D::nonZeroOpacityYRanges() const {
+    return lineRanges(height, y0, y1, [&](int j) {
+        for (int i = 0; i < width; ++i)
+            if (point(i, j)[3] > 0.f) return true;
+        return false;
+    });
+}
+
+void TransferFunction2D::validate() const {
+    if (width < 2 || height < 2)
+        UDVR_FAIL("2D transfer function: needs at least 2x2 points, got " << width << "x"
+                                                                           << height);
+    if (rgba.size() != static_cast<std::size_t>(width) * height * 4)
+        UDVR_FAIL("2D transfer function: expected " << width << "x" << height
+                                                    << "x4 values, got " << rgba.size());
+    if (!(std::isfinite(x0) && std::isfinite(x1) && x0 < x1))
+        UDVR_FAIL("2D transfer function: x domain must be finite with x0 < x1, got [" << x0 << ", "
+                                                                                     << x1 << "]");
+    if (!(std::isfinite(y0) && std::isfinite(y1) && y0 < y1))
+        UDVR_FAIL("2D transfer function: y domain must be finite with y0 < y1, got [" << y0 << ", "
+                                                                                     << y1 << "]");
+    for (std::size_t k = 0; k < rgba.size(); ++k)
+        if (!(rgba[k] >= 0.f && rgba[k] <= 1.f))
+            UDVR_FAIL("2D transfer function: colour and opacity must lie in [0,1] (point "
+                      << k / 4 % width << "," << k / 4 / width << ")");
+}
+
+TransferFunction2D transferFunction2DFrom1D(const TransferFunction1D& tf, int width, double x0,
+                                            double x1, double y0, double y1) {
+    TransferFunction2D t;
+    t.width = width;
+    t.height = 2;
+    t.x0 = x0;
+    t.x1 = x1;
+    t.y0 = y0;
+    t.y1 = y1;
+    t.rgba.resize(static_cast<std::size_t>(width) * 2 * 4);
+    for (int i = 0; i < width; ++i) {
+        const double x = x0 + (x1 - x0) * i / (width - 1);
+        const auto c = tf.colorAt(x);
+        const double a = tf.opacityAt(x);
+        for (int j = 0; j < 2; ++j) {
+            float* p = t.rgba.data() + (static_cast<std::size_t>(j) * width + i) * 4;
+            for (int ch = 0; ch < 3; ++ch) p[ch] = static_cast<float>(c[ch]);
+            p[3] = static_cast<float>(a);
+        }
+    }
+    t.validate();
+    return t;
+}
+
+}  // namespace udvr

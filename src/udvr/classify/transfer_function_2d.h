@@ -1,0 +1,45 @@
+#pragma once
+// 2D transfer functions (SPEC §9): TF2(x, y) = (c, α) on a raster of W×H points over the domain
+// [x0, x1] × [y0, y1] — x the value (or field 1), y the gradient magnitude G (or field 2);
+// column i at x0 + i·(x1 − x0)/(W − 1), row j at y0 + j·(y1 − y0)/(H − 1) (row 0 the smallest
+// y). Colour and α are each bilinear between the points and clamped outside the domain, so
+// α·c is a product of two bilinear functions (biquadratic in a cell). α is per unit distance,
+// as the 1D TF's opacity.
+#include <array>
+#include <utility>
+#include <vector>
+
+#include "udvr/classify/transfer_function.h"
+
+namespace udvr {
+
+struct TransferFunction2D {
+    int width = 0, height = 0;            // points along x and y (each ≥ 2)
+    double x0 = 0.0, x1 = 1.0;            // domain along x (x0 < x1, finite)
+    double y0 = 0.0, y1 = 1.0;            // domain along y (y0 < y1, finite)
+    std::vector<float> rgba;              // (r, g, b, α) per point: rgba[(j·W + i)·4 + ch]
+
+    /// (r, g, b, α) of point (i, j).
+    const float* point(int i, int j) const {
+        return rgba.data() + (static_cast<std::size_t>(j) * width + i) * 4;
+    }
+    /// Colour and α at (x, y), each bilinear, clamped outside the domain: (c_r, c_g, c_b, α).
+    std::array<double, 4> colorOpacityAt(double x, double y) const;
+    /// (α·r, α·g, α·b, α) at (x, y).
+    Rgba classify(double x, double y) const;
+    /// Closed x intervals outside which α = 0 for every y (merged, ascending; unbounded ends
+    /// ±inf where α > 0 on the domain's first or last column): the 1D skipping ranges.
+    std::vector<std::pair<double, double>> nonZeroOpacityXRanges() const;
+    /// The same along y (for a second field: skipping on field 2).
+    std::vector<std::pair<double, double>> nonZeroOpacityYRanges() const;
+    /// Throws UdvrError unless W, H ≥ 2, rgba has W·H·4 values in [0, 1], the domain is finite
+    /// with x0 < x1, y0 < y1.
+    void validate() const;
+};
+
+/// A TF2 that ignores y: the 1D TF sampled at `width` points over [x0, x1] (its breakpoints
+/// must lie on that grid for the two to agree exactly), H = 2 rows over [y0, y1].
+TransferFunction2D transferFunction2DFrom1D(const TransferFunction1D& tf, int width, double x0,
+                                            double x1, double y0 = 0.0, double y1 = 1.0);
+
+}  // namespace udvr

@@ -1,0 +1,43 @@
+#include "udvr/reconstruct/gradient_field.h"
+
+#include <cmath>
+
+#include "udvr/reconstruct/gradient.h"
+#include "udvr/util/parallel.h"
+
+namespace udvr {
+
+std::vector<float> gridGradients(const Grid3& grid, const float* values, int perVoxel, int first,
+                                 int count) {
+    const CellGeometry g(grid);
+    const GradientGeometry gg(grid);
+    const std::size_t n = grid.pointCount();
+    std::vector<float> out(n * static_cast<std::size_t>(count) * 3);
+    const std::size_t rows = static_cast<std::size_t>(grid.dims[1]) * grid.dims[2];
+    parallelForChunks(rows, 16, [&](std::size_t rb, std::size_t re) {
+        for (std::size_t row = rb; row < re; ++row) {
+            const int j = static_cast<int>(row % grid.dims[1]);
+            const int k = static_cast<int>(row / grid.dims[1]);
+            for (int i = 0; i < grid.dims[0]; ++i) {
+                const std::size_t v = grid.index(i, j, k);
+                for (int l = 0; l < count; ++l) {
+                    const auto d = gridGradient(g, gg, values + first + l, perVoxel, i, j, k);
+                    float* o = out.data() + (v * count + l) * 3;
+                    for (int a = 0; a < 3; ++a) o[a] = static_cast<float>(d[a]);
+                }
+            }
+        }
+    });
+    return out;
+}
+
+std::vector<float> gridGradientMagnitudes(const Grid3& grid, const float* values) {
+    const std::vector<float> d = gridGradients(grid, values, 1, 0, 1);
+    std::vector<float> out(grid.pointCount());
+    for (std::size_t v = 0; v < out.size(); ++v)
+        out[v] = std::sqrt(d[3 * v] * d[3 * v] + d[3 * v + 1] * d[3 * v + 1] +
+                           d[3 * v + 2] * d[3 * v + 2]);
+    return out;
+}
+
+}  // namespace udvr
