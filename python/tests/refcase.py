@@ -119,3 +119,19 @@ def probe_many(model_path, tf_path, kind, points, extra=()):
                                    "--tf", tf_path, "--json", *extra))
     with ThreadPoolExecutor(max_workers=4) as ex:
         return list(ex.map(one, points))
+
+
+def random_points(rng, dims, n):
+    """Interior points, then a face, an edge and a corner point; float32-exact coordinates."""
+    hi = np.asarray(dims, float) - 1
+    pts = [rng.uniform(0, 1, 3) * hi for _ in range(n)]
+    face = rng.uniform(0, 1, 3) * hi
+    ax = rng.integers(3)
+    face[ax] = hi[ax] if rng.random() < 0.5 else 0.0
+    edge = rng.uniform(0, 1, 3) * hi
+    a, b = rng.choice(3, 2, replace=False)
+    edge[a], edge[b] = 0.0, hi[b]
+    corner = hi * rng.integers(0, 2, 3)
+    integer = np.array([rng.integers(0, d) for d in dims], float)  # a grid point
+    pts += [face, edge, corner, integer]
+    return [np.asarray(p, np.float32).astype(float) for p in pts]

@@ -17,22 +17,6 @@ MODELS = ["mean", "uniform", "gaussian", "gmm-ordered", "quantile-range", "quant
 SEEDS = [11, 12, 13, 14]
 
 
-def random_points(rng, dims, n):
-    """Interior points, then a face, an edge and a corner point; float32-exact coordinates."""
-    hi = np.asarray(dims, float) - 1
-    pts = [rng.uniform(0, 1, 3) * hi for _ in range(n)]
-    face = rng.uniform(0, 1, 3) * hi
-    ax = rng.integers(3)
-    face[ax] = hi[ax] if rng.random() < 0.5 else 0.0
-    edge = rng.uniform(0, 1, 3) * hi
-    a, b = rng.choice(3, 2, replace=False)
-    edge[a], edge[b] = 0.0, hi[b]
-    corner = hi * rng.integers(0, 2, 3)
-    integer = np.array([rng.integers(0, d) for d in dims], float)  # a grid point
-    pts += [face, edge, corner, integer]
-    return [np.asarray(p, np.float32).astype(float) for p in pts]
-
-
 @pytest.fixture(scope="module", params=SEEDS)
 def case(request, tmp_path_factory):
     rng = np.random.default_rng(request.param)
@@ -47,7 +31,7 @@ def case(request, tmp_path_factory):
     tf = refcase.random_tf(rng, lo, hi)
     tf.write(d / "tf.json")
     return dict(rng=rng, dims=dims, ref=r, tf=tf, model=d / "model.vti", tfpath=d / "tf.json",
-                points=random_points(rng, dims, 3))
+                points=refcase.random_points(rng, dims, 3))
 
 
 @pytest.mark.parametrize("kind", MODELS)
@@ -115,7 +99,7 @@ def test_probe_uniform_minmax_matches_reference(tmp_path):
     udvr.write_model(str(tmp_path / "m.vti"), m)
     tf = refcase.random_tf(rng, *r.data_range())
     tf.write(tmp_path / "tf.json")
-    pts = random_points(rng, [4, 3, 3], 3)
+    pts = refcase.random_points(rng, [4, 3, 3], 3)
     answers = refcase.probe_many(tmp_path / "m.vti", tmp_path / "tf.json", "uniform", pts,
                                  ("--uniform-width", "minmax"))
     for p, a in zip(pts, answers):
@@ -155,7 +139,7 @@ def test_probe_a_built_model_matches_reference(tmp_path, density):
                      gmm=m.array("gmm"), origin=m.grid.origin, spacing=m.grid.spacing)
     tf = refcase.random_tf(rng, *r.data_range())
     tf.write(tmp_path / "tf.json")
-    pts = random_points(rng, dims, 2)
+    pts = refcase.random_points(rng, dims, 2)
     for kind in ["gmm-ordered", "quantile-mean", "quantile-range", "iqr", "gaussian"]:
         for p, got in zip(pts, refcase.probe_many(tmp_path / "model.vti", tmp_path / "tf.json",
                                                   kind, pts)):

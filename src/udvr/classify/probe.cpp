@@ -185,9 +185,12 @@ struct Describe {
 
 }  // namespace
 
-ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
-                       const std::array<double, 3>& point, const ClassifyOptions& options) {
-    const ModelFamily& family = modelFamily(kind);
+namespace {
+
+// The cell of an index-space probe point (inside the grid, else UdvrError) and the SPEC §8
+// fields every probe prints: model, point, corners, value.
+Cell<double> probeCell(const ModelVolume& model, const ModelFamily& family,
+                       const std::array<double, 3>& point, json& j) {
     if (family.realizations)
         UDVR_FAIL("model '" << family.name
                             << "' is defined by Monte Carlo realizations of whole images; probe "
@@ -198,12 +201,10 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
                                  << " is outside the grid: index coordinates must lie in [0,"
                                  << model.grid.dims[0] - 1 << "]x[0," << model.grid.dims[1] - 1
                                  << "]x[0," << model.grid.dims[2] - 1 << "]");
-    const float px = static_cast<float>(point[0]), py = static_cast<float>(point[1]),
-                pz = static_cast<float>(point[2]);
-    ProbeResult r{kind, point, {}, json::object(), {}};
     const CellGeometry geometry(model.grid);
-    const Cell<double> cell = cellAt<double>(geometry, px, py, pz);
-    json& j = r.json;
+    const Cell<double> cell =
+        cellAt<double>(geometry, static_cast<float>(point[0]), static_cast<float>(point[1]),
+                       static_cast<float>(point[2]));
     j["model"] = std::string(family.name);
     j["point"] = {point[0], point[1], point[2]};
     double weights[8];
@@ -213,13 +214,82 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
         if (weights[c] > 0.0)
             corners.push_back(
                 {{"voxel", cornerVoxel(geometry, cell.base, c)}, {"weight", weights[c]}});
+    j["corners"] = corners;
+    if (!model.mean.empty()) j["value"] = trilinear(geometry, model.mean.data(), 1, cell, true);
+    return cell;
+}
+
+void setExpected(ProbeResult& r, const double v[4]) {
+    r.expected = Rgba{static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]),
+                      static_cast<float>(v[3])};
+    r.json["expected_rgba"] = {r.expected.r, r.expected.g, r.expected.b, r.expected.a};
+}
+
+// G's mean and standard deviation at a cell (SPEC §9), and the polyline of the quantile models.
+struct DescribeGradient {
+    const Cell<double>& cell;
+    json& j;
+
+    void operator()(const Mean2DKernel& k) const {
+        double y[3];
+        k.meanGradientAt<double>(cell, true, y);
+        j["gradient_magnitude"] = {{"mean", std::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])},
+                                   {"stddev", 0.0}};
+    }
+    void operator()(const Quantile2DKernel& k) const {
+        double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
+        const int n = k.polylineAt<double>(cell, true, x, g);
+        // G(t) linear on each of the n − 1 segments of equal probability.
+        double m1 = 0, m2 = 0;
+        for (int i = 1; i < n; ++i) {
+            m1 += 0.5 * (g[i - 1] + g[i]);
+            m2 += (g[i - 1] * g[i - 1] + g[i - 1] * g[i] + g[i] * g[i]) / 3.0;
+        }
+        m1 /= n - 1;
+        m2 /= n - 1;
+        j["gradient_magnitude"] = {{"mean", m1}, {"stddev", std::sqrt(std::max(0.0, m2 - m1 * m1))}};
+        j["polyline"] = {{"x", std::vector<double>(x, x + n)}, {"g", std::vector<double>(g, g + n)}};
+    }
+};
+
+}  // namespace
+
+ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                       const std::array<double, 3>& point, const ClassifyOptions& options) {
+    const ModelFamily& family = modelFamily(kind);
+    ProbeResult r{kind, point, {}, json::object(), {}};
+    const Cell<double> cell = probeCell(model, family, point, r.json);
     withKernel(model, kind, tf, options, [&](const auto& k) {
-        r.expected = classifyExact(k, px, py, pz);
-        j["expected_rgba"] = {r.expected.r, r.expected.g, r.expected.b, r.expected.a};
-        j["corners"] = corners;
-        if (!model.mean.empty()) j["value"] = trilinear(geometry, model.mean.data(), 1, cell, true);
-        Describe{family, cell, j, r.distribution}(k);
+        double v[4];
+        k.finish(k.template load<double>(cell, true), v);
+        setExpected(r, v);
+        Describe{family, cell, r.json, r.distribution}(k);
     });
+    return r;
+}
+
+ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+                       const std::array<double, 3>& point, const ClassifyOptions& options) {
+    const ModelFamily& family = modelFamily(kind);
+    ProbeResult r{kind, point, {}, json::object(), {}};
+    const Cell<double> cell = probeCell(model, family, point, r.json);
+    withKernel2D(model, kind, tf, options, [&](const auto& k) {
+        double v[4];
+        k.finish(k.template load<double>(cell, true), v);
+        setExpected(r, v);
+        double y[3];
+        k.template meanGradientAt<double>(cell, true, y);
+        r.json["gradient"] = {y[0], y[1], y[2]};
+        DescribeGradient{cell, r.json}(k);
+    });
+    // The value's distribution is the 1D model's (the TF plays no part in it).
+    TransferFunction1D none;
+    none.colorX = {0.0};
+    none.color = {{0.0, 0.0, 0.0}};
+    none.opacityX = {0.0};
+    none.opacity = {0.0};
+    withKernel(model, kind, none, options,
+               [&](const auto& k) { Describe{family, cell, r.json, r.distribution}(k); });
     return r;
 }
 

@@ -8,6 +8,7 @@
 #include "udvr/classify/model_families.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function.h"
+#include "udvr/classify/transfer_function_2d.h"
 #include "udvr/stats/model_volume.h"
 
 namespace udvr {
@@ -30,6 +31,12 @@ struct ProbeResult {
 
 /// Reconstruct and classify at index-space `point` (inside the grid, else UdvrError).
 ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                       const std::array<double, 3>& point, const ClassifyOptions& options = {});
+
+/// probe with a 2D TF (SPEC §9): the JSON adds "gradient" (μ_Y, world units),
+/// "gradient_magnitude" {"mean", "stddev"} of G and, for the quantile models, "polyline" {"x",
+/// "g"} (the rank-coupled vertices).
+ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
                        const std::array<double, 3>& point, const ClassifyOptions& options = {});
 
 }  // namespace udvr

@@ -19,6 +19,7 @@ void addProbeCommand(CLI::App& app) {
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
         std::string model, point, kind, tf, plot, uniformWidth = "variance";
+        Tf2Flags tf2;
         bool json = false;
     };
     auto o = std::make_shared<Opts>();
@@ -28,7 +29,11 @@ void addProbeCommand(CLI::App& app) {
                     "noise model (mean, uniform, gaussian, gmm-ordered, "
                     "quantile-range, ...)")
         ->required();
-    sub->add_option("--tf", o->tf, "transfer function (ParaView JSON)")->required();
+    sub->add_option("--tf", o->tf, "transfer function (ParaView JSON)");
+    sub->add_option("--tf2", o->tf2.file,
+                    "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
+                    ".json; SPEC 9)");
+    addTf2FormOptions(sub, o->tf2);
     sub->add_flag("--json", o->json, "print one JSON object");
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
     sub->add_option("--uniform-width", o->uniformWidth,
@@ -44,9 +49,17 @@ void addProbeCommand(CLI::App& app) {
                                                  plot.compare(plot.size() - 4, 4, ".PNG") == 0);
             if (!png) UDVR_FAIL("--plot must name a .png file, got '" << plot << "'");
         }
-        const TransferFunction1D tf = readTransferFunction(o->tf);
+        requireOneTf(o->tf, o->tf2);
+        const bool twoD = !o->tf2.file.empty();
+        if (twoD && !o->plot.empty())
+            UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
+        const TransferFunction1D tf = twoD ? TransferFunction1D{} : readTransferFunction(o->tf);
         const ModelVolume model = readModelVti(o->model);
-        const ProbeResult r = probeModel(model, kind, tf, p, options);
+        const ProbeResult r =
+            twoD ? probeModel(model, kind,
+                              readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
+                              options)
+                 : probeModel(model, kind, tf, p, options);
         if (!o->plot.empty()) writePng(o->plot, renderProbePlot(r, tf));
         if (o->json) {
             std::cout << r.json.dump(2) << "\n";

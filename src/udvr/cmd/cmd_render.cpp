@@ -1,4 +1,4 @@
-// udvr render {field|model.vti} --model NAME --tf tf.json [--size WxH] [camera…] [--step S]
+// udvr render {field|model.vti} --model NAME {--tf tf.json | --tf2 TF2} [--size WxH] [camera…] [--step S]
 //             [--unit-distance U] [--float img.npy|.pfm] [--frames N] -o img.png   (SPEC §8)
 #include <algorithm>
 #include <cctype>
@@ -31,41 +31,10 @@ struct RenderOpts {
     bool noSkip = false;
     int realizations = 200, frames = 0;
     std::uint64_t seed = 1, jitter = 0;
+    Tf2Flags tf2;        // 2D TF (SPEC §9)
     RawLayoutFlags raw;  // headerless .raw input
     std::string var;
 };
-
-std::string lowerExtension(const std::string& path) {
-    const auto dot = path.find_last_of('.');
-    std::string ext = dot == std::string::npos ? "" : path.substr(dot);
-    std::transform(ext.begin(), ext.end(), ext.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return ext;
-}
-
-// A model .vti (has a `mean` array) or any scalar field, which becomes a mean-only model.
-ModelVolume loadVolume(const RenderOpts& o) {
-    FieldReadOptions fo;
-    fo.var = o.var;
-    fo.raw = toRawLayout(o.raw);
-    if (lowerExtension(o.input) == ".vti" && o.var.empty()) {
-        std::string modelError;
-        try {
-            ModelVolume m = readModelVti(o.input);
-            if (!m.mean.empty()) return m;
-            modelError = o.input + " has no 'mean' array";
-        } catch (const UdvrError& e) {
-            modelError = e.what();
-        }
-        try {
-            return modelFromField(readField(o.input, fo));
-        } catch (const UdvrError& e) {
-            UDVR_FAIL(o.input << " is neither a model (" << modelError << ") nor a field ("
-                              << e.what() << ")");
-        }
-    }
-    return modelFromField(readField(o.input, fo));
-}
 
 Camera cameraFromOptions(const RenderOpts& o, const ModelVolume& m) {
     const auto& b = m.bounds;
@@ -107,8 +76,12 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
     }
     requireOutputDirectory(o.out, "-o");
     const ModelKind kind = parseModelKind(o.model);
-    const TransferFunction1D tf = readTransferFunction(o.tf);
-    const ModelVolume model = loadVolume(o);
+    requireOneTf(o.tf, o.tf2);
+    const bool twoD = !o.tf2.file.empty();
+    const TransferFunction1D tf = twoD ? TransferFunction1D{} : readTransferFunction(o.tf);
+    const TransferFunction2D tf2 =
+        twoD ? readTransferFunction2D(o.tf2.file, toTf2ReadOptions(o.tf2)) : TransferFunction2D{};
+    const ModelVolume model = readModelOrField(o.input, o.var, o.raw);
 
     RenderSettings s;
     const auto size = parseSize(o.size, "--size");
@@ -130,12 +103,16 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
 
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
-    ImageRgba image = renderVolume(model, kind, tf, s, &stats, &cache);
+    const auto frame = [&] {
+        return twoD ? renderVolume(model, kind, tf2, s, &stats)
+                    : renderVolume(model, kind, tf, s, &stats, &cache);
+    };
+    ImageRgba image = frame();
     if (o.frames > 0) {
         // The render above was the warm-up; time N more frames (loading is not counted).
         std::vector<double> ms;
         for (int f = 0; f < o.frames; ++f) {
-            image = renderVolume(model, kind, tf, s, &stats, &cache);
+            image = frame();
             ms.push_back(stats.milliseconds);
         }
         std::vector<double> sorted = ms;
@@ -182,7 +159,11 @@ void addRenderCommand(CLI::App& app) {
                     "mean | uniform | gaussian | gmm-ordered | gmm-mc | quantile-range | "
                     "quantile-mean | quantile-mean-mass | iqr | quartile-lower|middle|upper "
                     "(default mean)");
-    sub->add_option("--tf", o->tf, "ParaView transfer function JSON")->required();
+    sub->add_option("--tf", o->tf, "ParaView transfer function JSON (1D)");
+    sub->add_option("--tf2", o->tf2.file,
+                    "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
+                    ".json; SPEC 9)");
+    addTf2FormOptions(sub, o->tf2);
     sub->add_option("-o,--output", o->out, "output PNG")->required();
     sub->add_option("--size", o->size, "image size WxH (default 512x512)");
     sub->add_option("--float", o->floatOut, "also write float32 RGBA (.npy or .pfm)");

@@ -12,5 +12,6 @@ void addProbeCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);
 void addExperimentCommand(CLI::App& app);
+void addTf2Command(CLI::App& app);
 
 }  // namespace udvr::cmd

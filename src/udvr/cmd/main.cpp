@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
     udvr::cmd::addRenderCommand(app);
     udvr::cmd::addCompareCommand(app);
     udvr::cmd::addExperimentCommand(app);
+    udvr::cmd::addTf2Command(app);
 
     try {
         app.parse(argc, argv);

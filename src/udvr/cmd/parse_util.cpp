@@ -1,10 +1,12 @@
 #include "udvr/cmd/parse_util.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 
+#include "udvr/io/model_io.h"
 #include "udvr/util/check.h"
 
 namespace udvr::cmd {
@@ -139,6 +141,65 @@ void requireOutputDirectory(const std::string& path, const std::string& flag) {
     if (!dir.empty() && !std::filesystem::is_directory(dir))
         UDVR_FAIL(flag << ": cannot write " << path << ": directory " << dir.string()
                        << " does not exist");
+}
+
+std::string lowerExtension(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+}
+
+ModelVolume readModelOrField(const std::string& path, const std::string& var,
+                             const RawLayoutFlags& raw) {
+    FieldReadOptions fo;
+    fo.var = var;
+    fo.raw = toRawLayout(raw);
+    if (lowerExtension(path) == ".vti" && var.empty()) {
+        std::string modelError;
+        try {
+            ModelVolume m = readModelVti(path);
+            if (!m.mean.empty()) return m;
+            modelError = path + " has no 'mean' array";
+        } catch (const UdvrError& e) {
+            modelError = e.what();
+        }
+        try {
+            return modelFromField(readField(path, fo));
+        } catch (const UdvrError& e) {
+            UDVR_FAIL(path << " is neither a model (" << modelError << ") nor a field ("
+                           << e.what() << ")");
+        }
+    }
+    return modelFromField(readField(path, fo));
+}
+
+void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags) {
+    sub->add_option("--tf2-domain", flags.domain,
+                    "x0,x1,y0,y1: the domain of a .npy 2D TF (required there); overrides a "
+                    "widget file's");
+    sub->add_option("--tf2-resolution", flags.resolution,
+                    "WxH points a widget 2D TF is rasterised onto (default: the file's, else "
+                    "256x256)");
+}
+
+Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags) {
+    Tf2ReadOptions ro;
+    if (!flags.domain.empty()) {
+        const std::vector<double> d = parseDoubleList(flags.domain, "--tf2-domain");
+        if (d.size() != 4)
+            UDVR_FAIL("--tf2-domain expects x0,x1,y0,y1, got '" << flags.domain << "'");
+        ro.domain = std::array<double, 4>{d[0], d[1], d[2], d[3]};
+    }
+    if (!flags.resolution.empty()) ro.resolution = parseSize(flags.resolution, "--tf2-resolution");
+    return ro;
+}
+
+void requireOneTf(const std::string& tf, const Tf2Flags& tf2) {
+    if (tf.empty() && tf2.file.empty())
+        UDVR_FAIL("a transfer function is required: --tf tf.json (1D) or --tf2 FILE (2D)");
+    if (!tf.empty() && !tf2.file.empty()) UDVR_FAIL("give either --tf or --tf2, not both");
+    if (tf2.file.empty() && (!tf2.domain.empty() || !tf2.resolution.empty()))
+        UDVR_FAIL("--tf2-domain and --tf2-resolution need --tf2");
 }
 
 }  // namespace udvr::cmd

@@ -6,6 +6,8 @@
 #include <vector>
 
 #include "udvr/io/field_io.h"
+#include "udvr/io/transfer_function_2d_io.h"
+#include "udvr/stats/model_volume.h"
 
 namespace udvr::cmd {
 
@@ -38,5 +40,25 @@ std::array<double, 3> parseVec3(const std::string& text, const std::string& flag
 std::array<int, 2> parseSize(const std::string& text, const std::string& flag);
 /// Comma-separated finite doubles.
 std::vector<double> parseDoubleList(const std::string& text, const std::string& flag);
+
+/// The file extension of `path`, lower case, with the dot ("" when none).
+std::string lowerExtension(const std::string& path);
+
+/// A model .vti (one with a `mean` array) or any scalar field, which becomes a mean-only model;
+/// `var` names the field's array/variable, `raw` the layout of a headerless .raw file.
+ModelVolume readModelOrField(const std::string& path, const std::string& var,
+                             const RawLayoutFlags& raw);
+
+/// 2D TF flags as typed: --tf2 FILE, --tf2-domain x0,x1,y0,y1, --tf2-resolution WxH.
+struct Tf2Flags {
+    std::string file, domain, resolution;
+};
+/// Register --tf2-domain and --tf2-resolution (the file option is the caller's: a positional or
+/// --tf2).
+void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags);
+/// The read options the flags give (domain, widget resolution).
+Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags);
+/// Fail unless exactly one of --tf and --tf2 was given.
+void requireOneTf(const std::string& tf, const Tf2Flags& tf2);
 
 }  // namespace udvr::cmd

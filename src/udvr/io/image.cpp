@@ -19,6 +19,7 @@
 #include <string>
 
 #include "udvr/io/io_detail.h"
+#include "udvr/io/npy.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
 
@@ -129,16 +130,6 @@ std::string readBytes(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) UDVR_FAIL("cannot open " << path.string());
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-template <class T>
-T loadLittle(const char* p) {
-    unsigned char b[sizeof(T)];
-    std::memcpy(b, p, sizeof(T));
-    if constexpr (std::endian::native == std::endian::big) std::reverse(b, b + sizeof(T));
-    T v;
-    std::memcpy(&v, b, sizeof(T));
-    return v;
 }
 
 template <class T>

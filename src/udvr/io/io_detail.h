@@ -6,6 +6,7 @@
 #include <span>
 #include <string>
 
+#include "udvr/classify/transfer_function_2d.h"
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field.h"
 
@@ -32,6 +33,8 @@ void printNote(const std::string& note);
 
 /// .vti through VTK's XML reader (vti_io.cpp).
 ScalarField readFieldVti(const std::filesystem::path& path, const std::string& var);
+/// A 2D transfer-function raster from a .vti of W×H×1 points (vti_io.cpp).
+TransferFunction2D readTransferFunction2DVti(const std::filesystem::path& path);
 /// .nc with a 3D variable (netcdf_io.cpp).
 ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string& var,
                             std::string* geometryNote);

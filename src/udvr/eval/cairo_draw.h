@@ -1,0 +1,40 @@
+#pragma once
+// Cairo helpers shared by the figure renderers of eval/ (not part of the public API): owned
+// surfaces and contexts, pasting ImageRgba pixels in and out, and text. Pixels, top-left origin.
+#include <cairo.h>
+
+#include <memory>
+#include <string>
+
+#include "udvr/io/image.h"
+
+namespace udvr::detail {
+
+struct SurfaceDeleter {
+    void operator()(cairo_surface_t* s) const { cairo_surface_destroy(s); }
+};
+struct ContextDeleter {
+    void operator()(cairo_t* c) const { cairo_destroy(c); }
+};
+using SurfacePtr = std::unique_ptr<cairo_surface_t, SurfaceDeleter>;
+using ContextPtr = std::unique_ptr<cairo_t, ContextDeleter>;
+
+/// A new image surface; throws UdvrError when cairo cannot make one.
+SurfacePtr makeSurface(cairo_format_t format, int width, int height);
+/// Paste straight RGB (opaque) into an ARGB32/RGB24 surface at (x0, y0), clipped to it.
+void pasteImage(cairo_surface_t* surface, const ImageRgba& image, int x0, int y0);
+/// Read an opaque ARGB32 surface back into [0,1] floats (alpha 1).
+ImageRgba surfaceToImage(cairo_surface_t* surface);
+/// Select the figures' font (DejaVu Sans) at `size` pixels.
+void setFont(cairo_t* cr, double size, bool bold);
+/// Draw text with its horizontal centre at cx and baseline at y, shrunk to fit maxWidth.
+void textCentred(cairo_t* cr, const std::string& text, double cx, double y, double maxWidth,
+                 double size, bool bold);
+/// Draw text with its baseline at y; alignX 0 puts its left end at x, 0.5 its centre, 1 its
+/// right end.
+void textAt(cairo_t* cr, const std::string& text, double x, double y, double size, bool bold,
+            double alignX = 0.0);
+/// A tick label for value v on an axis whose ticks are `step` apart (enough decimals for step).
+std::string formatTick(double v, double step);
+
+}  // namespace udvr::detail
