@@ -15,16 +15,16 @@ namespace udvr {
 template <class Real>
 struct Tf2Raster {
     int width = 2, height = 2;
-    Real x0 = 0, y0 = 0;           // domain origin
-    Real invDx = 1, invDy = 1;     // raster cells per data unit along x and y
+    Real x0 = 0, y0 = 0;        // domain origin
+    Real invDx = 1, invDy = 1;  // raster cells per data unit along x and y
     const float* rgba = nullptr;
 };
 
 namespace detail {
 /// Raster index coordinate of v (cells from the origin), clamped to [0, n − 1]; NaN → 0.
 template <class T>
-UDVR_CPU_GPU UDVR_INLINE T rasterCoordinate(T v, lanes::ScalarOf<T> origin,
-                                            lanes::ScalarOf<T> inv, int n) {
+UDVR_CPU_GPU UDVR_INLINE T rasterCoordinate(T v, lanes::ScalarOf<T> origin, lanes::ScalarOf<T> inv,
+                                            int n) {
     using S = lanes::ScalarOf<T>;
     const T s = (v - origin) * inv;
     return lanes::select(s > S(0), lanes::min(s, lanes::splat<T>(S(n - 1))), T{});
@@ -43,7 +43,8 @@ UDVR_CPU_GPU UDVR_INLINE void rasterCell(T s, int n, lanes::IntOf<T>& i, T& f) {
 }
 /// rgba[idx + ch] per lane (live lanes only) or for a scalar index.
 template <class T>
-UDVR_CPU_GPU UDVR_INLINE T rasterLoad(const float* rgba, lanes::IntOf<T> idx, lanes::MaskOf<T> live) {
+UDVR_CPU_GPU UDVR_INLINE T rasterLoad(const float* rgba, lanes::IntOf<T> idx,
+                                      lanes::MaskOf<T> live) {
     if constexpr (lanes::kIsVector<T>)
         return lanes::gather(rgba, idx, live);
     else
@@ -76,10 +77,10 @@ template <class T, class Real>
 UDVR_CPU_GPU UDVR_INLINE void tf2At(const Tf2Raster<Real>& r, T x, T y, lanes::MaskOf<T> live,
                                     T out[4]) {
     using S = lanes::ScalarOf<T>;
-    const T s = detail::rasterCoordinate<T>(x, static_cast<S>(r.x0), static_cast<S>(r.invDx),
-                                            r.width);
-    const T t = detail::rasterCoordinate<T>(y, static_cast<S>(r.y0), static_cast<S>(r.invDy),
-                                            r.height);
+    const T s =
+        detail::rasterCoordinate<T>(x, static_cast<S>(r.x0), static_cast<S>(r.invDx), r.width);
+    const T t =
+        detail::rasterCoordinate<T>(y, static_cast<S>(r.y0), static_cast<S>(r.invDy), r.height);
     T v[4];
     tf2ColorOpacityAtRaster<T>(r, s, t, live, v);
     for (int ch = 0; ch < 3; ++ch) out[ch] = v[3] * v[ch];
@@ -111,7 +112,7 @@ UDVR_CPU_GPU UDVR_INLINE void firstLine(T s, T ds, int n, lanes::IntOf<T>& line,
         else
             return static_cast<int>(v);
     };
-    const I up = lanes::max(toInt(fl) + 1, I{} + 0);      // ds > 0
+    const I up = lanes::max(toInt(fl) + 1, I{} + 0);          // ds > 0
     const I down = lanes::min(toInt(ce) - 1, I{} + (n - 1));  // ds < 0
     const auto rising = ds > S(0), falling = ds < S(0);
     const auto upOk = rising & (up <= n - 1);
@@ -144,8 +145,8 @@ UDVR_CPU_GPU UDVR_INLINE T lineParameter(T s0, T ds, lanes::IntOf<T> line, lanes
 /// quadratic in u, α·c quartic, so 3-point Gauss–Legendre is exact. A zero-length segment gives
 /// TF2 at the point. Cost: 3 lookups per piece; lanes loop until their longest segment is done.
 template <class T, class Real>
-UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa, T ya, T xb,
-                                                  T yb, lanes::MaskOf<T> live, T out[4]) {
+UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
+                                                  lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     using I = lanes::IntOf<T>;
     const S ox = static_cast<S>(r.x0), oy = static_cast<S>(r.y0);
@@ -170,10 +171,10 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
         const T nodes[3] = {mid - kNode * len, mid, mid + kNode * len};
         const S weights[3] = {kW0, kW1, kW0};
         for (int n = 0; n < 3; ++n) {
-            const T s = detail::rasterCoordinate<T>(lanes::fma(nodes[n], ds, sa), S(0), S(1),
-                                                    r.width);
-            const T t = detail::rasterCoordinate<T>(lanes::fma(nodes[n], dt, ta), S(0), S(1),
-                                                    r.height);
+            const T s =
+                detail::rasterCoordinate<T>(lanes::fma(nodes[n], ds, sa), S(0), S(1), r.width);
+            const T t =
+                detail::rasterCoordinate<T>(lanes::fma(nodes[n], dt, ta), S(0), S(1), r.height);
             T v[4];
             tf2ColorOpacityAtRaster<T>(r, s, t, active, v);
             const T wl = lanes::select(active, len * weights[n], T{});
@@ -208,8 +209,8 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
 /// vertices (x(j), g(j)), j = 0 … count − 1; Σ_j 1/(count − 1) × mean of TF2 along segment j.
 template <class T, class Real, class X, class G>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const X& x,
-                                                       const G& g, int count,
-                                                       lanes::MaskOf<T> live, T out[4]) {
+                                                       const G& g, int count, lanes::MaskOf<T> live,
+                                                       T out[4]) {
     using S = lanes::ScalarOf<T>;
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
     T xPrev = x(0), gPrev = g(0);

@@ -37,7 +37,7 @@ inline void randomPoints(CounterRng& rng, const std::array<int, 3>& dims, lanes:
 // live must be 0.
 template <class K>
 inline double worstLaneError(const K& k, CounterRng& rng, const std::array<int, 3>& dims,
-                      const std::string& what) {
+                             const std::string& what) {
     using lanes::Vf;
     double worst = 0.0;
     for (int trial = 0; trial < 100; ++trial) {

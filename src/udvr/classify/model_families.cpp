@@ -73,9 +73,8 @@ AnyKernel2D makeMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&
 AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const float* data, int stride, int lo,
                        int hi, bool quantileMean, bool density) {
     if (hi - lo + 1 > kMaxBoundaries2D)
-        UDVR_FAIL("2D transfer functions handle at most " << kMaxBoundaries2D - 1
-                                                          << " quantiles, the model has "
-                                                          << hi - lo);
+        UDVR_FAIL("2D transfer functions handle at most "
+                  << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
     s.boundaryGradients = gridGradients(m.grid, data, stride, lo, hi - lo + 1);
     return Quantile2DKernel(m.grid, data, stride, lo, hi, s.boundaryGradients.data(), quantileMean,
                             density, kQuantileZeroWidth * span(m), s.exact, s.fast,

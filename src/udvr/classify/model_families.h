@@ -12,8 +12,8 @@
 
 #include "udvr/classify/model_kernels.h"
 #include "udvr/classify/model_kernels_2d.h"
-#include "udvr/classify/transfer_function_2d.h"
 #include "udvr/classify/model_kind.h"
+#include "udvr/classify/transfer_function_2d.h"
 #include "udvr/stats/model_volume.h"
 
 namespace udvr {
@@ -40,7 +40,7 @@ using AnyKernel2D = std::variant<Mean2DKernel, Quantile2DKernel>;
 struct Tf2Setup {
     Tf2Raster<double> exact;
     Tf2Raster<float> fast;
-    std::vector<float> meanGradient;      // of the `mean` array, 3 per voxel
+    std::vector<float> meanGradient;       // of the `mean` array, 3 per voxel
     std::vector<float> boundaryGradients;  // quantile models: of each boundary used, 3 each
 
     /// Views of `tf` (validated; it must outlive the setup) and the mean's grid gradients.

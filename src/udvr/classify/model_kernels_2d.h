@@ -99,10 +99,9 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     bool densityWeights;             // quantile-mean: 1/w_j weights (else equal)
     double zeroWidth;                // quantile-mean: widths at or below are point masses
 
-    Quantile2DKernel(const Grid3& grid, const float* b, int s, int lo, int hi,
-                     const float* bGrad, bool qm, bool density, double zero,
-                     const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
-                     const float* meanGrad)
+    Quantile2DKernel(const Grid3& grid, const float* b, int s, int lo, int hi, const float* bGrad,
+                     bool qm, bool density, double zero, const Tf2Raster<double>& exact,
+                     const Tf2Raster<float>& fast, const float* meanGrad)
         : Kernel2DBase(grid, exact, fast, meanGrad),
           boundaries(b),
           stride(s),
@@ -124,10 +123,9 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             x[j] = boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live);
             T gj{};
             for (int a = 0; a < 3; ++a)
-                gj = lanes::fma(n[a],
-                                trilinear(geometry, boundaryGradients + 3 * j + a, 3 * count, c,
-                                          live),
-                                gj);
+                gj = lanes::fma(
+                    n[a], trilinear(geometry, boundaryGradients + 3 * j + a, 3 * count, c, live),
+                    gj);
             g[j] = gj;
         }
         return count;

@@ -53,8 +53,8 @@ TransferFunction2D randomTf2(CounterRng& rng, int w, int h, double x0, double x1
 
 TEST(Gradient, LinearFieldsAreDifferentiatedExactlyEverywhere) {
     CounterRng rng(3, 0, 0);
-    for (const std::array<int, 3>& dims : {std::array<int, 3>{5, 4, 6}, std::array<int, 3>{2, 3, 1},
-                                           std::array<int, 3>{1, 5, 2}}) {
+    for (const std::array<int, 3>& dims :
+         {std::array<int, 3>{5, 4, 6}, std::array<int, 3>{2, 3, 1}, std::array<int, 3>{1, 5, 2}}) {
         const Grid3 grid = randomGrid(rng, dims);
         const double a[3] = {rng.normal(), rng.normal(), rng.normal()}, c = rng.normal();
         std::vector<float> f(grid.pointCount());
@@ -86,8 +86,7 @@ TEST(Gradient, LinearFieldsAreDifferentiatedExactlyEverywhere) {
                 for (int ax = 0; ax < 3; ++ax) y[ax] += form.coeff[s][ax] * f[form.voxel[s]];
             }
             EXPECT_NEAR(wsum, 1.0, 1e-12);
-            for (int ax = 0; ax < 3; ++ax)
-                EXPECT_NEAR(y[ax], dims[ax] > 1 ? a[ax] : 0.0, 1e-4);
+            for (int ax = 0; ax < 3; ++ax) EXPECT_NEAR(y[ax], dims[ax] > 1 ? a[ax] : 0.0, 1e-4);
         }
     }
 }
@@ -138,8 +137,8 @@ std::array<double, 4> classify2(const TransferFunction2D& t, double x, double y)
 }
 
 // Dense midpoint rule of TF2 along a segment (host TF2, independent of the raster view).
-std::array<double, 4> denseSegmentMean(const TransferFunction2D& t, double xa, double ya,
-                                       double xb, double yb, int n) {
+std::array<double, 4> denseSegmentMean(const TransferFunction2D& t, double xa, double ya, double xb,
+                                       double yb, int n) {
     std::array<double, 4> s{};
     for (int i = 0; i < n; ++i) {
         const double u = (i + 0.5) / n;
@@ -210,8 +209,8 @@ std::array<double, 4> coupledReference(const ModelVolume& m, const TransferFunct
             const float* b = m.quantiles.data() + form.voxel[s] * (q + 1);
             const double xi = b[j] + f * (b[j + 1] - b[j]);
             x += form.w[s] * xi;
-            gm += (n[0] * form.coeff[s][0] + n[1] * form.coeff[s][1] + n[2] * form.coeff[s][2]) *
-                  xi;
+            gm +=
+                (n[0] * form.coeff[s][0] + n[1] * form.coeff[s][1] + n[2] * form.coeff[s][2]) * xi;
         }
     };
     std::array<double, 4> out{};
@@ -261,9 +260,9 @@ TEST(Tf2, QuantileKernelsMatchTheRankCouplingOfTheirDefinition) {
                                         static_cast<float>(rng.uniform() * 2)};
                     double got[4];
                     classifyAt<double>(k, p[0], p[1], p[2], got);
-                    const auto want = coupledReference(
-                        m, t, cellAt<double>(k.geometry, p[0], p[1], p[2]),
-                        kind == ModelKind::QuantileMean, 200000);
+                    const auto want =
+                        coupledReference(m, t, cellAt<double>(k.geometry, p[0], p[1], p[2]),
+                                         kind == ModelKind::QuantileMean, 200000);
                     for (int ch = 0; ch < 4; ++ch)
                         EXPECT_NEAR(got[ch], want[ch], 2e-7)
                             << modelName(kind) << " q=" << q << " ch " << ch;
@@ -292,8 +291,7 @@ TEST(Tf2, MeanKernelIsTheTf2AtTheMeanValueAndGradientMagnitude) {
                 x += form.w[s] * m.mean[form.voxel[s]];
                 for (int a = 0; a < 3; ++a) y[a] += form.coeff[s][a] * m.mean[form.voxel[s]];
             }
-            const auto want =
-                classify2(t, x, std::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]));
+            const auto want = classify2(t, x, std::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]));
             double got[4];
             classifyAt<double>(k, p[0], p[1], p[2], got);
             for (int ch = 0; ch < 4; ++ch) EXPECT_NEAR(got[ch], want[ch], 1e-7);  // float gradients
@@ -322,8 +320,10 @@ TEST(Tf2, ConstantInYReproducesThe1DKernels) {
                                     static_cast<float>(rng.uniform() * 3),
                                     static_cast<float>(rng.uniform() * 2)};
                 double one[4], two[4];
-                withKernel(m, kind, tf, [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], one); });
-                with2D(m, kind, t, [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], two); });
+                withKernel(m, kind, tf,
+                           [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], one); });
+                with2D(m, kind, t,
+                       [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], two); });
                 for (int ch = 0; ch < 4; ++ch)
                     EXPECT_NEAR(two[ch], one[ch], 2e-7) << modelName(kind) << " ch " << ch;
             }
@@ -341,8 +341,7 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
             ModelVolume m = testing::randomModel(rng, dims, q);
             m.grid = randomGrid(rng, dims);
             const auto range = modelDataRange(m);
-            const TransferFunction2D t =
-                randomTf2(rng, 12, 9, range.first, range.second, 0.0, 3.0);
+            const TransferFunction2D t = randomTf2(rng, 12, 9, range.first, range.second, 0.0, 3.0);
             for (ModelKind kind : allModelKinds()) {
                 if (!modelFamily(kind).makeKernel2D) continue;
                 const bool quartile = kind == ModelKind::QuartileLower ||

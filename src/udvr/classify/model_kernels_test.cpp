@@ -497,7 +497,8 @@ TEST(Kernels, LaneAndFloatBodiesMatchTheDoubleBody) {
                                                          " offset=" + std::to_string(offset) +
                                                          " dims.x=" + std::to_string(dims[0]);
                                 withKernel(m, kind, tf, o, [&](const auto& k) {
-                                    const double worst = testing::worstLaneError(k, rng, dims, what);
+                                    const double worst =
+                                        testing::worstLaneError(k, rng, dims, what);
                                     EXPECT_LE(worst, tol) << what;
                                 });
                             }

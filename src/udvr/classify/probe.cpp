@@ -247,8 +247,10 @@ struct DescribeGradient {
         }
         m1 /= n - 1;
         m2 /= n - 1;
-        j["gradient_magnitude"] = {{"mean", m1}, {"stddev", std::sqrt(std::max(0.0, m2 - m1 * m1))}};
-        j["polyline"] = {{"x", std::vector<double>(x, x + n)}, {"g", std::vector<double>(g, g + n)}};
+        j["gradient_magnitude"] = {{"mean", m1},
+                                   {"stddev", std::sqrt(std::max(0.0, m2 - m1 * m1))}};
+        j["polyline"] = {{"x", std::vector<double>(x, x + n)},
+                         {"g", std::vector<double>(g, g + n)}};
     }
 };
 
@@ -288,8 +290,9 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
     none.color = {{0.0, 0.0, 0.0}};
     none.opacityX = {0.0};
     none.opacity = {0.0};
-    withKernel(model, kind, none, options,
-               [&](const auto& k) { Describe{family, cell, r.json, r.distribution}(k); });
+    withKernel(model, kind, none, options, [&](const auto& k) {
+        Describe{family, cell, r.json, r.distribution}(k);
+    });
     return r;
 }
 

@@ -87,16 +87,16 @@ std::vector<std::pair<double, double>> TransferFunction2D::nonZeroOpacityYRanges
 void TransferFunction2D::validate() const {
     if (width < 2 || height < 2)
         UDVR_FAIL("2D transfer function: needs at least 2x2 points, got " << width << "x"
-                                                                           << height);
+                                                                          << height);
     if (rgba.size() != static_cast<std::size_t>(width) * height * 4)
-        UDVR_FAIL("2D transfer function: expected " << width << "x" << height
-                                                    << "x4 values, got " << rgba.size());
+        UDVR_FAIL("2D transfer function: expected " << width << "x" << height << "x4 values, got "
+                                                    << rgba.size());
     if (!(std::isfinite(x0) && std::isfinite(x1) && x0 < x1))
         UDVR_FAIL("2D transfer function: x domain must be finite with x0 < x1, got [" << x0 << ", "
-                                                                                     << x1 << "]");
+                                                                                      << x1 << "]");
     if (!(std::isfinite(y0) && std::isfinite(y1) && y0 < y1))
         UDVR_FAIL("2D transfer function: y domain must be finite with y0 < y1, got [" << y0 << ", "
-                                                                                     << y1 << "]");
+                                                                                      << y1 << "]");
     for (std::size_t k = 0; k < rgba.size(); ++k)
         if (!(rgba[k] >= 0.f && rgba[k] <= 1.f))
             UDVR_FAIL("2D transfer function: colour and opacity must lie in [0,1] (point "

@@ -14,10 +14,10 @@
 namespace udvr {
 
 struct TransferFunction2D {
-    int width = 0, height = 0;            // points along x and y (each ≥ 2)
-    double x0 = 0.0, x1 = 1.0;            // domain along x (x0 < x1, finite)
-    double y0 = 0.0, y1 = 1.0;            // domain along y (y0 < y1, finite)
-    std::vector<float> rgba;              // (r, g, b, α) per point: rgba[(j·W + i)·4 + ch]
+    int width = 0, height = 0;  // points along x and y (each ≥ 2)
+    double x0 = 0.0, x1 = 1.0;  // domain along x (x0 < x1, finite)
+    double y0 = 0.0, y1 = 1.0;  // domain along y (y0 < y1, finite)
+    std::vector<float> rgba;    // (r, g, b, α) per point: rgba[(j·W + i)·4 + ch]
 
     /// (r, g, b, α) of point (i, j).
     const float* point(int i, int j) const {

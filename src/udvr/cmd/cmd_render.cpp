@@ -1,4 +1,5 @@
-// udvr render {field|model.vti} --model NAME {--tf tf.json | --tf2 TF2} [--size WxH] [camera…] [--step S]
+// udvr render {field|model.vti} --model NAME {--tf tf.json | --tf2 TF2} [--size WxH] [camera…]
+// [--step S]
 //             [--unit-distance U] [--float img.npy|.pfm] [--frames N] -o img.png   (SPEC §8)
 #include <algorithm>
 #include <cctype>

@@ -166,8 +166,8 @@ ModelVolume readModelOrField(const std::string& path, const std::string& var,
         try {
             return modelFromField(readField(path, fo));
         } catch (const UdvrError& e) {
-            UDVR_FAIL(path << " is neither a model (" << modelError << ") nor a field ("
-                           << e.what() << ")");
+            UDVR_FAIL(path << " is neither a model (" << modelError << ") nor a field (" << e.what()
+                           << ")");
         }
     }
     return modelFromField(readField(path, fo));

@@ -181,8 +181,7 @@ void fillStats(RenderStats* stats, std::chrono::steady_clock::time_point start,
                const detail::MarchCounters& counters) {
     if (!stats) return;
     stats->milliseconds =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-            .count();
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     stats->samples = counters.samples.load();
     stats->skippedSamples = counters.skipped.load();
 }
@@ -242,9 +241,8 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
     detail::MarchCounters counters;
     ClassifyOptions options;
     options.uniformMinMax = settings.uniformMinMax;
-    withKernel2D(model, kind, tf, options, [&](const auto& kernel) {
-        renderKernel(kernel, p, ranges, image, counters);
-    });
+    withKernel2D(model, kind, tf, options,
+                 [&](const auto& kernel) { renderKernel(kernel, p, ranges, image, counters); });
     fillStats(stats, start, counters);
     return image;
 }
