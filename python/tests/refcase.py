@@ -135,3 +135,37 @@ def random_points(rng, dims, n):
     integer = np.array([rng.integers(0, d) for d in dims], float)  # a grid point
     pts += [face, edge, corner, integer]
     return [np.asarray(p, np.float32).astype(float) for p in pts]
+
+
+def random_camera(rng, r, kind):
+    """CLI arguments and the reference camera of one random camera of `kind`."""
+    b = r.bounds
+    c = 0.5 * (b[0::2] + b[1::2])
+    radius = 0.5 * np.linalg.norm(b[1::2] - b[0::2])
+    if kind == "default":
+        az, el, zoom = rng.uniform(-180, 180), rng.uniform(-60, 60), rng.uniform(0.9, 1.6)
+        va = rng.uniform(20, 40)
+        cam = ref.default_camera(b, az, el, zoom, va)
+        args = ["--azimuth", repr(az), "--elevation", repr(el), "--zoom", repr(zoom),
+                "--view-angle", repr(va)]
+        return args, cam, None
+    if kind == "default-parallel":
+        az, el = rng.uniform(-180, 180), rng.uniform(-60, 60)
+        cam = ref.default_camera(b, az, el)
+        ps = radius * rng.uniform(0.6, 1.1)
+        args = ["--azimuth", repr(az), "--elevation", repr(el), "--parallel-scale", repr(ps)]
+        return args, cam, ps
+    d = rng.normal(size=3)
+    d /= np.linalg.norm(d)
+    focal = c + 0.15 * radius * rng.normal(size=3)
+    pos = focal + d * radius * rng.uniform(2.2, 3.5)
+    up = rng.normal(size=3)
+    va = rng.uniform(25, 45)
+    cam = dict(position=pos, focal_point=focal, view_up=up, view_angle=va)
+    args = ["--position", fmt(pos), "--focal-point", fmt(focal), "--view-up",
+            fmt(up), "--view-angle", repr(va)]
+    ps = None
+    if kind == "parallel":
+        ps = radius * rng.uniform(0.6, 1.1)
+        args += ["--parallel-scale", repr(ps)]
+    return args, cam, ps

@@ -214,31 +214,6 @@ def test_probe_tf2_zero_mean_gradient_uses_plus_x(probe_cli, tmp_path):
 
 # ---- render ---------------------------------------------------------------------------------
 
-def random_camera(rng, r, kind):
-    """CLI arguments, reference camera and parallel scale of one random camera."""
-    b = r.bounds
-    c = 0.5 * (b[0::2] + b[1::2])
-    radius = 0.5 * np.linalg.norm(b[1::2] - b[0::2])
-    if kind == "default":
-        az, el, zoom = rng.uniform(-180, 180), rng.uniform(-60, 60), rng.uniform(0.9, 1.5)
-        return (["--azimuth", repr(az), "--elevation", repr(el), "--zoom", repr(zoom)],
-                ref.default_camera(b, az, el, zoom), None)
-    d = rng.normal(size=3)
-    d /= np.linalg.norm(d)
-    focal = c + 0.15 * radius * rng.normal(size=3)
-    pos = focal + d * radius * rng.uniform(2.2, 3.5)
-    up = rng.normal(size=3)
-    va = rng.uniform(25, 45)
-    cam = dict(position=pos, focal_point=focal, view_up=up, view_angle=va)
-    args = ["--position", refcase.fmt(pos), "--focal-point", refcase.fmt(focal), "--view-up",
-            refcase.fmt(up), "--view-angle", repr(va)]
-    ps = None
-    if kind == "parallel":
-        ps = radius * rng.uniform(0.6, 1.1)
-        args += ["--parallel-scale", repr(ps)]
-    return args, cam, ps
-
-
 def render_udvr(d, kind, tf_args, cam_args, tag):
     npy = d / ("%s_%s.npy" % (tag, kind))
     refcase.run_udvr("render", d / "model.vti", "--model", kind, *tf_args, "--size",
@@ -264,7 +239,7 @@ def test_render_tf2_matches_reference(render_cli, tmp_path, seed, camera):
     r = random_model(rng, [5, 4, 6], tmp_path)
     t = random_tf2_for(rng, r)
     tf_args = write_tf2(t, tmp_path, FORMATS[(seed + len(camera)) % 3])
-    cam_args, cam, ps = random_camera(rng, r, camera)
+    cam_args, cam, ps = refcase.random_camera(rng, r, camera)
     covered = 0
     for kind in KINDS:
         if not supported(kind):
@@ -281,7 +256,7 @@ def test_render_tf2_explicit_step_unit_early_exit_background(render_cli, tmp_pat
     r = random_model(rng, [5, 4, 6], tmp_path)
     t = random_tf2_for(rng, r)
     tf_args = write_tf2(t, tmp_path, "npy")
-    cam_args, cam, ps = random_camera(rng, r, "perspective")
+    cam_args, cam, ps = refcase.random_camera(rng, r, "perspective")
     step, unit = 0.37 * r.spacing.min(), rng.uniform(0.3, 2.0)
     early, bg = rng.uniform(0.3, 0.8), rng.uniform(0, 1, 3)
     cam_args += ["--step", repr(step), "--unit-distance", repr(unit), "--early-exit",
@@ -312,7 +287,7 @@ def test_render_tf2_constant_in_y_is_the_1d_render(render_cli, tmp_path, kind):
                              1.1 * r2.gradient_magnitude_range(r), H=4)
     tf1.write(tmp_path / "tf.json")
     tf2_args = write_tf2(t2, tmp_path, "vti-ascii")
-    cam_args, cam, ps = random_camera(rng, r, "default")
+    cam_args, cam, ps = refcase.random_camera(rng, r, "default")
     got2 = render_udvr(tmp_path, kind, tf2_args, cam_args, "tf2")
     got1 = render_udvr(tmp_path, kind, ["--tf", tmp_path / "tf.json"], cam_args, "tf1")
     assert got1[..., 3].max() > 1e-3, "the volume is not in view"

@@ -33,40 +33,6 @@ def random_setup(seed, tmp_path, full_res_min_spacing=None):
     return rng, r, tf
 
 
-def random_camera(rng, r, kind):
-    """CLI arguments and the reference camera of one random camera of `kind`."""
-    b = r.bounds
-    c = 0.5 * (b[0::2] + b[1::2])
-    radius = 0.5 * np.linalg.norm(b[1::2] - b[0::2])
-    if kind == "default":
-        az, el, zoom = rng.uniform(-180, 180), rng.uniform(-60, 60), rng.uniform(0.9, 1.6)
-        va = rng.uniform(20, 40)
-        cam = ref.default_camera(b, az, el, zoom, va)
-        args = ["--azimuth", repr(az), "--elevation", repr(el), "--zoom", repr(zoom),
-                "--view-angle", repr(va)]
-        return args, cam, None
-    if kind == "default-parallel":
-        az, el = rng.uniform(-180, 180), rng.uniform(-60, 60)
-        cam = ref.default_camera(b, az, el)
-        ps = radius * rng.uniform(0.6, 1.1)
-        args = ["--azimuth", repr(az), "--elevation", repr(el), "--parallel-scale", repr(ps)]
-        return args, cam, ps
-    d = rng.normal(size=3)
-    d /= np.linalg.norm(d)
-    focal = c + 0.15 * radius * rng.normal(size=3)
-    pos = focal + d * radius * rng.uniform(2.2, 3.5)
-    up = rng.normal(size=3)
-    va = rng.uniform(25, 45)
-    cam = dict(position=pos, focal_point=focal, view_up=up, view_angle=va)
-    args = ["--position", refcase.fmt(pos), "--focal-point", refcase.fmt(focal), "--view-up",
-            refcase.fmt(up), "--view-angle", repr(va)]
-    ps = None
-    if kind == "parallel":
-        ps = radius * rng.uniform(0.6, 1.1)
-        args += ["--parallel-scale", repr(ps)]
-    return args, cam, ps
-
-
 def render_udvr(tmp_path, kind, args, tag):
     npy = tmp_path / ("%s_%s.npy" % (tag, kind))
     refcase.run_udvr("render", tmp_path / "model.vti", "--model", kind, "--tf",
@@ -89,7 +55,7 @@ def check(got, want, what):
 @pytest.mark.parametrize("camera", ["perspective", "parallel", "default", "default-parallel"])
 def test_render_matches_reference(tmp_path, seed, camera):
     rng, r, tf = random_setup(seed, tmp_path)
-    args, cam, ps = random_camera(rng, r, camera)
+    args, cam, ps = refcase.random_camera(rng, r, camera)
     covered = 0
     for kind in KINDS:
         got = render_udvr(tmp_path, kind, args, camera)
@@ -102,7 +68,7 @@ def test_render_matches_reference(tmp_path, seed, camera):
 @pytest.mark.parametrize("seed", [31, 32])
 def test_render_explicit_step_unit_early_exit_background(tmp_path, seed):
     rng, r, tf = random_setup(seed, tmp_path)
-    args, cam, ps = random_camera(rng, r, "perspective" if seed % 2 else "parallel")
+    args, cam, ps = refcase.random_camera(rng, r, "perspective" if seed % 2 else "parallel")
     step = 0.37 * r.spacing.min()
     unit = rng.uniform(0.3, 2.0)
     early = rng.uniform(0.3, 0.8)
@@ -119,7 +85,7 @@ def test_render_explicit_step_unit_early_exit_background(tmp_path, seed):
 def test_render_defaults_come_from_the_full_resolution_spacing(tmp_path):
     """Δ = ½ and u = 1 × the full-resolution min spacing, not the model grid's (SPEC §5)."""
     rng, r, tf = random_setup(41, tmp_path, full_res_min_spacing=0.41)
-    args, cam, ps = random_camera(rng, r, "default")
+    args, cam, ps = refcase.random_camera(rng, r, "default")
     for kind in ["mean", "gaussian"]:
         got = render_udvr(tmp_path, kind, args, "fullres")
         want = ref.render(r, kind, tf, W, H, cam, parallel_scale=ps)
@@ -128,7 +94,7 @@ def test_render_defaults_come_from_the_full_resolution_spacing(tmp_path):
 
 def test_render_without_early_exit(tmp_path):
     rng, r, tf = random_setup(51, tmp_path)
-    args, cam, ps = random_camera(rng, r, "perspective")
+    args, cam, ps = refcase.random_camera(rng, r, "perspective")
     args += ["--early-exit", "1"]
     got = render_udvr(tmp_path, "quantile-mean", args, "noexit")
     want = ref.render(r, "quantile-mean", tf, W, H, cam, parallel_scale=ps, early_exit=1.0)
@@ -160,7 +126,7 @@ def test_render_downsampled_model_sees_the_full_resolution_box(tmp_path):
     tf = refcase.random_tf(rng, 0.0, 1.0)
     tf.write(tmp_path / "tf.json")
     for camera in ("default", "parallel"):
-        args, cam, ps = random_camera(rng, r, camera)
+        args, cam, ps = refcase.random_camera(rng, r, camera)
         for kind in ["mean", "quantile-mean", "gaussian"]:
             got = render_udvr(tmp_path, kind, args, "down")
             want = ref.render(r, kind, tf, W, H, cam, parallel_scale=ps)
@@ -175,7 +141,7 @@ def test_render_a_plain_field_as_the_mean_model(tmp_path):
     r = ref.RefModel(field, origin=origin, spacing=spacing)
     tf = refcase.random_tf(rng, -1.0, 2.0)
     tf.write(tmp_path / "tf.json")
-    args, cam, ps = random_camera(rng, r, "perspective")
+    args, cam, ps = refcase.random_camera(rng, r, "perspective")
     got = render_udvr(tmp_path, "mean", args, "field")
     check(got, ref.render(r, "mean", tf, W, H, cam, parallel_scale=ps), "field input, mean")
 
@@ -184,7 +150,7 @@ def test_render_uniform_tiny(tmp_path):
     """The box-spline model through the renderer (its reference is slow: a 7×5 image)."""
     global W, H
     rng, r, tf = random_setup(81, tmp_path)
-    args, cam, ps = random_camera(rng, r, "default")
+    args, cam, ps = refcase.random_camera(rng, r, "default")
     w0, h0 = W, H
     W, H = 7, 5
     try:

@@ -67,7 +67,7 @@ AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf, cons
 // 2D kernels (SPEC §9).
 AnyKernel2D makeMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
                        const ModelFamily&) {
-    return Mean2DKernel(m.grid, m.mean.data(), s.exact, s.fast, s.meanGradient.data());
+    return Mean2DKernel(m.grid, m.mean.data(), s.exact, s.fast, s.meanGradient);
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const float* data, int stride, int lo,
@@ -75,10 +75,9 @@ AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const float* data, int
     if (hi - lo + 1 > kMaxBoundaries2D)
         UDVR_FAIL("2D transfer functions handle at most "
                   << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
-    s.boundaryGradients = gridGradients(m.grid, data, stride, lo, hi - lo + 1);
-    return Quantile2DKernel(m.grid, data, stride, lo, hi, s.boundaryGradients.data(), quantileMean,
-                            density, kQuantileZeroWidth * span(m), s.exact, s.fast,
-                            s.meanGradient.data());
+    const float* gradients = s.gradients.of(m.grid, data, stride, lo, hi - lo + 1).data();
+    return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, quantileMean, density,
+                            kQuantileZeroWidth * span(m), s.exact, s.fast, s.meanGradient);
 }
 AnyKernel2D makeQuantileRange2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                                 const ModelFamily& f) {
@@ -148,7 +147,8 @@ std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
 
 }  // namespace
 
-Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model) {
+Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache)
+    : gradients(cache) {
     tf.validate();
     exact.width = fast.width = tf.width;
     exact.height = fast.height = tf.height;
@@ -161,7 +161,7 @@ Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model) {
     fast.y0 = static_cast<float>(exact.y0);
     fast.invDx = static_cast<float>(exact.invDx);
     fast.invDy = static_cast<float>(exact.invDy);
-    meanGradient = gridGradients(model.grid, model.mean.data(), 1, 0, 1);
+    meanGradient = cache.of(model.grid, model.mean.data(), 1, 0, 1).data();
 }
 
 std::span<const ModelFamily> modelFamilies() { return kFamilies; }

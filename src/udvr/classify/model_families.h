@@ -14,6 +14,7 @@
 #include "udvr/classify/model_kernels_2d.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function_2d.h"
+#include "udvr/reconstruct/gradient_field.h"
 #include "udvr/stats/model_volume.h"
 
 namespace udvr {
@@ -36,15 +37,16 @@ using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrd
 /// Any model's kernel with a 2D TF (SPEC §9).
 using AnyKernel2D = std::variant<Mean2DKernel, Quantile2DKernel>;
 
-/// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends.
+/// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
+/// `gradients`, which outlives the setup).
 struct Tf2Setup {
     Tf2Raster<double> exact;
     Tf2Raster<float> fast;
-    std::vector<float> meanGradient;       // of the `mean` array, 3 per voxel
-    std::vector<float> boundaryGradients;  // quantile models: of each boundary used, 3 each
+    GradientCache& gradients;
+    const float* meanGradient;  // of the `mean` array, 3 per voxel
 
     /// Views of `tf` (validated; it must outlive the setup) and the mean's grid gradients.
-    Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model);
+    Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);
     Tf2Setup(const Tf2Setup&) = delete;
     Tf2Setup& operator=(const Tf2Setup&) = delete;
 };
@@ -93,11 +95,12 @@ void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction
     std::visit(f, family.makeKernel(model, pieces, options, family));
 }
 
-/// withKernel for a 2D TF (SPEC §9): f(kernel) with the model's 2D kernel. Throws UdvrError for
-/// models without one, a model without a `mean` array (n̂ needs it) or an invalid TF2.
+/// withKernel for a 2D TF (SPEC §9): f(kernel) with the model's 2D kernel, its grid gradients
+/// from `cache` (kept between frames) or computed for the call. Throws UdvrError for models
+/// without one, a model without a `mean` array (n̂ needs it) or an invalid TF2.
 template <class F>
 void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
-                  const ClassifyOptions& options, F&& f) {
+                  const ClassifyOptions& options, F&& f, GradientCache* cache = nullptr) {
     checkModelHasArrays(model, kind, options);
     checkModelHasArrays(model, ModelKind::Mean, options);
     const ModelFamily& family = modelFamily(kind);
@@ -106,7 +109,8 @@ void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFuncti
                             << "' has no 2D transfer-function classification (SPEC 9: mean, "
                                "quantile-range, quantile-mean, quantile-mean-mass, iqr and the "
                                "quartile views)");
-    Tf2Setup setup(tf, model);
+    GradientCache local;
+    Tf2Setup setup(tf, model, cache ? *cache : local);
     std::visit(f, family.makeKernel2D(model, setup, options, family));
 }
 

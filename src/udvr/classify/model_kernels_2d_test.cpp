@@ -136,6 +136,26 @@ std::array<double, 4> classify2(const TransferFunction2D& t, double x, double y)
     return {v[3] * v[0], v[3] * v[1], v[3] * v[2], v[3]};
 }
 
+TEST(Gradient, CacheReusesArraysAndKeepsTheTwoLastUsed) {
+    CounterRng rng(11, 0, 0);
+    const Grid3 grid = randomGrid(rng, {4, 3, 5});
+    std::vector<float> a(grid.pointCount()), b(3 * grid.pointCount()), c(grid.pointCount());
+    for (auto* v : {&a, &b, &c})
+        for (float& x : *v) x = static_cast<float>(rng.normal());
+    GradientCache cache;
+    const float* first = cache.of(grid, b.data(), 3, 1, 2).data();
+    EXPECT_EQ(cache.of(grid, b.data(), 3, 1, 2), gridGradients(grid, b.data(), 3, 1, 2));
+    EXPECT_EQ(cache.of(grid, b.data(), 3, 1, 2).data(), first);  // a hit: not recomputed
+    EXPECT_EQ(cache.of(grid, b.data(), 3, 0, 2), gridGradients(grid, b.data(), 3, 0, 2));
+    // The mean asked for first in a kernel survives the boundaries asked for next.
+    GradientCache lru;
+    const float* mean = lru.of(grid, a.data(), 1, 0, 1).data();
+    lru.of(grid, c.data(), 1, 0, 1);
+    EXPECT_EQ(lru.of(grid, a.data(), 1, 0, 1).data(), mean);  // a hit: now most recent
+    lru.of(grid, b.data(), 3, 0, 3);                          // evicts c, not a
+    EXPECT_EQ(lru.of(grid, a.data(), 1, 0, 1).data(), mean);
+}
+
 // Dense midpoint rule of TF2 along a segment (host TF2, independent of the raster view).
 std::array<double, 4> denseSegmentMean(const TransferFunction2D& t, double xa, double ya, double xb,
                                        double yb, int n) {
@@ -161,7 +181,8 @@ TEST(Tf2, SegmentMeanIsExactAgainstDenseQuadrature) {
     ModelVolume unit;  // a 1-voxel model: only the raster views matter here
     unit.grid.dims = {1, 1, 1};
     unit.mean = {0.f};
-    const Tf2Setup setup(t, unit);
+    GradientCache gradients;
+    const Tf2Setup setup(t, unit, gradients);
     double worst = 0;
     for (int trial = 0; trial < 300; ++trial) {
         // Segments inside, crossing the domain's edges, far outside, axis-aligned, zero-length.

@@ -105,7 +105,7 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
     const auto frame = [&] {
-        return twoD ? renderVolume(model, kind, tf2, s, &stats)
+        return twoD ? renderVolume(model, kind, tf2, s, &stats, &cache)
                     : renderVolume(model, kind, tf, s, &stats, &cache);
     };
     ImageRgba image = frame();

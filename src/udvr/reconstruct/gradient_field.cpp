@@ -1,5 +1,6 @@
 #include "udvr/reconstruct/gradient_field.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "udvr/reconstruct/gradient.h"
@@ -29,6 +30,22 @@ std::vector<float> gridGradients(const Grid3& grid, const float* values, int per
         }
     });
     return out;
+}
+
+const std::vector<float>& GradientCache::of(const Grid3& grid, const float* values, int perVoxel,
+                                            int first, int count) {
+    // Least recently used first: a hit moves to the back (the vectors move, their data stay put),
+    // so the two arrays of one kernel never evict each other.
+    for (auto it = entries_.begin(); it != entries_.end(); ++it)
+        if (it->values == values && it->perVoxel == perVoxel && it->first == first &&
+            it->count == count && it->dims == grid.dims && it->spacing == grid.spacing) {
+            std::rotate(it, it + 1, entries_.end());
+            return entries_.back().gradients;
+        }
+    if (entries_.size() >= 2) entries_.erase(entries_.begin());
+    entries_.push_back({values, perVoxel, first, count, grid.dims, grid.spacing,
+                        gridGradients(grid, values, perVoxel, first, count)});
+    return entries_.back().gradients;
 }
 
 std::vector<float> gridGradientMagnitudes(const Grid3& grid, const float* values) {

@@ -1,6 +1,7 @@
 #pragma once
 // Grid gradients of whole arrays (SPEC §9), computed once per model and kept beside it: the
 // kernels then blend a sample's gradient trilinearly from the 8 corners like any per-voxel value.
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -12,6 +13,28 @@ namespace udvr {
 /// perVoxel floats per voxel: out[(v·count + l)·3 + axis] for voxel v and layer l.
 std::vector<float> gridGradients(const Grid3& grid, const float* values, int perVoxel, int first,
                                  int count);
+
+/// Grid gradients kept between frames (gridGradients of the same arrays are reused): keyed by
+/// the array's address, layout and grid, so a model edited in place needs clear(). Holds the
+/// last two arrays asked for (the mean and a model's boundaries).
+class GradientCache {
+  public:
+    /// gridGradients(grid, values, perVoxel, first, count), computed on first use. Its data()
+    /// stays valid until two other arrays have been asked for since, or clear().
+    const std::vector<float>& of(const Grid3& grid, const float* values, int perVoxel, int first,
+                                 int count);
+    void clear() { entries_.clear(); }
+
+  private:
+    struct Entry {
+        const float* values;
+        int perVoxel, first, count;
+        std::array<int, 3> dims;
+        std::array<double, 3> spacing;
+        std::vector<float> gradients;
+    };
+    std::vector<Entry> entries_;
+};
 
 /// |∇f| at every grid point of a one-float-per-voxel array (for joint histograms).
 std::vector<float> gridGradientMagnitudes(const Grid3& grid, const float* values);

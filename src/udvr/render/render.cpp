@@ -73,7 +73,8 @@ ImageRgba blankImage(int width, int height) {
     return img;
 }
 
-// What the cached tables were built from: the model's arrays, the kind and the TF.
+// What the cached skipping tables were built from: the model's arrays, the kind and whether
+// its 1D or 2D kernel (their voxel supports), and the TF's non-zero-opacity value ranges.
 struct CacheKey {
     const ModelVolume* model = nullptr;
     std::vector<const void*> arrays;
@@ -81,17 +82,14 @@ struct CacheKey {
     std::array<int, 3> dims{};
     ModelKind kind = ModelKind::Mean;
     bool uniformMinMax = false;
-    TransferFunction1D tf;
+    bool twoD = false;
+    std::vector<std::pair<double, double>> ranges;
 
-    bool operator==(const CacheKey& o) const {
-        return model == o.model && arrays == o.arrays && voxels == o.voxels && dims == o.dims &&
-               kind == o.kind && uniformMinMax == o.uniformMinMax && tf.colorX == o.tf.colorX &&
-               tf.color == o.tf.color && tf.opacityX == o.tf.opacityX && tf.opacity == o.tf.opacity;
-    }
+    bool operator==(const CacheKey& o) const = default;
 };
 
-CacheKey makeKey(const ModelVolume& m, ModelKind kind, const TransferFunction1D& tf,
-                 bool uniformMinMax) {
+CacheKey makeKey(const ModelVolume& m, ModelKind kind, bool twoD,
+                 const std::vector<std::pair<double, double>>& ranges, bool uniformMinMax) {
     CacheKey k;
     k.model = &m;
     k.arrays = {m.mean.data(),      m.stddev.data(), m.min.data(), m.max.data(),
@@ -100,7 +98,8 @@ CacheKey makeKey(const ModelVolume& m, ModelKind kind, const TransferFunction1D&
     k.dims = m.grid.dims;
     k.kind = kind;
     k.uniformMinMax = uniformMinMax;
-    k.tf = tf;
+    k.twoD = twoD;
+    k.ranges = ranges;
     return k;
 }
 
@@ -110,11 +109,15 @@ struct RenderCache::Impl {
     bool valid = false;
     CacheKey key;
     detail::SkipTable table;
+    GradientCache gradients;  // 2D TFs: the grid gradients of the model's arrays
 };
 
 RenderCache::RenderCache() : impl_(std::make_unique<Impl>()) {}
 RenderCache::~RenderCache() = default;
-void RenderCache::clear() { impl_->valid = false; }
+void RenderCache::clear() {
+    impl_->valid = false;
+    impl_->gradients.clear();
+}
 
 namespace {
 
@@ -177,74 +180,87 @@ void drawRealization(const ModelVolume& model, std::uint64_t seed, std::uint64_t
     });
 }
 
-void fillStats(RenderStats* stats, std::chrono::steady_clock::time_point start,
-               const detail::MarchCounters& counters) {
-    if (!stats) return;
-    stats->milliseconds =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    stats->samples = counters.samples.load();
-    stats->skippedSamples = counters.skipped.load();
+// One frame: its parameters, a blank image and counters; march(p, image, counters) fills it.
+template <class March>
+ImageRgba timedFrame(const ModelVolume& model, const RenderSettings& settings, RenderStats* stats,
+                     const March& march) {
+    const auto start = std::chrono::steady_clock::now();
+    const detail::MarchParams p = makeParams(model, settings);
+    ImageRgba image = blankImage(settings.width, settings.height);
+    detail::MarchCounters counters;
+    march(p, image, counters);
+    if (stats) {
+        stats->milliseconds =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count();
+        stats->samples = counters.samples.load();
+        stats->skippedSamples = counters.skipped.load();
+    }
+    return image;
 }
 
 }  // namespace
 
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
                        const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
-    const auto start = std::chrono::steady_clock::now();
-    const detail::MarchParams p = makeParams(model, settings);
-    tf.validate();
-    const auto ranges = tf.nonZeroOpacityRanges();
-    ImageRgba image = blankImage(settings.width, settings.height);
-    detail::MarchCounters counters;
-    RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
-    const CacheKey key = cache ? makeKey(model, kind, tf, settings.uniformMinMax) : CacheKey{};
-
-    if (modelFamily(kind).realizations) {
-        checkModelHasArrays(model, kind);
-        if (settings.realizations < 1)
-            UDVR_FAIL("--realizations must be >= 1, got " << settings.realizations);
-        const TfPiecesStorage pieces(tf);
-        std::vector<double> sum(image.rgba.size(), 0.0);
-        std::vector<float> values;
-        ImageRgba frame = blankImage(settings.width, settings.height);
-        ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
-        for (int r = 0; r < settings.realizations; ++r) {
-            drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
-            renderKernel(MeanKernel(model.grid, values.data(), pieces), p, ranges, frame, counters);
-            for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += frame.rgba[i];
-            bar.advance();
-        }
-        bar.finish();
-        // Screen-space average of the realizations' images (Liu et al. 2012).
-        const double inv = 1.0 / settings.realizations;
-        for (std::size_t i = 0; i < sum.size(); ++i)
-            image.rgba[i] = static_cast<float>(sum[i] * inv);
-    } else {
-        ClassifyOptions options;
-        options.uniformMinMax = settings.uniformMinMax;
-        withKernel(model, kind, tf, options, [&](const auto& kernel) {
-            renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
+    return timedFrame(
+        model, settings, stats,
+        [&](const detail::MarchParams& p, ImageRgba& image, detail::MarchCounters& counters) {
+            tf.validate();
+            const auto ranges = tf.nonZeroOpacityRanges();
+            RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
+            const CacheKey key =
+                cache ? makeKey(model, kind, false, ranges, settings.uniformMinMax) : CacheKey{};
+            if (!modelFamily(kind).realizations) {
+                ClassifyOptions options;
+                options.uniformMinMax = settings.uniformMinMax;
+                withKernel(model, kind, tf, options, [&](const auto& kernel) {
+                    renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
+                });
+                return;
+            }
+            checkModelHasArrays(model, kind);
+            if (settings.realizations < 1)
+                UDVR_FAIL("--realizations must be >= 1, got " << settings.realizations);
+            const TfPiecesStorage pieces(tf);
+            std::vector<double> sum(image.rgba.size(), 0.0);
+            std::vector<float> values;
+            ImageRgba frame = blankImage(settings.width, settings.height);
+            ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
+            for (int r = 0; r < settings.realizations; ++r) {
+                drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
+                renderKernel(MeanKernel(model.grid, values.data(), pieces), p, ranges, frame,
+                             counters);
+                for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += frame.rgba[i];
+                bar.advance();
+            }
+            bar.finish();
+            // Screen-space average of the realizations' images (Liu et al. 2012).
+            const double inv = 1.0 / settings.realizations;
+            for (std::size_t i = 0; i < sum.size(); ++i)
+                image.rgba[i] = static_cast<float>(sum[i] * inv);
         });
-    }
-
-    fillStats(stats, start, counters);
-    return image;
 }
 
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
-                       const RenderSettings& settings, RenderStats* stats) {
-    const auto start = std::chrono::steady_clock::now();
-    const detail::MarchParams p = makeParams(model, settings);
-    tf.validate();
-    const auto ranges = tf.nonZeroOpacityXRanges();
-    ImageRgba image = blankImage(settings.width, settings.height);
-    detail::MarchCounters counters;
-    ClassifyOptions options;
-    options.uniformMinMax = settings.uniformMinMax;
-    withKernel2D(model, kind, tf, options,
-                 [&](const auto& kernel) { renderKernel(kernel, p, ranges, image, counters); });
-    fillStats(stats, start, counters);
-    return image;
+                       const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
+    return timedFrame(
+        model, settings, stats,
+        [&](const detail::MarchParams& p, ImageRgba& image, detail::MarchCounters& counters) {
+            tf.validate();
+            const auto ranges = tf.nonZeroOpacityXRanges();
+            RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
+            const CacheKey key =
+                cache ? makeKey(model, kind, true, ranges, settings.uniformMinMax) : CacheKey{};
+            ClassifyOptions options;
+            options.uniformMinMax = settings.uniformMinMax;
+            withKernel2D(
+                model, kind, tf, options,
+                [&](const auto& kernel) {
+                    renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
+                },
+                cacheImpl ? &cacheImpl->gradients : nullptr);
+        });
 }
 
 }  // namespace udvr

@@ -52,8 +52,9 @@ struct RenderStats {
 
 /// Tables kept between frames of one model, kind and TF: the empty-space-skipping tables,
 /// built on the first frame (as VTK's mapper builds its min-max volume) and reused while only
-/// the camera, size or step change. Rebuilt when the model's arrays, the kind or the TF differ;
-/// a model edited in place (same arrays, new values) needs clear().
+/// the camera, size or step change, and (2D TFs) the grid gradients of the model's arrays.
+/// Rebuilt when the model's arrays, the kind or the TF's non-zero-opacity ranges differ; a
+/// model edited in place (same arrays, new values) needs clear().
 class RenderCache {
   public:
     RenderCache();
@@ -78,8 +79,10 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
 
 /// Render with a 2D transfer function (SPEC §9): x the value, y the gradient magnitude G along
 /// the mean gradient. Models: those with a 2D kernel (classify/model_families.h). Skipping uses
-/// the x ranges where the TF2 has α > 0 for some y.
+/// the x ranges where the TF2 has α > 0 for some y. A RenderCache keeps the skipping tables and
+/// the model's grid gradients between frames.
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
-                       const RenderSettings& settings, RenderStats* stats = nullptr);
+                       const RenderSettings& settings, RenderStats* stats = nullptr,
+                       RenderCache* cache = nullptr);
 
 }  // namespace udvr

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "udvr/classify/expected_tf.h"
+#include "udvr/classify/model_kind.h"
 #include "udvr/classify/tf_pieces.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/render/camera.h"
@@ -318,6 +319,48 @@ TEST(Render, CacheReusesTablesAndRebuildsForANewTf) {
     other.opacity = {0, 0, 0, 0, 0, 0, 0, 0, 0.3, 0, 0};
     EXPECT_EQ(maxAbsDiff(renderVolume(m, ModelKind::Mean, other, s, nullptr, &cache),
                          renderVolume(m, ModelKind::Mean, other, s)),
+              0.0);
+}
+
+// 2D TFs: the cache keeps the skipping tables and the grid gradients; every cached frame equals
+// the uncached one exactly, across cameras, kinds (the mean's gradients shared) and TF2s.
+TEST(Render, CacheServes2DTfsAcrossCamerasKindsAndTfs) {
+    ModelVolume m = tangleModel(20);
+    // Quantiles: the value ± a spread that varies over the grid, so gradients differ per layer.
+    const int q = 4;
+    m.quantileCount = q;
+    for (std::size_t v = 0; v < m.voxelCount(); ++v)
+        for (int j = 0; j <= q; ++j)
+            m.quantiles.push_back(m.mean[v] + static_cast<float>(j - 2) *
+                                                  (0.2f + 0.01f * static_cast<float>(v % 7)));
+    RenderSettings s;
+    s.width = s.height = 24;
+    s.camera = defaultCamera(m.bounds, 30.0, 20.0);
+    TransferFunction2D t;
+    t.width = 5;
+    t.height = 4;
+    t.x0 = -6;
+    t.x1 = 6;
+    t.y0 = 0;
+    t.y1 = 60;
+    for (int k = 0; k < t.width * t.height; ++k)
+        t.rgba.insert(t.rgba.end(), {0.2f + 0.1f * static_cast<float>(k % 5), 0.5f,
+                                     0.9f - 0.05f * static_cast<float>(k % 4),
+                                     (k % 3 == 0) ? 0.f : 0.1f * static_cast<float>(k % 9)});
+    RenderCache cache;
+    for (ModelKind kind : {ModelKind::Mean, ModelKind::QuantileRange, ModelKind::QuantileMean})
+        for (double azimuth : {30.0, -60.0}) {
+            s.camera = defaultCamera(m.bounds, azimuth, 20.0);
+            EXPECT_EQ(maxAbsDiff(renderVolume(m, kind, t, s, nullptr, &cache),
+                                 renderVolume(m, kind, t, s)),
+                      0.0)
+                << modelName(kind) << " azimuth " << azimuth;
+        }
+    TransferFunction2D other = t;  // α only on the first column: new skipping ranges
+    for (int k = 0; k < other.width * other.height; ++k)
+        other.rgba[4 * k + 3] = k % other.width == 0 ? 0.5f : 0.f;
+    EXPECT_EQ(maxAbsDiff(renderVolume(m, ModelKind::QuantileRange, other, s, nullptr, &cache),
+                         renderVolume(m, ModelKind::QuantileRange, other, s)),
               0.0);
 }
 
