@@ -18,6 +18,11 @@ struct Tf2Raster {
     Real x0 = 0, y0 = 0;        // domain origin
     Real invDx = 1, invDy = 1;  // raster cells per data unit along x and y
     const float* rgba = nullptr;
+    /// Optional, per cell (j·(width − 1) + i): 0 where a corner has α > 0, else the Chebyshev
+    /// distance d ≥ 1 (in cells) to the nearest such cell — every cell closer than d has α = 0
+    /// (TransferFunction2D::emptyCellDistances). Segment means skip those cells and jump over
+    /// the block of them.
+    const float* cellEmptyDistance = nullptr;
 };
 
 namespace detail {
@@ -52,6 +57,31 @@ UDVR_CPU_GPU UDVR_INLINE T rasterLoad(const float* rgba, lanes::IntOf<T> idx,
 }
 }  // namespace detail
 
+/// The 4 corners × (r, g, b, α) of raster cell (i, j), loaded once and evaluated at any point of
+/// the cell (colour and α each bilinear).
+template <class T>
+struct Tf2Cell {
+    T v[4][4];  // [corner: (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)][channel]
+
+    template <class Real>
+    UDVR_CPU_GPU UDVR_INLINE Tf2Cell(const Tf2Raster<Real>& r, lanes::IntOf<T> i, lanes::IntOf<T> j,
+                                     lanes::MaskOf<T> live) {
+        const lanes::IntOf<T> p00 = (j * r.width + i) * 4, p01 = p00 + r.width * 4;
+        const lanes::IntOf<T> base[4] = {p00, p00 + 4, p01, p01 + 4};
+        for (int k = 0; k < 4; ++k)
+            for (int ch = 0; ch < 4; ++ch)
+                v[k][ch] = detail::rasterLoad<T>(r.rgba, base[k] + ch, live);
+    }
+    /// (c_r, c_g, c_b, α) at fractions (fx, fy) of the cell.
+    UDVR_CPU_GPU UDVR_INLINE void at(T fx, T fy, T out[4]) const {
+        for (int ch = 0; ch < 4; ++ch) {
+            const T lo = lanes::fma(fx, v[1][ch] - v[0][ch], v[0][ch]);
+            const T hi = lanes::fma(fx, v[3][ch] - v[2][ch], v[2][ch]);
+            out[ch] = lanes::fma(fy, hi - lo, lo);
+        }
+    }
+};
+
 /// Colour and α of the TF2 at raster coordinates (s, t) (clamped, see rasterCoordinate):
 /// out = (c_r, c_g, c_b, α), each bilinear.
 template <class T, class Real>
@@ -61,15 +91,7 @@ UDVR_CPU_GPU UDVR_INLINE void tf2ColorOpacityAtRaster(const Tf2Raster<Real>& r, 
     T fx, fy;
     detail::rasterCell(s, r.width, i, fx);
     detail::rasterCell(t, r.height, j, fy);
-    const lanes::IntOf<T> p00 = (j * r.width + i) * 4, p01 = p00 + r.width * 4;
-    for (int ch = 0; ch < 4; ++ch) {
-        const T a = detail::rasterLoad<T>(r.rgba, p00 + ch, live);
-        const T b = detail::rasterLoad<T>(r.rgba, p00 + (4 + ch), live);
-        const T c = detail::rasterLoad<T>(r.rgba, p01 + ch, live);
-        const T d = detail::rasterLoad<T>(r.rgba, p01 + (4 + ch), live);
-        const T lo = lanes::fma(fx, b - a, a), hi = lanes::fma(fx, d - c, c);
-        out[ch] = lanes::fma(fy, hi - lo, lo);
-    }
+    Tf2Cell<T>(r, i, j, live).at(fx, fy, out);
 }
 
 /// TF2(x, y) premultiplied: (α·r, α·g, α·b, α). Dead lanes read nothing (their result is junk).
@@ -95,8 +117,10 @@ UDVR_CPU_GPU UDVR_INLINE void firstLine(T s, T ds, int n, lanes::IntOf<T>& line,
                                         lanes::IntOf<T>& step) {
     using S = lanes::ScalarOf<T>;
     using I = lanes::IntOf<T>;
-    // s is clamped to [−1, n] first: lines lie in [0, n − 1] only, and the int must not wrap.
-    const T c = lanes::min(lanes::max(s, lanes::splat<T>(S(-1))), lanes::splat<T>(S(n)));
+    // s is clamped to [−1, n] first (NaN → −1): lines lie in [0, n − 1] only, and the int must
+    // not wrap.
+    const T c =
+        lanes::select(s > S(-1), lanes::min(s, lanes::splat<T>(S(n))), lanes::splat<T>(S(-1)));
     const T fl = [&] {
         if constexpr (lanes::kIsVector<T>) {
             const T tr = lanes::toFloat(lanes::truncToInt(c));
@@ -114,7 +138,9 @@ UDVR_CPU_GPU UDVR_INLINE void firstLine(T s, T ds, int n, lanes::IntOf<T>& line,
     };
     const I up = lanes::max(toInt(fl) + 1, I{} + 0);          // ds > 0
     const I down = lanes::min(toInt(ce) - 1, I{} + (n - 1));  // ds < 0
-    const auto rising = ds > S(0), falling = ds < S(0);
+    // A non-finite slope (an overflowed or NaN end) crosses no line: one piece, clamped.
+    const auto finite = lanes::abs(ds) <= std::numeric_limits<S>::max();
+    const auto rising = finite & (ds > S(0)), falling = finite & (ds < S(0));
     const auto upOk = rising & (up <= n - 1);
     const auto downOk = falling & (down >= 0);
     if constexpr (lanes::kIsVector<T>) {
@@ -165,21 +191,70 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
     // Gauss–Legendre on [0, 1]: nodes ½ ∓ ½√(3/5), ½; weights 5/18, 8/18, 5/18.
     constexpr S kNode = S(0.38729833462074168852), kW0 = S(5.0 / 18.0), kW1 = S(8.0 / 18.0);
     while (lanes::anyOf(active)) {
-        const T u1 = lanes::min(lanes::min(ux, uy), lanes::splat<T>(S(1)));
+        // (max: a line found again after a jump may lie an ulp behind u0.)
+        const T u1 = lanes::max(lanes::min(lanes::min(ux, uy), lanes::splat<T>(S(1))), u0);
         const T len = u1 - u0;
         const T mid = (u0 + u1) * S(0.5);
         const T nodes[3] = {mid - kNode * len, mid, mid + kNode * len};
         const S weights[3] = {kW0, kW1, kW0};
-        for (int n = 0; n < 3; ++n) {
-            const T s =
-                detail::rasterCoordinate<T>(lanes::fma(nodes[n], ds, sa), S(0), S(1), r.width);
-            const T t =
-                detail::rasterCoordinate<T>(lanes::fma(nodes[n], dt, ta), S(0), S(1), r.height);
-            T v[4];
-            tf2ColorOpacityAtRaster<T>(r, s, t, active, v);
-            const T wl = lanes::select(active, len * weights[n], T{});
-            for (int ch = 0; ch < 3; ++ch) out[ch] = lanes::fma(wl, v[3] * v[ch], out[ch]);
-            out[3] = lanes::fma(wl, v[3], out[3]);
+        // The piece lies in one raster cell (clamped outside the domain). A cell of α = 0 adds
+        // nothing, and neither does the rest of the segment inside the block of cells closer
+        // than its distance d: the segment jumps to where it leaves that block (exact).
+        auto use = active;
+        auto jump = lanes::MaskOf<T>{};
+        T uJump{};
+        I i, j;
+        T fx, fy;
+        detail::rasterCell(
+            detail::rasterCoordinate<T>(lanes::fma(mid, ds, sa), S(0), S(1), r.width), r.width, i,
+            fx);
+        detail::rasterCell(
+            detail::rasterCoordinate<T>(lanes::fma(mid, dt, ta), S(0), S(1), r.height), r.height, j,
+            fy);
+        if (r.cellEmptyDistance) {
+            const T d = detail::rasterLoad<T>(r.cellEmptyDistance, j * (r.width - 1) + i, active);
+            use = active & (d == S(0));
+            jump = active & (d > S(1));
+            if (lanes::anyOf(jump)) {
+                // The block spans raster coordinates [i + 1 − d, i + d] along s, same along t.
+                const auto leave = [&](I cell, T from, T slope) {
+                    T c;
+                    if constexpr (lanes::kIsVector<T>)
+                        c = lanes::toFloat(cell);
+                    else
+                        c = static_cast<T>(cell);
+                    const T inf = lanes::splat<T>(std::numeric_limits<S>::infinity());
+                    const T safe = lanes::select(slope != S(0), slope, lanes::splat<T>(S(1)));
+                    return lanes::select(
+                        slope > S(0), (c + d - from) / safe,
+                        lanes::select(slope < S(0), (c + S(1) - d - from) / safe, inf));
+                };
+                uJump = lanes::min(lanes::min(leave(i, sa, ds), leave(j, ta, dt)),
+                                   lanes::splat<T>(S(1)));
+            }
+        }
+        if (lanes::anyOf(use)) {
+            // One load of the cell's corners serves the three nodes.
+            const Tf2Cell<T> cell(r, i, j, use);
+            T ci, cj;
+            if constexpr (lanes::kIsVector<T>) {
+                ci = lanes::toFloat(i);
+                cj = lanes::toFloat(j);
+            } else {
+                ci = static_cast<T>(i);
+                cj = static_cast<T>(j);
+            }
+            for (int n = 0; n < 3; ++n) {
+                const T s =
+                    detail::rasterCoordinate<T>(lanes::fma(nodes[n], ds, sa), S(0), S(1), r.width);
+                const T t =
+                    detail::rasterCoordinate<T>(lanes::fma(nodes[n], dt, ta), S(0), S(1), r.height);
+                T v[4];
+                cell.at(s - ci, t - cj, v);
+                const T wl = lanes::select(use, len * weights[n], T{});
+                for (int ch = 0; ch < 3; ++ch) out[ch] = lanes::fma(wl, v[3] * v[ch], out[ch]);
+                out[3] = lanes::fma(wl, v[3], out[3]);
+            }
         }
         // Step past the line(s) reached at u1; a lane is done at u = 1.
         const auto atX = ux <= u1, atY = uy <= u1;
@@ -201,7 +276,23 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
         ux = lanes::select(atX, detail::lineParameter<T>(sa, ds, lineX, stepX), ux);
         uy = lanes::select(atY, detail::lineParameter<T>(ta, dt, lineY, stepY), uy);
         u0 = u1;
-        active = active & (u1 < S(1));
+        // Only a jump past the piece's end: restarting at a line found an ulp behind would walk
+        // the same piece again, forever.
+        jump = jump & (uJump > u1);
+        if (lanes::anyOf(jump)) {  // restart the line walk where the segment leaves the block
+            const T uj = uJump;
+            I lx, sx, ly, sy;
+            detail::firstLine<T>(lanes::fma(uj, ds, sa), ds, r.width, lx, sx);
+            detail::firstLine<T>(lanes::fma(uj, dt, ta), dt, r.height, ly, sy);
+            lineX = lanes::select(jump, lx, lineX);
+            stepX = lanes::select(jump, sx, stepX);
+            lineY = lanes::select(jump, ly, lineY);
+            stepY = lanes::select(jump, sy, stepY);
+            ux = lanes::select(jump, detail::lineParameter<T>(sa, ds, lx, sx), ux);
+            uy = lanes::select(jump, detail::lineParameter<T>(ta, dt, ly, sy), uy);
+            u0 = lanes::select(jump, uj, u0);
+        }
+        active = active & (u0 < S(1));
     }
 }
 

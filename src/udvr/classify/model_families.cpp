@@ -1,5 +1,6 @@
 #include "udvr/classify/model_families.h"
 
+#include <algorithm>
 #include <array>
 #include <string>
 
@@ -162,6 +163,8 @@ Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, Gradi
     fast.invDx = static_cast<float>(exact.invDx);
     fast.invDy = static_cast<float>(exact.invDy);
     meanGradient = cache.of(model.grid, model.mean.data(), 1, 0, 1).data();
+    cellEmptyDistance = tf.emptyCellDistances();
+    exact.cellEmptyDistance = fast.cellEmptyDistance = cellEmptyDistance.data();
 }
 
 std::span<const ModelFamily> modelFamilies() { return kFamilies; }

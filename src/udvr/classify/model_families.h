@@ -43,7 +43,8 @@ struct Tf2Setup {
     Tf2Raster<double> exact;
     Tf2Raster<float> fast;
     GradientCache& gradients;
-    const float* meanGradient;  // of the `mean` array, 3 per voxel
+    const float* meanGradient;             // of the `mean` array, 3 per voxel
+    std::vector<float> cellEmptyDistance;  // TransferFunction2D::emptyCellDistances
 
     /// Views of `tf` (validated; it must outlive the setup) and the mean's grid gradients.
     Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);

@@ -84,6 +84,34 @@ std::vector<std::pair<double, double>> TransferFunction2D::nonZeroOpacityYRanges
     });
 }
 
+std::vector<float> TransferFunction2D::emptyCellDistances() const {
+    const int cw = width - 1, ch = height - 1;
+    const int far = width + height;
+    std::vector<int> d(static_cast<std::size_t>(cw) * ch);
+    const auto at = [&](int i, int j) -> int& { return d[static_cast<std::size_t>(j) * cw + i]; };
+    for (int j = 0; j < ch; ++j)
+        for (int i = 0; i < cw; ++i) {
+            const bool opaque = point(i, j)[3] > 0.f || point(i + 1, j)[3] > 0.f ||
+                                point(i, j + 1)[3] > 0.f || point(i + 1, j + 1)[3] > 0.f;
+            at(i, j) = opaque ? 0 : far;
+        }
+    // Chebyshev distance transform: two raster passes over the 8-neighbourhood (exact for the
+    // max norm).
+    for (int j = 0; j < ch; ++j)
+        for (int i = 0; i < cw; ++i)
+            for (const auto& [di, dj] : {std::pair{-1, 0}, {-1, -1}, {0, -1}, {1, -1}}) {
+                const int a = i + di, b = j + dj;
+                if (a >= 0 && a < cw && b >= 0) at(i, j) = std::min(at(i, j), at(a, b) + 1);
+            }
+    for (int j = ch - 1; j >= 0; --j)
+        for (int i = cw - 1; i >= 0; --i)
+            for (const auto& [di, dj] : {std::pair{1, 0}, {1, 1}, {0, 1}, {-1, 1}}) {
+                const int a = i + di, b = j + dj;
+                if (a >= 0 && a < cw && b < ch) at(i, j) = std::min(at(i, j), at(a, b) + 1);
+            }
+    return std::vector<float>(d.begin(), d.end());
+}
+
 void TransferFunction2D::validate() const {
     if (width < 2 || height < 2)
         UDVR_FAIL("2D transfer function: needs at least 2x2 points, got " << width << "x"

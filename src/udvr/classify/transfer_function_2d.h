@@ -32,6 +32,10 @@ struct TransferFunction2D {
     std::vector<std::pair<double, double>> nonZeroOpacityXRanges() const;
     /// The same along y (for a second field: skipping on field 2).
     std::vector<std::pair<double, double>> nonZeroOpacityYRanges() const;
+    /// Per cell (j·(W − 1) + i, the cell between points i, i + 1 and j, j + 1): 0 where a corner
+    /// has α > 0, else the Chebyshev distance in cells to the nearest such cell (W + H when
+    /// there is none), so every cell closer than it has α = 0 on its whole area.
+    std::vector<float> emptyCellDistances() const;
     /// Throws UdvrError unless W, H ≥ 2, rgba has W·H·4 values in [0, 1], the domain is finite
     /// with x0 < x1, y0 < y1.
     void validate() const;
