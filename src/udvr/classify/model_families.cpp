@@ -26,7 +26,8 @@ double two(int, int) { return 2.0; }
 double perComponent(int, int k) { return 3.0 * k; }
 double perBoundary(int q, int) { return q + 1.0; }
 
-double span(const ModelVolume& model) {
+double span(const ModelVolume& model, const ClassifyOptions& options = {}) {
+    if (options.dataSpan > 0.0) return options.dataSpan;
     const auto range = modelDataRange(model);
     return range.second - range.first;
 }
@@ -39,7 +40,7 @@ AnyKernel makeUniform(const ModelVolume& m, const TfPiecesStorage& tf, const Cla
                       const ModelFamily&) {
     return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                          o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                         kUniformTinyWidth * span(m), tf);
+                         kUniformTinyWidth * span(m, o), tf);
 }
 AnyKernel makeGaussian(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                        const ModelFamily&) {
@@ -59,10 +60,11 @@ AnyKernel makeIqr(const ModelVolume& m, const TfPiecesStorage& tf, const Classif
                   const ModelFamily&) {
     return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, tf);
 }
-AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
-                           const ModelFamily& f) {
+AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf,
+                           const ClassifyOptions& o, const ModelFamily& f) {
     return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount,
-                              f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m), tf);
+                              f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m, o),
+                              tf);
 }
 
 // 2D kernels (SPEC §9).
@@ -71,28 +73,29 @@ AnyKernel2D makeMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&
     return Mean2DKernel(m.grid, m.mean.data(), s.exact, s.fast, s.meanGradient);
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
-AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const float* data, int stride, int lo,
-                       int hi, bool quantileMean, bool density) {
+AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
+                       const float* data, int stride, int lo, int hi, bool quantileMean,
+                       bool density) {
     if (hi - lo + 1 > kMaxBoundaries2D)
         UDVR_FAIL("2D transfer functions handle at most "
                   << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
     const float* gradients = s.gradients.of(m.grid, data, stride, lo, hi - lo + 1).data();
     return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, quantileMean, density,
-                            kQuantileZeroWidth * span(m), s.exact, s.fast, s.meanGradient);
+                            kQuantileZeroWidth * span(m, o), s.exact, s.fast, s.meanGradient);
 }
 AnyKernel2D makeQuantileRange2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                                 const ModelFamily& f) {
     const auto pop = quantilePopulation(f.kind, m.quantileCount, o);
-    return quantile2D(m, s, m.quantiles.data(), m.quantileCount + 1, pop.first, pop.second, false,
-                      false);
+    return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, pop.first, pop.second,
+                      false, false);
 }
-AnyKernel2D makeIqr2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+AnyKernel2D makeIqr2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                       const ModelFamily&) {
-    return quantile2D(m, s, m.iqr.data(), 2, 0, 1, false, false);
+    return quantile2D(m, s, o, m.iqr.data(), 2, 0, 1, false, false);
 }
-AnyKernel2D makeQuantileMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+AnyKernel2D makeQuantileMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                                const ModelFamily& f) {
-    return quantile2D(m, s, m.quantiles.data(), m.quantileCount + 1, 0, m.quantileCount, true,
+    return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, 0, m.quantileCount, true,
                       f.kind == ModelKind::QuantileMean);
 }
 
@@ -150,7 +153,6 @@ std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
 
 Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache)
     : gradients(cache) {
-    tf.validate();
     exact.width = fast.width = tf.width;
     exact.height = fast.height = tf.height;
     exact.x0 = tf.x0;

@@ -46,7 +46,8 @@ struct Tf2Setup {
     const float* meanGradient;             // of the `mean` array, 3 per voxel
     std::vector<float> cellEmptyDistance;  // TransferFunction2D::emptyCellDistances
 
-    /// Views of `tf` (validated; it must outlive the setup) and the mean's grid gradients.
+    /// Views of `tf` (validated by the caller; it must outlive the setup) and the mean's grid
+    /// gradients.
     Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);
     Tf2Setup(const Tf2Setup&) = delete;
     Tf2Setup& operator=(const Tf2Setup&) = delete;
@@ -97,8 +98,9 @@ void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction
 }
 
 /// withKernel for a 2D TF (SPEC §9): f(kernel) with the model's 2D kernel, its grid gradients
-/// from `cache` (kept between frames) or computed for the call. Throws UdvrError for models
-/// without one, a model without a `mean` array (n̂ needs it) or an invalid TF2.
+/// from `cache` (kept between frames) or computed for the call. `tf` must be validated
+/// (TransferFunction2D::validate). Throws UdvrError for models without one or a model without a
+/// `mean` array (n̂ needs it).
 template <class F>
 void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
                   const ClassifyOptions& options, F&& f, GradientCache* cache = nullptr) {
@@ -107,7 +109,7 @@ void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFuncti
     const ModelFamily& family = modelFamily(kind);
     if (!family.makeKernel2D)
         UDVR_FAIL("model '" << family.name
-                            << "' has no 2D transfer-function classification (SPEC 9: mean, "
+                            << "' has no 2D transfer-function classification yet (built: mean, "
                                "quantile-range, quantile-mean, quantile-mean-mass, iqr and the "
                                "quartile views)");
     GradientCache local;

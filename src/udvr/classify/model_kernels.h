@@ -456,6 +456,9 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
 struct ClassifyOptions {
     int quartileDivisor = 4;     // quartile views need q divisible by this
     bool uniformMinMax = false;  // `--uniform-width minmax`: U[min, max] instead of μ ± √3σ
+    /// The data range's width that scales zero-width thresholds (SPEC §4); 0: the model's own
+    /// (modelDataRange). A probe of a cut-out neighbourhood passes the whole model's.
+    double dataSpan = 0.0;
 };
 
 /// The model's data range (SPEC §4): [min b_0, max b_q] with quantiles, else [min of `min`,

@@ -22,15 +22,21 @@ namespace udvr {
 inline constexpr int kMaxBoundaries2D = 128;
 
 /// What every 2D kernel holds: the grid, the TF2 raster over double and float, and the grid
-/// gradients of the `mean` array (3 floats per voxel, world units).
+/// gradients of the `mean` array (world units; three planes of one float per voxel, the layout
+/// of gridGradients).
 struct Kernel2DBase : GridKernel {
     Tf2Raster<double> tfExact;
     Tf2Raster<float> tfFast;
     const float* meanGradient;
+    std::size_t plane;  // floats per gradient plane: the voxel count
 
     Kernel2DBase(const Grid3& grid, const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
                  const float* meanGrad)
-        : GridKernel(grid), tfExact(exact), tfFast(fast), meanGradient(meanGrad) {}
+        : GridKernel(grid),
+          tfExact(exact),
+          tfFast(fast),
+          meanGradient(meanGrad),
+          plane(grid.pointCount()) {}
     /// The raster over T's real type.
     template <class T>
     UDVR_CPU_GPU const Tf2Raster<lanes::ScalarOf<T>>& tf2() const {
@@ -43,22 +49,29 @@ struct Kernel2DBase : GridKernel {
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE void meanGradientAt(const Cell<T>& c, lanes::MaskOf<T> live,
                                                  T y[3]) const {
-        for (int a = 0; a < 3; ++a) y[a] = trilinear(geometry, meanGradient + a, 3, c, live);
+        for (int a = 0; a < 3; ++a)
+            y[a] = trilinear(geometry, meanGradient + a * plane, 1, c, live);
     }
-    /// n̂ = μ_Y/|μ_Y| (+x where |μ_Y| = 0) and |μ_Y| at a cell.
+    /// n̂ = μ_Y/|μ_Y| (+x where |μ_Y| = 0) and |μ_Y| at a cell. The components are scaled by
+    /// their largest magnitude before squaring, so float neither underflows (|μ_Y| < 1e−19) nor
+    /// overflows.
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE T meanDirectionAt(const Cell<T>& c, lanes::MaskOf<T> live,
                                                T n[3]) const {
         using S = lanes::ScalarOf<T>;
         T y[3];
         meanGradientAt(c, live, y);
-        const T norm = lanes::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
-        const auto zero = !(norm > S(0));
-        const T inv = S(1) / lanes::select(zero, lanes::splat<T>(S(1)), norm);
-        n[0] = lanes::select(zero, lanes::splat<T>(S(1)), y[0] * inv);
-        n[1] = lanes::select(zero, T{}, y[1] * inv);
-        n[2] = lanes::select(zero, T{}, y[2] * inv);
-        return norm;
+        const T m = lanes::max(lanes::max(lanes::abs(y[0]), lanes::abs(y[1])), lanes::abs(y[2]));
+        const auto zero = !(m > S(0));
+        const T inv = S(1) / lanes::select(zero, lanes::splat<T>(S(1)), m);
+        T r[3];
+        for (int a = 0; a < 3; ++a) r[a] = y[a] * inv;
+        const T len = lanes::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);  // in [1, √3]
+        const T invLen = S(1) / lanes::select(zero, lanes::splat<T>(S(1)), len);
+        n[0] = lanes::select(zero, lanes::splat<T>(S(1)), r[0] * invLen);
+        n[1] = lanes::select(zero, T{}, r[1] * invLen);
+        n[2] = lanes::select(zero, T{}, r[2] * invLen);
+        return lanes::select(zero, T{}, m * len);
     }
 };
 
@@ -72,9 +85,8 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
-        T y[3];
-        meanGradientAt(c, live, y);
-        const T g = lanes::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+        T n[3];
+        const T g = meanDirectionAt(c, live, n);
         tf2At<T>(tf2<T>(), trilinear(geometry, values, 1, c, live), g, live, r.v);
         detail::keepLive<T>(live, r.v);
         return r;
@@ -82,7 +94,7 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = values[v]; }
     void prefetch(int v) const {
         prefetchRows(values, v, 1);
-        prefetchRows(meanGradient, v, 3);
+        for (int a = 0; a < 3; ++a) prefetchRows(meanGradient + a * plane, v, 1);
     }
 };
 
@@ -94,7 +106,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     const float* boundaries;
     int stride;                      // floats per voxel of `boundaries`
     int j0, j1;                      // boundaries j0 … j1 (j1 − j0 + 1 ≤ kMaxBoundaries2D)
-    const float* boundaryGradients;  // per voxel, per boundary j0 … j1: 3 floats (world units)
+    const float* boundaryGradients;  // per boundary j0 … j1, 3 planes (gridGradients' layout)
     bool quantileMean;               // Eq. 5 at midpoints (else Eq. 4 along segments)
     bool densityWeights;             // quantile-mean: 1/w_j weights (else equal)
     double zeroWidth;                // quantile-mean: widths at or below are point masses
@@ -124,7 +136,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             T gj{};
             for (int a = 0; a < 3; ++a)
                 gj = lanes::fma(
-                    n[a], trilinear(geometry, boundaryGradients + 3 * j + a, 3 * count, c, live),
+                    n[a], trilinear(geometry, boundaryGradients + (3 * j + a) * plane, 1, c, live),
                     gj);
             g[j] = gj;
         }
@@ -135,7 +147,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         using S = lanes::ScalarOf<T>;
         Classified<T> r;
         if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(3 * (j1 - j0 + 1)) || !gathersFit(stride)) {
+            if (!gathersFit(stride)) {
                 detail::exactLanes(*this, c, live, r.v);
                 return r;
             }
@@ -165,7 +177,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     }
     void prefetch(int v) const {
         prefetchRows(boundaries + j0, v, stride);
-        prefetchRows(meanGradient, v, 3);
+        prefetchRows(meanGradient, v, 1);
     }
 };
 

@@ -10,12 +10,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/kernel_test_util.h"
 #include "udvr/classify/model_families.h"
+#include "udvr/classify/probe.h"
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/reconstruct/gradient.h"
 #include "udvr/reconstruct/gradient_field.h"
@@ -68,7 +70,8 @@ TEST(Gradient, LinearFieldsAreDifferentiatedExactlyEverywhere) {
         for (std::size_t v = 0; v < grid.pointCount(); ++v)
             for (int ax = 0; ax < 3; ++ax) {
                 const double want = dims[ax] > 1 ? a[ax] : 0.0;  // 0 along a 1-point axis
-                EXPECT_NEAR(d[3 * v + ax], want, 2e-5 * (1 + std::abs(c) + 10)) << v << " " << ax;
+                EXPECT_NEAR(d[ax * grid.pointCount() + v], want, 2e-5 * (1 + std::abs(c) + 10))
+                    << v << " " << ax;
             }
         // At samples: the 32-voxel form gives the same constant gradient.
         const CellGeometry g(grid);
@@ -108,8 +111,8 @@ TEST(Gradient, QuadraticFieldsGetCentralAndOneSidedDifferences) {
     for (int i = 0; i < 6; ++i) {
         const double x = grid.world(0, i);
         const double want = i == 0 ? 2 * x + h : (i == 5 ? 2 * x - h : 2 * x);
-        EXPECT_NEAR(d[3 * grid.index(i, 2, 1)], want, 1e-4) << i;
-        EXPECT_EQ(d[3 * grid.index(i, 2, 1) + 1], 0.f);
+        EXPECT_NEAR(d[grid.index(i, 2, 1)], want, 1e-4) << i;
+        EXPECT_EQ(d[grid.pointCount() + grid.index(i, 2, 1)], 0.f);
     }
     // The 32-voxel form is the trilinear blend of those grid gradients.
     const CellGeometry g(grid);
@@ -125,7 +128,7 @@ TEST(Gradient, QuadraticFieldsGetCentralAndOneSidedDifferences) {
         for (int ax = 0; ax < 3; ++ax) {
             double y = 0;
             for (int s = 0; s < form.count; ++s) y += form.coeff[s][ax] * r[form.voxel[s]];
-            EXPECT_NEAR(y, trilinear(g, dr.data() + ax, 3, cell, true), 1e-5);
+            EXPECT_NEAR(y, trilinear(g, dr.data() + ax * grid.pointCount(), 1, cell, true), 1e-5);
         }
     }
 }
@@ -194,7 +197,9 @@ TEST(Tf2, SegmentMeanIsExactAgainstDenseQuadrature) {
             p[2] = p[0];
             p[3] = p[1];
         }
-        if (trial % 10 == 4) p[0] = 0.5 * std::round(2 * p[0]);  // on a raster line? (x step 5/6)
+        if (trial % 10 == 4)
+            p[0] = -2.0 + (5.0 / 6.0) * std::round(rng.uniform() * 6);  // on a line
+        if (trial % 10 == 5) p[2] = p[0] = -2.0 + (5.0 / 6.0) * 3;      // along a column line
         double got[4];
         tf2MeanAlongSegment<double>(setup.exact, p[0], p[1], p[2], p[3], true, got);
         const auto want = denseSegmentMean(t, p[0], p[1], p[2], p[3], 200000);
@@ -428,6 +433,66 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
         }
 }
 
+TEST(Tf2, NonZeroOpacityRangesCoverEveryColumnWithAlpha) {
+    CounterRng rng(13, 0, 0);
+    const double inf = std::numeric_limits<double>::infinity();
+    TransferFunction2D t = randomTf2(rng, 6, 4, 0.0, 5.0, 0.0, 1.0);  // columns at 0, 1, …, 5
+    for (int k = 0; k < 24; ++k) t.rgba[4 * k + 3] = 0.f;
+    EXPECT_TRUE(t.nonZeroOpacityXRanges().empty());
+    t.rgba[4 * (2 * 6 + 2) + 3] = 0.5f;  // column 2 (row 2): α > 0 on [1, 3]
+    EXPECT_EQ(t.nonZeroOpacityXRanges(), (std::vector<std::pair<double, double>>{{1.0, 3.0}}));
+    t.rgba[4 * (0 * 6 + 5) + 3] = 0.1f;  // the last column: clamped beyond the domain
+    EXPECT_EQ(t.nonZeroOpacityXRanges(),
+              (std::vector<std::pair<double, double>>{{1.0, 3.0}, {4.0, inf}}));
+    t.rgba[4 * (3 * 6 + 0) + 3] = 0.1f;  // the first column
+    EXPECT_EQ(t.nonZeroOpacityXRanges(),
+              (std::vector<std::pair<double, double>>{{-inf, 3.0}, {4.0, inf}}));
+}
+
+// Data scaled to 1e−24 (gradients ~1e−24: their squares underflow in float) and to 1e+15 give
+// the same classification as unscaled data with the TF2's domain scaled alike, lanes and double.
+TEST(Tf2, TinyAndHugeDataKeepTheirGradientMagnitude) {
+    CounterRng rng(14, 0, 0);
+    const std::array<int, 3> dims{5, 4, 3};
+    ModelVolume m = testing::randomModel(rng, dims, 4);
+    m.grid = randomGrid(rng, dims);
+    const auto range = modelDataRange(m);
+    const TransferFunction2D t = randomTf2(rng, 8, 6, range.first, range.second, 0.0, 4.0);
+    for (const double scale : {1e-24, 1e15}) {
+        ModelVolume scaled = m;
+        for (auto* a : {&scaled.mean, &scaled.stddev, &scaled.min, &scaled.max, &scaled.quantiles,
+                        &scaled.iqr})
+            for (float& v : *a) v = static_cast<float>(v * scale);
+        TransferFunction2D ts = t;
+        ts.x0 *= scale;
+        ts.x1 *= scale;
+        ts.y1 *= scale;
+        for (ModelKind kind : {ModelKind::Mean, ModelKind::QuantileRange}) {
+            double worst = 0;
+            with2D(m, kind, t, [&](const auto& k) {
+                with2D(scaled, kind, ts, [&](const auto& ks) {
+                    for (int trial = 0; trial < 20; ++trial) {
+                        lanes::Vf p[3];
+                        testing::randomPoints(rng, dims, p);
+                        const Cell<lanes::Vf> cell =
+                            cellAt<lanes::Vf>(k.geometry, p[0], p[1], p[2]);
+                        lanes::Vf got[4];
+                        ks.finish(ks.template load<lanes::Vf>(cell, lanes::allTrue<lanes::Vf>()),
+                                  got);
+                        for (int l = 0; l < lanes::kWidth; ++l) {
+                            double want[4];
+                            classifyAt<double>(k, p[0][l], p[1][l], p[2][l], want);
+                            for (int ch = 0; ch < 4; ++ch)
+                                worst = std::max(worst, std::abs(got[ch][l] - want[ch]));
+                        }
+                    }
+                });
+            });
+            EXPECT_LE(worst, 5e-5) << modelName(kind) << " scale " << scale;
+        }
+    }
+}
+
 TEST(Tf2, ModelsWithoutA2DClassificationAreUserErrors) {
     CounterRng rng(10, 0, 0);
     const ModelVolume m = testing::randomModel(rng, {2, 2, 2}, 4);
@@ -439,7 +504,7 @@ TEST(Tf2, ModelsWithoutA2DClassificationAreUserErrors) {
     EXPECT_THROW(with2D(noMean, ModelKind::QuantileRange, t, [](const auto&) {}), UdvrError);
     TransferFunction2D bad = t;
     bad.rgba[3] = 1.5f;
-    EXPECT_THROW(with2D(m, ModelKind::Mean, bad, [](const auto&) {}), UdvrError);
+    EXPECT_THROW(probeModel(m, ModelKind::Mean, bad, {0.5, 0.5, 0.5}), UdvrError);
 }
 
 }  // namespace

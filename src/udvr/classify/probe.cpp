@@ -270,19 +270,78 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
     return r;
 }
 
+namespace {
+
+// The voxels a 2D probe at `cell` reads: the cell's corners and their gradient neighbours,
+// [base − 1, base + 2] per axis within the grid. Grid gradients of the cut-out at the corners
+// are the whole model's (each corner's stencil sees the same neighbours and the same grid
+// ends), so a probe costs O(1), not gradients of the whole volume. `shift` gets the cut-out's
+// offset in index space.
+ModelVolume probeNeighbourhood(const ModelVolume& m, const Cell<double>& cell,
+                               std::array<int, 3>& shift) {
+    const std::array<int, 3> base = voxelIndices(CellGeometry(m.grid), cell.base);
+    int lo[3], hi[3];
+    ModelVolume c = m;  // scalars and field data; the arrays are replaced below
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = std::max(base[a] - 1, 0);
+        hi[a] = std::min(base[a] + 2, m.grid.dims[a] - 1);
+        shift[a] = lo[a];
+        c.grid.dims[a] = hi[a] - lo[a] + 1;
+        c.grid.origin[a] = m.grid.world(a, lo[a]);
+    }
+    const auto cut = [&](const std::vector<float>& from, std::size_t per) {
+        std::vector<float> out;
+        if (from.empty()) return out;
+        for (int k = lo[2]; k <= hi[2]; ++k)
+            for (int j = lo[1]; j <= hi[1]; ++j) {
+                const std::size_t v = m.grid.index(lo[0], j, k);
+                out.insert(out.end(), from.begin() + static_cast<std::ptrdiff_t>(v * per),
+                           from.begin() + static_cast<std::ptrdiff_t>((v + c.grid.dims[0]) * per));
+            }
+        return out;
+    };
+    c.mean = cut(m.mean, 1);
+    c.stddev = cut(m.stddev, 1);
+    c.min = cut(m.min, 1);
+    c.max = cut(m.max, 1);
+    c.quantiles = cut(m.quantiles, static_cast<std::size_t>(m.quantileCount) + 1);
+    c.iqr = cut(m.iqr, 2);
+    c.gmm = cut(m.gmm, 3 * static_cast<std::size_t>(m.gmmComponents));
+    return c;
+}
+
+}  // namespace
+
 ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
                        const std::array<double, 3>& point, const ClassifyOptions& options) {
     const ModelFamily& family = modelFamily(kind);
+    tf.validate();
     ProbeResult r{kind, point, {}, json::object(), {}};
     const Cell<double> cell = probeCell(model, family, point, r.json);
-    withKernel2D(model, kind, tf, options, [&](const auto& k) {
+    checkModelHasArrays(model, kind, options);
+    checkModelHasArrays(model, ModelKind::Mean, options);
+    // Classify in the cut-out around the cell, its zero-width thresholds scaled by the whole
+    // model's data range.
+    std::array<int, 3> shift{};
+    const ModelVolume local = probeNeighbourhood(model, cell, shift);
+    ClassifyOptions localOptions = options;
+    if (localOptions.dataSpan <= 0.0) {
+        const auto range = modelDataRange(model);
+        localOptions.dataSpan = range.second - range.first;
+    }
+    // The same cell (base and fractions) in the cut-out.
+    const std::array<int, 3> base = voxelIndices(CellGeometry(model.grid), cell.base);
+    const Cell<double> localCell{static_cast<std::int64_t>(local.grid.index(
+                                     base[0] - shift[0], base[1] - shift[1], base[2] - shift[2])),
+                                 cell.fx, cell.fy, cell.fz};
+    withKernel2D(local, kind, tf, localOptions, [&](const auto& k) {
         double v[4];
-        k.finish(k.template load<double>(cell, true), v);
+        k.finish(k.template load<double>(localCell, true), v);
         setExpected(r, v);
         double y[3];
-        k.template meanGradientAt<double>(cell, true, y);
+        k.template meanGradientAt<double>(localCell, true, y);
         r.json["gradient"] = {y[0], y[1], y[2]};
-        DescribeGradient{cell, r.json}(k);
+        DescribeGradient{localCell, r.json}(k);
     });
     // The value's distribution is the 1D model's (the TF plays no part in it).
     TransferFunction1D none;

@@ -69,19 +69,11 @@ Rgba TransferFunction2D::classify(double x, double y) const {
 }
 
 std::vector<std::pair<double, double>> TransferFunction2D::nonZeroOpacityXRanges() const {
-    return lineRanges(width, x0, x1, [&](int i) {
-        for (int j = 0; j < height; ++j)
-            if (point(i, j)[3] > 0.f) return true;
-        return false;
-    });
-}
-
-std::vector<std::pair<double, double>> TransferFunction2D::nonZeroOpacityYRanges() const {
-    return lineRanges(height, y0, y1, [&](int j) {
-        for (int i = 0; i < width; ++i)
-            if (point(i, j)[3] > 0.f) return true;
-        return false;
-    });
+    // Columns with any α > 0, in one row-major pass.
+    std::vector<char> opaque(static_cast<std::size_t>(width), 0);
+    for (int j = 0; j < height; ++j)
+        for (int i = 0; i < width; ++i) opaque[i] |= point(i, j)[3] > 0.f;
+    return lineRanges(width, x0, x1, [&](int i) { return opaque[i] != 0; });
 }
 
 std::vector<float> TransferFunction2D::emptyCellDistances() const {
@@ -113,18 +105,25 @@ std::vector<float> TransferFunction2D::emptyCellDistances() const {
 }
 
 void TransferFunction2D::validate() const {
-    if (width < 2 || height < 2)
-        UDVR_FAIL("2D transfer function: needs at least 2x2 points, got " << width << "x"
-                                                                          << height);
+    if (width < 2 || height < 2 || width > kMaxTf2Resolution || height > kMaxTf2Resolution)
+        UDVR_FAIL("2D transfer function: needs 2x2 to "
+                  << kMaxTf2Resolution << "x" << kMaxTf2Resolution << " points, got " << width
+                  << "x" << height);
     if (rgba.size() != static_cast<std::size_t>(width) * height * 4)
         UDVR_FAIL("2D transfer function: expected " << width << "x" << height << "x4 values, got "
                                                     << rgba.size());
-    if (!(std::isfinite(x0) && std::isfinite(x1) && x0 < x1))
-        UDVR_FAIL("2D transfer function: x domain must be finite with x0 < x1, got [" << x0 << ", "
-                                                                                      << x1 << "]");
-    if (!(std::isfinite(y0) && std::isfinite(y1) && y0 < y1))
-        UDVR_FAIL("2D transfer function: y domain must be finite with y0 < y1, got [" << y0 << ", "
-                                                                                      << y1 << "]");
+    // The kernels work in float raster coordinates: (v − x0)·(W − 1)/(x1 − x0) must be finite
+    // and the step non-zero.
+    const auto axis = [](double lo, double hi, int n, const char* name) {
+        const float step = static_cast<float>((n - 1) / (hi - lo));
+        if (!(std::isfinite(lo) && std::isfinite(hi) && lo < hi && std::isfinite(hi - lo) &&
+              std::isfinite(step) && step > 0.f && std::isfinite(static_cast<float>(lo))))
+            UDVR_FAIL("2D transfer function: " << name << " domain must be finite with " << name
+                                               << "0 < " << name << "1 and a representable width, "
+                                               << "got [" << lo << ", " << hi << "]");
+    };
+    axis(x0, x1, width, "x");
+    axis(y0, y1, height, "y");
     for (std::size_t k = 0; k < rgba.size(); ++k)
         if (!(rgba[k] >= 0.f && rgba[k] <= 1.f))
             UDVR_FAIL("2D transfer function: colour and opacity must lie in [0,1] (point "

@@ -13,6 +13,9 @@
 
 namespace udvr {
 
+/// Largest raster per axis (any form; widgets are rasterised within it too).
+inline constexpr int kMaxTf2Resolution = 8192;
+
 struct TransferFunction2D {
     int width = 0, height = 0;  // points along x and y (each ≥ 2)
     double x0 = 0.0, x1 = 1.0;  // domain along x (x0 < x1, finite)
@@ -30,14 +33,13 @@ struct TransferFunction2D {
     /// Closed x intervals outside which α = 0 for every y (merged, ascending; unbounded ends
     /// ±inf where α > 0 on the domain's first or last column): the 1D skipping ranges.
     std::vector<std::pair<double, double>> nonZeroOpacityXRanges() const;
-    /// The same along y (for a second field: skipping on field 2).
-    std::vector<std::pair<double, double>> nonZeroOpacityYRanges() const;
     /// Per cell (j·(W − 1) + i, the cell between points i, i + 1 and j, j + 1): 0 where a corner
     /// has α > 0, else the Chebyshev distance in cells to the nearest such cell (W + H when
     /// there is none), so every cell closer than it has α = 0 on its whole area.
     std::vector<float> emptyCellDistances() const;
-    /// Throws UdvrError unless W, H ≥ 2, rgba has W·H·4 values in [0, 1], the domain is finite
-    /// with x0 < x1, y0 < y1.
+    /// Throws UdvrError unless 2 ≤ W, H ≤ kMaxTf2Resolution, rgba has W·H·4 values in [0, 1],
+    /// the domain is finite with x0 < x1, y0 < y1, and its widths and raster steps are finite
+    /// and non-zero in float (the kernels' coordinates).
     void validate() const;
 };
 

@@ -65,12 +65,12 @@ void run(const Tf2Opts& o) {
     std::unique_ptr<JointHistogram> histogram;
     std::string volumeName;
     if (!o.volume.empty()) {
-        ModelVolume m = readModelOrField(o.volume, o.var, o.raw);
-        const ScalarField f{m.grid, std::move(m.mean), "mean"};
-        volumeName = f.name;
-        const std::vector<float> g = gridGradientMagnitudes(f.grid, f.values.data());
+        // A model's `mean` array, or the field's values.
+        const ModelVolume m = readModelOrField(o.volume, o.var, o.raw);
+        volumeName = std::filesystem::path(o.volume).filename().string();
+        const std::vector<float> g = gridGradientMagnitudes(m.grid, m.mean.data());
         histogram = std::make_unique<JointHistogram>(
-            jointHistogram(f.values, g, bins[0], bins[1], {tf.x0, tf.x1, tf.y0, tf.y1}));
+            jointHistogram(m.mean, g, bins[0], bins[1], {tf.x0, tf.x1, tf.y0, tf.y1}));
     }
     if (!o.out.empty()) writeTransferFunction2D(o.out, tf);
     if (!o.png.empty()) {
@@ -94,7 +94,7 @@ void run(const Tf2Opts& o) {
         formatRanges(tf.nonZeroOpacityXRanges()).c_str());
     if (histogram)
         std::printf(
-            "histogram: %zu grid points of '%s', value [%g, %g], gradient magnitude [%g, %g]; "
+            "histogram: %zu grid points of %s, value [%g, %g], gradient magnitude [%g, %g]; "
             "%zu outside the TF2's domain\n",
             histogram->total, volumeName.c_str(), histogram->xMin, histogram->xMax, histogram->yMin,
             histogram->yMax, histogram->outside);

@@ -33,8 +33,6 @@ struct Tf2WidgetFile {
     std::vector<Tf2Widget> widgets;
 };
 
-/// Largest widget raster per axis.
-inline constexpr int kMaxTf2Resolution = 8192;
 /// Widget raster per axis when neither the file nor the options give one.
 inline constexpr int kDefaultTf2Resolution = 256;
 

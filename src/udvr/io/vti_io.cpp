@@ -6,11 +6,13 @@
 #include <vtkFieldData.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
+#include <vtkInformation.h>
 #include <vtkIntArray.h>
 #include <vtkMatrix3x3.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkSmartPointer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
 #include <vtkStringArray.h>
 #include <vtkXMLImageDataReader.h>
 #include <vtkXMLImageDataWriter.h>
@@ -119,7 +121,9 @@ void checkAppendedSize(const fs::path& path) {
 }
 
 /// Read a .vti; throws with VTK's first error message.
-vtkSmartPointer<vtkImageData> readImageData(const fs::path& path) {
+// Read a VTK ImageData file; with maxPoints > 0, a whole extent of more points is refused from
+// the header, before any data is allocated.
+vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoints = 0) {
     detail::requireFile(path);
     checkAppendedSize(path);
     vtkNew<vtkXMLImageDataReader> reader;
@@ -131,6 +135,17 @@ vtkSmartPointer<vtkImageData> readImageData(const fs::path& path) {
         UDVR_FAIL(name << ": not a VTK XML ImageData file (expected <VTKFile type=\"ImageData\">)");
     }
     reader->SetFileName(name.c_str());
+    if (maxPoints > 0) {
+        reader->UpdateInformation();
+        const int* e =
+            reader->GetOutputInformation(0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+        double points = 1;
+        for (int a = 0; a < 3 && e; ++a) points *= static_cast<double>(e[2 * a + 1]) - e[2 * a] + 1;
+        if (e && points > maxPoints)
+            UDVR_FAIL(name << ": extent " << e[0] << " " << e[1] << " " << e[2] << " " << e[3]
+                           << " " << e[4] << " " << e[5] << " has more than " << maxPoints
+                           << " points");
+    }
     reader->Update();
     vtkImageData* image = reader->GetOutput();
     if (errors->count > 0 || reader->GetErrorCode() != 0 || image == nullptr) {
@@ -463,7 +478,8 @@ ModelVolume readModelVti(const fs::path& path) {
 // ---- 2D transfer functions (SPEC §9) -----------------------------------------------------------
 
 TransferFunction2D detail::readTransferFunction2DVti(const fs::path& path) {
-    vtkSmartPointer<vtkImageData> image = readImageData(path);
+    vtkSmartPointer<vtkImageData> image =
+        readImageData(path, static_cast<double>(kMaxTf2Resolution) * kMaxTf2Resolution);
     const std::string name = path.string();
     int extent[6];
     double origin[3], spacing[3];

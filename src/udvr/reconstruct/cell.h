@@ -156,6 +156,12 @@ UDVR_CPU_GPU UDVR_INLINE void trilinearWeights(const Cell<T>& c, T w[8]) {
                ((k & 4) ? c.fz : one - c.fz);
 }
 
+/// Grid indices (i, j, k) of a linear voxel index.
+UDVR_CPU_GPU UDVR_INLINE std::array<int, 3> voxelIndices(const CellGeometry& g, std::int64_t v) {
+    return {static_cast<int>(v % g.stride[1]), static_cast<int>((v / g.stride[1]) % g.dims[1]),
+            static_cast<int>(v / g.stride[2])};
+}
+
 /// Linear voxel index of corner k of a scalar cell.
 UDVR_CPU_GPU UDVR_INLINE std::int64_t cornerVoxel(const CellGeometry& g, std::int64_t base, int k) {
     return base + ((k & 1) ? g.next[0] : 0) + ((k & 2) ? g.next[1] : 0) + ((k & 4) ? g.next[2] : 0);

@@ -79,9 +79,7 @@ UDVR_CPU_GPU inline GradientForm gradientFormAt(const CellGeometry& g, const Gra
     trilinearWeights(c, w);
     // The cell's base point (i, j, k).
     const std::int64_t b = c.base;
-    const int base[3] = {static_cast<int>(b % g.stride[1]),
-                         static_cast<int>((b / g.stride[1]) % g.dims[1]),
-                         static_cast<int>(b / g.stride[2])};
+    const std::array<int, 3> base = voxelIndices(g, b);
     for (int corner = 0; corner < 8; ++corner) {
         const std::int64_t v = cornerVoxel(g, b, corner);
         f.w[f.slot(v)] += w[corner];

@@ -23,8 +23,9 @@ std::vector<float> gridGradients(const Grid3& grid, const float* values, int per
                 const std::size_t v = grid.index(i, j, k);
                 for (int l = 0; l < count; ++l) {
                     const auto d = gridGradient(g, gg, values + first + l, perVoxel, i, j, k);
-                    float* o = out.data() + (v * count + l) * 3;
-                    for (int a = 0; a < 3; ++a) o[a] = static_cast<float>(d[a]);
+                    for (int a = 0; a < 3; ++a)
+                        out[(static_cast<std::size_t>(l) * 3 + a) * n + v] =
+                            static_cast<float>(d[a]);
                 }
             }
         }
@@ -50,10 +51,10 @@ const std::vector<float>& GradientCache::of(const Grid3& grid, const float* valu
 
 std::vector<float> gridGradientMagnitudes(const Grid3& grid, const float* values) {
     const std::vector<float> d = gridGradients(grid, values, 1, 0, 1);
-    std::vector<float> out(grid.pointCount());
-    for (std::size_t v = 0; v < out.size(); ++v)
-        out[v] = std::sqrt(d[3 * v] * d[3 * v] + d[3 * v + 1] * d[3 * v + 1] +
-                           d[3 * v + 2] * d[3 * v + 2]);
+    const std::size_t n = grid.pointCount();
+    std::vector<float> out(n);
+    for (std::size_t v = 0; v < n; ++v)
+        out[v] = std::sqrt(d[v] * d[v] + d[n + v] * d[n + v] + d[2 * n + v] * d[2 * n + v]);
     return out;
 }
 

@@ -10,7 +10,9 @@
 namespace udvr {
 
 /// Grid gradients (world units) of layers first … first + count − 1 of a voxel-major array with
-/// perVoxel floats per voxel: out[(v·count + l)·3 + axis] for voxel v and layer l.
+/// perVoxel floats per voxel, one plane of N = voxel-count floats per layer and axis:
+/// out[(l·3 + axis)·N + v] for voxel v and layer l (each plane blends like a one-float field,
+/// with 64-bit pair gathers on the lanes).
 std::vector<float> gridGradients(const Grid3& grid, const float* values, int perVoxel, int first,
                                  int count);
 

@@ -364,6 +364,33 @@ TEST(Render, CacheServes2DTfsAcrossCamerasKindsAndTfs) {
               0.0);
 }
 
+// 2D TFs skip cells whose values miss the x ranges where the TF2 has α > 0: the same image as
+// without skipping, fewer samples.
+TEST(Render, EmptySpaceSkippingWithA2DTfDoesNotChangeTheImage) {
+    const ModelVolume m = tangleModel(30);
+    RenderSettings s;
+    s.width = s.height = 32;
+    s.camera = defaultCamera(m.bounds, 30.0, 20.0);
+    TransferFunction2D t;  // α > 0 only for values in [−1, 2] (columns at −7, −4, …, 35)
+    t.width = 15;
+    t.height = 3;
+    t.x0 = -7;
+    t.x1 = 35;
+    t.y0 = 0;
+    t.y1 = 60;
+    for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 15; ++i)
+            t.rgba.insert(t.rgba.end(), {0.9f, 0.4f, 0.2f, i == 2 && j > 0 ? 0.6f : 0.f});
+    RenderStats on, off;
+    const ImageRgba a = renderVolume(m, ModelKind::Mean, t, s, &on);
+    s.skipEmpty = false;
+    const ImageRgba b = renderVolume(m, ModelKind::Mean, t, s, &off);
+    EXPECT_LE(maxAbsDiff(a, b), 1e-6);
+    EXPECT_GT(on.skippedSamples, 0u);
+    EXPECT_LT(on.samples, off.samples);
+    EXPECT_GT(a.pixel(16, 16)[3], 0.f);  // something is drawn
+}
+
 TEST(Render, SkippingOnADownsampledGridAndJitter) {
     // A coarse model grid inside the full-resolution box: samples clamp into the grid.
     ModelVolume m = tangleModel(21);
