@@ -124,15 +124,15 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
           densityWeights(density),
           zeroWidth(zero) {}
 
-    /// The polyline's vertices X[0 … count−1], G[…] at a cell; returns count.
-    template <class T>
-    UDVR_CPU_GPU UDVR_INLINE int polylineAt(const Cell<T>& c, lanes::MaskOf<T> live, T* x,
-                                            T* g) const {
+    /// The polyline's vertices X[0 … count−1], G[…] at a cell, X_j = boundary(j); returns count.
+    template <class T, class Boundary>
+    UDVR_CPU_GPU UDVR_INLINE int polylineAt(const Cell<T>& c, lanes::MaskOf<T> live,
+                                            const Boundary& boundary, T* x, T* g) const {
         const int count = j1 - j0 + 1;
         T n[3];
         meanDirectionAt(c, live, n);
         for (int j = 0; j < count; ++j) {
-            x[j] = boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live);
+            x[j] = boundary(j);
             T gj{};
             for (int a = 0; a < 3; ++a)
                 gj = lanes::fma(
@@ -142,31 +142,61 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         }
         return count;
     }
+    /// polylineAt with each boundary blended on its own (Eq. 2).
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE int polylineAt(const Cell<T>& c, lanes::MaskOf<T> live, T* x,
+                                            T* g) const {
+        return polylineAt(
+            c, live,
+            [&](int j) { return boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live); }, x,
+            g);
+    }
+    /// The classification from the polyline; width(j) the X-width of segment j (quantile-mean).
+    template <class T, class Width>
+    UDVR_CPU_GPU UDVR_INLINE void classifyPolyline(const T* x, const T* g, int count,
+                                                   const Width& width, lanes::MaskOf<T> live,
+                                                   T out[4]) const {
+        using S = lanes::ScalarOf<T>;
+        const auto& t = tf2<T>();
+        if (!quantileMean) {
+            expectedTf2QuantileRange<T>(
+                t, [&](int j) { return x[j]; }, [&](int j) { return g[j]; }, count, live, out);
+            return;
+        }
+        const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
+        quantileMeanWeighted<T>(
+            [&](int j, T v[4]) {
+                tf2At<T>(t, (x[j] + x[j + 1]) * S(0.5), (g[j] + g[j + 1]) * S(0.5), live, v);
+            },
+            width, count - 1, densityWeights, zero, live, out);
+    }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        using S = lanes::ScalarOf<T>;
         Classified<T> r;
+        T x[kMaxBoundaries2D], g[kMaxBoundaries2D];
+        const int count = j1 - j0 + 1;
         if constexpr (lanes::kIsVector<T>) {
             if (!gathersFit(stride)) {
                 detail::exactLanes(*this, c, live, r.v);
                 return r;
             }
+            if (count <= kMaxRowBoundaries) {  // boundaries and widths by the batch's rows
+                lanes::Vf b[kMaxRowBoundaries], w[kMaxRowBoundaries];
+                boundaryRows(geometry, boundaries, stride, j0, count, c, live, b,
+                             quantileMean ? w : nullptr);
+                polylineAt(
+                    c, live, [&](int j) { return b[j]; }, x, g);
+                classifyPolyline(
+                    x, g, count, [&](int j) { return w[j]; }, live, r.v);
+                detail::keepLive<T>(live, r.v);
+                return r;
+            }
         }
-        T x[kMaxBoundaries2D], g[kMaxBoundaries2D];
-        const int count = polylineAt(c, live, x, g);
-        const auto& t = tf2<T>();
-        if (!quantileMean) {
-            expectedTf2QuantileRange<T>(
-                t, [&](int j) { return x[j]; }, [&](int j) { return g[j]; }, count, live, r.v);
-        } else {
-            const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
-            quantileMeanWeighted<T>(
-                [&](int j, T v[4]) {
-                    tf2At<T>(t, (x[j] + x[j + 1]) * S(0.5), (g[j] + g[j + 1]) * S(0.5), live, v);
-                },
-                [&](int j) { return widthAt<T>(geometry, boundaries, stride, j0 + j, c, live); },
-                count - 1, densityWeights, zero, live, r.v);
-        }
+        polylineAt(c, live, x, g);
+        classifyPolyline(
+            x, g, count,
+            [&](int j) { return widthAt<T>(geometry, boundaries, stride, j0 + j, c, live); }, live,
+            r.v);
         detail::keepLive<T>(live, r.v);
         return r;
     }
