@@ -72,6 +72,11 @@ AnyKernel2D makeMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&
                        const ModelFamily&) {
     return Mean2DKernel(m.grid, m.mean.data(), s.exact, s.fast, s.meanGradient);
 }
+AnyKernel2D makeGaussian2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+                           const ModelFamily&) {
+    return Gaussian2DKernel(m.grid, m.mean.data(), m.stddev.data(), s.exact, s.fast,
+                            s.meanGradient);
+}
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                        const float* data, int stride, int lo, int hi, bool quantileMean,
@@ -106,7 +111,7 @@ using K = ModelKind;
 constexpr std::array<ModelFamily, 12> kFamilies{{
     {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D},
     {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
-    {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, nullptr},
+    {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
     {K::GmmOrdered, "gmm-ordered", gmmArrays, perComponent, {0, 0}, false, false, makeGmmOrdered, nullptr},
     {K::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr, nullptr},
     {K::QuantileRange, "quantile-range", quantileArrays, perBoundary, {0, 1}, true, false, makeQuantileRange, makeQuantileRange2D},

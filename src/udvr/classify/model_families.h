@@ -35,7 +35,7 @@ using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrd
                                QuantileRangeKernel, QuantileMeanKernel>;
 
 /// Any model's kernel with a 2D TF (SPEC §9).
-using AnyKernel2D = std::variant<Mean2DKernel, Quantile2DKernel>;
+using AnyKernel2D = std::variant<Mean2DKernel, Gaussian2DKernel, Quantile2DKernel>;
 
 /// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
 /// `gradients`, which outlives the setup).
@@ -110,8 +110,8 @@ void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFuncti
     if (!family.makeKernel2D)
         UDVR_FAIL("model '" << family.name
                             << "' has no 2D transfer-function classification yet (built: mean, "
-                               "quantile-range, quantile-mean, quantile-mean-mass, iqr and the "
-                               "quartile views)");
+                               "gaussian, quantile-range, quantile-mean, quantile-mean-mass, iqr "
+                               "and the quartile views)");
     GradientCache local;
     Tf2Setup setup(tf, model, cache ? *cache : local);
     std::visit(f, family.makeKernel2D(model, setup, options, family));

@@ -12,8 +12,10 @@
 
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2.h"
+#include "udvr/classify/expected_tf2_gaussian.h"
 #include "udvr/classify/model_kernels.h"
 #include "udvr/reconstruct/cell.h"
+#include "udvr/reconstruct/gradient.h"
 #include "udvr/reconstruct/quantile_interp.h"
 
 namespace udvr {
@@ -96,6 +98,54 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         prefetchRows(values, v, 1);
         for (int a = 0; a < 3; ++a) prefetchRows(meanGradient + a * plane, v, 1);
     }
+};
+
+/// Gaussian with a TF2 (SPEC §9): independent normal voxels X_i ~ N(μ_i, σ_i²); (X, G) =
+/// Σ_i (w_i, u_i) X_i over the 32-voxel form (u_i = n̂·g_i) is bivariate normal with means
+/// (Σ w_i μ_i, n̂·μ_Y) and covariance Σ_i (w_i, u_i)ᵀ(w_i, u_i) σ_i². E[TF2] by
+/// expectedTf2Gaussian, in double (lanes and float threads take the double body).
+struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
+    const float* mean;
+    const float* stddev;
+    GradientGeometry gradientGeometry;
+
+    Gaussian2DKernel(const Grid3& grid, const float* m, const float* s,
+                     const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
+                     const float* meanGrad)
+        : Kernel2DBase(grid, exact, fast, meanGrad), mean(m), stddev(s), gradientGeometry(grid) {}
+    /// (μ_X, μ_G, var X, cov(X, G), var G) at a scalar cell.
+    UDVR_CPU_GPU void momentsAt(const Cell<double>& c, double m[5]) const {
+        double n[3];
+        m[1] = meanDirectionAt(c, true, n);  // n̂·μ_Y = |μ_Y|
+        const GradientForm f = gradientFormAt(geometry, gradientGeometry, c);
+        m[0] = m[2] = m[3] = m[4] = 0.0;
+        for (int i = 0; i < f.count; ++i) {
+            const double u = n[0] * f.coeff[i][0] + n[1] * f.coeff[i][1] + n[2] * f.coeff[i][2];
+            const double s = stddev[f.voxel[i]], var = s * s;
+            m[0] += f.w[i] * mean[f.voxel[i]];
+            m[2] += f.w[i] * f.w[i] * var;
+            m[3] += f.w[i] * u * var;
+            m[4] += u * u * var;
+        }
+    }
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r{};
+        if constexpr (std::is_same_v<T, double>) {
+            double m[5];
+            momentsAt(c, m);
+            expectedTf2Gaussian(tfExact, m[0], m[1], m[2], m[3], m[4], r.v);
+        } else {
+            detail::exactWhere(*this, c, live, r.v);
+        }
+        return r;
+    }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);
+        lo = static_cast<float>(mean[voxel] - s);
+        hi = static_cast<float>(mean[voxel] + s);
+    }
+    void prefetch(int) const {}
 };
 
 /// The quantile models with a TF2 through the rank coupling of SPEC §9: boundaries j0 … j1 of

@@ -236,6 +236,12 @@ struct DescribeGradient {
         j["gradient_magnitude"] = {{"mean", std::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])},
                                    {"stddev", 0.0}};
     }
+    void operator()(const Gaussian2DKernel& k) const {
+        double m[5];
+        k.momentsAt(cell, m);
+        j["gradient_magnitude"] = {{"mean", m[1]}, {"stddev", std::sqrt(std::max(0.0, m[4]))}};
+        j["covariance"] = {{m[2], m[3]}, {m[3], m[4]}};
+    }
     void operator()(const Quantile2DKernel& k) const {
         double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
         const int n = k.polylineAt<double>(cell, true, x, g);
