@@ -204,14 +204,10 @@ class _PiecewiseCdf:
         return C.chebder(self.coef, axis=0) * (2.0 / widths)
 
 
-def uniform_sum_expectation(tf, shift, widths, tiny):
-    """E[TF(shift + Σ widths_c · U_c)] with U_c ~ U[0,1] independent; widths ≤ tiny go into the
-    shift as their means (their effect is below the SPEC's 1e−4)."""
-    widths = np.asarray(widths, float)
-    shift = float(shift) + 0.5 * float(np.sum(widths[widths <= tiny]))
-    ws = np.sort(widths[widths > tiny])[::-1]
-    if len(ws) == 0:
-        return tf(np.array(shift))
+def uniform_sum_cdf(widths):
+    """The CDF of Σ widths_c · U_c (U_c ~ U[0,1] independent, widths > 0, descending), exactly
+    as Chebyshev pieces, by convolving one scaled uniform at a time."""
+    ws = np.asarray(widths, float)
     # First uniform: CDF x / a on [0, a].
     a0 = ws[0]
     cdf = _PiecewiseCdf(np.array([0.0, a0]), np.array([[0.5], [0.5]]))  # (1+u)/2
@@ -230,6 +226,18 @@ def uniform_sum_expectation(tf, shift, widths, tiny):
         V = C.chebvander(u, deg)  # (deg+1, deg+1)
         coef = np.linalg.solve(V, vals)
         cdf = _PiecewiseCdf(edges, coef)
+    return cdf
+
+
+def uniform_sum_expectation(tf, shift, widths, tiny):
+    """E[TF(shift + Σ widths_c · U_c)] with U_c ~ U[0,1] independent; widths ≤ tiny go into the
+    shift as their means (their effect is below the SPEC's 1e−4)."""
+    widths = np.asarray(widths, float)
+    shift = float(shift) + 0.5 * float(np.sum(widths[widths <= tiny]))
+    ws = np.sort(widths[widths > tiny])[::-1]
+    if len(ws) == 0:
+        return tf(np.array(shift))
+    cdf = uniform_sum_cdf(ws)
     # E[F(shift + Y)] = ∫_0^T F(shift + y) p(y) dy, split at the CDF's and the TF's breakpoints.
     dens = cdf.density_pieces()
     cuts = np.unique(np.concatenate([cdf.edges, np.clip(tf.breaks - shift, 0, cdf.T)]))

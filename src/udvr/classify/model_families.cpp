@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 
 #include "udvr/reconstruct/gradient_field.h"
@@ -156,8 +157,7 @@ std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
 
 }  // namespace
 
-Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache)
-    : gradients(cache) {
+Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
     exact.width = fast.width = tf.width;
     exact.height = fast.height = tf.height;
     exact.x0 = tf.x0;
@@ -169,9 +169,57 @@ Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, Gradi
     fast.y0 = static_cast<float>(exact.y0);
     fast.invDx = static_cast<float>(exact.invDx);
     fast.invDy = static_cast<float>(exact.invDy);
-    meanGradient = cache.of(model.grid, model.mean.data(), 1, 0, 1).data();
     cellEmptyDistance = tf.emptyCellDistances();
     exact.cellEmptyDistance = fast.cellEmptyDistance = cellEmptyDistance.data();
+    const int cw = tf.width - 1, rows = tf.height - 1;
+    rowCells.assign(2 * static_cast<std::size_t>(rows), 0);
+    for (int j = 0; j < rows; ++j) {
+        int first = cw, last = -1;
+        for (int i = 0; i < cw; ++i)
+            if (cellEmptyDistance[static_cast<std::size_t>(j) * cw + i] == 0.f) {
+                first = std::min(first, i);
+                last = i;
+            }
+        rowCells[2 * j] = first;
+        rowCells[2 * j + 1] = last;
+        if (last >= 0) {
+            if (lastRow < 0) firstRow = j;
+            lastRow = j;
+        }
+    }
+}
+
+Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache)
+    : Tf2Rasters(tf),
+      gradients(cache),
+      meanGradient(cache.of(model.grid, model.mean.data(), 1, 0, 1).data()) {}
+
+void checkSameGrid(const ModelVolume& first, const ModelVolume& second) {
+    const Grid3 &a = first.grid, &b = second.grid;
+    if (a.dims != b.dims)
+        UDVR_FAIL("the second field's grid is " << b.dims[0] << "x" << b.dims[1] << "x" << b.dims[2]
+                                                << ", the first's " << a.dims[0] << "x" << a.dims[1]
+                                                << "x" << a.dims[2]
+                                                << ": bivariate fields need one grid");
+    for (int axis = 0; axis < 3; ++axis) {
+        const double scale = std::max(std::fabs(a.spacing[axis]), 1e-300);
+        if (std::fabs(a.spacing[axis] - b.spacing[axis]) > 1e-6 * scale ||
+            std::fabs(a.origin[axis] - b.origin[axis]) > 1e-6 * scale)
+            UDVR_FAIL("the second field's origin or spacing differs from the first's along axis "
+                      << "xyz"[axis] << ": bivariate fields need one grid");
+    }
+}
+
+const TransferFunction1D& reconstructionOnlyTf() {
+    static const TransferFunction1D none = [] {
+        TransferFunction1D tf;
+        tf.colorX = {0.0};
+        tf.color = {{0.0, 0.0, 0.0}};
+        tf.opacityX = {0.0};
+        tf.opacity = {0.0};
+        return tf;
+    }();
+    return none;
 }
 
 std::span<const ModelFamily> modelFamilies() { return kFamilies; }

@@ -12,6 +12,7 @@
 
 #include "udvr/classify/model_kernels.h"
 #include "udvr/classify/model_kernels_2d.h"
+#include "udvr/classify/model_kernels_bivariate.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/reconstruct/gradient_field.h"
@@ -30,27 +31,34 @@ enum ModelArray : unsigned {
     kArrayGmm = 1u << 6,        // 3K per voxel
 };
 
-/// Any model's kernel.
-using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrderedKernel,
-                               QuantileRangeKernel, QuantileMeanKernel>;
-
 /// Any model's kernel with a 2D TF (SPEC §9).
 using AnyKernel2D = std::variant<Mean2DKernel, Gaussian2DKernel, Quantile2DKernel>;
 
-/// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
-/// `gradients`, which outlives the setup).
-struct Tf2Setup {
+/// Views of a validated TF2 for the kernels: the raster over double and float, with the
+/// distances of empty cells (TransferFunction2D::emptyCellDistances). `tf` must outlive them.
+struct Tf2Rasters {
     Tf2Raster<double> exact;
     Tf2Raster<float> fast;
+    std::vector<float> cellEmptyDistance;
+    /// Per row of cells j: the first and last cell with α > 0 at a corner (first > last: none);
+    /// and the first and last such row.
+    std::vector<int> rowCells;
+    int firstRow = 0, lastRow = -1;
+
+    explicit Tf2Rasters(const TransferFunction2D& tf);
+    Tf2Rasters(const Tf2Rasters&) = delete;
+    Tf2Rasters& operator=(const Tf2Rasters&) = delete;
+};
+
+/// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
+/// `gradients`, which outlives the setup).
+struct Tf2Setup : Tf2Rasters {
     GradientCache& gradients;
-    const float* meanGradient;             // of the `mean` array, 3 per voxel
-    std::vector<float> cellEmptyDistance;  // TransferFunction2D::emptyCellDistances
+    const float* meanGradient;  // of the `mean` array, 3 per voxel
 
     /// Views of `tf` (validated by the caller; it must outlive the setup) and the mean's grid
     /// gradients.
     Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);
-    Tf2Setup(const Tf2Setup&) = delete;
-    Tf2Setup& operator=(const Tf2Setup&) = delete;
 };
 
 struct ModelFamily {
@@ -115,6 +123,42 @@ void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFuncti
     GradientCache local;
     Tf2Setup setup(tf, model, cache ? *cache : local);
     std::visit(f, family.makeKernel2D(model, setup, options, family));
+}
+
+/// A bivariate field's kernel with a 2D TF (SPEC §9): x from `first`, y from `second`.
+using AnyBivariateKernel = std::variant<BivariateMean2DKernel, Bivariate2DKernel>;
+
+/// Throws UdvrError unless the two models share one grid (dimensions, origin and spacing).
+void checkSameGrid(const ModelVolume& first, const ModelVolume& second);
+
+/// A TF of α = 0 everywhere, for kernels built for their reconstruction only.
+const TransferFunction1D& reconstructionOnlyTf();
+
+/// withKernel for bivariate fields (SPEC §9 `--second`): f(kernel) with x from `first` and y
+/// from `second`, both under model `kind` (each field's zero-width thresholds scaled by its own
+/// data range unless options.dataSpan is set). `tf` must be validated. Throws UdvrError for
+/// grids that differ, a model lacking the arrays `kind` needs, or gmm-mc.
+template <class F>
+void withKernelBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+                         const TransferFunction2D& tf, const ClassifyOptions& options, F&& f) {
+    checkSameGrid(first, second);
+    checkModelHasArrays(first, kind, options);
+    checkModelHasArrays(second, kind, options);
+    const ModelFamily& family = modelFamily(kind);
+    if (!family.makeKernel)
+        UDVR_FAIL("model '" << family.name
+                            << "' has no bivariate classification: it is rendered as the average "
+                               "of mean-field realizations");
+    const Tf2Rasters rasters(tf);
+    if (kind == ModelKind::Mean) {
+        f(BivariateMean2DKernel(first.grid, first.mean.data(), second.mean.data(), rasters.exact,
+                                rasters.fast));
+        return;
+    }
+    const TfPiecesStorage none(reconstructionOnlyTf());
+    f(Bivariate2DKernel(first.grid, rasters.exact, rasters.rowCells.data(), rasters.firstRow,
+                        rasters.lastRow, family.makeKernel(first, none, options, family),
+                        family.makeKernel(second, none, options, family)));
 }
 
 /// withKernel with default options.

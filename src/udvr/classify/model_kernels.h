@@ -27,6 +27,7 @@
 #include <cstddef>
 #include <iterator>
 #include <utility>
+#include <variant>
 
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/model_kind.h"
@@ -451,6 +452,10 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
     }
     void prefetch(int v) const { prefetchRows(quantiles, v, q + 1); }
 };
+
+/// Any model's kernel.
+using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrderedKernel,
+                               QuantileRangeKernel, QuantileMeanKernel>;
 
 /// Options that change classification but are not part of the model file.
 struct ClassifyOptions {

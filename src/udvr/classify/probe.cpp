@@ -350,12 +350,37 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
         DescribeGradient{localCell, r.json}(k);
     });
     // The value's distribution is the 1D model's (the TF plays no part in it).
-    TransferFunction1D none;
-    none.colorX = {0.0};
-    none.color = {{0.0, 0.0, 0.0}};
-    none.opacityX = {0.0};
-    none.opacity = {0.0};
-    withKernel(model, kind, none, options, [&](const auto& k) {
+    withKernel(model, kind, reconstructionOnlyTf(), options, [&](const auto& k) {
+        Describe{family, cell, r.json, r.distribution}(k);
+    });
+    return r;
+}
+
+ProbeResult probeBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+                           const TransferFunction2D& tf, const std::array<double, 3>& point,
+                           const ClassifyOptions& options) {
+    const ModelFamily& family = modelFamily(kind);
+    tf.validate();
+    checkSameGrid(first, second);
+    ProbeResult r{kind, point, {}, json::object(), {}};
+    const Cell<double> cell = probeCell(first, family, point, r.json);
+    withKernelBivariate(first, second, kind, tf, options, [&](const auto& k) {
+        double v[4];
+        k.finish(k.template load<double>(cell, true), v);
+        setExpected(r, v);
+        MarginalSummary y;
+        if constexpr (std::is_same_v<std::decay_t<decltype(k)>, Bivariate2DKernel>)
+            y = k.secondAt(cell);
+        else
+            y.point(trilinear(k.geometry, k.second, 1, cell, true), 1.0);
+        const CellGeometry geometry(second.grid);
+        r.json["second"] = {{"value", trilinear(geometry, second.mean.data(), 1, cell, true)},
+                            {"mean", y.mean()},
+                            {"stddev", y.stddev()}};
+        r.json["gradient_magnitude"] = {{"mean", y.mean()}, {"stddev", y.stddev()}};
+    });
+    // The first field's distribution is its 1D model's.
+    withKernel(first, kind, reconstructionOnlyTf(), options, [&](const auto& k) {
         Describe{family, cell, r.json, r.distribution}(k);
     });
     return r;

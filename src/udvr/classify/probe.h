@@ -39,4 +39,12 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
 ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
                        const std::array<double, 3>& point, const ClassifyOptions& options = {});
 
+/// probe bivariate fields with a 2D TF (SPEC §9 `--second`): x from `first`, y from `second`
+/// (same grid, the same model kind). The JSON adds "second" {"value", "mean", "stddev"} (the
+/// second field's mean at the point and its distribution's mean and standard deviation) and, as
+/// the value × gradient probe, "gradient_magnitude" {"mean", "stddev"} of field 2.
+ProbeResult probeBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+                           const TransferFunction2D& tf, const std::array<double, 3>& point,
+                           const ClassifyOptions& options = {});
+
 }  // namespace udvr

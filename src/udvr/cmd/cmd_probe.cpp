@@ -18,7 +18,7 @@ void addProbeCommand(CLI::App& app) {
     auto* sub = app.add_subcommand(
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
-        std::string model, point, kind, tf, plot, uniformWidth = "variance";
+        std::string model, point, kind, tf, plot, uniformWidth = "variance", second;
         Tf2Flags tf2;
         bool json = false;
     };
@@ -34,6 +34,8 @@ void addProbeCommand(CLI::App& app) {
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
                     ".json; SPEC 9)");
     addTf2FormOptions(sub, o->tf2);
+    sub->add_option("--second", o->second,
+                    "bivariate fields: the model giving the TF2's y (same grid; SPEC 9)");
     sub->add_flag("--json", o->json, "print one JSON object");
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
     sub->add_option("--uniform-width", o->uniformWidth,
@@ -53,13 +55,19 @@ void addProbeCommand(CLI::App& app) {
         const bool twoD = !o->tf2.file.empty();
         if (twoD && !o->plot.empty())
             UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
+        if (!o->second.empty() && !twoD)
+            UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
         const TransferFunction1D tf = twoD ? TransferFunction1D{} : readTransferFunction(o->tf);
         const ModelVolume model = readModelVti(o->model);
         const ProbeResult r =
-            twoD ? probeModel(model, kind,
-                              readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
-                              options)
-                 : probeModel(model, kind, tf, p, options);
+            !o->second.empty()
+                ? probeBivariate(model, readModelVti(o->second), kind,
+                                 readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
+                                 options)
+            : twoD ? probeModel(model, kind,
+                                readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
+                                options)
+                   : probeModel(model, kind, tf, p, options);
         if (!o->plot.empty()) writePng(o->plot, renderProbePlot(r, tf));
         if (o->json) {
             std::cout << r.json.dump(2) << "\n";

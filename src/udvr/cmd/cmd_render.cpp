@@ -35,6 +35,7 @@ struct RenderOpts {
     Tf2Flags tf2;        // 2D TF (SPEC §9)
     RawLayoutFlags raw;  // headerless .raw input
     std::string var;
+    std::string second, secondVar;  // bivariate fields (SPEC §9 --second)
 };
 
 Camera cameraFromOptions(const RenderOpts& o, const ModelVolume& m) {
@@ -82,7 +83,13 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
     const TransferFunction1D tf = twoD ? TransferFunction1D{} : readTransferFunction(o.tf);
     const TransferFunction2D tf2 =
         twoD ? readTransferFunction2D(o.tf2.file, toTf2ReadOptions(o.tf2)) : TransferFunction2D{};
+    if (!o.second.empty() && !twoD)
+        UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
     const ModelVolume model = readModelOrField(o.input, o.var, o.raw);
+    const ModelVolume second =
+        o.second.empty()
+            ? ModelVolume{}
+            : readModelOrField(o.second, o.secondVar.empty() ? o.var : o.secondVar, o.raw);
 
     RenderSettings s;
     const auto size = parseSize(o.size, "--size");
@@ -105,6 +112,7 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
     const auto frame = [&] {
+        if (!o.second.empty()) return renderBivariate(model, second, kind, tf2, s, &stats, &cache);
         return twoD ? renderVolume(model, kind, tf2, s, &stats, &cache)
                     : renderVolume(model, kind, tf, s, &stats, &cache);
     };
@@ -165,6 +173,11 @@ void addRenderCommand(CLI::App& app) {
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
                     ".json; SPEC 9)");
     addTf2FormOptions(sub, o->tf2);
+    sub->add_option("--second", o->second,
+                    "bivariate fields: the model or field giving the TF2's y (same grid; x from "
+                    "the input; SPEC 9)");
+    sub->add_option("--second-var", o->secondVar,
+                    "array/variable name in --second (default: --var)");
     sub->add_option("-o,--output", o->out, "output PNG")->required();
     sub->add_option("--size", o->size, "image size WxH (default 512x512)");
     sub->add_option("--float", o->floatOut, "also write float32 RGBA (.npy or .pfm)");

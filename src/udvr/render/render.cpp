@@ -83,17 +83,24 @@ struct CacheKey {
     ModelKind kind = ModelKind::Mean;
     bool uniformMinMax = false;
     bool twoD = false;
+    std::vector<const void*> secondArrays;  // bivariate fields: the second model's
     std::vector<std::pair<double, double>> ranges;
 
     bool operator==(const CacheKey& o) const = default;
 };
 
+std::vector<const void*> arraysOf(const ModelVolume& m) {
+    return {m.mean.data(),      m.stddev.data(), m.min.data(), m.max.data(),
+            m.quantiles.data(), m.iqr.data(),    m.gmm.data()};
+}
+
 CacheKey makeKey(const ModelVolume& m, ModelKind kind, bool twoD,
-                 const std::vector<std::pair<double, double>>& ranges, bool uniformMinMax) {
+                 const std::vector<std::pair<double, double>>& ranges, bool uniformMinMax,
+                 const ModelVolume* second = nullptr) {
     CacheKey k;
     k.model = &m;
-    k.arrays = {m.mean.data(),      m.stddev.data(), m.min.data(), m.max.data(),
-                m.quantiles.data(), m.iqr.data(),    m.gmm.data()};
+    k.arrays = arraysOf(m);
+    if (second) k.secondArrays = arraysOf(*second);
     k.voxels = m.voxelCount();
     k.dims = m.grid.dims;
     k.kind = kind;
@@ -260,6 +267,26 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
                     renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
                 },
                 cacheImpl ? &cacheImpl->gradients : nullptr);
+        });
+}
+
+ImageRgba renderBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+                          const TransferFunction2D& tf, const RenderSettings& settings,
+                          RenderStats* stats, RenderCache* cache) {
+    return timedFrame(
+        first, settings, stats,
+        [&](const detail::MarchParams& p, ImageRgba& image, detail::MarchCounters& counters) {
+            tf.validate();
+            const auto ranges = tf.nonZeroOpacityXRanges();
+            RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
+            const CacheKey key =
+                cache ? makeKey(first, kind, true, ranges, settings.uniformMinMax, &second)
+                      : CacheKey{};
+            ClassifyOptions options;
+            options.uniformMinMax = settings.uniformMinMax;
+            withKernelBivariate(first, second, kind, tf, options, [&](const auto& kernel) {
+                renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
+            });
         });
 }
 

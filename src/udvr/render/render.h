@@ -85,4 +85,12 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
                        const RenderSettings& settings, RenderStats* stats = nullptr,
                        RenderCache* cache = nullptr);
 
+/// Render bivariate fields with a 2D transfer function (SPEC §9 `--second`, fuzzy fiber
+/// surfaces): x from `first`, y from `second` (same grid), the fields independent, both under
+/// model `kind`. Skipping uses the first field's supports and the x ranges where the TF2 has
+/// α > 0.
+ImageRgba renderBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+                          const TransferFunction2D& tf, const RenderSettings& settings,
+                          RenderStats* stats = nullptr, RenderCache* cache = nullptr);
+
 }  // namespace udvr
