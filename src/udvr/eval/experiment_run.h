@@ -75,6 +75,12 @@ inline Sizes resolveSizes(const std::string& name, const ExperimentOptions& o) {
         s.dims = q ? 128 : 512, s.image = q ? 128 : 512, s.realizations = q ? 20 : 200;
     } else if (name == "chest") {
         s.image = q ? 128 : 512, s.realizations = q ? 20 : 200;
+    } else if (name == "tooth2d") {
+        s.image = q ? 96 : 512, s.realizations = q ? 20 : 200;
+    } else if (name == "fiber") {
+        s.dims = q ? 64 : 128, s.image = q ? 96 : 384;
+    } else if (name == "fiber-isabel") {
+        s.image = q ? 96 : 384;
     }
     if (o.dims > 0) s.dims = o.dims;
     if (o.members > 0) s.members = o.members;
@@ -225,6 +231,8 @@ class Run {
         settings_.realizations = sizes_.realizations;
     }
     void setCamera(const Camera& camera) { settings_.camera = camera; }
+    /// Ray step in world units for every render (0: SPEC §5's default).
+    void setStep(double step) { settings_.step = step; }
     const RenderSettings& settings() const { return settings_; }
 
     /// Render one image with its time; one line on stderr.
@@ -422,5 +430,26 @@ inline PanelItem tfItem(const TransferFunction1D& tf, int side) {
     item.image = renderTransferFunction(tf, side, side);
     return item;
 }
+
+/// A file of the shared real data (`rel` under ../shared/data or --data-dir); empty if no data
+/// folder is found.
+inline fs::path sharedDataPath(const ExperimentOptions& options, const std::string& rel) {
+    const fs::path dir = options.dataDir.empty() ? locateDataDir() : options.dataDir;
+    return dir.empty() ? fs::path() : dir / rel;
+}
+/// The tooth CT of tooth2d.
+inline fs::path toothPath(const ExperimentOptions& options) {
+    return sharedDataPath(options, "tooth/tooth.nhdr");
+}
+
+/// Isabel's wind speed at time step t (fiber-isabel).
+inline fs::path isabelPath(const ExperimentOptions& options, int step) {
+    return sharedDataPath(options, "isabel-windspeed/windspeed_t0" + std::to_string(step) + ".vti");
+}
+
+// Experiments in their own files.
+ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& options);  // Fig. 10
+ExperimentResult runFiber(const fs::path& dir, const ExperimentOptions& options);    // Fig. 11
+ExperimentResult runFiberIsabel(const fs::path& dir, const ExperimentOptions& options);
 
 }  // namespace udvr::experiment_detail

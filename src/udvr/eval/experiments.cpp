@@ -304,8 +304,7 @@ ExperimentResult runSpheres(const fs::path& dir, const ExperimentOptions& option
 }
 
 fs::path chestPath(const ExperimentOptions& options) {
-    const fs::path dir = options.dataDir.empty() ? locateDataDir() : options.dataDir;
-    return dir.empty() ? fs::path() : dir / "chest-ct" / "chest.nhdr";
+    return sharedDataPath(options, "chest-ct/chest.nhdr");
 }
 
 ExperimentResult runChest(const fs::path& dir, const ExperimentOptions& options) {
@@ -350,6 +349,9 @@ ExperimentResult runOne(const std::string& name, const fs::path& dir,
     if (name == "quartiles") return runQuartiles(dir, options);
     if (name == "spheres") return runSpheres(dir, options);
     if (name == "chest") return runChest(dir, options);
+    if (name == "tooth2d") return runTooth2d(dir, options);
+    if (name == "fiber") return runFiber(dir, options);
+    if (name == "fiber-isabel") return runFiberIsabel(dir, options);
     std::string names;
     for (const std::string& n : experimentNames()) names += n + ", ";
     UDVR_FAIL("unknown experiment '" << name << "' (expected one of " << names << "all)");
@@ -365,7 +367,8 @@ fs::path executableDir() {
 
 const std::vector<std::string>& experimentNames() {
     static const std::vector<std::string> names = {"tangle",    "tangle-sweep", "teardrop",
-                                                   "quartiles", "spheres",      "chest"};
+                                                   "quartiles", "spheres",      "chest",
+                                                   "tooth2d",   "fiber",        "fiber-isabel"};
     return names;
 }
 
@@ -412,10 +415,12 @@ std::vector<ExperimentResult> runExperiments(const std::string& name, const fs::
     std::vector<ExperimentResult> results;
     std::vector<std::string> skipped;
     for (const std::string& n : experimentNames()) {
-        if (n == "chest") {
-            const fs::path p = chestPath(options);
+        if (n == "chest" || n == "tooth2d" || n == "fiber-isabel") {
+            const fs::path p = n == "chest"     ? chestPath(options)
+                               : n == "tooth2d" ? toothPath(options)
+                                                : isabelPath(options, 2);
             if (p.empty() || !fs::exists(p)) {
-                const std::string why = "chest (no chest CT at " +
+                const std::string why = n + " (no data at " +
                                         (p.empty() ? std::string("<shared data>") : p.string()) +
                                         ")";
                 if (options.log)

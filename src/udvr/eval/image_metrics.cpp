@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include "udvr/util/check.h"
 
@@ -79,6 +81,59 @@ ImageRgba differenceImage(const ImageRgba& model, const ImageRgba& truth, double
         p[3] = 1.f;
     }
     return out;
+}
+
+namespace {
+// Flood-fill the pieces of pixels where inside(x, y), 8- or 4-connected; f(size, touchesBorder)
+// per piece.
+template <class Inside, class Piece>
+void floodPieces(int w, int h, bool eight, const Inside& inside, const Piece& piece) {
+    std::vector<char> seen(static_cast<std::size_t>(w) * h, 0);
+    std::vector<std::pair<int, int>> stack;
+    for (int y0 = 0; y0 < h; ++y0)
+        for (int x0 = 0; x0 < w; ++x0) {
+            const std::size_t k0 = static_cast<std::size_t>(y0) * w + x0;
+            if (seen[k0] || !inside(x0, y0)) continue;
+            std::size_t size = 0;
+            bool border = false;
+            seen[k0] = 1;
+            stack.assign(1, {x0, y0});
+            while (!stack.empty()) {
+                const auto [x, y] = stack.back();
+                stack.pop_back();
+                ++size;
+                border = border || x == 0 || y == 0 || x == w - 1 || y == h - 1;
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dx = -1; dx <= 1; ++dx) {
+                        if ((dx == 0 && dy == 0) || (!eight && dx != 0 && dy != 0)) continue;
+                        const int nx = x + dx, ny = y + dy;
+                        if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+                        const std::size_t k = static_cast<std::size_t>(ny) * w + nx;
+                        if (seen[k] || !inside(nx, ny)) continue;
+                        seen[k] = 1;
+                        stack.push_back({nx, ny});
+                    }
+            }
+            piece(size, border);
+        }
+}
+}  // namespace
+
+MaskComponents opaqueComponents(const ImageRgba& image, float alphaThreshold) {
+    const int w = image.width, h = image.height;
+    const auto opaque = [&](int x, int y) {
+        return image.rgba[(static_cast<std::size_t>(y) * w + x) * 4 + 3] > alphaThreshold;
+    };
+    MaskComponents r;
+    floodPieces(w, h, true, opaque, [&](std::size_t size, bool) {
+        ++r.count;
+        r.pixels += size;
+        r.largest = std::max(r.largest, size);
+    });
+    floodPieces(
+        w, h, false, [&](int x, int y) { return !opaque(x, y); },
+        [&](std::size_t, bool border) { r.holes += border ? 0 : 1; });
+    return r;
 }
 
 }  // namespace udvr

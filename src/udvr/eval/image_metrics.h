@@ -18,4 +18,15 @@ ImageRgba differenceImage(const ImageRgba& model, const ImageRgba& truth, double
 /// The colour of the difference map at t ∈ [0, 1] (clamped): RGB in [0, 1].
 void differenceColor(double t, float rgb[3]);
 
+/// Connected pieces of the pixels with alpha > threshold (8-neighbourhood): how many, the mask's
+/// pixel count and the largest piece's, and its holes (pieces of the other pixels,
+/// 4-neighbourhood, that do not touch the image border). The paper's Fig. 11 asks whether a
+/// fiber surface stays in one piece.
+struct MaskComponents {
+    int count = 0;
+    std::size_t pixels = 0, largest = 0;
+    int holes = 0;
+};
+MaskComponents opaqueComponents(const ImageRgba& image, float alphaThreshold);
+
 }  // namespace udvr

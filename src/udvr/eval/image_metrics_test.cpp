@@ -91,5 +91,38 @@ TEST(ImageMetrics, CompareCommandPrintsRmseAndRejectsSizeMismatch) {
 }
 #endif
 
+// A w×h image whose alpha is 1 where mask has '#', 0 elsewhere (rows from the top).
+ImageRgba maskImage(const std::vector<std::string>& mask) {
+    ImageRgba img;
+    img.height = static_cast<int>(mask.size());
+    img.width = static_cast<int>(mask[0].size());
+    img.rgba.assign(static_cast<std::size_t>(img.width) * img.height * 4, 0.f);
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x)
+            img.rgba[(static_cast<std::size_t>(y) * img.width + x) * 4 + 3] =
+                mask[y][x] == '#' ? 1.f : 0.f;
+    return img;
+}
+
+TEST(ImageMetrics, OpaqueComponentsCountPiecesAndHoles) {
+    // A ring with one hole, a diagonal pair (one piece, 8-neighbourhood) and a lone pixel.
+    const MaskComponents a = opaqueComponents(
+        maskImage({"........", ".####...", ".#..#.#.", ".####..#", "........", "......#."}), 0.1f);
+    EXPECT_EQ(a.count, 3);
+    EXPECT_EQ(a.holes, 1);
+    EXPECT_EQ(a.pixels, 13u);
+    EXPECT_EQ(a.largest, 10u);
+    // A gap diagonal in the ring's wall connects its hole to the outside (4-neighbourhood for
+    // the background), and a C touching the border has no hole.
+    const MaskComponents b =
+        opaqueComponents(maskImage({"#####", "#...#", "#...#", "#.###"}), 0.1f);
+    EXPECT_EQ(b.count, 1);
+    EXPECT_EQ(b.holes, 0);
+    const MaskComponents none = opaqueComponents(maskImage({"...", "..."}), 0.1f);
+    EXPECT_EQ(none.count, 0);
+    EXPECT_EQ(none.holes, 0);
+    EXPECT_EQ(opaqueComponents(maskImage({"##"}), 1.f).count, 0);  // alpha must exceed
+}
+
 }  // namespace
 }  // namespace udvr
