@@ -22,6 +22,7 @@
 #include "udvr/util/grid.h"
 #include "udvr/util/lanes.h"
 #include "udvr/util/parallel.h"
+#include "udvr/util/progress.h"
 #include "udvr/util/random.h"
 
 namespace udvr::detail {
@@ -370,6 +371,8 @@ template <class F>
 void forEachTile(int width, int height, MarchCounters& counters, const F& f) {
     const int tilesX = (width + kTilePixels - 1) / kTilePixels;
     const int tilesY = (height + kTilePixels - 1) / kTilePixels;
+    // Long frames (costly models, 2D TFs, big images) show a bar after 2 s.
+    ProgressBar bar("render", static_cast<std::size_t>(tilesX) * tilesY, 2.0);
     parallelForChunks(
         static_cast<std::size_t>(tilesX) * tilesY, 1, [&](std::size_t t0, std::size_t t1) {
             std::uint64_t samples = 0, skipped = 0;
@@ -380,6 +383,7 @@ void forEachTile(int width, int height, MarchCounters& counters, const F& f) {
                     static_cast<int>(tile / static_cast<std::size_t>(tilesX)) * kTilePixels;
                 f(x0, y0, std::min(x0 + kTilePixels, width), std::min(y0 + kTilePixels, height),
                   samples, skipped);
+                bar.advance();
             }
             counters.samples += samples;
             counters.skipped += skipped;

@@ -11,11 +11,12 @@ bool ProgressBar::enabled() {
     return isatty(fileno(stderr)) != 0 && std::getenv("UDVR_NO_PROGRESS") == nullptr;
 }
 
-ProgressBar::ProgressBar(std::string label, std::size_t total)
+ProgressBar::ProgressBar(std::string label, std::size_t total, double showAfterSeconds)
     : label_(std::move(label)),
       total_(total == 0 ? 1 : total),
       start_(std::chrono::steady_clock::now()),
-      enabled_(enabled()) {}
+      enabled_(enabled()),
+      showAfterNs_(static_cast<long long>(showAfterSeconds * 1e9)) {}
 
 ProgressBar::~ProgressBar() { finish(); }
 
@@ -25,6 +26,7 @@ void ProgressBar::advance(std::size_t units) {
     long long now = std::chrono::duration_cast<std::chrono::nanoseconds>(
                         std::chrono::steady_clock::now() - start_)
                         .count();
+    if (now < showAfterNs_) return;
     long long last = lastDrawNs_.load();
     if (now - last < 100'000'000 && done < total_) return;
     if (!lastDrawNs_.compare_exchange_strong(last, now)) return;
@@ -45,10 +47,18 @@ void ProgressBar::draw(std::size_t done) {
     std::fprintf(stderr, "\r%s [%s] %5.1f%% %6.1fs", label_.c_str(), bar.c_str(), 100.0 * frac,
                  elapsed);
     std::fflush(stderr);
+    drawn_ = true;
 }
 
 void ProgressBar::finish() {
     if (!enabled_) return;
+    {
+        std::lock_guard<std::mutex> lock(drawMutex_);
+        if (!drawn_) {  // never shown (quicker than showAfterSeconds): stay silent
+            finished_ = true;
+            return;
+        }
+    }
     draw(total_);
     std::lock_guard<std::mutex> lock(drawMutex_);
     if (finished_) return;

@@ -12,7 +12,9 @@ namespace udvr {
 class ProgressBar {
   public:
     /// label: what is being done ("build"); total: units of work (voxels, rows, frames).
-    ProgressBar(std::string label, std::size_t total);
+    /// Nothing is drawn before `showAfterSeconds` have passed (work that ends sooner stays
+    /// silent: e.g. a render frame, which is usually far shorter).
+    ProgressBar(std::string label, std::size_t total, double showAfterSeconds = 0.0);
     ~ProgressBar();
     ProgressBar(const ProgressBar&) = delete;
     ProgressBar& operator=(const ProgressBar&) = delete;
@@ -33,6 +35,8 @@ class ProgressBar {
     std::chrono::steady_clock::time_point start_;
     std::mutex drawMutex_;
     bool enabled_;
+    long long showAfterNs_;
+    bool drawn_ = false;
     bool finished_ = false;
 };
 
