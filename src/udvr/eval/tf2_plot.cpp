@@ -55,7 +55,7 @@ ImageRgba renderTf2Plot(const TransferFunction2D& tf, const JointHistogram* hist
     const int left = static_cast<int>(std::lround(6.0 * font));
     const int right = width - static_cast<int>(std::lround(1.5 * font));
     const int top = static_cast<int>(std::lround((options.title.empty() ? 1.2 : 2.6) * font));
-    const int bottom = height - static_cast<int>(std::lround(3.6 * font));
+    const int bottom = height - static_cast<int>(std::lround(4.6 * font));  // ticks, label, note
     const int pw = right - left, ph = bottom - top;
     UDVR_CHECK(pw > 0 && ph > 0);
 
@@ -128,7 +128,7 @@ ImageRgba renderTf2Plot(const TransferFunction2D& tf, const JointHistogram* hist
         detail::textAt(cr, detail::formatTick(t, yStep), left - 0.6 * font, y + 0.35 * font, font,
                        false, 1.0);
     }
-    detail::textAt(cr, options.xLabel, left + pw / 2.0, height - 0.8 * font, font, false, 0.5);
+    detail::textAt(cr, options.xLabel, left + pw / 2.0, bottom + 2.7 * font, font, false, 0.5);
     cairo_save(cr);
     cairo_translate(cr, 1.3 * font, top + ph / 2.0);
     cairo_rotate(cr, -std::numbers::pi / 2);
@@ -137,13 +137,13 @@ ImageRgba renderTf2Plot(const TransferFunction2D& tf, const JointHistogram* hist
     if (!options.title.empty())
         detail::textCentred(cr, options.title, width / 2.0, 1.7 * font, width - 2.0 * font,
                             font * 1.1, true);
-    // What the shades mean, under the plot's right end (not over the data).
+    // What the shades mean, on its own line under the axis label (not over the data).
     char note[128];
     std::snprintf(note, sizeof note, "max alpha %.3g%s", maxAlpha,
                   histogram == nullptr ? ""
                   : options.logScale   ? ", grey: log(1 + count)"
                                        : ", grey: count");
-    detail::textAt(cr, note, right, height - 0.8 * font, font * 0.9, false, 1.0);
+    detail::textAt(cr, note, right, height - 0.5 * font, font * 0.9, false, 1.0);
     crp.reset();
     return detail::surfaceToImage(surface.get());
 }
