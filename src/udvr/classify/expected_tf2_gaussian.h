@@ -69,7 +69,7 @@ inline void tf2NormalAlongB(const Tf2Axes& ax, double a, double m, double s, dou
     const auto z = [&](int k) { return (b0 + k * db - m) / s; };
     double z0 = z(kLo);
     NormalCdfPdf n0 = normalCdfPdf(z0);
-    double up0 = normalCdf(-z0);  // 1 − Φ(z0), from the tail (keeps its digits)
+    double up0 = n0.upper;  // 1 − Φ(z0), from the tail (keeps its digits)
     // Below the first line (clamped, or beyond the window): the line's value.
     for (int ch = 0; ch < 3; ++ch) out[ch] += n0.cdf * v0[3] * v0[ch];
     out[3] += n0.cdf * v0[3];
@@ -77,7 +77,7 @@ inline void tf2NormalAlongB(const Tf2Axes& ax, double a, double m, double s, dou
         line(k + 1, v1);
         const double z1 = z(k + 1);
         const NormalCdfPdf n1 = normalCdfPdf(z1);
-        const double up1 = normalCdf(-z1);
+        const double up1 = n1.upper;
         // ∫ z^p φ over [z0, z1]: M0 (between upper tails where z0 ≥ 0), M1, M2.
         const double m0 = z0 >= 0 ? up0 - up1 : n1.cdf - n0.cdf;
         const double m1 = n0.pdf - n1.pdf;

@@ -12,10 +12,12 @@
 
 namespace udvr {
 
-/// Φ(u) and φ(u) of the standard normal distribution.
+/// Φ(u) and φ(u) of the standard normal distribution, and the upper tail 1 − Φ(u) computed as
+/// such (no digits lost to 1 − Φ where Φ is near 1).
 struct NormalCdfPdf {
     double cdf;
     double pdf;
+    double upper;
 };
 
 namespace detail {
@@ -58,7 +60,7 @@ UDVR_CPU_GPU inline NormalCdfPdf normalCdfPdf(double u) {
     constexpr double kInvSqrt2Pi = 0.39894228040143267794;
     const double g = std::exp(-0.5 * u * u);  // e^(−z²) with z = |u|/√2
     const double tail = 0.5 * g * detail::erfcxNonNegative(std::fabs(u) * kInvSqrt2);  // Φ(−|u|)
-    return {u >= 0.0 ? 1.0 - tail : tail, kInvSqrt2Pi * g};
+    return {u >= 0.0 ? 1.0 - tail : tail, kInvSqrt2Pi * g, u >= 0.0 ? tail : 1.0 - tail};
 }
 
 /// Standard normal CDF Φ(u), |error| < 1e−9.

@@ -21,6 +21,16 @@ TEST(NormalCdf, MatchesStdErfcEverywhere) {
     EXPECT_LT(maxPdfErr, 1e-15);
 }
 
+// The upper tail keeps its relative precision far out (where 1 − Φ would be 0 or noise).
+TEST(NormalCdf, UpperTailIsRelativelyAccurate) {
+    for (double u = -8.0; u <= 30.0; u += 1.0 / 64.0) {
+        const double want = 0.5 * std::erfc(u / std::sqrt(2.0));
+        const NormalCdfPdf r = normalCdfPdf(u);
+        EXPECT_NEAR(r.upper, want, u > 0 ? 2e-9 * want : 1e-9) << u;
+        EXPECT_NEAR(r.upper + r.cdf, 1.0, 1e-15) << u;
+    }
+}
+
 TEST(NormalCdf, ErfAndErfcMatchStd) {
     for (double x = -8.0; x <= 8.0; x += 1.0 / 1024.0) {
         EXPECT_NEAR(fastErf(x), std::erf(x), 2e-9) << x;
