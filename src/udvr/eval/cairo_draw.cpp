@@ -1,11 +1,15 @@
-// Cairo helpers shared by the figure renderers (figure.cpp, tf2_plot.cpp).
+// Cairo helpers shared by the figure renderers (figure.cpp, tf2_plot.cpp, probe_plot.cpp,
+// histogram_plot.cpp).
 #include "udvr/eval/cairo_draw.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <numbers>
+#include <vector>
 
+#include "udvr/eval/figure.h"
 #include "udvr/util/check.h"
 
 namespace udvr::detail {
@@ -111,6 +115,43 @@ std::string formatTick(double v, double step) {
         step >= 1.0 ? 0 : std::min(8, static_cast<int>(std::ceil(-std::log10(step) - 1e-9)));
     std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
     return buf;
+}
+
+void drawAxes(cairo_t* cr, const PlotAxes& a) {
+    const double bottom = a.top + a.height;
+    const auto px = [&](double x) { return a.left + (x - a.x0) / (a.x1 - a.x0) * a.width; };
+    const auto py = [&](double y) { return bottom - (y - a.y0) / (a.y1 - a.y0) * a.height; };
+    const double font = a.font;
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1.0);
+    cairo_rectangle(cr, a.left + 0.5, a.top + 0.5, a.width - 1.0, a.height - 1.0);
+    cairo_stroke(cr);
+    const std::vector<double> xTicks =
+        niceTicks(a.x0, a.x1, std::max(2, static_cast<int>(a.width / 70)));
+    const std::vector<double> yTicks =
+        niceTicks(a.y0, a.y1, std::max(2, static_cast<int>(a.height / 50)));
+    const double xStep = xTicks.size() >= 2 ? xTicks[1] - xTicks[0] : a.x1 - a.x0;
+    const double yStep = yTicks.size() >= 2 ? yTicks[1] - yTicks[0] : a.y1 - a.y0;
+    for (double t : xTicks) {
+        const double x = std::round(px(t)) + 0.5;
+        cairo_move_to(cr, x, bottom);
+        cairo_line_to(cr, x, bottom + 0.4 * font);
+        cairo_stroke(cr);
+        textAt(cr, formatTick(t, xStep), x, bottom + 1.4 * font, font, false, 0.5);
+    }
+    for (double t : yTicks) {
+        const double y = std::round(py(t)) + 0.5;
+        cairo_move_to(cr, a.left - 0.4 * font, y);
+        cairo_line_to(cr, a.left, y);
+        cairo_stroke(cr);
+        textAt(cr, formatTick(t, yStep), a.left - 0.6 * font, y + 0.35 * font, font, false, 1.0);
+    }
+    textAt(cr, a.xLabel, a.left + a.width / 2.0, bottom + 2.7 * font, font, false, 0.5);
+    cairo_save(cr);
+    cairo_translate(cr, 1.3 * font, a.top + a.height / 2.0);
+    cairo_rotate(cr, -std::numbers::pi / 2);
+    textAt(cr, a.yLabel, 0, 0, font, false, 0.5);
+    cairo_restore(cr);
 }
 
 }  // namespace udvr::detail

@@ -37,4 +37,15 @@ void textAt(cairo_t* cr, const std::string& text, double x, double y, double siz
 /// A tick label for value v on an axis whose ticks are `step` apart (enough decimals for step).
 std::string formatTick(double v, double step);
 
+/// A plot frame: the rectangle [left, left + width] × [top, top + height] (pixels) outlined,
+/// "nice" ticks with labels for x over [x0, x1] (below) and y over [y0, y1] (left, y up), and
+/// the axis labels (y's rotated); `font` in pixels. Black, 1 px lines.
+struct PlotAxes {
+    double left = 0, top = 0, width = 0, height = 0;
+    double x0 = 0, x1 = 1, y0 = 0, y1 = 1;
+    std::string xLabel, yLabel;
+    double font = 12;
+};
+void drawAxes(cairo_t* cr, const PlotAxes& axes);
+
 }  // namespace udvr::detail

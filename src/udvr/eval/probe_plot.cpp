@@ -2,15 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+
+#include "udvr/eval/cairo_draw.h"
+#include "udvr/util/check.h"
 
 namespace udvr {
 namespace {
-
-void put(ImageRgba& im, int x, int y, float r, float g, float b) {
-    if (x < 0 || y < 0 || x >= im.width || y >= im.height) return;
-    float* p = im.pixel(x, y);
-    p[0] = r, p[1] = g, p[2] = b, p[3] = 1.f;
-}
 
 // Piecewise-linear interpolation of the sampled CDF at x.
 double cdfAt(const ProbeDistribution& d, double x) {
@@ -27,18 +25,31 @@ double cdfAt(const ProbeDistribution& d, double x) {
 
 ImageRgba renderProbePlot(const ProbeResult& r, const TransferFunction1D& tf, int width,
                           int height) {
-    ImageRgba im;
-    im.width = std::max(width, 64);
-    im.height = std::max(height, 64);
-    im.rgba.assign(static_cast<std::size_t>(im.width) * im.height * 4, 1.f);
     const ProbeDistribution& d = r.distribution;
-    const int left = 8, right = im.width - 8, top = 8;
-    const int pdfBottom = static_cast<int>(0.68 * im.height);
-    const int tfTop = pdfBottom + 12, tfBottom = im.height - 8;
-    const int cols = right - left;
-    auto xOf = [&](int col) { return d.lo + (d.hi - d.lo) * col / cols; };
+    UDVR_CHECK(d.hi > d.lo);
+    width = std::max(width, 200);
+    height = std::max(height, 150);
+    const double font = std::clamp(height / 36.0, 7.0, 12.0);
+    const double left = std::round(6.0 * font), right = width - std::round(1.5 * font);
+    const double pw = right - left;
+    // Two panels sharing x: the distribution (upper 60 %) and the TF (lower), each with ticks,
+    // tick labels and axis labels below it.
+    const double pdfTop = std::round(1.2 * font);
+    const double tfBottom = height - std::round(3.4 * font);
+    const double gap = std::round(3.6 * font);
+    const double pdfHeight = std::round(0.62 * (tfBottom - pdfTop - gap));
+    const double tfTop = pdfTop + pdfHeight + gap, tfHeight = tfBottom - tfTop;
+    UDVR_CHECK(pw > 0 && pdfHeight > 0 && tfHeight > 0);
+    const int cols = static_cast<int>(pw);
+    auto xOf = [&](double col) { return d.lo + (d.hi - d.lo) * col / cols; };
 
-    // Continuous density per column = Δcdf / Δx, normalised to its peak.
+    detail::SurfacePtr surface = detail::makeSurface(CAIRO_FORMAT_ARGB32, width, height);
+    detail::ContextPtr crp(cairo_create(surface.get()));
+    cairo_t* cr = crp.get();
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+
+    // Continuous density per column = Δcdf / Δx, normalised to its peak (blue).
     std::vector<double> dens(static_cast<std::size_t>(cols), 0.0);
     double peak = 0.0;
     if (d.continuousMass > 0)
@@ -47,35 +58,67 @@ ImageRgba renderProbePlot(const ProbeResult& r, const TransferFunction1D& tf, in
             dens[c] = (cdfAt(d, x1) - cdfAt(d, x0)) / (x1 - x0);
             peak = std::max(peak, dens[c]);
         }
-    const int h = pdfBottom - top;
-    for (int c = 0; c < cols && peak > 0; ++c) {
-        const int bar = static_cast<int>(std::lround(h * dens[c] / peak));
-        for (int y = pdfBottom - bar; y < pdfBottom; ++y) put(im, left + c, y, 0.55f, 0.7f, 0.95f);
-        put(im, left + c, pdfBottom - bar, 0.1f, 0.25f, 0.7f);
+    const double pdfBottom = pdfTop + pdfHeight;
+    const double scale = pdfHeight / 1.05;  // peak at 1 on a 0..1.05 axis
+    if (peak > 0.0) {
+        cairo_set_source_rgb(cr, 0.55, 0.7, 0.95);
+        for (int c = 0; c < cols; ++c) {
+            const double bar = scale * dens[c] / peak;
+            cairo_rectangle(cr, left + c, pdfBottom - bar, 1.0, bar);
+        }
+        cairo_fill(cr);
+        cairo_set_source_rgb(cr, 0.1, 0.25, 0.7);
+        cairo_set_line_width(cr, 1.2);
+        for (int c = 0; c < cols; ++c) {
+            const double y = pdfBottom - scale * dens[c] / peak;
+            if (c == 0)
+                cairo_move_to(cr, left + c + 0.5, y);
+            else
+                cairo_line_to(cr, left + c + 0.5, y);
+        }
+        cairo_stroke(cr);
     }
+    // Point masses as red spikes, the largest at full height.
     double atomPeak = 0.0;
     for (double m : d.atomMass) atomPeak = std::max(atomPeak, m);
-    for (std::size_t i = 0; i < d.atoms.size(); ++i) {
-        const int col = static_cast<int>(std::lround((d.atoms[i] - d.lo) / (d.hi - d.lo) * cols));
-        const int bar = static_cast<int>(std::lround(h * d.atomMass[i] / atomPeak));
-        for (int y = pdfBottom - bar; y < pdfBottom; ++y)
-            for (int dx = -1; dx <= 1; ++dx) put(im, left + col + dx, y, 0.85f, 0.1f, 0.1f);
+    cairo_set_source_rgb(cr, 0.85, 0.1, 0.1);
+    for (std::size_t i = 0; i < d.atoms.size() && atomPeak > 0.0; ++i) {
+        const double x = left + (d.atoms[i] - d.lo) / (d.hi - d.lo) * pw;
+        const double bar = scale * d.atomMass[i] / atomPeak;
+        cairo_rectangle(cr, x - 1.5, pdfBottom - bar, 3.0, bar);
     }
-    for (int x = left; x < right; ++x) put(im, x, pdfBottom, 0.f, 0.f, 0.f);  // axis
+    cairo_fill(cr);
+    const bool atoms = !d.atoms.empty();
+    detail::drawAxes(cr, {left, pdfTop, pw, pdfHeight, d.lo, d.hi, 0.0, 1.05, "value",
+                          atoms && peak > 0.0 ? "density, mass (peak = 1)"
+                          : atoms             ? "probability (peak = 1)"
+                                              : "density (peak = 1)",
+                          font});
 
-    // TF strip: colour as background, opacity as a black curve.
+    // The TF: its colour as the background, its opacity as a black curve.
+    double maxAlpha = 0.0;
+    for (double a : tf.opacity) maxAlpha = std::max(maxAlpha, a);
+    const double alphaTop = maxAlpha > 0.0 ? maxAlpha * 1.05 : 1.0;
     for (int c = 0; c < cols; ++c) {
-        const double x = 0.5 * (xOf(c) + xOf(c + 1));
-        const auto col = tf.colorAt(x);
-        for (int y = tfTop; y < tfBottom; ++y)
-            put(im, left + c, y, static_cast<float>(col[0]), static_cast<float>(col[1]),
-                static_cast<float>(col[2]));
-        const int ya =
-            tfBottom - 1 - static_cast<int>(std::lround(tf.opacityAt(x) * (tfBottom - tfTop - 1)));
-        put(im, left + c, ya, 0.f, 0.f, 0.f);
-        put(im, left + c, ya + 1, 0.f, 0.f, 0.f);
+        const auto rgb = tf.colorAt(xOf(c + 0.5));
+        cairo_set_source_rgb(cr, rgb[0], rgb[1], rgb[2]);
+        cairo_rectangle(cr, left + c, tfTop, 1.0, tfHeight);
+        cairo_fill(cr);
     }
-    return im;
+    cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
+    cairo_set_line_width(cr, 1.5);
+    for (int c = 0; c < cols; ++c) {
+        const double y = tfBottom - tfHeight * tf.opacityAt(xOf(c + 0.5)) / alphaTop;
+        if (c == 0)
+            cairo_move_to(cr, left + c + 0.5, y);
+        else
+            cairo_line_to(cr, left + c + 0.5, y);
+    }
+    cairo_stroke(cr);
+    detail::drawAxes(cr, {left, tfTop, pw, tfHeight, d.lo, d.hi, 0.0, alphaTop,
+                          "value (TF colour behind)", "opacity", font});
+    crp.reset();
+    return detail::surfaceToImage(surface.get());
 }
 
 }  // namespace udvr

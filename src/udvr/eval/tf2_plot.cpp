@@ -102,38 +102,9 @@ ImageRgba renderTf2Plot(const TransferFunction2D& tf, const JointHistogram* hist
     cairo_set_source_rgb(cr, 1, 1, 1);
     cairo_paint(cr);
     detail::pasteImage(surface.get(), area, left, top);
-    const auto px = [&](double x) { return left + (x - tf.x0) / (tf.x1 - tf.x0) * pw; };
-    const auto py = [&](double y) { return bottom - (y - tf.y0) / (tf.y1 - tf.y0) * ph; };
-
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_line_width(cr, 1.0);
-    cairo_rectangle(cr, left + 0.5, top + 0.5, pw - 1.0, ph - 1.0);
-    cairo_stroke(cr);
-    const std::vector<double> xTicks = niceTicks(tf.x0, tf.x1, std::max(2, pw / 70));
-    const std::vector<double> yTicks = niceTicks(tf.y0, tf.y1, std::max(2, ph / 50));
-    const double xStep = xTicks.size() >= 2 ? xTicks[1] - xTicks[0] : tf.x1 - tf.x0;
-    const double yStep = yTicks.size() >= 2 ? yTicks[1] - yTicks[0] : tf.y1 - tf.y0;
-    for (double t : xTicks) {
-        const double x = std::round(px(t)) + 0.5;
-        cairo_move_to(cr, x, bottom);
-        cairo_line_to(cr, x, bottom + 0.4 * font);
-        cairo_stroke(cr);
-        detail::textAt(cr, detail::formatTick(t, xStep), x, bottom + 1.4 * font, font, false, 0.5);
-    }
-    for (double t : yTicks) {
-        const double y = std::round(py(t)) + 0.5;
-        cairo_move_to(cr, left - 0.4 * font, y);
-        cairo_line_to(cr, left, y);
-        cairo_stroke(cr);
-        detail::textAt(cr, detail::formatTick(t, yStep), left - 0.6 * font, y + 0.35 * font, font,
-                       false, 1.0);
-    }
-    detail::textAt(cr, options.xLabel, left + pw / 2.0, bottom + 2.7 * font, font, false, 0.5);
-    cairo_save(cr);
-    cairo_translate(cr, 1.3 * font, top + ph / 2.0);
-    cairo_rotate(cr, -std::numbers::pi / 2);
-    detail::textAt(cr, options.yLabel, 0, 0, font, false, 0.5);
-    cairo_restore(cr);
+    detail::drawAxes(cr, {static_cast<double>(left), static_cast<double>(top),
+                          static_cast<double>(pw), static_cast<double>(ph), tf.x0, tf.x1, tf.y0,
+                          tf.y1, options.xLabel, options.yLabel, font});
     if (!options.title.empty())
         detail::textCentred(cr, options.title, width / 2.0, 1.7 * font, width - 2.0 * font,
                             font * 1.1, true);

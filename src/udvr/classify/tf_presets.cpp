@@ -1,0 +1,97 @@
+#include "udvr/classify/tf_presets.h"
+
+#include <algorithm>
+
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace {
+
+struct ColorStop {
+    double t;  // position in [0, 1]
+    std::array<double, 3> rgb;
+};
+struct Preset {
+    const char* name;
+    std::vector<ColorStop> stops;
+};
+
+// Control points of well-known colour maps (the published values of each map, thinned to a few
+// stops; colours are linear between them as every 1D TF here).
+const std::vector<Preset>& presets() {
+    static const std::vector<Preset> all{
+        // Moreland's diverging map, ParaView's default ("Cool to Warm").
+        {"cool-to-warm",
+         {{0.0, {0.231373, 0.298039, 0.752941}},
+          {0.5, {0.865003, 0.865003, 0.865003}},
+          {1.0, {0.705882, 0.0156863, 0.14902}}}},
+        // matplotlib's viridis at 0, ¼, ½, ¾, 1.
+        {"viridis",
+         {{0.0, {0.267004, 0.004874, 0.329415}},
+          {0.25, {0.229739, 0.322361, 0.545706}},
+          {0.5, {0.127568, 0.566949, 0.550556}},
+          {0.75, {0.369214, 0.788888, 0.382914}},
+          {1.0, {0.993248, 0.906157, 0.143936}}}},
+        // matplotlib's inferno at 0, ¼, ½, ¾, 1.
+        {"inferno",
+         {{0.0, {0.001462, 0.000466, 0.013866}},
+          {0.25, {0.341500, 0.062325, 0.429425}},
+          {0.5, {0.735683, 0.215906, 0.330245}},
+          {0.75, {0.978422, 0.557937, 0.034931}},
+          {1.0, {0.988362, 0.998364, 0.644924}}}},
+        // ParaView's "Black-Body Radiation".
+        {"black-body",
+         {{0.0, {0.0, 0.0, 0.0}},
+          {0.39, {0.901961, 0.0, 0.0}},
+          {0.58, {0.901961, 0.901961, 0.0}},
+          {1.0, {1.0, 1.0, 1.0}}}},
+        {"grayscale", {{0.0, {0.0, 0.0, 0.0}}, {1.0, {1.0, 1.0, 1.0}}}},
+    };
+    return all;
+}
+
+const Preset* findPreset(std::string_view name) {
+    for (const Preset& p : presets())
+        if (name == p.name) return &p;
+    return nullptr;
+}
+
+}  // namespace
+
+std::vector<std::string> transferFunctionPresetNames() {
+    std::vector<std::string> names;
+    for (const Preset& p : presets()) names.emplace_back(p.name);
+    return names;
+}
+
+bool isTransferFunctionPreset(std::string_view name) { return findPreset(name) != nullptr; }
+
+TransferFunction1D transferFunctionPreset(std::string_view name, std::array<double, 2> range,
+                                          double rampStart) {
+    const Preset* preset = findPreset(name);
+    if (preset == nullptr) {
+        std::string list;
+        for (const std::string& n : transferFunctionPresetNames())
+            list += (list.empty() ? "" : ", ") + n;
+        UDVR_FAIL("no transfer-function preset '" << name << "' (presets: " << list << ")");
+    }
+    const double lo = range[0], hi = range[1];
+    UDVR_CHECK_MSG(lo < hi, "a preset needs a non-empty range");
+    TransferFunction1D tf;
+    for (const ColorStop& s : preset->stops) {
+        tf.colorX.push_back(lo + s.t * (hi - lo));
+        tf.color.push_back(s.rgb);
+    }
+    const double start = std::clamp(rampStart, lo, hi);
+    constexpr double kTopOpacity = 0.5;
+    tf.opacityX = {lo, start, hi};
+    tf.opacity = {0.0, 0.0, kTopOpacity};
+    if (!(start < hi)) {  // the median at the top: ramp over the whole range instead
+        tf.opacityX = {lo, hi};
+        tf.opacity = {0.0, kTopOpacity};
+    }
+    tf.validate();
+    return tf;
+}
+
+}  // namespace udvr
