@@ -253,6 +253,13 @@ void checkModelHasArrays(const ModelVolume& model, ModelKind kind, const Classif
         if (!(need & a.bit)) continue;
         const std::vector<float>& v = model.*a.values;
         const std::size_t per = valuesPerVoxel(a.bit, model);
+        // A plain field read as a model (modelFromField: one sample per voxel) has mean, min,
+        // max and a zero stddev; the distribution arrays come only from `udvr build`.
+        if ((v.empty() || per == 0) && model.samplesPerVoxel == 1)
+            UDVR_FAIL("the input is a plain field (one value per voxel), not a model: model '"
+                      << f.name << "' needs the '" << a.name
+                      << "' array of a model built with `udvr build` (from an ensemble, or from "
+                         "one field with --downsample K), or use --model mean");
         if (v.empty() || per == 0)
             UDVR_FAIL("model has no '" << a.name << "' array, needed by model '" << f.name << "' ("
                                        << a.hint << ")");

@@ -43,5 +43,34 @@ TEST(Probe, JsonHoldsTheDistributionAndExpectation) {
     EXPECT_THROW(probeModel(m, ModelKind::Mean, tf, {2.5, 0, 0}), UdvrError);
 }
 
+TEST(Probe, PlainFieldNamesTheModelsItLacksArraysFor) {
+    // A field read as a model (one value per voxel) has mean, min, max and a zero stddev: the
+    // mean-based models work; the ones needing quantiles, iqr or gmm say to build a model.
+    ScalarField f;
+    f.grid.dims = {3, 2, 2};
+    for (int i = 0; i < 12; ++i) f.values.push_back(static_cast<float>(i));
+    const ModelVolume m = modelFromField(f);
+    CounterRng rng(5, 0, 0);
+    const TransferFunction1D tf = testing::randomTf(rng, 0, 11);
+    for (ModelKind kind : allModelKinds()) {
+        if (kind == ModelKind::GmmMc) continue;
+        const bool plain =
+            kind == ModelKind::Mean || kind == ModelKind::Gaussian || kind == ModelKind::Uniform;
+        if (plain) {
+            EXPECT_NO_THROW(probeModel(m, kind, tf, {1, 0.5, 0.5})) << modelName(kind);
+            continue;
+        }
+        try {
+            probeModel(m, kind, tf, {1, 0.5, 0.5});
+            ADD_FAILURE() << modelName(kind) << " probed a plain field";
+        } catch (const UdvrError& e) {
+            const std::string msg = e.what();
+            EXPECT_NE(msg.find("plain field"), std::string::npos) << msg;
+            EXPECT_NE(msg.find("udvr build"), std::string::npos) << msg;
+            EXPECT_NE(msg.find(modelName(kind)), std::string::npos) << msg;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace udvr

@@ -1,6 +1,7 @@
 // udvr build {ensemble.nc | member files… | 'glob*' | field --downsample K} [--quantiles 8]
 //   [--gmm 4] [--density empirical|kde] [--bandwidth silverman|scott|H] [--tail-eps E]
 //   [--var NAME] [--member-dim NAME] -o model.vti          (SPEC §2, §7, §8)
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -24,6 +25,43 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
+/// Fit the GMM and quantile counts to n samples per voxel, check every option against n, then
+/// say what was fitted on stderr (after the check, so an error stays the one line): a
+/// K-component GMM needs n >= K samples (fitGmm), so a larger K is lowered to n; empirical
+/// quantiles with q > n only interpolate between the n order statistics (kde quantiles come
+/// from the smooth density, so they are not mentioned). An explicit --gmm or --quantiles gets a
+/// warning line each; the defaults one `build:` info line together.
+void fitOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven, bool quantilesGiven) {
+    const int n = static_cast<int>(std::min<long long>(samples, 1 << 30));
+    std::vector<std::string> warnings;
+    std::string info;
+    if (n >= 2 && opt.gmmComponents > n && opt.gmmComponents <= kMaxGmmComponents) {
+        if (gmmGiven)
+            warnings.push_back("--gmm " + std::to_string(opt.gmmComponents) + " needs at least " +
+                               std::to_string(opt.gmmComponents) +
+                               " samples per voxel, the input has " + std::to_string(n) +
+                               ": GMM K lowered from " + std::to_string(opt.gmmComponents) +
+                               " to " + std::to_string(n));
+        else
+            info += "GMM K lowered from " + std::to_string(opt.gmmComponents) + " to " +
+                    std::to_string(n);
+        opt.gmmComponents = n;
+    }
+    if (n >= 2 && opt.density == DensityEstimate::Empirical && opt.quantiles > n) {
+        const std::string text = "the " + std::to_string(opt.quantiles + 1) +
+                                 " quantile boundaries interpolate between only " +
+                                 std::to_string(n) + " sample values";
+        if (quantilesGiven)
+            warnings.push_back("--quantiles " + std::to_string(opt.quantiles) + " with " +
+                               std::to_string(n) + " samples per voxel: " + text);
+        else
+            info += (info.empty() ? "" : "; ") + text;
+    }
+    validateBuildOptions(opt, n);
+    for (const std::string& w : warnings) std::fprintf(stderr, "udvr: warning: %s\n", w.c_str());
+    if (!info.empty()) std::fprintf(stderr, "build: %d samples per voxel: %s\n", n, info.c_str());
+}
+
 }  // namespace
 
 void addBuildCommand(CLI::App& app) {
@@ -38,6 +76,8 @@ void addBuildCommand(CLI::App& app) {
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
         CLI::Option* tailEpsOpt = nullptr;
+        CLI::Option* gmmOpt = nullptr;
+        CLI::Option* quantilesOpt = nullptr;
         RawLayoutFlags raw;  // headerless .raw inputs
     };
     auto o = std::make_shared<Opts>();
@@ -48,9 +88,11 @@ void addBuildCommand(CLI::App& app) {
     o->downsampleOpt = sub->add_option(
         "--downsample", o->downsample,
         "K: model one field's K^3 bricks (reduced grid floor(N/K) per axis, at brick centres)");
-    sub->add_option("--quantiles", o->quantiles,
-                    "q quantiles, q+1 boundaries (default 8; 0 skips)");
-    sub->add_option("--gmm", o->gmm, "GMM components K (default 4; 0 skips)");
+    o->quantilesOpt = sub->add_option("--quantiles", o->quantiles,
+                                      "q quantiles, q+1 boundaries (default 8; 0 skips)");
+    o->gmmOpt = sub->add_option("--gmm", o->gmm,
+                                "GMM components K (default 4, lowered to the samples per voxel "
+                                "when there are fewer; 0 skips)");
     sub->add_option("--density", o->density, "empirical | kde (default empirical)");
     sub->add_option("--bandwidth", o->bandwidth,
                     "kde bandwidth: silverman | scott | H in data units (default silverman)");
@@ -62,6 +104,7 @@ void addBuildCommand(CLI::App& app) {
     addRawLayoutOptions(sub, o->raw);
 
     sub->callback([o] {
+        requireOutputExtension(o->out, "-o", {".vti"}, "build writes a model as VTK ImageData");
         BuildOptions opt;
         opt.quantiles = o->quantiles;
         opt.gmmComponents = o->gmm;
@@ -89,9 +132,21 @@ void addBuildCommand(CLI::App& app) {
             FieldReadOptions ro;
             ro.var = o->var;
             ro.raw = toRawLayout(o->raw);
-            const ScalarField f = readField(o->inputs[0], ro);
+            ScalarField f;
+            try {
+                f = readField(o->inputs[0], ro);
+            } catch (const EnsembleNotFieldError& e) {
+                UDVR_FAIL(e.file << " holds a " << e.members << "-member ensemble (variable '"
+                                 << e.var << "', dims " << e.dims
+                                 << "): --downsample reduces one field; drop --downsample to "
+                                    "build the model from the "
+                                 << e.members << " members");
+            }
             readSeconds = secondsSince(t0);
             const Grid3 reduced = downsampledGrid(f.grid, o->downsample);
+            const long long k = o->downsample;
+            fitOptionsToSamples(opt, k * k * k, o->gmmOpt->count() > 0,
+                                o->quantilesOpt->count() > 0);
             ProgressBar bar("build", reduced.pointCount());
             opt.progress = &bar;
             model = buildModelDownsampled(f, o->downsample, opt, &rep);
@@ -112,7 +167,9 @@ void addBuildCommand(CLI::App& app) {
             ro.raw = toRawLayout(o->raw);
             const Ensemble e = readEnsemble(o->inputs, ro);
             readSeconds = secondsSince(t0);
-            validateBuildOptions(opt, e.members);  // before the bar is drawn
+            // Checks the options before the bar is drawn.
+            fitOptionsToSamples(opt, e.members, o->gmmOpt->count() > 0,
+                                o->quantilesOpt->count() > 0);
             ProgressBar bar("build", e.grid.pointCount());
             opt.progress = &bar;
             model = buildModel(e, opt, &rep);

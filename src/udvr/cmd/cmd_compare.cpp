@@ -4,6 +4,7 @@
 #include <string>
 
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/parse_util.h"
 #include "udvr/eval/image_metrics.h"
 #include "udvr/io/image.h"
 
@@ -23,6 +24,10 @@ void addCompareCommand(CLI::App& app) {
     sub->add_option("--diff-max", o->maxDiff,
                     "difference mapped to full yellow (default: the image's largest)");
     sub->callback([o] {
+        if (!o->diff.empty()) {
+            requireOutputExtension(o->diff, "--diff", {".png"}, "");
+            requireOutputDirectory(o->diff, "--diff");
+        }
         const ImageRgba a = readImage(o->model);
         const ImageRgba b = readImage(o->truth);
         const double rmse = imageRmse(a, b);  // throws on a size mismatch

@@ -22,6 +22,8 @@ void addGenerateCommand(CLI::App& app) {
     sub->add_option("--dims", o->dims, "grid points: N or X,Y,Z (default 64)");
     sub->add_option("-o,--output", o->out, "output .vti or .nc")->required();
     sub->callback([o] {
+        requireOutputExtension(o->out, "-o", {".vti", ".nc"}, "");
+        requireOutputDirectory(o->out, "-o");
         const auto d = parseDims(o->dims, "--dims");
         ScalarField f = makeSyntheticField(o->name, d[0], d[1], d[2]);
         writeField(o->out, f);

@@ -41,6 +41,7 @@ void addPerturbCommand(CLI::App& app) {
     sub->add_option("-o,--output", o->out, "output ensemble .nc")->required();
     addRawLayoutOptions(sub, o->raw);
     sub->callback([o] {
+        requireOutputExtension(o->out, "-o", {".nc"}, "perturb writes a NetCDF ensemble");
         o->p.kind = parseNoiseKind(o->noise);
         requireOutputDirectory(o->out, "-o");
         FieldReadOptions ro;

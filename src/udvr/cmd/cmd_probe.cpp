@@ -1,4 +1,5 @@
-// udvr probe model.vti --point i,j,k --model NAME --tf tf.json [--json] [--plot out.png]
+// udvr probe {model.vti | field} {--point i,j,k | --world x,y,z} --model NAME [--tf tf.json|PRESET]
+//   [--json] [--plot out.png]
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -18,18 +19,25 @@ void addProbeCommand(CLI::App& app) {
     auto* sub = app.add_subcommand(
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
-        std::string model, point, kind, tf, plot, uniformWidth = "variance", second;
+        std::string model, point, world, kind, plot, uniformWidth = "variance", second, var;
+        TfFlags tf;
         Tf2Flags tf2;
+        RawLayoutFlags raw;
         bool json = false;
     };
     auto o = std::make_shared<Opts>();
-    sub->add_option("model", o->model, "model file (.vti from `udvr build`)")->required();
-    sub->add_option("--point", o->point, "index coordinates i,j,k")->required();
+    sub->add_option("model", o->model,
+                    "model (.vti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw)")
+        ->required();
+    sub->add_option("--point", o->point,
+                    "index coordinates i,j,k on the input's own grid (a downsampled model's "
+                    "reduced grid)");
+    sub->add_option("--world", o->world, "world coordinates x,y,z instead of --point");
     sub->add_option("--model", o->kind,
                     "noise model (mean, uniform, gaussian, gmm-ordered, "
                     "quantile-range, ...)")
         ->required();
-    sub->add_option("--tf", o->tf, "transfer function (ParaView JSON)");
+    addTfOptions(sub, o->tf);
     sub->add_option("--tf2", o->tf2.file,
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
                     ".json; SPEC 9)");
@@ -40,9 +48,12 @@ void addProbeCommand(CLI::App& app) {
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
     sub->add_option("--uniform-width", o->uniformWidth,
                     "uniform model: variance (alias std; mu +- sqrt(3) sigma, default) or minmax");
+    sub->add_option("--var", o->var, "array/variable name in the input");
+    addRawLayoutOptions(sub, o->raw);
     sub->callback([o] {
         const ModelKind kind = parseModelKind(o->kind);
-        const auto p = parseVec3(o->point, "--point");
+        if (o->point.empty() == o->world.empty())
+            UDVR_FAIL("give the point as --point i,j,k (index) or --world x,y,z, one of them");
         ClassifyOptions options;
         options.uniformMinMax = parseUniformWidthMinMax(o->uniformWidth);
         if (!o->plot.empty()) {
@@ -51,17 +62,39 @@ void addProbeCommand(CLI::App& app) {
                                                  plot.compare(plot.size() - 4, 4, ".PNG") == 0);
             if (!png) UDVR_FAIL("--plot must name a .png file, got '" << plot << "'");
         }
-        requireOneTf(o->tf, o->tf2);
+        requireOneTf(o->tf.tf, o->tf2);
         const bool twoD = !o->tf2.file.empty();
         if (twoD && !o->plot.empty())
             UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
         if (!o->second.empty() && !twoD)
             UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
-        const TransferFunction1D tf = twoD ? TransferFunction1D{} : readTransferFunction(o->tf);
-        const ModelVolume model = readModelVti(o->model);
+        checkTfFlags(o->tf);
+        const bool tfFile = !twoD && !tfIsPreset(o->tf);
+        TfChoice tfChoice;
+        if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
+        const ModelVolume model = readModelOrField(o->model, o->var, o->raw);
+        if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model, "probe");
+        const TransferFunction1D& tf = tfChoice.tf;
+        const Grid3& g = model.grid;
+        std::array<double, 3> p{};
+        if (!o->world.empty()) {
+            const auto w = parseVec3(o->world, "--world");
+            for (int a = 0; a < 3; ++a) {
+                p[a] = (w[a] - g.origin[a]) / g.spacing[a];
+                const double top = g.origin[a] + (g.dims[a] - 1) * g.spacing[a];
+                if (!(p[a] >= 0.0 && p[a] <= g.dims[a] - 1))
+                    UDVR_FAIL("--world " << o->world << " is outside the input's grid: "
+                                         << "xyz"[a] << " must lie in [" << g.origin[a] << ", "
+                                         << top << "]");
+            }
+        } else {
+            p = parseVec3(o->point, "--point");
+        }
+        std::array<double, 3> world{};
+        for (int a = 0; a < 3; ++a) world[a] = g.origin[a] + p[a] * g.spacing[a];
         const ProbeResult r =
             !o->second.empty()
-                ? probeBivariate(model, readModelVti(o->second), kind,
+                ? probeBivariate(model, readModelOrField(o->second, o->var, o->raw), kind,
                                  readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
                                  options)
             : twoD ? probeModel(model, kind,
@@ -69,12 +102,22 @@ void addProbeCommand(CLI::App& app) {
                                 options)
                    : probeModel(model, kind, tf, p, options);
         if (!o->plot.empty()) writePng(o->plot, renderProbePlot(r, tf));
+        finishTransferFunction(o->tf, tfChoice);
         if (o->json) {
-            std::cout << r.json.dump(2) << "\n";
+            nlohmann::json j = r.json;
+            j["world"] = world;
+            j["grid_dims"] = g.dims;
+            std::cout << j.dump(2) << "\n";
             return;
         }
-        std::printf("model %s at (%g, %g, %g)\n", std::string(modelName(kind)).c_str(), p[0], p[1],
-                    p[2]);
+        const std::string reduced =
+            model.downsample > 0 ? " (reduced by " + std::to_string(model.downsample) + "^3 bricks)"
+                                 : std::string();
+        std::printf(
+            "model %s at index (%g, %g, %g) of the input's %dx%dx%d grid%s = world (%g, "
+            "%g, %g)\n",
+            std::string(modelName(kind)).c_str(), p[0], p[1], p[2], g.dims[0], g.dims[1], g.dims[2],
+            reduced.c_str(), world[0], world[1], world[2]);
         for (const char* key : {"value", "mean", "stddev", "low", "high"})
             if (r.json.contains(key)) std::printf("  %-8s %.6g\n", key, r.json[key].get<double>());
         for (const char* key : {"boundaries", "weights", "means", "sigmas", "population"})

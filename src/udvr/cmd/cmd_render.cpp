@@ -3,10 +3,13 @@
 //             [--unit-distance U] [--float img.npy|.pfm] [--frames N] -o img.png   (SPEC §8)
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "udvr/classify/model_kind.h"
@@ -16,6 +19,7 @@
 #include "udvr/io/image.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_io.h"
+#include "udvr/render/framing.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/check.h"
@@ -25,7 +29,10 @@ namespace udvr::cmd {
 namespace {
 
 struct RenderOpts {
-    std::string input, model = "mean", tf, size = "512x512", out, floatOut;
+    std::string input, model = "mean", size = "512x512", out, floatOut;
+    TfFlags tf;               // 1D TF: file or preset (default: a preset over the data)
+    std::string view, frame;  // framed default camera (render/framing.h)
+    bool force = false;
     std::string position, focal, up, background, uniformWidth = "variance";
     double viewAngle = 30.0, parallelScale = 0.0, azimuth = 30.0, elevation = 20.0, zoom = 1.0;
     double step = 0.0, unit = 0.0, earlyExit = 0.99;
@@ -38,12 +45,44 @@ struct RenderOpts {
     std::string second, secondVar;  // bivariate fields (SPEC §9 --second)
 };
 
-Camera cameraFromOptions(const RenderOpts& o, const ModelVolume& m) {
+// More samples than this per frame (an upper bound: every ray crossing the box's diagonal)
+// from an explicit --step asks for --force.
+constexpr double kMaxSamplesWithoutForce = 1e9;
+
+// The camera: --position (SPEC §5) as given; else SPEC §5's default camera when a TF was given
+// and neither --view nor --frame was; else a camera framing the visible part of the volume
+// (or, --frame box, all of it) from --view or the z-up front view.
+Camera cameraFromOptions(const RenderOpts& o, const ModelVolume& m, bool tfGiven,
+                         const std::function<std::array<double, 6>()>& visibleBox, double aspect,
+                         bool azimuthGiven, bool elevationGiven, std::string& note) {
     const auto& b = m.bounds;
+    if (!o.frame.empty() && o.frame != "box" && o.frame != "visible")
+        UDVR_FAIL("--frame must be 'visible' or 'box', got '" << o.frame << "'");
+    if (!o.position.empty() && (!o.view.empty() || !o.frame.empty()))
+        UDVR_FAIL("--view and --frame choose the default camera; they do not go with --position");
     if (o.position.empty()) {
         if (!o.focal.empty() || !o.up.empty())
             UDVR_FAIL("--focal-point/--view-up need --position (or use --azimuth/--elevation)");
-        Camera c = defaultCamera(b, o.azimuth, o.elevation, o.zoom, o.viewAngle);
+        const bool framed = !o.view.empty() || !o.frame.empty() || !tfGiven;
+        Camera c;
+        if (!framed) {
+            c = defaultCamera(b, o.azimuth, o.elevation, o.zoom, o.viewAngle);
+        } else {
+            const auto box = o.frame == "box" ? b : visibleBox();
+            const ViewDirection view = o.view.empty() ? kZUpFrontView : parseViewDirection(o.view);
+            // The front view is turned to a three-quarter view unless told otherwise; an axis
+            // view looks straight along its axis.
+            const double az = azimuthGiven ? o.azimuth : (o.view.empty() ? 30.0 : 0.0);
+            const double el = elevationGiven ? o.elevation : (o.view.empty() ? 20.0 : 0.0);
+            c = framedCamera(box, view, az, el, o.zoom, o.viewAngle, aspect);
+            char text[256];
+            std::snprintf(text, sizeof text,
+                          "render: camera frames %s [%.6g, %.6g] x [%.6g, %.6g] x [%.6g, %.6g] "
+                          "(--frame box: the whole volume; --position: your own)",
+                          o.frame == "box" ? "the volume" : "the visible voxels", box[0], box[1],
+                          box[2], box[3], box[4], box[5]);
+            note = text;
+        }
         if (o.parallelScale > 0.0) {
             c.parallel = true;
             c.parallelScale = o.parallelScale;
@@ -64,7 +103,8 @@ Camera cameraFromOptions(const RenderOpts& o, const ModelVolume& m) {
     return c;
 }
 
-void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
+void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuthGiven,
+         bool elevationGiven) {
     if (parallelGiven && !(o.parallelScale > 0.0))
         UDVR_FAIL("--parallel-scale must be > 0, got " << o.parallelScale);
     if (o.frames < 0) UDVR_FAIL("--frames must be >= 0, got " << o.frames);
@@ -78,24 +118,48 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
     }
     requireOutputDirectory(o.out, "-o");
     const ModelKind kind = parseModelKind(o.model);
-    requireOneTf(o.tf, o.tf2);
+    requireOneTf(o.tf.tf, o.tf2);
     const bool twoD = !o.tf2.file.empty();
-    const TransferFunction1D tf = twoD ? TransferFunction1D{} : readTransferFunction(o.tf);
+    if (twoD && (!o.tf.range.empty() || !o.tf.save.empty()))
+        UDVR_FAIL("--tf-range and --save-tf are for 1D transfer functions, not --tf2");
+    checkTfFlags(o.tf);
+    const auto size = parseSize(o.size, "--size");
+    const bool tfGiven = twoD || !tfIsPreset(o.tf);
+    // A TF file is read before the volume, so a bad one costs nothing; a preset needs the data.
+    TfChoice tfChoice;
+    if (!twoD && tfGiven) tfChoice.tf = readTransferFunctionFile(o.tf);
     const TransferFunction2D tf2 =
         twoD ? readTransferFunction2D(o.tf2.file, toTf2ReadOptions(o.tf2)) : TransferFunction2D{};
     if (!o.second.empty() && !twoD)
         UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
     const ModelVolume model = readModelOrField(o.input, o.var, o.raw);
+    if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model, "render");
+    const TransferFunction1D& tf = tfChoice.tf;
     const ModelVolume second =
         o.second.empty()
             ? ModelVolume{}
             : readModelOrField(o.second, o.secondVar.empty() ? o.var : o.secondVar, o.raw);
 
     RenderSettings s;
-    const auto size = parseSize(o.size, "--size");
     s.width = size[0];
     s.height = size[1];
-    s.camera = cameraFromOptions(o, model);
+    if (o.step > 0.0 && !o.force) {
+        const auto& b = model.bounds;
+        const double diagonal = std::hypot(b[1] - b[0], b[3] - b[2], b[5] - b[4]);
+        const double samples = static_cast<double>(s.width) * s.height * (diagonal / o.step);
+        if (samples > kMaxSamplesWithoutForce)
+            UDVR_FAIL("--step " << o.step << " takes up to " << samples << " samples per frame ("
+                                << s.width << "x" << s.height << " rays, up to "
+                                << diagonal / o.step
+                                << " samples each); add --force to render anyway");
+    }
+    const auto visibleBox = [&] {
+        return twoD ? visibleBounds(model, tf2) : visibleBounds(model, tf);
+    };
+    std::string cameraNote;
+    s.camera =
+        cameraFromOptions(o, model, tfGiven, visibleBox, static_cast<double>(s.width) / s.height,
+                          azimuthGiven, elevationGiven, cameraNote);
     s.step = o.step;
     s.unitDistance = o.unit;
     s.earlyExit = o.earlyExit;
@@ -141,6 +205,8 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven) {
     }
     if (!o.floatOut.empty()) writeFloatImage(o.floatOut, image);
     writePng(o.out, image);
+    finishTransferFunction(o.tf, tfChoice);
+    if (!cameraNote.empty()) std::fprintf(stderr, "%s\n", cameraNote.c_str());
     const auto& cam = s.camera;
     std::fprintf(stderr,
                  "render: camera pos %.6g %.6g %.6g  focal %.6g %.6g %.6g  up %.6g %.6g %.6g  %s "
@@ -168,7 +234,7 @@ void addRenderCommand(CLI::App& app) {
                     "mean | uniform | gaussian | gmm-ordered | gmm-mc | quantile-range | "
                     "quantile-mean | quantile-mean-mass | iqr | quartile-lower|middle|upper "
                     "(default mean)");
-    sub->add_option("--tf", o->tf, "ParaView transfer function JSON (1D)");
+    addTfOptions(sub, o->tf);
     sub->add_option("--tf2", o->tf2.file,
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
                     ".json; SPEC 9)");
@@ -187,9 +253,19 @@ void addRenderCommand(CLI::App& app) {
     sub->add_option("--view-angle", o->viewAngle, "vertical view angle, degrees (default 30)");
     auto* ps = sub->add_option("--parallel-scale", o->parallelScale,
                                "orthographic: half the view height, world units");
-    sub->add_option("--azimuth", o->azimuth, "default camera: degrees about +y (default 30)");
-    sub->add_option("--elevation", o->elevation, "default camera: degrees up (default 20)");
+    auto* az = sub->add_option("--azimuth", o->azimuth,
+                               "default camera: degrees about the view-up (default 30; 0 with "
+                               "--view)");
+    auto* el = sub->add_option("--elevation", o->elevation,
+                               "default camera: degrees up (default 20; 0 with --view)");
     sub->add_option("--zoom", o->zoom, "default camera: distance / zoom (default 1)");
+    sub->add_option("--view", o->view,
+                    "+x|-x|+y|-y|+z|-z: look along an axis (up +z; +y for +-z), framing what "
+                    "the TF shows");
+    sub->add_option("--frame", o->frame,
+                    "visible | box: what the default camera frames (default: visible without "
+                    "--tf, else SPEC 5's camera, which fits the box's bounding sphere)");
+    sub->add_flag("--force", o->force, "render even when --step gives over 1e9 samples");
     sub->add_option("--step", o->step,
                     "ray step, world units (default: half the smallest "
                     "full-resolution spacing)");
@@ -208,7 +284,9 @@ void addRenderCommand(CLI::App& app) {
                     "time N frames after one warm-up; print median/min ms and frames/s");
     addRawLayoutOptions(sub, o->raw);
     sub->add_option("--var", o->var, "array/variable name in the input");
-    sub->callback([o, jit, ps] { run(*o, jit->count() > 0, ps->count() > 0); });
+    sub->callback([o, jit, ps, az, el] {
+        run(*o, jit->count() > 0, ps->count() > 0, az->count() > 0, el->count() > 0);
+    });
 }
 
 }  // namespace udvr::cmd

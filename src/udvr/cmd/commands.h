@@ -13,5 +13,6 @@ void addRenderCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);
 void addExperimentCommand(CLI::App& app);
 void addTf2Command(CLI::App& app);
+void addInfoCommand(CLI::App& app);
 
 }  // namespace udvr::cmd

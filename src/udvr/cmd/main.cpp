@@ -33,8 +33,8 @@ int main(int argc, char** argv) {
     // The version, the CPU target (UDVR_ARCH) and the vector registers in use.
     app.set_version_flag("--version", std::string(udvr::build::versionLine()));
     int threads = 0;
-    app.add_option("--threads", threads, "worker threads (0 = all cores)")
-        ->check(udvr::cmd::wholeNumberIn(0, 4096));
+    const char* threadsHelp = "worker threads (0 = all cores)";
+    app.add_option("--threads", threads, threadsHelp)->check(udvr::cmd::wholeNumberIn(0, 4096));
     app.parse_complete_callback([&] { udvr::setThreadCount(threads); });
 
     udvr::cmd::addGenerateCommand(app);
@@ -45,6 +45,12 @@ int main(int argc, char** argv) {
     udvr::cmd::addCompareCommand(app);
     udvr::cmd::addExperimentCommand(app);
     udvr::cmd::addTf2Command(app);
+    udvr::cmd::addInfoCommand(app);
+    // --threads also after the command word (`udvr render m.vti --threads 1`): every subcommand
+    // takes it into the same variable, with the same check.
+    for (CLI::App* sub : app.get_subcommands({}))
+        sub->add_option("--threads", threads, threadsHelp)
+            ->check(udvr::cmd::wholeNumberIn(0, 4096));
 
     try {
         app.parse(argc, argv);

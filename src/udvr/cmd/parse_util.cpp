@@ -3,10 +3,15 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 
+#include "udvr/classify/tf_presets.h"
 #include "udvr/io/model_io.h"
+#include "udvr/io/transfer_function_io.h"
+#include "udvr/stats/value_summary.h"
+#include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
 
 namespace udvr::cmd {
@@ -143,6 +148,18 @@ void requireOutputDirectory(const std::string& path, const std::string& flag) {
                        << " does not exist");
 }
 
+void requireOutputExtension(const std::string& path, const std::string& flag,
+                            const std::vector<std::string>& extensions, const std::string& what) {
+    const std::string ext = lowerExtension(path);
+    for (const std::string& e : extensions)
+        if (ext == e) return;
+    std::string names;
+    for (std::size_t i = 0; i < extensions.size(); ++i)
+        names += (i == 0 ? "" : i + 1 == extensions.size() ? " or " : ", ") + extensions[i];
+    UDVR_FAIL(flag << " must name a " << names << " file" << (what.empty() ? "" : " (" + what + ")")
+                   << ", got '" << path << "'");
+}
+
 std::string lowerExtension(const std::string& path) {
     std::string ext = std::filesystem::path(path).extension().string();
     for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -166,6 +183,9 @@ ModelVolume readModelOrField(const std::string& path, const std::string& var,
         try {
             return modelFromField(readField(path, fo));
         } catch (const UdvrError& e) {
+            // Both readers open the file the same way: a missing, truncated or corrupt file
+            // fails both for one reason, which is said once.
+            if (modelError == e.what()) throw;
             UDVR_FAIL(path << " is neither a model (" << modelError << ") nor a field (" << e.what()
                            << ")");
         }
@@ -195,11 +215,93 @@ Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags) {
 }
 
 void requireOneTf(const std::string& tf, const Tf2Flags& tf2) {
-    if (tf.empty() && tf2.file.empty())
-        UDVR_FAIL("a transfer function is required: --tf tf.json (1D) or --tf2 FILE (2D)");
     if (!tf.empty() && !tf2.file.empty()) UDVR_FAIL("give either --tf or --tf2, not both");
     if (tf2.file.empty() && (!tf2.domain.empty() || !tf2.resolution.empty()))
         UDVR_FAIL("--tf2-domain and --tf2-resolution need --tf2");
+}
+
+void addTfOptions(CLI::App* sub, TfFlags& flags) {
+    std::string presets;
+    for (const std::string& n : transferFunctionPresetNames())
+        presets += (presets.empty() ? "" : ", ") + n;
+    sub->add_option("--tf", flags.tf,
+                    "1D transfer function: a ParaView JSON file, or a preset (" + presets +
+                        ") over the data's 0.5-99.5th percentiles (default: " +
+                        transferFunctionPresetNames().front() + ")");
+    sub->add_option("--tf-range", flags.range, "lo,hi: the value range a preset spans");
+    sub->add_option("--save-tf", flags.save, "write the 1D TF used as ParaView JSON, to edit");
+}
+
+void checkTfFlags(const TfFlags& flags) {
+    if (!flags.save.empty()) {
+        if (lowerExtension(flags.save) != ".json")
+            UDVR_FAIL("--save-tf must name a .json file, got '" << flags.save << "'");
+        requireOutputDirectory(flags.save, "--save-tf");
+    }
+    if (!flags.range.empty()) {
+        const std::vector<double> r = parseDoubleList(flags.range, "--tf-range");
+        if (r.size() != 2 || !(r[0] < r[1]))
+            UDVR_FAIL("--tf-range expects lo,hi with lo < hi, got '" << flags.range << "'");
+        if (!tfIsPreset(flags))
+            UDVR_FAIL("--tf-range spreads a preset; --tf " << flags.tf << " is a file");
+    }
+}
+
+bool tfIsPreset(const TfFlags& flags) {
+    if (flags.tf.empty()) return true;
+    return isTransferFunctionPreset(flags.tf) && !std::filesystem::exists(flags.tf);
+}
+
+TransferFunction1D readTransferFunctionFile(const TfFlags& flags) {
+    if (!std::filesystem::exists(flags.tf) && lowerExtension(flags.tf) != ".json") {
+        std::string presets;
+        for (const std::string& n : transferFunctionPresetNames())
+            presets += (presets.empty() ? "" : ", ") + n;
+        UDVR_FAIL("--tf '" << flags.tf << "' is neither a file nor a preset (presets: " << presets
+                           << ")");
+    }
+    return readTransferFunction(flags.tf);
+}
+
+TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
+                                const std::string& command) {
+    TfChoice choice;
+    if (!tfIsPreset(flags)) {
+        choice.tf = readTransferFunctionFile(flags);
+        return choice;
+    }
+    const std::string name = flags.tf.empty() ? transferFunctionPresetNames().front() : flags.tf;
+    const ValueSummary summary = summarizeValues(model.mean);
+    std::array<double, 2> range = robustRange(summary);
+    const char* rangeText = "the 0.5-99.5th percentiles of the values";
+    if (!flags.range.empty()) {
+        const std::vector<double> r = parseDoubleList(flags.range, "--tf-range");
+        range = {r[0], r[1]};
+        rangeText = "--tf-range";
+    }
+    // A constant volume would be clear with the ramp starting at its value: start it at the
+    // bottom of the range instead, so the volume shows as a translucent box.
+    const double median = summary.max > summary.min ? summary.percentile(50) : range[0];
+    choice.tf = transferFunctionPreset(name, range, median);
+    char note[512];
+    std::snprintf(note, sizeof note,
+                  "%s: %s preset '%s' over [%.6g, %.6g] (%s), opacity 0 up to the median %.6g, "
+                  "then rising to 0.5; %s",
+                  command.c_str(), flags.tf.empty() ? "no --tf: the" : "the", name.c_str(),
+                  range[0], range[1], rangeText, median,
+                  flags.save.empty() ? "--save-tf tf.json writes it to edit"
+                                     : ("saved to " + flags.save).c_str());
+    choice.note = note;
+    return choice;
+}
+
+void finishTransferFunction(const TfFlags& flags, const TfChoice& choice) {
+    if (!flags.save.empty())
+        writeFileAtomically(
+            flags.save,
+            transferFunctionToJson(
+                choice.tf, flags.tf.empty() ? transferFunctionPresetNames().front() : flags.tf));
+    if (!choice.note.empty()) std::fprintf(stderr, "%s\n", choice.note.c_str());
 }
 
 }  // namespace udvr::cmd

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "udvr/classify/transfer_function.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/stats/model_volume.h"
@@ -27,6 +28,11 @@ bool parseUniformWidthMinMax(const std::string& text);
 /// Fail unless the folder that will hold `path` exists (checked before long work starts, so a
 /// bad output path costs nothing and leaves nothing behind).
 void requireOutputDirectory(const std::string& path, const std::string& flag);
+/// Fail unless `path` ends in one of `extensions` (lower case, with the dot; compared case-
+/// insensitively): "-o must name a .nc file (what), got 'p.vti'". Checked before any input is
+/// read, so a wrong extension costs nothing; `what` (may be empty) says what the command writes.
+void requireOutputExtension(const std::string& path, const std::string& flag,
+                            const std::vector<std::string>& extensions, const std::string& what);
 
 /// A CLI11 check: a whole number in [lo, hi]. CLI11's own Range prints the bounds as doubles
 /// and accepts "-1" for unsigned options (strtoull wraps it), so counts and seeds use this.
@@ -58,7 +64,36 @@ struct Tf2Flags {
 void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags);
 /// The read options the flags give (domain, widget resolution).
 Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags);
-/// Fail unless exactly one of --tf and --tf2 was given.
+/// Fail when both --tf and --tf2 were given (neither: the default preset of
+/// chooseTransferFunction).
 void requireOneTf(const std::string& tf, const Tf2Flags& tf2);
+
+/// The 1D TF flags as typed: --tf FILE|PRESET, --tf-range lo,hi, --save-tf FILE.
+struct TfFlags {
+    std::string tf, range, save;
+};
+/// Register --tf, --tf-range and --save-tf.
+void addTfOptions(CLI::App* sub, TfFlags& flags);
+/// Fail early on flags that need no data: --save-tf's extension and folder, --tf-range's form.
+void checkTfFlags(const TfFlags& flags);
+/// Whether --tf names a preset (or is absent): the TF then depends on the data.
+bool tfIsPreset(const TfFlags& flags);
+
+/// --tf as a file (not a preset): a name that is neither an existing file nor a .json path is
+/// refused with the list of presets.
+TransferFunction1D readTransferFunctionFile(const TfFlags& flags);
+/// The 1D TF the flags ask for: a ParaView JSON file, or a preset (named, or the default when
+/// --tf is absent) spread over --tf-range or else the robust range of the model's means
+/// (robustRange), with its opacity ramp from their median. `note` says which preset over what
+/// range (empty for a file).
+struct TfChoice {
+    TransferFunction1D tf;
+    std::string note;
+};
+TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
+                                const std::string& command);
+/// After the command's work succeeded: write --save-tf (atomically) and print the note, so a
+/// failing command prints only its error line.
+void finishTransferFunction(const TfFlags& flags, const TfChoice& choice);
 
 }  // namespace udvr::cmd

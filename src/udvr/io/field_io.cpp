@@ -214,6 +214,50 @@ void requireByteCount(const fs::path& path, std::size_t expected, std::size_t ac
 
 // ---- raw ---------------------------------------------------------------------------------------
 
+/// When a raw file's size does not match dims × type, the layout it does fit (a headerless file
+/// gives nothing else to go on): cubic dims with the given type, else the given dims with another
+/// value size, else cubic dims with another type. Empty when none fits.
+std::string rawLayoutHint(const RawLayout& layout, ScalarType type, std::size_t bytes) {
+    struct Kind {
+        std::size_t size;
+        const char* name;
+        const char* alternatives;
+    };
+    static const Kind kKinds[] = {{4, "float32", " (or int32, uint32)"},
+                                  {1, "uint8", " (or int8)"},
+                                  {2, "uint16", " (or int16)"},
+                                  {8, "float64", ""}};
+    const std::size_t given = typeSize(type);
+    const std::size_t n = static_cast<std::size_t>(layout.dims[0]) *
+                          static_cast<std::size_t>(layout.dims[1]) *
+                          static_cast<std::size_t>(layout.dims[2]);
+    const std::string dims = std::to_string(layout.dims[0]) + "x" + std::to_string(layout.dims[1]) +
+                             "x" + std::to_string(layout.dims[2]);
+    auto cubeSide = [&](std::size_t valueSize) -> long long {
+        if (bytes == 0 || bytes % valueSize != 0) return 0;
+        const std::size_t count = bytes / valueSize;
+        auto side = static_cast<long long>(std::llround(std::cbrt(static_cast<double>(count))));
+        for (long long s = std::max(1LL, side - 1); s <= side + 1; ++s)
+            if (static_cast<std::size_t>(s * s * s) == count) return s;
+        return 0;
+    };
+    auto cube = [](long long s) {
+        return std::to_string(s) + "x" + std::to_string(s) + "x" + std::to_string(s);
+    };
+    if (const long long s = cubeSide(given); s > 0)
+        return "fits " + layout.type + " " + cube(s) + ": use --dims " + std::to_string(s);
+    for (const Kind& k : kKinds)
+        if (k.size != given && n * k.size == bytes)
+            return std::string("fits ") + k.name + " " + dims + ": use --type " + k.name +
+                   k.alternatives;
+    for (const Kind& k : kKinds)
+        if (k.size != given)
+            if (const long long s = cubeSide(k.size); s > 0)
+                return std::string("fits ") + k.name + " " + cube(s) + ": use --dims " +
+                       std::to_string(s) + " --type " + k.name + k.alternatives;
+    return {};
+}
+
 ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
     if (!layout.given()) {
         UDVR_FAIL(path.string() << ": a raw file needs its dims (and type, endianness) given, e.g. "
@@ -237,6 +281,14 @@ ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
     f.name = path.stem().string();
     std::string bytes = readWholeFile(path);
     std::size_t n = f.grid.pointCount();
+    if (bytes.size() != n * typeSize(*type)) {
+        const std::string hint = rawLayoutHint(layout, *type, bytes.size());
+        if (!hint.empty())
+            UDVR_FAIL(path.string()
+                      << ": size " << bytes.size() << " bytes does not fit " << layout.dims[0]
+                      << "x" << layout.dims[1] << "x" << layout.dims[2] << " " << layout.type
+                      << " (" << n * typeSize(*type) << " bytes) but " << hint);
+    }
     requireByteCount(path, n * typeSize(*type), bytes.size(), "raw data");
     f.values.resize(n);
     decode(*type, layout.bigEndian, reinterpret_cast<const unsigned char*>(bytes.data()), n,
@@ -638,6 +690,14 @@ ScalarField readNrrd(const fs::path& path) {
 }  // namespace
 
 namespace detail {
+
+std::string nrrdTypeName(const fs::path& path) {
+    const NrrdHeader h = parseNrrdHeader(path, readWholeFile(path));
+    static const char* const kNames[] = {"uint8",  "int8",  "uint16",  "int16",
+                                         "uint32", "int32", "float32", "float64"};
+    if (!h.type) return h.typeName;
+    return kNames[static_cast<int>(*h.type)];
+}
 
 void printNote(const std::string& note) {
     if (!note.empty()) std::fprintf(stderr, "%s\n", note.c_str());

@@ -5,8 +5,10 @@
 #include <array>
 #include <filesystem>
 #include <string>
+#include <utility>
 
 #include "udvr/io/field.h"
+#include "udvr/util/check.h"
 
 namespace udvr {
 
@@ -23,6 +25,22 @@ struct RawLayout {
 struct FieldReadOptions {
     RawLayout raw;    // required for .raw files
     std::string var;  // array (.vti) or variable (.nc) name; empty = the only/first scalar one
+};
+
+/// readField's error for a NetCDF file that holds an ensemble (a variable with a member
+/// dimension of 2 or more) rather than one field. what() says so and names `udvr build`; the
+/// members let a command say what to do instead.
+class EnsembleNotFieldError : public UdvrError {
+  public:
+    EnsembleNotFieldError(const std::string& message, std::string file_, std::string var_,
+                          std::string dims_, int members_)
+        : UdvrError(message),
+          file(std::move(file_)),
+          var(std::move(var_)),
+          dims(std::move(dims_)),
+          members(members_) {}
+    std::string file, var, dims;  // dims as in the file, slowest first: "member,z,y,x"
+    int members = 0;
 };
 
 /// Read one scalar field; the format is chosen by extension (.raw .nrrd .nhdr .vti .nc).

@@ -97,6 +97,17 @@ TEST(IoRaw, RejectsBadInput) {
                     {"short.raw", "truncated", "expected 96 bytes", "found 90"});
     writeBytes(dir / "long.raw", bytesOf(ramp<float>()) + "xxxx");
     expectUdvrError([&] { readField(dir / "long.raw", o); }, {"long.raw", "dims", "100"});
+    // A size that fits another layout names it: another type, or cubic dims.
+    writeBytes(dir / "u8.raw", std::string(24, '\1'));
+    expectUdvrError([&] { readField(dir / "u8.raw", o); },
+                    {"u8.raw", "size 24 bytes", "4x3x2 float32 (96 bytes)", "fits uint8 4x3x2",
+                     "--type uint8"});
+    writeBytes(dir / "cube.raw", std::string(4 * 27, '\0'));
+    expectUdvrError([&] { readField(dir / "cube.raw", o); },
+                    {"cube.raw", "fits float32 3x3x3", "--dims 3"});
+    writeBytes(dir / "cube8.raw", std::string(125, '\1'));
+    expectUdvrError([&] { readField(dir / "cube8.raw", o); },
+                    {"cube8.raw", "fits uint8 5x5x5", "--dims 5 --type uint8"});
     expectUdvrError([&] { readField(dir / "missing.raw", o); }, {"missing.raw", "no such file"});
     o.raw.type = "complex64";
     expectUdvrError([&] { readField(dir / "long.raw", o); }, {"unsupported raw type 'complex64'"});

@@ -5,10 +5,12 @@
 #include <filesystem>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field.h"
+#include "udvr/io/file_info.h"
 
 namespace udvr::detail {
 
@@ -40,5 +42,12 @@ ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string
                             std::string* geometryNote);
 /// .nc with a member dimension (netcdf_io.cpp).
 Ensemble readEnsembleNetcdf(const std::filesystem::path& path, const EnsembleReadOptions& options);
+
+/// The arrays of a .vti's point data (vti_io.cpp) and the numeric variables of a .nc
+/// (netcdf_io.cpp), for listArrays.
+std::vector<ArrayInfo> listArraysVti(const std::filesystem::path& path);
+std::vector<ArrayInfo> listArraysNetcdf(const std::filesystem::path& path);
+/// The value type of a NRRD file as uint8 … float64 (field_io.cpp).
+std::string nrrdTypeName(const std::filesystem::path& path);
 
 }  // namespace udvr::detail

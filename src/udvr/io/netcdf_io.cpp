@@ -7,8 +7,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -25,9 +27,62 @@ namespace {
 
 constexpr const char* kMemberDimNames[] = {"member", "ensemble", "realization", "number"};
 
+/// netCDF-C says only "NetCDF: HDF error" when HDF5 cannot read a NetCDF-4 file; that is how a
+/// truncated or damaged one fails, so say so.
+std::string ncErrorText(int status) {
+    if (status == NC_EHDFERR)
+        return std::string("cannot read NetCDF-4/HDF5 data (the file is truncated or damaged: ") +
+               nc_strerror(status) + ")";
+    return nc_strerror(status);
+}
+
 void ncCheck(int status, const fs::path& path, const std::string& what) {
     if (status != NC_NOERR) {
-        UDVR_FAIL(path.string() << ": " << what << ": " << nc_strerror(status));
+        UDVR_FAIL(path.string() << ": " << what << ": " << ncErrorText(status));
+    }
+}
+
+/// A NetCDF-4 file is HDF5, whose superblock (at offset 0, as netCDF-C writes it) records the
+/// end-of-file address; a file shorter than that was cut (HDF5 itself says only "HDF error").
+/// Superblock versions 0/1: base address after 24/28 bytes, then free-space, end-of-file;
+/// versions 2/3: base, superblock extension, end-of-file after 12 bytes (HDF5 File Format
+/// Specification, section II.A). Addresses are little-endian, 2..8 bytes wide.
+void checkHdf5Size(const fs::path& path) {
+    unsigned char b[64] = {};
+    std::ifstream in(path, std::ios::binary);
+    in.read(reinterpret_cast<char*>(b), sizeof b);
+    const std::size_t got = static_cast<std::size_t>(in.gcount());
+    static const unsigned char kSignature[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
+    if (got < 8 || std::memcmp(b, kSignature, 8) != 0) return;
+    const std::size_t fileSize = static_cast<std::size_t>(fs::file_size(path));
+    const int version = got > 8 ? b[8] : -1;
+    std::size_t offsets = 0, base = 0;
+    if (version == 0 || version == 1) {
+        offsets = got > 13 ? b[13] : 0;
+        base = version == 0 ? 24 : 28;
+    } else if (version == 2 || version == 3) {
+        offsets = got > 9 ? b[9] : 0;
+        base = 12;
+    } else if (got > 8) {
+        return;  // a superblock version this check does not know: netCDF-C decides
+    }
+    const std::size_t eofAt = base + 2 * offsets;
+    if (offsets < 2 || offsets > 8 || eofAt + offsets > got) {
+        UDVR_FAIL(path.string() << ": cannot read NetCDF-4/HDF5 data (the file is truncated or "
+                                   "damaged: no complete HDF5 superblock in its "
+                                << fileSize << " bytes)");
+    }
+    auto address = [&](std::size_t at) {
+        std::uint64_t v = 0;
+        for (std::size_t i = offsets; i-- > 0;) v = (v << 8) | b[at + i];
+        return v;
+    };
+    const std::uint64_t undefined = offsets == 8 ? ~0ull : (1ull << (8 * offsets)) - 1;
+    const std::uint64_t baseAddress = address(base), eof = address(eofAt);
+    if (baseAddress == undefined || eof == undefined) return;
+    if (baseAddress + eof > fileSize) {
+        UDVR_FAIL(path.string() << ": truncated NetCDF-4/HDF5 file: expected " << baseAddress + eof
+                                << " bytes, found " << fileSize);
     }
 }
 
@@ -94,6 +149,26 @@ std::string describe(const VarInfo& v) {
         s += (d ? "," : "") + v.dimNames[d] + "=" + std::to_string(v.lengths[d]);
     }
     return s + ")";
+}
+
+/// Fail with EnsembleNotFieldError when `v` is an ensemble: 4 numeric dims, one of them a
+/// member dimension of 2 or more (a field was asked for).
+void failIfEnsemble(const fs::path& path, int nc, const VarInfo& v) {
+    if (v.dims.size() != 4 || !isNumeric(nc, v.id)) return;
+    for (std::size_t d = 0; d < 4; ++d) {
+        if (std::find(std::begin(kMemberDimNames), std::end(kMemberDimNames), v.dimNames[d]) ==
+                std::end(kMemberDimNames) ||
+            v.lengths[d] < 2)
+            continue;
+        std::string dims;
+        for (const std::string& n : v.dimNames) dims += (dims.empty() ? "" : ",") + n;
+        const int members = static_cast<int>(std::min<std::size_t>(v.lengths[d], INT32_MAX));
+        std::ostringstream os;
+        os << path.string() << " holds a " << members << "-member ensemble (variable '" << v.name
+           << "', dims " << dims << "), not one field; 'udvr build " << path.string()
+           << " -o model.vti' builds a model from its members";
+        throw EnsembleNotFieldError(os.str(), path.string(), v.name, dims, members);
+    }
 }
 
 std::string describeAll(const std::vector<VarInfo>& vars) {
@@ -212,9 +287,11 @@ void checkClassicSize(const fs::path& path) {
 
 int openForRead(const fs::path& path) {
     detail::requireFile(path);
+    checkHdf5Size(path);
     int nc = -1;
     int status = nc_open(path.c_str(), NC_NOWRITE, &nc);
     if (status != NC_NOERR) {
+        if (status == NC_EHDFERR) UDVR_FAIL(path.string() << ": " << ncErrorText(status));
         UDVR_FAIL(path.string() << ": cannot open as NetCDF: " << nc_strerror(status));
     }
     int format = 0;
@@ -468,6 +545,7 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
                                     << "' (variables: " << describeAll(vars) << ")");
         }
         if (!isGridded(*var, 0)) {
+            failIfEnsemble(path, file.id, *var);
             UDVR_FAIL(path.string()
                       << ": variable " << describe(*var) << " is not a 3D field with dims z,y,x"
                       << " (an ensemble? read it with 'build')");
@@ -480,6 +558,7 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
             }
         }
         if (candidates.empty()) {
+            for (const auto& v : vars) failIfEnsemble(path, file.id, v);
             UDVR_FAIL(path.string() << ": no 3D variable with dims z,y,x (variables: "
                                     << describeAll(vars) << ")");
         }
@@ -600,6 +679,60 @@ void writeEnsembleNetcdf(const fs::path& path, const Ensemble& ensemble) {
                    "ensemble size vs grid");
     writeNetcdf(path, ensemble.grid, safeName(ensemble.name, "value"), ensemble.members,
                 ensemble.values);
+}
+
+std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
+    const int nc = openForRead(path);
+    std::vector<ArrayInfo> arrays;
+    try {
+        for (const VarInfo& v : allVars(path, nc)) {
+            if (!isNumeric(nc, v.id) || isCoordinateVar(v)) continue;
+            nc_type t;
+            ncCheck(nc_inq_vartype(nc, v.id, &t), path, "variable type");
+            ArrayInfo info;
+            info.name = v.name;
+            switch (t) {
+                case NC_BYTE:
+                    info.type = "int8";
+                    break;
+                case NC_UBYTE:
+                    info.type = "uint8";
+                    break;
+                case NC_SHORT:
+                    info.type = "int16";
+                    break;
+                case NC_USHORT:
+                    info.type = "uint16";
+                    break;
+                case NC_INT:
+                    info.type = "int32";
+                    break;
+                case NC_UINT:
+                    info.type = "uint32";
+                    break;
+                case NC_INT64:
+                    info.type = "int64";
+                    break;
+                case NC_UINT64:
+                    info.type = "uint64";
+                    break;
+                case NC_FLOAT:
+                    info.type = "float32";
+                    break;
+                default:
+                    info.type = "float64";
+                    break;
+            }
+            info.dimNames = v.dimNames;
+            info.dimSizes = v.lengths;
+            arrays.push_back(info);
+        }
+    } catch (...) {
+        nc_close(nc);
+        throw;
+    }
+    nc_close(nc);
+    return arrays;
 }
 
 }  // namespace udvr

@@ -160,7 +160,19 @@ TEST(IoNetcdf, RejectsBadInput) {
     ens.dimNames = {"member", "z", "y", "x"};
     ens.dimLengths = {3, 2, 3, 4};
     writeNc(dir / "ens.nc", ens);
-    expectUdvrError([&] { readField(dir / "ens.nc"); }, {"ens.nc", "no 3D variable"});
+    expectUdvrError(
+        [&] { readField(dir / "ens.nc"); },
+        {"ens.nc", "holds a 3-member ensemble", "'temperature'", "member,z,y,x", "udvr build"});
+    try {
+        readField(dir / "ens.nc");
+        ADD_FAILURE() << "expected an EnsembleNotFieldError";
+    } catch (const EnsembleNotFieldError& e) {
+        EXPECT_EQ(e.members, 3);
+        EXPECT_EQ(e.var, "temperature");
+        EXPECT_EQ(e.dims, "member,z,y,x");
+    }
+    o.var = "temperature";
+    EXPECT_THROW(readField(dir / "ens.nc", o), EnsembleNotFieldError);
 
     testing::writeBytes(dir / "text.nc", "CDF? no, just text");
     expectUdvrError([&] { readField(dir / "text.nc"); }, {"text.nc", "NetCDF"});
@@ -172,6 +184,24 @@ TEST(IoNetcdf, RejectsBadInput) {
     std::string bytes = testing::readBytes(dir / "full.nc");
     testing::writeBytes(dir / "cut.nc", bytes.substr(0, bytes.size() - 1000));
     expectUdvrError([&] { readField(dir / "cut.nc"); }, {"cut.nc"});
+
+    // A NetCDF-4 (HDF5) file cut short: its superblock's end-of-file address says so; cut inside
+    // the superblock, or damaged further in, it is still named truncated or damaged.
+    NcSpec big;
+    big.dimLengths = {8, 8, 8};
+    writeNc(dir / "full4.nc", big);
+    bytes = testing::readBytes(dir / "full4.nc");
+    testing::writeBytes(dir / "cut4.nc", bytes.substr(0, bytes.size() / 2));
+    expectUdvrError([&] { readField(dir / "cut4.nc"); },
+                    {"cut4.nc", "truncated NetCDF-4/HDF5 file",
+                     "expected " + std::to_string(bytes.size()) + " bytes"});
+    testing::writeBytes(dir / "head4.nc", bytes.substr(0, 20));
+    expectUdvrError([&] { readField(dir / "head4.nc"); }, {"head4.nc", "truncated or damaged"});
+    std::string damaged = bytes;
+    for (std::size_t i = 100; i < damaged.size(); ++i) damaged[i] = '\x5a';
+    testing::writeBytes(dir / "damaged4.nc", damaged);
+    expectUdvrError([&] { readField(dir / "damaged4.nc"); },
+                    {"damaged4.nc", "truncated or damaged"});
 }
 
 TEST(IoNetcdf, EnsembleFromMemberDimension) {

@@ -76,22 +76,23 @@ TransferFunction1D parseTransferFunction(const std::string& text, const std::str
             if (pts[i + 2] != 0.5 || pts[i + 3] != 0.0) ignored = true;
         }
         if (ignored)
-            std::fprintf(stderr,
-                         "warning: %s: opacity midpoint/sharpness other than 0.5/0 are ignored "
-                         "(opacity is piecewise linear between points)\n",
-                         what.c_str());
+            std::fprintf(
+                stderr,
+                "udvr: warning: %s: opacity midpoint/sharpness other than 0.5/0 are ignored "
+                "(opacity is piecewise linear between points)\n",
+                what.c_str());
     } else {
         // ParaView's default opacity: a linear ramp 0 → 1 over the colour range.
         tf.opacityX = {tf.colorX.front(), tf.colorX.back()};
         tf.opacity = {0.0, 1.0};
         std::fprintf(stderr,
-                     "note: %s: no \"Points\"; opacity is a linear ramp 0..1 over [%g, %g]\n",
+                     "udvr: note: %s: no \"Points\"; opacity is a linear ramp 0..1 over [%g, %g]\n",
                      what.c_str(), tf.colorX.front(), tf.colorX.back());
     }
     if (obj->contains("ColorSpace") && (*obj)["ColorSpace"].is_string() &&
         (*obj)["ColorSpace"].get<std::string>() != "RGB")
         std::fprintf(stderr,
-                     "note: %s: colours are interpolated in RGB (ColorSpace '%s' ignored)\n",
+                     "udvr: note: %s: colours are interpolated in RGB (ColorSpace '%s' ignored)\n",
                      what.c_str(), (*obj)["ColorSpace"].get<std::string>().c_str());
     try {
         tf.validate();

@@ -8,8 +8,10 @@
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkIntArray.h>
+#include <vtkLogger.h>
 #include <vtkMatrix3x3.h>
 #include <vtkNew.h>
+#include <vtkOutputWindow.h>
 #include <vtkPointData.h>
 #include <vtkSmartPointer.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
@@ -124,6 +126,14 @@ void checkAppendedSize(const fs::path& path) {
 // Read a VTK ImageData file; with maxPoints > 0, a whole extent of more points is refused from
 // the header, before any data is allocated.
 vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoints = 0) {
+    // VTK's XML parser and pipeline executive also report a bad file on the output window (a
+    // dozen log lines on stderr); the reader's error, collected below, is the one line to show.
+    static const bool silenced = [] {
+        vtkOutputWindow::GetInstance()->SetDisplayModeToNever();
+        vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
+        return true;
+    }();
+    (void)silenced;
     detail::requireFile(path);
     checkAppendedSize(path);
     vtkNew<vtkXMLImageDataReader> reader;
@@ -561,6 +571,51 @@ void writeTransferFunction2DVti(const fs::path& path, const TransferFunction2D& 
     image->GetPointData()->SetScalars(wrapFloats(tf.rgba, 4, "tf2"));
     addDouble(image->GetFieldData(), "tf2_domain", {tf.x0, tf.x1, tf.y0, tf.y1});
     writeImageData(path, image);
+}
+
+std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
+    vtkSmartPointer<vtkImageData> image = readImageData(path);
+    vtkPointData* pd = image->GetPointData();
+    std::vector<ArrayInfo> arrays;
+    for (int i = 0; i < pd->GetNumberOfArrays(); ++i) {
+        vtkDataArray* a = pd->GetArray(i);
+        if (a == nullptr) continue;  // string or other non-numeric arrays
+        ArrayInfo info;
+        info.name = a->GetName() ? a->GetName() : "(unnamed)";
+        info.components = a->GetNumberOfComponents();
+        switch (a->GetDataType()) {
+            case VTK_UNSIGNED_CHAR:
+                info.type = "uint8";
+                break;
+            case VTK_SIGNED_CHAR:
+            case VTK_CHAR:
+                info.type = "int8";
+                break;
+            case VTK_UNSIGNED_SHORT:
+                info.type = "uint16";
+                break;
+            case VTK_SHORT:
+                info.type = "int16";
+                break;
+            case VTK_UNSIGNED_INT:
+                info.type = "uint32";
+                break;
+            case VTK_INT:
+                info.type = "int32";
+                break;
+            case VTK_FLOAT:
+                info.type = "float32";
+                break;
+            case VTK_DOUBLE:
+                info.type = "float64";
+                break;
+            default:
+                info.type = a->GetDataTypeAsString();
+                break;
+        }
+        arrays.push_back(info);
+    }
+    return arrays;
 }
 
 }  // namespace udvr

@@ -1,0 +1,184 @@
+"""`udvr info`, the default transfer function, the framing camera and `probe --world` (issue 11).
+
+References are independent of the C++ code: numpy.percentile and numpy moments for `info`, the
+preset's documented construction for the default TF, and NumPy trilinear interpolation for
+`probe` on a plain field. Grids are tiny, so the file runs in a few seconds.
+"""
+import json
+import pathlib
+import re
+
+import numpy as np
+import pytest
+
+from conftest import assert_one_line_error, run_ok, run_udvr, write_nrrd
+
+pytestmark = pytest.mark.usefixtures("udvr_binary")
+
+
+@pytest.fixture(scope="module")
+def field(tmp_path_factory):
+    """An 11×9×7 float field with a skewed distribution, origin and spacing set."""
+    d = tmp_path_factory.mktemp("info")
+    rng = np.random.default_rng(5)
+    values = rng.gamma(2.0, 3.0, size=(7, 9, 11)).astype(np.float32)  # (z, y, x)
+    values[3, 4, 5] = 100.0  # an outlier the robust range leaves out
+    path = write_nrrd(d / "f.nrrd", [float(v) for v in values.ravel()], (11, 9, 7),
+                      header_extra=("spacings: 0.5 2 1", "space origin: (1,-2,3)"))
+    return d, path, values
+
+
+def test_info_json_matches_numpy(field):
+    d, path, values = field
+    j = json.loads(run_ok("info", path, "--json").stdout)
+    assert j["kind"] == "field"
+    assert j["type"] == "float32"
+    assert j["grid"]["dims"] == [11, 9, 7]
+    assert j["grid"]["spacing"] == [0.5, 2, 1]
+    assert j["grid"]["bounds"] == pytest.approx([1, 6, -2, 14, 3, 9])
+    v = j["values"]
+    flat = values.ravel().astype(np.float64)
+    assert v["count"] == flat.size
+    assert v["min"] == pytest.approx(flat.min())
+    assert v["max"] == pytest.approx(flat.max())
+    assert v["mean"] == pytest.approx(flat.mean(), rel=1e-12)
+    assert v["stddev"] == pytest.approx(flat.std(), rel=1e-9)
+    for p, x in v["percentiles"].items():
+        assert x == pytest.approx(np.percentile(flat, float(p)), rel=1e-12, abs=1e-12), p
+
+
+def test_info_of_ensemble_and_model(pipeline):
+    e = json.loads(run_ok("info", pipeline.ensemble, "--json").stdout)
+    assert e["kind"] == "ensemble" and e["members"] == 5
+    assert e["arrays"][0]["dims"][0] == "member"
+    m = json.loads(run_ok("info", pipeline.model, pipeline.model_q6, "--json").stdout)
+    assert [x["kind"] for x in m] == ["model", "model"]
+    assert m[0]["model"]["quantiles"] == 8 and m[0]["model"]["gmm_components"] == 2
+    assert m[1]["model"]["quantiles"] == 6 and m[1]["model"]["gmm_components"] == 0
+    assert m[0]["model"]["samples_per_voxel"] == 5
+    names = [a["name"] for a in m[0]["arrays"]]
+    assert {"mean", "stddev", "quantiles", "gmm"} <= set(names)
+    text = run_ok("info", pipeline.model).stdout
+    assert "q = 8 quantiles, GMM K = 2" in text and "percentiles" in text
+
+
+def test_info_histogram_png_and_bad_flags(field, tmp_path):
+    _, path, _ = field
+    out = tmp_path / "h.png"
+    r = run_ok("info", path, "--histogram", out, "--log", "--tf", "viridis", "--bins", "32")
+    assert out.read_bytes()[:4] == b"\x89PNG"
+    assert "preset 'viridis'" in r.stderr
+    assert_one_line_error(run_udvr("info", path, "--histogram", tmp_path / "h.jpg"), "png")
+    assert_one_line_error(run_udvr("info", path, "--log"), "--histogram")
+    assert_one_line_error(run_udvr("info", path, path, "--histogram", out), "one input")
+    assert_one_line_error(run_udvr("info", path, "--histogram", out, "--bins", "0"), "bins")
+    assert_one_line_error(run_udvr("info", tmp_path / "missing.nrrd"), "missing.nrrd")
+
+
+def test_default_tf_is_the_preset_over_the_robust_range(field, tmp_path):
+    _, path, values = field
+    tf_path = tmp_path / "tf.json"
+    img_default = tmp_path / "a.npy"
+    r = run_ok("render", path, "--size", "24x20", "--save-tf", tf_path, "--float", img_default,
+               "-o", tmp_path / "a.png")
+    assert "no --tf: the preset 'cool-to-warm'" in r.stderr
+    tf = json.loads(tf_path.read_text())[0]
+    flat = values.ravel().astype(np.float64)
+    lo, hi, median = np.percentile(flat, [0.5, 99.5, 50])
+    rgb = tf["RGBPoints"]
+    assert rgb[0] == pytest.approx(lo, rel=1e-6) and rgb[-4] == pytest.approx(hi, rel=1e-6)
+    assert rgb[1:4] == pytest.approx([0.231373, 0.298039, 0.752941])  # cool-to-warm's blue
+    pts = tf["Points"]  # x, alpha, midpoint, sharpness
+    assert pts[0::4] == pytest.approx([lo, median, hi], rel=1e-6)
+    assert pts[1::4] == pytest.approx([0.0, 0.0, 0.5])
+    # The saved TF renders the same image when given back with the same (framed) camera.
+    img_saved = tmp_path / "b.npy"
+    run_ok("render", path, "--size", "24x20", "--tf", tf_path, "--frame", "visible",
+           "--float", img_saved, "-o", tmp_path / "b.png")
+    assert np.array_equal(np.load(img_default), np.load(img_saved))
+    # --tf-range spreads the preset over the given range.
+    run_ok("render", path, "--size", "8x8", "--tf", "grayscale", "--tf-range", "2,30",
+           "--save-tf", tf_path, "-o", tmp_path / "c.png")
+    tf = json.loads(tf_path.read_text())[0]
+    assert tf["RGBPoints"][0] == 2 and tf["RGBPoints"][4] == 30
+
+
+def test_tf_flag_errors(field, tmp_path):
+    _, path, _ = field
+    out = tmp_path / "x.png"
+    assert_one_line_error(run_udvr("render", path, "--tf", "jet", "-o", out), "jet", "presets")
+    assert_one_line_error(run_udvr("render", path, "--tf-range", "5,1", "-o", out), "--tf-range")
+    assert_one_line_error(run_udvr("render", path, "--save-tf", tmp_path / "t.txt", "-o", out),
+                          "--save-tf")
+    assert not out.exists()
+
+
+def camera_of(stderr):
+    m = re.search(r"camera pos (\S+) (\S+) (\S+)  focal (\S+) (\S+) (\S+)  up (\S+) (\S+) (\S+)",
+                  stderr)
+    v = [float(x) for x in m.groups()]
+    return np.array(v[0:3]), np.array(v[3:6]), np.array(v[6:9])
+
+
+def test_axis_views_and_framing(field, tmp_path):
+    _, path, _ = field
+    out = tmp_path / "v.png"
+    pos, focal, up = camera_of(run_ok("render", path, "--view", "+x", "--size", "8",
+                                      "-o", out).stderr)
+    look = focal - pos
+    assert look / np.linalg.norm(look) == pytest.approx([1, 0, 0], abs=1e-9)
+    assert up == pytest.approx([0, 0, 1], abs=1e-9)
+    pos, focal, up = camera_of(run_ok("render", path, "--view", "-z", "--size", "8",
+                                      "-o", out).stderr)
+    assert (focal - pos) / np.linalg.norm(focal - pos) == pytest.approx([0, 0, -1], abs=1e-9)
+    assert up == pytest.approx([0, 1, 0], abs=1e-9)
+    # --zoom 2 halves the distance of the same framed camera.
+    p1, f1, _ = camera_of(run_ok("render", path, "--view", "+y", "--size", "8", "-o", out).stderr)
+    p2, f2, _ = camera_of(run_ok("render", path, "--view", "+y", "--zoom", "2", "--size", "8",
+                                 "-o", out).stderr)
+    assert np.linalg.norm(p2 - f2) == pytest.approx(np.linalg.norm(p1 - f1) / 2, rel=1e-5)
+    assert_one_line_error(run_udvr("render", path, "--view", "up", "-o", out), "--view")
+    assert_one_line_error(run_udvr("render", path, "--frame", "all", "-o", out), "--frame")
+    assert_one_line_error(run_udvr("render", path, "--view", "+x", "--position", "1,2,3",
+                                   "-o", out), "--position")
+
+
+def test_a_huge_step_count_asks_for_force(field, tmp_path):
+    _, path, _ = field
+    out = tmp_path / "s.png"
+    r = run_udvr("render", path, "--step", "1e-7", "--size", "64", "-o", out)
+    assert_one_line_error(r, "--force", "samples")
+    assert not out.exists()
+    run_ok("render", path, "--step", "0.25", "--size", "8", "-o", out)
+
+
+def trilinear(values, p):
+    """values (z, y, x); p = (i, j, k) index coordinates inside the grid."""
+    i, j, k = p
+    i0, j0, k0 = int(np.floor(i)), int(np.floor(j)), int(np.floor(k))
+    fx, fy, fz = i - i0, j - j0, k - k0
+    out = 0.0
+    for dz, wz in ((0, 1 - fz), (1, fz)):
+        for dy, wy in ((0, 1 - fy), (1, fy)):
+            for dx, wx in ((0, 1 - fx), (1, fx)):
+                if wx * wy * wz:
+                    out += wx * wy * wz * float(values[k0 + dz, j0 + dy, i0 + dx])
+    return out
+
+
+def test_probe_takes_plain_fields_and_world_points(field):
+    _, path, values = field
+    by_index = json.loads(run_ok("probe", path, "--point", "4.25,3.5,2.75", "--model", "mean",
+                                 "--json").stdout)
+    assert by_index["value"] == pytest.approx(trilinear(values, (4.25, 3.5, 2.75)), rel=1e-6)
+    # world = origin + index × spacing: (1 + 4.25·0.5, −2 + 3.5·2, 3 + 2.75·1)
+    by_world = json.loads(run_ok("probe", path, "--world", "3.125,5,5.75", "--model", "mean",
+                                 "--json").stdout)
+    assert by_world["value"] == pytest.approx(by_index["value"], rel=1e-12)
+    assert by_world["world"] == pytest.approx([3.125, 5, 5.75])
+    assert by_world["grid_dims"] == [11, 9, 7]
+    text = run_ok("probe", path, "--point", "1,1,1", "--model", "mean").stdout
+    assert "of the input's 11x9x7 grid" in text and "world (1.5, 0, 4)" in text
+    assert_one_line_error(run_udvr("probe", path, "--model", "mean"), "--point", "--world")
+    assert_one_line_error(run_udvr("probe", path, "--point", "1,1,1", "--world", "1,1,1",
+                                   "--model", "mean"), "--point")

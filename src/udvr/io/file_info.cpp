@@ -1,0 +1,24 @@
+#include "udvr/io/file_info.h"
+
+#include "udvr/io/io_detail.h"
+#include "udvr/util/check.h"
+
+namespace udvr {
+
+std::vector<ArrayInfo> listArrays(const std::filesystem::path& path, const RawLayout& raw) {
+    detail::requireFile(path);
+    const std::string ext = detail::lowerExtension(path);
+    if (ext == ".vti") return detail::listArraysVti(path);
+    if (ext == ".nc") return detail::listArraysNetcdf(path);
+    ArrayInfo a;
+    a.name = path.stem().string();
+    if (ext == ".nrrd" || ext == ".nhdr") {
+        a.type = detail::nrrdTypeName(path);
+    } else {
+        if (!raw.given()) UDVR_FAIL(path.string() << ": a raw file needs --dims (and --type)");
+        a.type = raw.type;
+    }
+    return {a};
+}
+
+}  // namespace udvr
