@@ -182,3 +182,35 @@ def test_probe_takes_plain_fields_and_world_points(field):
     assert_one_line_error(run_udvr("probe", path, "--model", "mean"), "--point", "--world")
     assert_one_line_error(run_udvr("probe", path, "--point", "1,1,1", "--world", "1,1,1",
                                    "--model", "mean"), "--point")
+
+
+def test_review_cases_of_a_new_user(field, pipeline, tmp_path):
+    _, path, _ = field
+    # info: an ensemble variable picked with --var is still an ensemble.
+    name = json.loads(run_ok("info", pipeline.ensemble, "--json").stdout)["variable"]
+    j = json.loads(run_ok("info", pipeline.ensemble, "--var", name, "--json").stdout)
+    assert j["kind"] == "ensemble" and j["members"] == 5
+    # info: a file that is not a volume, and histogram flags without --histogram.
+    assert_one_line_error(run_udvr("info", pipeline.tf), "unknown field format")
+    for flags in (["--bins", "8"], ["--save-tf", tmp_path / "t.json"], ["--tf-range", "0,1"]):
+        assert_one_line_error(run_udvr("info", path, *flags), "--histogram")
+    # render: --save-tf naming a folder fails before any image is written.
+    folder = tmp_path / "dir.json"
+    folder.mkdir()
+    out = tmp_path / "r.png"
+    assert_one_line_error(run_udvr("render", path, "--save-tf", folder, "-o", out), "directory")
+    assert not out.exists()
+    # render: a TF that shows nothing says so; a huge image asks for --force; "x" is "+x".
+    r = run_ok("render", path, "--tf-range", "1000,2000", "--size", "8", "-o", out)
+    assert "udvr: warning: the TF gives no voxel" in r.stderr
+    assert "nothing is visible" in r.stderr
+    assert_one_line_error(run_udvr("render", path, "--size", "10000x10000", "-o", out), "--force")
+    run_ok("render", path, "--view", "x", "--size", "8", "-o", out)
+    # probe: --model defaults to mean; 1D TF flags with --tf2 are refused.
+    j = json.loads(run_ok("probe", path, "--point", "1,1,1", "--json").stdout)
+    assert j["model"] == "mean"
+    tf2 = pathlib.Path(__file__).resolve().parents[2] / "data" / "tf2" / "tangle.json"
+    assert_one_line_error(run_udvr("probe", path, "--point", "1,1,1", "--tf2", tf2, "--save-tf",
+                                   tmp_path / "s.json"), "--tf2")
+    # build: one field without --downsample points to it.
+    assert_one_line_error(run_udvr("build", path, "-o", tmp_path / "m.vti"), "--downsample")

@@ -161,6 +161,12 @@ void addBuildCommand(CLI::App& app) {
                    std::to_string(f.grid.dims[2]) + " field in " + std::to_string(o->downsample) +
                    "^3 bricks";
         } else {
+            const std::string& first = o->inputs[0];
+            if (o->inputs.size() == 1 && first.find_first_of("*?[") == std::string::npos &&
+                lowerExtension(first) != ".nc")
+                UDVR_FAIL(first << " is one field: --downsample K models its K^3 bricks; an "
+                                   "ensemble is a NetCDF variable with a member dimension or 2+ "
+                                   "member files");
             EnsembleReadOptions ro;
             ro.var = o->var;
             ro.memberDim = o->memberDim;

@@ -34,7 +34,7 @@ struct InfoOpts {
     std::string histogram, var, memberDim;
     TfFlags tf;
     int bins = 256;
-    bool json = false, logScale = false, ensemble = false;
+    bool json = false, logScale = false, ensemble = false, binsGiven = false;
     RawLayoutFlags raw;
 };
 
@@ -88,12 +88,6 @@ json arraysJson(const std::vector<ArrayInfo>& arrays) {
 
 bool isGlob(const std::string& s) { return s.find_first_of("*?[") != std::string::npos; }
 
-bool hasMemberDimension(const std::vector<ArrayInfo>& arrays) {
-    for (const ArrayInfo& a : arrays)
-        if (a.dimNames.size() == 4) return true;
-    return false;
-}
-
 // The values a histogram and a default TF describe: the field, all members, or the model's means.
 struct Described {
     json info;
@@ -144,8 +138,13 @@ Described describeFile(const std::string& path, const InfoOpts& o) {
     bool model = false;
     if (ext == ".vti" && o.var.empty())
         for (const ArrayInfo& a : arrays) model = model || a.name == "mean";
-    if (ext == ".nc" && hasMemberDimension(arrays) && o.var.empty())
-        return describeEnsemble({path}, o, path);
+    if (ext == ".nc") {
+        // The chosen variable (or, without --var, any) with a member dimension: an ensemble.
+        bool ensemble = false;
+        for (const ArrayInfo& a : arrays)
+            ensemble = ensemble || (a.dimNames.size() == 4 && (o.var.empty() || a.name == o.var));
+        if (ensemble) return describeEnsemble({path}, o, path);
+    }
     Described d;
     d.info["file"] = path;
     d.info["arrays"] = arraysJson(arrays);
@@ -270,8 +269,11 @@ void run(const InfoOpts& o) {
         if (o.inputs.size() != 1 && !o.ensemble)
             UDVR_FAIL("--histogram draws one input; got " << o.inputs.size()
                                                           << " (add --ensemble for a member list)");
-    } else if (o.logScale || !o.tf.tf.empty() || !o.tf.range.empty()) {
-        UDVR_FAIL("--log, --tf and --tf-range draw on the histogram: they need --histogram");
+    } else if (o.logScale || o.binsGiven || !o.tf.tf.empty() || !o.tf.range.empty() ||
+               !o.tf.save.empty()) {
+        UDVR_FAIL(
+            "--log, --bins, --tf, --tf-range and --save-tf go with the histogram: add "
+            "--histogram h.png");
     }
     if (o.bins < 1 || o.bins > 65536) UDVR_FAIL("--bins must be in [1, 65536], got " << o.bins);
     checkTfFlags(o.tf);
@@ -294,7 +296,7 @@ void run(const InfoOpts& o) {
         po.title = d.info["file"].get<std::string>() + " (" + d.info["kind"].get<std::string>() +
                    (d.info["kind"] == "model" ? " means)" : " values)");
         TfChoice tf;
-        const bool drawTf = !o.tf.tf.empty() || !o.tf.save.empty();
+        const bool drawTf = !o.tf.tf.empty() || !o.tf.range.empty() || !o.tf.save.empty();
         if (drawTf) {
             ModelVolume shim;  // chooseTransferFunction spreads presets over these values
             shim.mean = d.values;
@@ -341,13 +343,16 @@ void addInfoCommand(CLI::App& app) {
     sub->add_option("--histogram", o->histogram,
                     "write a PNG of the value histogram (a model's means) of the one input");
     sub->add_flag("--log", o->logScale, "histogram: bar height log10(1 + count)");
-    sub->add_option("--bins", o->bins, "histogram bins (default 256)");
+    auto* bins = sub->add_option("--bins", o->bins, "histogram bins (default 256)");
     addTfOptions(sub, o->tf);
     sub->add_flag("--ensemble", o->ensemble, "read all inputs as the members of one ensemble");
     sub->add_option("--var", o->var, "variable/array to read");
     sub->add_option("--member-dim", o->memberDim, "NetCDF member dimension name");
     addRawLayoutOptions(sub, o->raw);
-    sub->callback([o] { run(*o); });
+    sub->callback([o, bins] {
+        o->binsGiven = bins->count() > 0;
+        run(*o);
+    });
 }
 
 }  // namespace udvr::cmd

@@ -19,7 +19,8 @@ void addProbeCommand(CLI::App& app) {
     auto* sub = app.add_subcommand(
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
-        std::string model, point, world, kind, plot, uniformWidth = "variance", second, var;
+        std::string model, point, world, kind = "mean", plot, uniformWidth = "variance", second,
+                                         var;
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
@@ -35,8 +36,7 @@ void addProbeCommand(CLI::App& app) {
     sub->add_option("--world", o->world, "world coordinates x,y,z instead of --point");
     sub->add_option("--model", o->kind,
                     "noise model (mean, uniform, gaussian, gmm-ordered, "
-                    "quantile-range, ...)")
-        ->required();
+                    "quantile-range, ...; default mean)");
     addTfOptions(sub, o->tf);
     sub->add_option("--tf2", o->tf2.file,
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
@@ -68,7 +68,7 @@ void addProbeCommand(CLI::App& app) {
             UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
         if (!o->second.empty() && !twoD)
             UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
-        checkTfFlags(o->tf);
+        checkTfFlags(o->tf, twoD);
         const bool tfFile = !twoD && !tfIsPreset(o->tf);
         TfChoice tfChoice;
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
@@ -101,8 +101,8 @@ void addProbeCommand(CLI::App& app) {
                                 readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
                                 options)
                    : probeModel(model, kind, tf, p, options);
+        finishTransferFunction(o->tf, tfChoice);  // --save-tf first: a bad one leaves no plot
         if (!o->plot.empty()) writePng(o->plot, renderProbePlot(r, tf));
-        finishTransferFunction(o->tf, tfChoice);
         if (o->json) {
             nlohmann::json j = r.json;
             j["world"] = world;

@@ -48,6 +48,8 @@ struct RenderOpts {
 // More samples than this per frame (an upper bound: every ray crossing the box's diagonal)
 // from an explicit --step asks for --force.
 constexpr double kMaxSamplesWithoutForce = 1e9;
+// Larger images (rays per frame) ask for --force too: 8192² floats are 1 GiB of image.
+constexpr double kMaxPixelsWithoutForce = 8192.0 * 8192.0;
 
 // The camera: --position (SPEC §5) as given; else SPEC §5's default camera when a TF was given
 // and neither --view nor --frame was; else a camera framing the visible part of the volume
@@ -120,10 +122,15 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
     const ModelKind kind = parseModelKind(o.model);
     requireOneTf(o.tf.tf, o.tf2);
     const bool twoD = !o.tf2.file.empty();
-    if (twoD && (!o.tf.range.empty() || !o.tf.save.empty()))
-        UDVR_FAIL("--tf-range and --save-tf are for 1D transfer functions, not --tf2");
-    checkTfFlags(o.tf);
+    checkTfFlags(o.tf, twoD);
     const auto size = parseSize(o.size, "--size");
+    if (static_cast<double>(size[0]) * size[1] > kMaxPixelsWithoutForce && !o.force)
+        UDVR_FAIL("--size " << o.size << " is over " << kMaxPixelsWithoutForce / 1e6
+                            << " million rays per frame; add --force to render anyway");
+    // Cheap camera flags are checked before the volume is read.
+    if (!o.frame.empty() && o.frame != "box" && o.frame != "visible")
+        UDVR_FAIL("--frame must be 'visible' or 'box', got '" << o.frame << "'");
+    if (!o.view.empty()) parseViewDirection(o.view);
     const bool tfGiven = twoD || !tfIsPreset(o.tf);
     // A TF file is read before the volume, so a bad one costs nothing; a preset needs the data.
     TfChoice tfChoice;
@@ -153,8 +160,10 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
                                 << diagonal / o.step
                                 << " samples each); add --force to render anyway");
     }
+    bool anyVisible = true;
     const auto visibleBox = [&] {
-        return twoD ? visibleBounds(model, tf2) : visibleBounds(model, tf);
+        return twoD ? visibleBounds(model, tf2, &anyVisible)
+                    : visibleBounds(model, tf, &anyVisible);
     };
     std::string cameraNote;
     s.camera =
@@ -203,10 +212,35 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
             sorted.back(), 1000.0 / median);
         std::fflush(stdout);
     }
+    finishTransferFunction(o.tf, tfChoice);  // --save-tf first: a bad one leaves no image
     if (!o.floatOut.empty()) writeFloatImage(o.floatOut, image);
     writePng(o.out, image);
-    finishTransferFunction(o.tf, tfChoice);
-    if (!cameraNote.empty()) std::fprintf(stderr, "%s\n", cameraNote.c_str());
+    if (!cameraNote.empty()) {
+        const bool wholeBox =
+            anyVisible &&
+            s.camera.focalPoint == std::array<double, 3>{0.5 * (model.bounds[0] + model.bounds[1]),
+                                                         0.5 * (model.bounds[2] + model.bounds[3]),
+                                                         0.5 * (model.bounds[4] + model.bounds[5])};
+        if (!anyVisible) {
+            const std::string visible = "the visible voxels";
+            const auto at = cameraNote.find(visible);
+            if (at != std::string::npos)
+                cameraNote.replace(at, visible.size(), "the whole volume (nothing is visible)");
+        }
+        std::fprintf(stderr, "%s\n", cameraNote.c_str());
+        if (!anyVisible)
+            std::fprintf(stderr,
+                         "udvr: warning: the TF gives no voxel an opacity of 10 %% of its largest: "
+                         "the image shows little or nothing (udvr info %s --histogram h.png "
+                         "shows the values)\n",
+                         o.input.c_str());
+        else if (wholeBox && !tfGiven)
+            std::fprintf(stderr,
+                         "render: the preset shows voxels out to the volume's faces, which may "
+                         "hide the inside: --tf-range lo,hi or a TF file with opacity 0 at their "
+                         "values shows it (udvr info %s --histogram h.png shows the values)\n",
+                         o.input.c_str());
+    }
     const auto& cam = s.camera;
     std::fprintf(stderr,
                  "render: camera pos %.6g %.6g %.6g  focal %.6g %.6g %.6g  up %.6g %.6g %.6g  %s "
@@ -265,7 +299,8 @@ void addRenderCommand(CLI::App& app) {
     sub->add_option("--frame", o->frame,
                     "visible | box: what the default camera frames (default: visible without "
                     "--tf, else SPEC 5's camera, which fits the box's bounding sphere)");
-    sub->add_flag("--force", o->force, "render even when --step gives over 1e9 samples");
+    sub->add_flag("--force", o->force,
+                  "render even when --step gives over 1e9 samples or --size over 8192^2 rays");
     sub->add_option("--step", o->step,
                     "ray step, world units (default: half the smallest "
                     "full-resolution spacing)");

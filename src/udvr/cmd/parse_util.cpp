@@ -232,11 +232,15 @@ void addTfOptions(CLI::App* sub, TfFlags& flags) {
     sub->add_option("--save-tf", flags.save, "write the 1D TF used as ParaView JSON, to edit");
 }
 
-void checkTfFlags(const TfFlags& flags) {
+void checkTfFlags(const TfFlags& flags, bool twoD) {
+    if (twoD && (!flags.range.empty() || !flags.save.empty()))
+        UDVR_FAIL("--tf-range and --save-tf are for 1D transfer functions, not --tf2");
     if (!flags.save.empty()) {
         if (lowerExtension(flags.save) != ".json")
             UDVR_FAIL("--save-tf must name a .json file, got '" << flags.save << "'");
         requireOutputDirectory(flags.save, "--save-tf");
+        if (std::filesystem::is_directory(flags.save))
+            UDVR_FAIL("--save-tf: cannot write " << flags.save << ": it is a directory");
     }
     if (!flags.range.empty()) {
         const std::vector<double> r = parseDoubleList(flags.range, "--tf-range");
@@ -281,16 +285,27 @@ TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
     }
     // A constant volume would be clear with the ramp starting at its value: start it at the
     // bottom of the range instead, so the volume shows as a translucent box.
-    const double median = summary.max > summary.min ? summary.percentile(50) : range[0];
+    const bool constant = !(summary.max > summary.min);
+    const double median = constant ? range[0] : summary.percentile(50);
     choice.tf = transferFunctionPreset(name, range, median);
-    char note[512];
-    std::snprintf(note, sizeof note,
-                  "%s: %s preset '%s' over [%.6g, %.6g] (%s), opacity 0 up to the median %.6g, "
-                  "then rising to 0.5; %s",
+    // What the opacity does, as built (the start is clamped into the range).
+    char ramp[128];
+    if (constant)
+        std::snprintf(ramp, sizeof ramp, "the volume is constant: opacity rising over the range");
+    else if (median > range[0] && median < range[1])
+        std::snprintf(ramp, sizeof ramp, "opacity 0 up to the median %.6g, then rising to 0.5",
+                      median);
+    else
+        std::snprintf(ramp, sizeof ramp, "opacity rising from 0 to 0.5 over the range");
+    char note[640];
+    std::snprintf(note, sizeof note, "%s: %s preset '%s' over [%.6g, %.6g] (%s), %s; %s",
                   command.c_str(), flags.tf.empty() ? "no --tf: the" : "the", name.c_str(),
-                  range[0], range[1], rangeText, median,
+                  range[0], range[1], constant ? "widened around the one value" : rangeText, ramp,
                   flags.save.empty() ? "--save-tf tf.json writes it to edit"
-                                     : ("saved to " + flags.save).c_str());
+                                     : ("saved to " + flags.save +
+                                        " (render --tf FILE uses SPEC 5's camera: add --frame "
+                                        "visible for this view)")
+                                           .c_str());
     choice.note = note;
     return choice;
 }

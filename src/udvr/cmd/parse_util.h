@@ -74,8 +74,9 @@ struct TfFlags {
 };
 /// Register --tf, --tf-range and --save-tf.
 void addTfOptions(CLI::App* sub, TfFlags& flags);
-/// Fail early on flags that need no data: --save-tf's extension and folder, --tf-range's form.
-void checkTfFlags(const TfFlags& flags);
+/// Fail early on flags that need no data: --save-tf's extension and folder, --tf-range's form,
+/// either of them with a 2D TF.
+void checkTfFlags(const TfFlags& flags, bool twoD = false);
 /// Whether --tf names a preset (or is absent): the TF then depends on the data.
 bool tfIsPreset(const TfFlags& flags);
 

@@ -14,9 +14,12 @@ std::vector<ArrayInfo> listArrays(const std::filesystem::path& path, const RawLa
     a.name = path.stem().string();
     if (ext == ".nrrd" || ext == ".nhdr") {
         a.type = detail::nrrdTypeName(path);
-    } else {
+    } else if (ext == ".raw" || raw.given()) {
         if (!raw.given()) UDVR_FAIL(path.string() << ": a raw file needs --dims (and --type)");
         a.type = raw.type;
+    } else {
+        UDVR_FAIL("cannot read " << path.string() << ": unknown field format '" << ext
+                                 << "' (expected .raw .nrrd .nhdr .vti .nc)");
     }
     return {a};
 }

@@ -23,7 +23,8 @@ Vec3 combine(const Vec3& a, double sa, const Vec3& b, double sb) {
 
 }  // namespace
 
-ViewDirection parseViewDirection(const std::string& text) {
+ViewDirection parseViewDirection(const std::string& given) {
+    const std::string text = given.size() == 1 ? "+" + given : given;  // "x" = "+x"
     const double sign = text.size() == 2 && text[0] == '-' ? -1.0 : 1.0;
     if (text.size() == 2 && (text[0] == '+' || text[0] == '-')) {
         if (text[1] == 'x' || text[1] == 'X') return {{sign, 0, 0}, {0, 0, 1}};
@@ -33,7 +34,7 @@ ViewDirection parseViewDirection(const std::string& text) {
     UDVR_FAIL(
         "--view must be one of +x, -x, +y, -y, +z, -z (the direction the camera looks "
         "along), got '"
-        << text << "'");
+        << given << "'");
 }
 
 Camera framedCamera(const std::array<double, 6>& box, const ViewDirection& view, double azimuthDeg,
@@ -75,7 +76,8 @@ Camera framedCamera(const std::array<double, 6>& box, const ViewDirection& view,
     return cam;
 }
 
-std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction1D& tf) {
+std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction1D& tf,
+                                    bool* anyVisible) {
     double peak = 0.0;
     for (double a : tf.opacity) peak = std::max(peak, a);
     const double threshold = kVisibleOpacityShare * peak;
@@ -92,6 +94,7 @@ std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunc
                 if (!(peak > 0.0) || tf.opacityAt(model.mean[idx]) < threshold) continue;
                 ++perPlane[0][i], ++perPlane[1][j], ++perPlane[2][k], ++total;
             }
+    if (anyVisible != nullptr) *anyVisible = total > 0;
     if (total == 0) return model.bounds;
     const auto trimmed = static_cast<std::size_t>(kVisibleTrim * static_cast<double>(total));
     std::array<double, 6> box{};
@@ -110,7 +113,8 @@ std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunc
     return box;
 }
 
-std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction2D& tf) {
+std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction2D& tf,
+                                    bool* anyVisible) {
     TransferFunction1D envelope;  // α(x) = max over the rows; colour unused
     envelope.colorX = {tf.x0};
     envelope.color = {{0.0, 0.0, 0.0}};
@@ -120,7 +124,7 @@ std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunc
         envelope.opacityX.push_back(tf.x0 + (tf.x1 - tf.x0) * i / (tf.width - 1));
         envelope.opacity.push_back(a);
     }
-    return visibleBounds(model, envelope);
+    return visibleBounds(model, envelope, anyVisible);
 }
 
 }  // namespace udvr

@@ -41,8 +41,11 @@ inline constexpr double kVisibleTrim = 0.001;
 /// The bounding box (world units) of the visible grid points (by their mean value and
 /// kVisibleOpacityShare), trimmed by kVisibleTrim per side and axis, padded by one spacing and
 /// clipped to model.bounds; model.bounds when no point is visible.
-std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction1D& tf);
+/// *anyVisible (when given) says whether any point was.
+std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction1D& tf,
+                                    bool* anyVisible = nullptr);
 /// The same for a 2D TF, by its largest opacity over y at each x (the value alone decides).
-std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction2D& tf);
+std::array<double, 6> visibleBounds(const ModelVolume& model, const TransferFunction2D& tf,
+                                    bool* anyVisible = nullptr);
 
 }  // namespace udvr

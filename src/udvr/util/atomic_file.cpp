@@ -30,8 +30,10 @@ void writeAtomically(const std::filesystem::path& path,
     std::error_code ec;
     fs::rename(tmp, path, ec);
     if (ec) {
-        fs::remove(tmp, ec);
-        UDVR_FAIL("cannot write " << path.string() << ": " << ec.message());
+        const std::string why = fs::is_directory(path) ? "it is a directory" : ec.message();
+        std::error_code removeError;  // ec holds the reason; do not overwrite it
+        fs::remove(tmp, removeError);
+        UDVR_FAIL("cannot write " << path.string() << ": " << why);
     }
 }
 
