@@ -161,9 +161,11 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
                                 << " samples each); add --force to render anyway");
     }
     bool anyVisible = true;
+    std::array<double, 6> framedBox{};  // what the framed camera fits (when it is used)
     const auto visibleBox = [&] {
-        return twoD ? visibleBounds(model, tf2, &anyVisible)
-                    : visibleBounds(model, tf, &anyVisible);
+        framedBox =
+            twoD ? visibleBounds(model, tf2, &anyVisible) : visibleBounds(model, tf, &anyVisible);
+        return framedBox;
     };
     std::string cameraNote;
     s.camera =
@@ -216,11 +218,7 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
     if (!o.floatOut.empty()) writeFloatImage(o.floatOut, image);
     writePng(o.out, image);
     if (!cameraNote.empty()) {
-        const bool wholeBox =
-            anyVisible &&
-            s.camera.focalPoint == std::array<double, 3>{0.5 * (model.bounds[0] + model.bounds[1]),
-                                                         0.5 * (model.bounds[2] + model.bounds[3]),
-                                                         0.5 * (model.bounds[4] + model.bounds[5])};
+        const bool wholeBox = anyVisible && framedBox == model.bounds;
         if (!anyVisible) {
             const std::string visible = "the visible voxels";
             const auto at = cameraNote.find(visible);

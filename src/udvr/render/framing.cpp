@@ -53,18 +53,40 @@ Camera framedCamera(const std::array<double, 6>& box, const ViewDirection& view,
     const Vec3 forward = negated(toEye);
     const Vec3 right = cross(forward, up);
 
-    const Vec3 c{0.5 * (box[0] + box[1]), 0.5 * (box[2] + box[3]), 0.5 * (box[4] + box[5])};
     const double t = std::tan(0.5 * viewAngleDeg * kPi / 180.0) * (1.0 - 0.05);
-    double dist = 0.0;
-    for (int corner = 0; corner < 8; ++corner) {
-        const Vec3 r{box[corner & 1] - c[0], box[2 + ((corner >> 1) & 1)] - c[1],
-                     box[4 + ((corner >> 2) & 1)] - c[2]};
-        const double depth = dot(r, forward);  // beyond the focal plane when > 0
-        dist = std::max(dist, std::abs(dot(r, up)) / t - depth);
-        dist = std::max(dist, std::abs(dot(r, right)) / (t * aspect) - depth);
-        dist = std::max(dist, -depth * 1.01);  // the camera stays outside the box
+    const auto corner = [&](int k) {
+        return Vec3{box[k & 1], box[2 + ((k >> 1) & 1)], box[4 + ((k >> 2) & 1)]};
+    };
+    // The distance from focal point c at which every corner fits the 95 % frame.
+    const auto fitDistance = [&](const Vec3& c) {
+        double d = 0.0;
+        for (int k = 0; k < 8; ++k) {
+            const Vec3 r = combine(corner(k), 1.0, c, -1.0);
+            const double depth = dot(r, forward);  // beyond the focal plane when > 0
+            d = std::max(d, std::abs(dot(r, up)) / t - depth);
+            d = std::max(d, std::abs(dot(r, right)) / (t * aspect) - depth);
+            d = std::max(d, -depth * 1.01);  // the camera stays outside the box
+        }
+        return d > 0.0 ? d : 1.0;  // an empty box: any distance frames it
+    };
+    // Start at the box centre, then move the focal point across the view so the projected box
+    // is centred (a turned perspective view of a box is not centred on the box's centre); a few
+    // rounds settle it to a fraction of a pixel.
+    Vec3 c{0.5 * (box[0] + box[1]), 0.5 * (box[2] + box[3]), 0.5 * (box[4] + box[5])};
+    double dist = fitDistance(c);
+    for (int round = 0; round < 4; ++round) {
+        double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+        for (int k = 0; k < 8; ++k) {
+            const Vec3 r = combine(corner(k), 1.0, c, -1.0);
+            const double depth = dist + dot(r, forward);
+            const double xy[2] = {dot(r, right) / depth, dot(r, up) / depth};
+            for (int a2 = 0; a2 < 2; ++a2)
+                lo[a2] = std::min(lo[a2], xy[a2]), hi[a2] = std::max(hi[a2], xy[a2]);
+        }
+        c = combine(c, 1.0, right, 0.5 * (lo[0] + hi[0]) * dist);
+        c = combine(c, 1.0, up, 0.5 * (lo[1] + hi[1]) * dist);
+        dist = fitDistance(c);
     }
-    if (!(dist > 0.0)) dist = 1.0;  // an empty box: any distance frames it
     dist /= zoom;
     Camera cam;
     cam.focalPoint = c;
