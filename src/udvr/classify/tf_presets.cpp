@@ -64,17 +64,20 @@ std::vector<std::string> transferFunctionPresetNames() {
     return names;
 }
 
+std::string transferFunctionPresetList() {
+    std::string list;
+    for (const Preset& p : presets()) list += (list.empty() ? "" : ", ") + std::string(p.name);
+    return list;
+}
+
 bool isTransferFunctionPreset(std::string_view name) { return findPreset(name) != nullptr; }
 
 TransferFunction1D transferFunctionPreset(std::string_view name, std::array<double, 2> range,
                                           double rampStart) {
     const Preset* preset = findPreset(name);
-    if (preset == nullptr) {
-        std::string list;
-        for (const std::string& n : transferFunctionPresetNames())
-            list += (list.empty() ? "" : ", ") + n;
-        UDVR_FAIL("no transfer-function preset '" << name << "' (presets: " << list << ")");
-    }
+    if (preset == nullptr)
+        UDVR_FAIL("no transfer-function preset '"
+                  << name << "' (presets: " << transferFunctionPresetList() << ")");
     const double lo = range[0], hi = range[1];
     UDVR_CHECK_MSG(lo < hi, "a preset needs a non-empty range");
     TransferFunction1D tf;

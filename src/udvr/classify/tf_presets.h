@@ -12,6 +12,8 @@ namespace udvr {
 
 /// The preset names, the default first ("cool-to-warm", ParaView's default colour map).
 std::vector<std::string> transferFunctionPresetNames();
+/// The names joined by ", " (for help texts and errors).
+std::string transferFunctionPresetList();
 /// Whether `name` is a preset (exact, lower case).
 bool isTransferFunctionPreset(std::string_view name);
 

@@ -298,9 +298,7 @@ void run(const InfoOpts& o) {
         TfChoice tf;
         const bool drawTf = !o.tf.tf.empty() || !o.tf.range.empty() || !o.tf.save.empty();
         if (drawTf) {
-            ModelVolume shim;  // chooseTransferFunction spreads presets over these values
-            shim.mean = d.values;
-            tf = chooseTransferFunction(o.tf, shim, "info");
+            tf = chooseTransferFunction(o.tf, d.values, "info");
         }
         writePng(o.histogram, renderHistogramPlot(h, drawTf ? &tf.tf : nullptr, po));
         finishTransferFunction(o.tf, tf);

@@ -73,7 +73,7 @@ void addProbeCommand(CLI::App& app) {
         TfChoice tfChoice;
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
         const ModelVolume model = readModelOrField(o->model, o->var, o->raw);
-        if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model, "probe");
+        if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model.mean, "probe");
         const TransferFunction1D& tf = tfChoice.tf;
         const Grid3& g = model.grid;
         std::array<double, 3> p{};

@@ -140,7 +140,7 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
     if (!o.second.empty() && !twoD)
         UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
     const ModelVolume model = readModelOrField(o.input, o.var, o.raw);
-    if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model, "render");
+    if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model.mean, "render");
     const TransferFunction1D& tf = tfChoice.tf;
     const ModelVolume second =
         o.second.empty()

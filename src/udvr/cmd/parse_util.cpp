@@ -221,11 +221,9 @@ void requireOneTf(const std::string& tf, const Tf2Flags& tf2) {
 }
 
 void addTfOptions(CLI::App* sub, TfFlags& flags) {
-    std::string presets;
-    for (const std::string& n : transferFunctionPresetNames())
-        presets += (presets.empty() ? "" : ", ") + n;
     sub->add_option("--tf", flags.tf,
-                    "1D transfer function: a ParaView JSON file, or a preset (" + presets +
+                    "1D transfer function: a ParaView JSON file, or a preset (" +
+                        transferFunctionPresetList() +
                         ") over the data's 0.5-99.5th percentiles (default: " +
                         transferFunctionPresetNames().front() + ")");
     sub->add_option("--tf-range", flags.range, "lo,hi: the value range a preset spans");
@@ -257,17 +255,13 @@ bool tfIsPreset(const TfFlags& flags) {
 }
 
 TransferFunction1D readTransferFunctionFile(const TfFlags& flags) {
-    if (!std::filesystem::exists(flags.tf) && lowerExtension(flags.tf) != ".json") {
-        std::string presets;
-        for (const std::string& n : transferFunctionPresetNames())
-            presets += (presets.empty() ? "" : ", ") + n;
-        UDVR_FAIL("--tf '" << flags.tf << "' is neither a file nor a preset (presets: " << presets
-                           << ")");
-    }
+    if (!std::filesystem::exists(flags.tf) && lowerExtension(flags.tf) != ".json")
+        UDVR_FAIL("--tf '" << flags.tf << "' is neither a file nor a preset (presets: "
+                           << transferFunctionPresetList() << ")");
     return readTransferFunction(flags.tf);
 }
 
-TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
+TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> values,
                                 const std::string& command) {
     TfChoice choice;
     if (!tfIsPreset(flags)) {
@@ -275,7 +269,7 @@ TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
         return choice;
     }
     const std::string name = flags.tf.empty() ? transferFunctionPresetNames().front() : flags.tf;
-    const ValueSummary summary = summarizeValues(model.mean);
+    const ValueSummary summary = summarizeValues(values);
     std::array<double, 2> range = robustRange(summary);
     const char* rangeText = "the 0.5-99.5th percentiles of the values";
     if (!flags.range.empty()) {

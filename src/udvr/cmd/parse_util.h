@@ -2,6 +2,7 @@
 // Small parsers for CLI values ("64", "64,64,32", "1.5,2,3", "512x512"); throw UdvrError.
 #include <CLI/CLI.hpp>
 #include <array>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -84,14 +85,14 @@ bool tfIsPreset(const TfFlags& flags);
 /// refused with the list of presets.
 TransferFunction1D readTransferFunctionFile(const TfFlags& flags);
 /// The 1D TF the flags ask for: a ParaView JSON file, or a preset (named, or the default when
-/// --tf is absent) spread over --tf-range or else the robust range of the model's means
-/// (robustRange), with its opacity ramp from their median. `note` says which preset over what
+/// --tf is absent) spread over --tf-range or else the robust range of `values` (a model's
+/// means; robustRange), with its opacity ramp from their median. `note` says which preset over what
 /// range (empty for a file).
 struct TfChoice {
     TransferFunction1D tf;
     std::string note;
 };
-TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
+TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> values,
                                 const std::string& command);
 /// After the command's work succeeded: write --save-tf (atomically) and print the note, so a
 /// failing command prints only its error line.

@@ -154,4 +154,23 @@ void drawAxes(cairo_t* cr, const PlotAxes& a) {
     cairo_restore(cr);
 }
 
+void fillTfColour(cairo_t* cr, const TransferFunction1D& tf, double x0, double x1, double left,
+                  double top, int columns, double height) {
+    for (int c = 0; c < columns; ++c) {
+        const auto rgb = tf.colorAt(x0 + (c + 0.5) / columns * (x1 - x0));
+        cairo_set_source_rgb(cr, rgb[0], rgb[1], rgb[2]);
+        cairo_rectangle(cr, left + c, top, 1.0, height);
+        cairo_fill(cr);
+    }
+}
+
+void strokeColumns(cairo_t* cr, double left, int columns, const std::function<double(int)>& y,
+                   double lineWidth) {
+    if (columns < 1) return;
+    cairo_set_line_width(cr, lineWidth);
+    cairo_move_to(cr, left + 0.5, y(0));
+    for (int c = 1; c < columns; ++c) cairo_line_to(cr, left + c + 0.5, y(c));
+    cairo_stroke(cr);
+}
+
 }  // namespace udvr::detail

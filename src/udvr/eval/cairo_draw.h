@@ -3,9 +3,11 @@
 // surfaces and contexts, pasting ImageRgba pixels in and out, and text. Pixels, top-left origin.
 #include <cairo.h>
 
+#include <functional>
 #include <memory>
 #include <string>
 
+#include "udvr/classify/transfer_function.h"
 #include "udvr/io/image.h"
 
 namespace udvr::detail {
@@ -47,5 +49,14 @@ struct PlotAxes {
     double font = 12;
 };
 void drawAxes(cairo_t* cr, const PlotAxes& axes);
+
+/// One pixel column per value over [x0, x1] from `left` (`columns` wide, `height` tall from
+/// `top`), each filled with the TF's colour at the column's centre.
+void fillTfColour(cairo_t* cr, const TransferFunction1D& tf, double x0, double x1, double left,
+                  double top, int columns, double height);
+/// A polyline through (left + c + 0.5, y(c)) for c = 0 … columns − 1, stroked in the current
+/// source colour with `lineWidth`.
+void strokeColumns(cairo_t* cr, double left, int columns, const std::function<double(int)>& y,
+                   double lineWidth);
 
 }  // namespace udvr::detail

@@ -35,14 +35,9 @@ ImageRgba renderHistogramPlot(const Histogram& h, const TransferFunction1D* tf,
 
     const double stripHeight = tf != nullptr ? std::round(0.8 * font) : 0.0;
     const auto px = [&](double x) { return left + (x - h.lo) / (h.hi - h.lo) * pw; };
+    const int cols = static_cast<int>(pw);
     if (tf != nullptr)  // TF colour along the top of the plot, one column per pixel
-        for (int c = 0; c < static_cast<int>(pw); ++c) {
-            const double x = h.lo + (c + 0.5) / pw * (h.hi - h.lo);
-            const auto rgb = tf->colorAt(x);
-            cairo_set_source_rgb(cr, rgb[0], rgb[1], rgb[2]);
-            cairo_rectangle(cr, left + c, top, 1.0, stripHeight);
-            cairo_fill(cr);
-        }
+        detail::fillTfColour(cr, *tf, h.lo, h.hi, left, top, cols, stripHeight);
     const double barHeight = ph - stripHeight;  // bars stay below the colour strip
     const std::size_t bins = h.counts.size();
     const double binWidth = (h.hi - h.lo) / static_cast<double>(bins);
@@ -62,16 +57,13 @@ ImageRgba renderHistogramPlot(const Histogram& h, const TransferFunction1D* tf,
         for (double a : tf->opacity) maxAlpha = std::max(maxAlpha, a);
         if (maxAlpha > 0.0) {
             cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
-            cairo_set_line_width(cr, 1.5);
-            for (int c = 0; c <= static_cast<int>(pw); ++c) {
-                const double x = h.lo + c / pw * (h.hi - h.lo);
-                const double y = bottom - barHeight * 0.95 * tf->opacityAt(x) / maxAlpha;
-                if (c == 0)
-                    cairo_move_to(cr, left + c, y);
-                else
-                    cairo_line_to(cr, left + c, y);
-            }
-            cairo_stroke(cr);
+            detail::strokeColumns(
+                cr, left, cols,
+                [&](int c) {
+                    const double x = h.lo + (c + 0.5) / cols * (h.hi - h.lo);
+                    return bottom - barHeight * 0.95 * tf->opacityAt(x) / maxAlpha;
+                },
+                1.5);
         }
     }
     detail::drawAxes(cr, {left, top, pw, ph, h.lo, h.hi, 0.0, yMax, options.xLabel,

@@ -68,15 +68,8 @@ ImageRgba renderProbePlot(const ProbeResult& r, const TransferFunction1D& tf, in
         }
         cairo_fill(cr);
         cairo_set_source_rgb(cr, 0.1, 0.25, 0.7);
-        cairo_set_line_width(cr, 1.2);
-        for (int c = 0; c < cols; ++c) {
-            const double y = pdfBottom - scale * dens[c] / peak;
-            if (c == 0)
-                cairo_move_to(cr, left + c + 0.5, y);
-            else
-                cairo_line_to(cr, left + c + 0.5, y);
-        }
-        cairo_stroke(cr);
+        detail::strokeColumns(
+            cr, left, cols, [&](int c) { return pdfBottom - scale * dens[c] / peak; }, 1.2);
     }
     // Point masses as red spikes, the largest at full height.
     double atomPeak = 0.0;
@@ -99,22 +92,11 @@ ImageRgba renderProbePlot(const ProbeResult& r, const TransferFunction1D& tf, in
     double maxAlpha = 0.0;
     for (double a : tf.opacity) maxAlpha = std::max(maxAlpha, a);
     const double alphaTop = maxAlpha > 0.0 ? maxAlpha * 1.05 : 1.0;
-    for (int c = 0; c < cols; ++c) {
-        const auto rgb = tf.colorAt(xOf(c + 0.5));
-        cairo_set_source_rgb(cr, rgb[0], rgb[1], rgb[2]);
-        cairo_rectangle(cr, left + c, tfTop, 1.0, tfHeight);
-        cairo_fill(cr);
-    }
+    detail::fillTfColour(cr, tf, d.lo, d.hi, left, tfTop, cols, tfHeight);
     cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
-    cairo_set_line_width(cr, 1.5);
-    for (int c = 0; c < cols; ++c) {
-        const double y = tfBottom - tfHeight * tf.opacityAt(xOf(c + 0.5)) / alphaTop;
-        if (c == 0)
-            cairo_move_to(cr, left + c + 0.5, y);
-        else
-            cairo_line_to(cr, left + c + 0.5, y);
-    }
-    cairo_stroke(cr);
+    detail::strokeColumns(
+        cr, left, cols,
+        [&](int c) { return tfBottom - tfHeight * tf.opacityAt(xOf(c + 0.5)) / alphaTop; }, 1.5);
     detail::drawAxes(cr, {left, tfTop, pw, tfHeight, d.lo, d.hi, 0.0, alphaTop,
                           "value (TF colour behind)", "opacity", font});
     crp.reset();

@@ -692,7 +692,15 @@ ScalarField readNrrd(const fs::path& path) {
 namespace detail {
 
 std::string nrrdTypeName(const fs::path& path) {
-    const NrrdHeader h = parseNrrdHeader(path, readWholeFile(path));
+    // The header only: the lines up to the first empty one (attached data is not read).
+    std::ifstream in(path, std::ios::binary);
+    if (!in) UDVR_FAIL("cannot open " << path.string());
+    std::string header, line;
+    while (std::getline(in, line)) {
+        header += line + "\n";
+        if (line.empty() || line == "\r") break;
+    }
+    const NrrdHeader h = parseNrrdHeader(path, header);
     static const char* const kNames[] = {"uint8",  "int8",  "uint16",  "int16",
                                          "uint32", "int32", "float32", "float64"};
     if (!h.type) return h.typeName;

@@ -2,11 +2,13 @@
 // module stay in this file; VTK headers are heavy to compile.
 #include <vtkCommand.h>
 #include <vtkDataArray.h>
+#include <vtkDataObject.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
+#include <vtkInformationVector.h>
 #include <vtkIntArray.h>
 #include <vtkLogger.h>
 #include <vtkMatrix3x3.h>
@@ -90,9 +92,10 @@ void checkAppendedSize(const fs::path& path) {
         in.seekg(static_cast<std::streamoff>(at));
         in.read(reinterpret_cast<char*>(b), static_cast<std::streamsize>(headerSize));
         if (!in) return false;
-        if (big) std::reverse(b, b + headerSize);
-        value = 0;
-        for (std::size_t i = headerSize; i-- > 0;) value = (value << 8) | b[i];
+        value = 0;  // headerSize bytes in the file's byte order (no std::reverse: GCC 12 misreads
+                    // its bounds here as an overflow)
+        for (std::size_t i = 0; i < headerSize; ++i)
+            value = big ? (value << 8) | b[i] : value | (std::uint64_t{b[i]} << (8 * i));
         return true;
     };
     std::size_t needed = 0;
@@ -574,46 +577,66 @@ void writeTransferFunction2DVti(const fs::path& path, const TransferFunction2D& 
 }
 
 std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
-    vtkSmartPointer<vtkImageData> image = readImageData(path);
-    vtkPointData* pd = image->GetPointData();
+    // The header only: the reader's pipeline information names each point array, its type and
+    // components without reading the data (a model's arrays can be gigabytes).
+    detail::requireFile(path);
+    checkAppendedSize(path);
+    vtkNew<vtkXMLImageDataReader> reader;
+    vtkNew<ErrorCollector> errors;
+    reader->AddObserver(vtkCommand::ErrorEvent, errors);
+    const std::string name = path.string();
+    if (!reader->CanReadFile(name.c_str()))
+        UDVR_FAIL(name << ": not a VTK XML ImageData file (expected <VTKFile type=\"ImageData\">)");
+    reader->SetFileName(name.c_str());
+    reader->UpdateInformation();
+    vtkInformationVector* arraysInfo =
+        reader->GetOutputInformation(0)->Get(vtkDataObject::POINT_DATA_VECTOR());
+    if (errors->count > 0 || reader->GetErrorCode() != 0)
+        UDVR_FAIL(name << ": cannot read VTK ImageData" << (errors->message.empty() ? "" : ": ")
+                       << errors->message << " (truncated or corrupt file?)");
     std::vector<ArrayInfo> arrays;
-    for (int i = 0; i < pd->GetNumberOfArrays(); ++i) {
-        vtkDataArray* a = pd->GetArray(i);
-        if (a == nullptr) continue;  // string or other non-numeric arrays
-        ArrayInfo info;
-        info.name = a->GetName() ? a->GetName() : "(unnamed)";
-        info.components = a->GetNumberOfComponents();
-        switch (a->GetDataType()) {
+    for (int i = 0; arraysInfo != nullptr && i < arraysInfo->GetNumberOfInformationObjects(); ++i) {
+        vtkInformation* info = arraysInfo->GetInformationObject(i);
+        ArrayInfo a;
+        a.name = info->Has(vtkDataObject::FIELD_NAME()) ? info->Get(vtkDataObject::FIELD_NAME())
+                                                        : "(unnamed)";
+        a.components = info->Has(vtkDataObject::FIELD_NUMBER_OF_COMPONENTS())
+                           ? info->Get(vtkDataObject::FIELD_NUMBER_OF_COMPONENTS())
+                           : 1;
+        const int type = info->Get(vtkDataObject::FIELD_ARRAY_TYPE());
+        switch (type) {
             case VTK_UNSIGNED_CHAR:
-                info.type = "uint8";
+                a.type = "uint8";
                 break;
             case VTK_SIGNED_CHAR:
             case VTK_CHAR:
-                info.type = "int8";
+                a.type = "int8";
                 break;
             case VTK_UNSIGNED_SHORT:
-                info.type = "uint16";
+                a.type = "uint16";
                 break;
             case VTK_SHORT:
-                info.type = "int16";
+                a.type = "int16";
                 break;
             case VTK_UNSIGNED_INT:
-                info.type = "uint32";
+                a.type = "uint32";
                 break;
             case VTK_INT:
-                info.type = "int32";
+                a.type = "int32";
                 break;
             case VTK_FLOAT:
-                info.type = "float32";
+                a.type = "float32";
                 break;
             case VTK_DOUBLE:
-                info.type = "float64";
+                a.type = "float64";
                 break;
+            case VTK_STRING:
+                continue;  // not a numeric array
             default:
-                info.type = a->GetDataTypeAsString();
+                a.type = "VTK type " + std::to_string(type);
                 break;
         }
-        arrays.push_back(info);
+        arrays.push_back(a);
     }
     return arrays;
 }
