@@ -74,14 +74,17 @@ std::vector<float> voxelValues(const std::optional<FloatArray>& a, const Grid3& 
     return v;
 }
 
-ModelVolume modelFromArrays(
-    const FloatArray& mean, const std::optional<FloatArray>& stddev,
-    const std::optional<FloatArray>& min, const std::optional<FloatArray>& max,
-    const std::optional<FloatArray>& quantiles, const std::optional<FloatArray>& iqr,
-    const std::optional<FloatArray>& gmm, std::array<double, 3> origin,
-    std::array<double, 3> spacing, const std::optional<std::array<double, 6>>& bounds,
-    const std::optional<double>& fullResMinSpacing, int downsample, int samplesPerVoxel,
-    const std::string& density, const std::string& source) {
+ModelVolume modelFromArrays(const FloatArray& mean, const std::optional<FloatArray>& stddev,
+                            const std::optional<FloatArray>& min,
+                            const std::optional<FloatArray>& max,
+                            const std::optional<FloatArray>& quantiles,
+                            const std::optional<FloatArray>& iqr,
+                            const std::optional<FloatArray>& gmm, std::array<double, 3> origin,
+                            std::array<double, 3> spacing,
+                            const std::optional<std::array<double, 6>>& bounds,
+                            const std::optional<double>& fullResMinSpacing, int downsample,
+                            int samplesPerVoxel, const std::string& density,
+                            const std::string& source, const std::vector<double>& quantileLevels) {
     ModelVolume mv;
     mv.grid = gridFromShape(mean, 0);
     for (int a = 0; a < 3; ++a) {
@@ -101,6 +104,10 @@ ModelVolume modelFromArrays(
             throw UdvrError("Model: 'quantiles' must have shape (Z, Y, X, q+1) with q >= 1");
         mv.quantileCount = static_cast<int>(quantiles->shape(3)) - 1;
         mv.quantiles = voxelValues(quantiles, mv.grid, mv.quantileCount + 1, "quantiles");
+        mv.quantileLevels =
+            normalizedQuantileLevels(quantileLevels, mv.quantileCount, "Model: quantile_levels");
+    } else if (!quantileLevels.empty()) {
+        throw UdvrError("Model: quantile_levels needs a 'quantiles' array");
     }
     mv.iqr = voxelValues(iqr, mv.grid, 2, "iqr");
     if (gmm) {
@@ -183,13 +190,22 @@ PYBIND11_MODULE(udvr, m) {
              py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("bounds") = py::none(),
              py::arg("full_res_min_spacing") = py::none(), py::arg("downsample") = 0,
              py::arg("samples_per_voxel") = 0, py::arg("density") = "empirical",
-             py::arg("source") = "python",
+             py::arg("source") = "python", py::arg("quantile_levels") = std::vector<double>{},
              "a model from NumPy arrays of shape (Z, Y, X[, components]): mean (required), "
              "stddev, min, max (default: mean), quantiles (Z,Y,X,q+1), iqr (Z,Y,X,2), gmm "
              "(Z,Y,X,3K: pi_1..pi_K, mu_1..mu_K, sigma_1..sigma_K); bounds (xmin,xmax,ymin,ymax,"
              "zmin,zmax) and full_res_min_spacing default to the model grid's")
         .def_readwrite("grid", &ModelVolume::grid)
         .def_readonly("quantile_count", &ModelVolume::quantileCount)
+        .def_property_readonly(
+            "quantile_levels",
+            [](const ModelVolume& mv) {
+                std::vector<double> t;
+                for (int j = 0; mv.hasQuantiles() && j <= mv.quantileCount; ++j)
+                    t.push_back(mv.quantileLevel(j));
+                return t;
+            },
+            "the q + 1 levels t_0 = 0 … t_q = 1 of the quantile boundaries")
         .def_readonly("gmm_components", &ModelVolume::gmmComponents)
         .def_readonly("density", &ModelVolume::density)
         .def_readonly("samples_per_voxel", &ModelVolume::samplesPerVoxel)

@@ -85,7 +85,7 @@ for arch in "${arches[@]}"; do
         UDVR_BUILD_DIR="$PWD/$dir" UDVR_BINARY="$PWD/$dir/udvr" /usr/bin/python3 -m pytest -q \
             python/tests/test_reference_render.py python/tests/test_reference_probe.py \
             python/tests/test_reference2d_cli.py python/tests/test_reference_bivariate.py \
-            python/tests/test_build_info.py
+            python/tests/test_build_info.py python/tests/test_quantile_levels.py
     fi
     echo "== arch $arch: passed (build $((built - start)) s, tests $((SECONDS - built)) s)" >&2
 done

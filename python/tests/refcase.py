@@ -92,17 +92,20 @@ def random_model_arrays(rng, dims, q=8, K=3):
                 quantiles=f32(b), iqr=f32(iqr), gmm=f32(gmm))
 
 
-def make_models(udvr, arrays, origin, spacing, bounds=None, full_res_min_spacing=None):
-    """(udvr.Model, reference.RefModel) from the same float32 arrays."""
+def make_models(udvr, arrays, origin, spacing, bounds=None, full_res_min_spacing=None,
+                levels=None):
+    """(udvr.Model, reference.RefModel) from the same float32 arrays; `levels`: uneven quantile
+    levels t_0 = 0 … t_q = 1 (None: even)."""
     m = udvr.Model(arrays["mean"], stddev=arrays["stddev"], min=arrays["min"], max=arrays["max"],
                    quantiles=arrays["quantiles"], iqr=arrays["iqr"], gmm=arrays["gmm"],
                    origin=list(origin), spacing=list(spacing),
                    bounds=None if bounds is None else list(bounds),
-                   full_res_min_spacing=full_res_min_spacing)
+                   full_res_min_spacing=full_res_min_spacing,
+                   quantile_levels=[] if levels is None else [float(t) for t in levels])
     r = ref.RefModel(arrays["mean"], stddev=arrays["stddev"], vmin=arrays["min"],
                      vmax=arrays["max"], quantiles=arrays["quantiles"], iqr=arrays["iqr"],
                      gmm=arrays["gmm"], origin=origin, spacing=spacing, bounds=bounds,
-                     full_res_min_spacing=full_res_min_spacing)
+                     full_res_min_spacing=full_res_min_spacing, levels=levels)
     return m, r
 
 

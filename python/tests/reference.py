@@ -262,7 +262,7 @@ class RefModel:
 
     def __init__(self, mean, stddev=None, vmin=None, vmax=None, quantiles=None, iqr=None,
                  gmm=None, origin=(0, 0, 0), spacing=(1, 1, 1), bounds=None,
-                 full_res_min_spacing=None):
+                 full_res_min_spacing=None, levels=None):
         self.mean = np.asarray(mean, float)
         Z, Y, X = self.mean.shape
         self.dims = np.array([X, Y, Z])
@@ -270,6 +270,8 @@ class RefModel:
         self.vmin = self.mean if vmin is None else np.asarray(vmin, float)
         self.vmax = self.mean if vmax is None else np.asarray(vmax, float)
         self.quantiles = None if quantiles is None else np.asarray(quantiles, float)
+        # Quantile levels t_0 = 0 … t_q = 1 (SPEC §7 quantile_levels); None: even, j/q.
+        self.levels = None if levels is None else np.asarray(levels, float)
         self.iqr = None if iqr is None else np.asarray(iqr, float)
         self.gmm = None if gmm is None else np.asarray(gmm, float)
         self.origin = np.asarray(origin, float)
@@ -278,6 +280,37 @@ class RefModel:
         self.bounds = gb if bounds is None else np.asarray(bounds, float)
         self.full_res_min_spacing = (float(self.spacing.min()) if full_res_min_spacing is None
                                      else float(full_res_min_spacing))
+
+    def quantile_levels(self):
+        q = self.quantiles.shape[-1] - 1
+        return np.arange(q + 1) / q if self.levels is None else self.levels
+
+    def population(self, kind):
+        """(j0, j1, share): the boundaries j0 … j1 a quantile-range-family kind covers (the ones
+        at its levels: j/q for even levels) and each of its quantiles' share of their mass."""
+        if kind == "iqr":
+            return 0, 1, np.ones(1)
+        t = self.quantile_levels()
+        lo_t, hi_t = {"quantile-range": (0, 1), "quantile-mean": (0, 1),
+                      "quantile-mean-mass": (0, 1), "quartile-lower": (0, .25),
+                      "quartile-middle": (.25, .75), "quartile-upper": (.75, 1)}[kind]
+        j0, j1 = int(np.argmin(abs(t - lo_t))), int(np.argmin(abs(t - hi_t)))
+        mass = np.diff(t[j0:j1 + 1])
+        return j0, j1, mass / mass.sum()
+
+    def quantile_mean_weights(self, w, kind):
+        """Eq. 5's weights p_j for quantile widths w (..., q), normalised over the last axis:
+        mass_j / w_j (quantile-mean; widths ≤ the zero-width threshold share the weight by their
+        masses) or mass_j (quantile-mean-mass)."""
+        mass = np.diff(self.quantile_levels())
+        if kind == "quantile-mean-mass":
+            pw = np.broadcast_to(mass, w.shape)
+        else:
+            lo, hi = self.data_range()
+            zero = w <= ZERO_WIDTH * (hi - lo)
+            anyz = zero.any(axis=-1, keepdims=True)
+            pw = np.where(anyz, zero * mass, mass / np.where(zero, 1.0, w))
+        return pw / pw.sum(axis=-1, keepdims=True)
 
     def data_range(self):
         """SPEC §4: [min b_0, max b_q] with quantiles, else [min min, max max]."""
@@ -361,23 +394,13 @@ class RefModel:
                 b = self.boundaries_at(p, "iqr")
             else:
                 b = self.boundaries_at(p)
-            q = b.shape[1] - 1
-            j0, j1 = {"quantile-range": (0, q), "iqr": (0, 1), "quartile-lower": (0, q // 4),
-                      "quartile-middle": (q // 4, 3 * q // 4),
-                      "quartile-upper": (3 * q // 4, q)}[model]
+            j0, j1, share = self.population(model)
             m = tf.interval_mean(b[:, j0:j1], b[:, j0 + 1:j1 + 1], zero=0.0)  # (N, j1-j0, 4)
-            return m.mean(axis=1)
+            return np.sum(share[None, :, None] * m, axis=1)
         if model in ("quantile-mean", "quantile-mean-mass"):
             b = self.boundaries_at(p)
-            w = np.diff(b, axis=1)  # (N, q)
             mids = 0.5 * (b[:, 1:] + b[:, :-1])
-            if model == "quantile-mean-mass":
-                pw = np.ones_like(w)
-            else:
-                zero = w <= ZERO_WIDTH * R
-                anyz = zero.any(axis=1, keepdims=True)
-                pw = np.where(anyz, zero.astype(float), 1.0 / np.where(zero, 1.0, w))
-            pw = pw / pw.sum(axis=1, keepdims=True)
+            pw = self.quantile_mean_weights(np.diff(b, axis=1), model)
             return np.sum(pw[..., None] * tf(mids), axis=1)
         raise ValueError("unknown model " + model)
 

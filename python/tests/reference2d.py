@@ -433,16 +433,11 @@ class Sample2D:
         Bv = A.reshape(-1, A.shape[-1])[self.idx]  # (N, M, q+1)
         return np.einsum("nm,nmj->nj", self.w, Bv), np.einsum("nm,nmj->nj", self.u, Bv)
 
-    @staticmethod
-    def segment_range(kind, q):
-        return {"quantile-range": (0, q), "quantile-mean": (0, q), "quantile-mean-mass": (0, q),
-                "iqr": (0, 1), "quartile-lower": (0, q // 4),
-                "quartile-middle": (q // 4, 3 * q // 4), "quartile-upper": (3 * q // 4, q)}[kind]
-
     def vertices(self, kind):
+        """The polyline's vertices over the kind's population and each segment's share."""
         Xv, Gv = self.polyline("iqr" if kind == "iqr" else "quantiles")
-        j0, j1 = self.segment_range(kind, Xv.shape[1] - 1)
-        return Xv[:, j0:j1 + 1], Gv[:, j0:j1 + 1]
+        j0, j1, share = self.model.population(kind)
+        return Xv[:, j0:j1 + 1], Gv[:, j0:j1 + 1], share
 
     def classify(self, kind, tf2):
         if kind == "mean":
@@ -452,21 +447,14 @@ class Sample2D:
             return gaussian_expectation2d(tf2, mx, mg, vxx, vxg, vgg)
         if kind not in QUANTILE_KINDS:
             raise ValueError("no 2D classification for model " + kind)
-        Xv, Gv = self.vertices(kind)
+        Xv, Gv, share = self.vertices(kind)
         P = np.stack([Xv, Gv], -1)  # (N, S+1, 2)
         if kind in ("quantile-mean", "quantile-mean-mass"):
-            w = np.diff(Xv, axis=1)
             mids = 0.5 * (P[:, 1:] + P[:, :-1])
-            if kind == "quantile-mean-mass":
-                pw = np.ones_like(w)
-            else:
-                lo, hi = self.model.data_range()
-                zero = w <= ref.ZERO_WIDTH * (hi - lo)
-                anyz = zero.any(axis=1, keepdims=True)
-                pw = np.where(anyz, zero.astype(float), 1.0 / np.where(zero, 1.0, w))
-            pw = pw / pw.sum(axis=1, keepdims=True)
+            pw = self.model.quantile_mean_weights(np.diff(Xv, axis=1), kind)
             return np.sum(pw[..., None] * tf2(mids[..., 0], mids[..., 1]), axis=1)
-        return mean_along_segment(tf2, P[:, :-1], P[:, 1:]).mean(axis=1)
+        m = mean_along_segment(tf2, P[:, :-1], P[:, 1:])  # (N, S, 4)
+        return np.sum(share[None, :, None] * m, axis=1)
 
     def gradient_magnitude(self, kind):
         """Mean and standard deviation of G (N,) each (SPEC §9 probe output)."""
@@ -475,10 +463,10 @@ class Sample2D:
         if kind == "gaussian":
             _, mg, _, _, vgg = self.gaussian()
             return mg, np.sqrt(vgg)
-        _, Gv = self.vertices(kind)  # t uniform over the segments' rank range
+        _, Gv, share = self.vertices(kind)  # t uniform within each segment's rank range
         a, b = Gv[:, :-1], Gv[:, 1:]
-        m = np.mean(0.5 * (a + b), axis=1)
-        m2 = np.mean((a * a + a * b + b * b) / 3.0, axis=1)
+        m = np.sum(share * 0.5 * (a + b), axis=1)
+        m2 = np.sum(share * (a * a + a * b + b * b) / 3.0, axis=1)
         return m, np.sqrt(np.maximum(m2 - m * m, 0.0))
 
 

@@ -54,9 +54,10 @@ def _normal_rule(mu, sigma, lines, mass=1.0):
     return x, mass * w
 
 
-def _uniform_pieces_rule(b, lines, mass_each):
+def _uniform_pieces_rule(b, lines, share):
+    """Quantile j uniform on [b_j, b_{j+1}] with probability share[j]."""
     xs, ws = [], []
-    for a, c in zip(b[:-1], b[1:]):
+    for a, c, mass_each in zip(b[:-1], b[1:], share):
         if c > a:
             x, w = _pieces_rule(np.array([a, c]), lambda x: np.full_like(x, 1.0 / (c - a)),
                                 lines, 3)
@@ -117,20 +118,11 @@ def field_rule(m, kind, p, lines, uniform_width="variance"):
                                 1e-9 * max(R, 1e-30), lines)
     if kind in QUANTILE_RANGE_KINDS:
         b = m.boundaries_at(p, "iqr" if kind == "iqr" else "quantiles")[0]
-        q = len(b) - 1
-        j0, j1 = {"quantile-range": (0, q), "iqr": (0, 1), "quartile-lower": (0, q // 4),
-                  "quartile-middle": (q // 4, 3 * q // 4), "quartile-upper": (3 * q // 4, q)}[kind]
-        return _uniform_pieces_rule(b[j0:j1 + 1], lines, 1.0 / (j1 - j0))
+        j0, j1, share = m.population(kind)
+        return _uniform_pieces_rule(b[j0:j1 + 1], lines, share)
     if kind in ("quantile-mean", "quantile-mean-mass"):
         b = m.boundaries_at(p)[0]
-        w = np.diff(b)
-        mids = 0.5 * (b[1:] + b[:-1])
-        if kind == "quantile-mean-mass":
-            pw = np.ones_like(w)
-        else:
-            zero = w <= ref.ZERO_WIDTH * R
-            pw = zero.astype(float) if zero.any() else 1.0 / w
-        return mids, pw / pw.sum()
+        return 0.5 * (b[1:] + b[:-1]), m.quantile_mean_weights(np.diff(b), kind)
     raise ValueError("no bivariate classification for model " + kind)
 
 

@@ -13,6 +13,7 @@
 
 #include "udvr/classify/tf_pieces.h"
 #include "udvr/reconstruct/box_spline.h"
+#include "udvr/reconstruct/quantile_interp.h"
 #include "udvr/util/fast_math.h"
 #include "udvr/util/lanes.h"
 #include "udvr/util/normal_cdf.h"
@@ -128,11 +129,14 @@ UDVR_CPU_GPU UDVR_INLINE void tfMeanOver(const Tf& tf, T lo, T hi, K kl, K kh, T
 }
 
 /// Quantile-range expectation (Eq. 4) over the count − 1 quantiles between boundaries
-/// boundary(0) ≤ … ≤ boundary(count−1), each weighted equally: the mean over j of (mean of TF
-/// over [b_{j−1}, b_j]); a zero-width quantile contributes TF(b_j). O(count).
+/// boundary(0) ≤ … ≤ boundary(count−1), quantile j weighted by its mass (levels; equal for even
+/// levels): Σ_j mass_j × (mean of TF over [b_{j−1}, b_j]) / Σ mass; a zero-width quantile
+/// contributes TF(b_j). O(count).
 template <class T, class Tf, class Boundary>
 UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Boundary& boundary,
-                                                      int count, T out[4]) {
+                                                      int count, const QuantileLevels& levels,
+                                                      T out[4]) {
+    using S = lanes::ScalarOf<T>;
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
     T bPrev = boundary(0);
     auto kPrev = tf.pieceOf(bPrev);
@@ -141,26 +145,28 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Bounda
         const auto k = tf.pieceOf(b);
         T m[4];
         tfMeanOver<T>(tf, bPrev, b, kPrev, k, m);
-        for (int ch = 0; ch < 4; ++ch) out[ch] += m[ch];
+        const T mass = lanes::splat<T>(static_cast<S>(levels.mass(j)));  // 1: exactly out + m
+        for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::fma(mass, m[ch], out[ch]);
         kPrev = k;
         bPrev = b;
     }
-    const lanes::ScalarOf<T> inv =
-        lanes::ScalarOf<T>(1) / static_cast<lanes::ScalarOf<T>>(count - 1);
+    const S inv = levels.template inverseTotal<S>(count);
     for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
 }
 
 /// Eq. 5's weighting, for any classification of the quantiles (1D TF or TF2): Σ_j v_j·p_j / Σ p_j
 /// over quantiles j = 0 … q − 1, valueAt(j, v) writing v_j (the TF at quantile j's midpoint),
-/// p_j = (1/q)/w_j (densityWeights; width(j) the width of quantile j, interpolated from the
-/// corners' own widths so that 1/w does not magnify the rounding of large boundaries) or 1/q
+/// p_j = m_j/w_j (densityWeights; m_j the quantile's mass, levels.mass(j + 1), 1 for even levels
+/// where 1/q cancels; width(j) the width of quantile j, interpolated from the corners' own widths
+/// so that 1/w does not magnify the rounding of large boundaries) or m_j
 /// (`quantile-mean-mass`). With density weights, quantiles of width ≤ zeroWidth are point masses
-/// of infinite density: they share all the weight equally (SPEC §4). Only `live` lanes are looked
-/// at for zero widths (dead lanes of a batch have width 0 and would send every quantile down the
-/// zero-width path). valueAt is called for j = 0, 1, … in order.
+/// of infinite density: they share all the weight in proportion to their masses (SPEC §4). Only
+/// `live` lanes are looked at for zero widths (dead lanes of a batch have width 0 and would send
+/// every quantile down the zero-width path). valueAt is called for j = 0, 1, … in order.
 template <class T, class ValueAt, class Width>
 UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const Width& width,
-                                                   int q, bool densityWeights, T zeroWidth,
+                                                   int q, const QuantileLevels& levels,
+                                                   bool densityWeights, T zeroWidth,
                                                    lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     T sum[4] = {}, zeroSum[4] = {}, weightSum{}, zeroCount{};
@@ -169,8 +175,9 @@ UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const
     for (int j = 0; j < q; ++j) {
         T v[4];
         valueAt(j, v);
+        const S mass = static_cast<S>(levels.mass(j + 1));  // 1 for even levels: exact
         const T w = densityWeights ? width(j) : T{};
-        const T weight = densityWeights ? S(1) / w : lanes::splat<T>(S(1));  // 1/q cancels
+        const T weight = densityWeights ? mass / w : lanes::splat<T>(mass);
         for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
         weightSum += weight;
         if (densityWeights) {
@@ -178,9 +185,11 @@ UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const
             if (lanes::anyOf(zero)) {
                 anyZeroSeen = true;
                 anyZero = anyZero | zero;
+                const T m = lanes::splat<T>(mass);
                 for (int ch = 0; ch < 4; ++ch)
-                    zeroSum[ch] = detail::select(zero, zeroSum[ch] + v[ch], zeroSum[ch]);
-                zeroCount = detail::select(zero, zeroCount + S(1), zeroCount);
+                    zeroSum[ch] =
+                        detail::select(zero, lanes::fma(m, v[ch], zeroSum[ch]), zeroSum[ch]);
+                zeroCount = detail::select(zero, zeroCount + mass, zeroCount);
             }
         }
     }
@@ -194,8 +203,10 @@ UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const
 /// midpoint of quantile j between boundaries boundary(0 … q).
 template <class T, class Tf, class Boundary, class Width>
 UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundary& boundary,
-                                                     const Width& width, int q, bool densityWeights,
-                                                     T zeroWidth, lanes::MaskOf<T> live, T out[4]) {
+                                                     const Width& width, int q,
+                                                     const QuantileLevels& levels,
+                                                     bool densityWeights, T zeroWidth,
+                                                     lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     T bPrev = boundary(0);
     quantileMeanWeighted<T>(
@@ -204,7 +215,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundar
             tfAt<T>(tf, (bPrev + b) * S(0.5), v);
             bPrev = b;
         },
-        width, q, densityWeights, zeroWidth, live, out);
+        width, q, levels, densityWeights, zeroWidth, live, out);
 }
 
 /// E[TF(X)], X ~ N(μ, σ²), in the `live` lanes; σ ≤ 0 (or NaN) is the point mass TF(μ). Per TF

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "udvr/reconstruct/quantile_interp.h"
 #include "udvr/util/lanes.h"
 
 namespace udvr {
@@ -297,11 +298,13 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
 }
 
 /// Quantile-range with a TF2 (SPEC §9): the rank-coupled polyline (X(t), G(t)) through the
-/// vertices (x(j), g(j)), j = 0 … count − 1; Σ_j 1/(count − 1) × mean of TF2 along segment j.
+/// vertices (x(j), g(j)), j = 0 … count − 1; Σ_j mass_j × mean of TF2 along segment j / Σ mass
+/// (levels: equal masses for even levels, as expectedTfQuantileRange).
 template <class T, class Real, class X, class G>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const X& x,
-                                                       const G& g, int count, lanes::MaskOf<T> live,
-                                                       T out[4]) {
+                                                       const G& g, int count,
+                                                       const QuantileLevels& levels,
+                                                       lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
     T xPrev = x(0), gPrev = g(0);
@@ -309,11 +312,12 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
         const T xj = x(j), gj = g(j);
         T m[4];
         tf2MeanAlongSegment<T>(r, xPrev, gPrev, xj, gj, live, m);
-        for (int ch = 0; ch < 4; ++ch) out[ch] += m[ch];
+        const T mass = lanes::splat<T>(static_cast<S>(levels.mass(j)));
+        for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::fma(mass, m[ch], out[ch]);
         xPrev = xj;
         gPrev = gj;
     }
-    const S inv = S(1) / static_cast<S>(count - 1);
+    const S inv = levels.template inverseTotal<S>(count);
     for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
 }
 

@@ -53,17 +53,17 @@ AnyKernel makeGmmOrdered(const ModelVolume& m, const TfPiecesStorage& tf, const 
 }
 AnyKernel makeQuantileRange(const ModelVolume& m, const TfPiecesStorage& tf,
                             const ClassifyOptions& o, const ModelFamily& f) {
-    const auto pop = quantilePopulation(f.kind, m.quantileCount, o);
+    const auto pop = quantilePopulation(f.kind, m, o);
     return QuantileRangeKernel(m.grid, m.quantiles.data(), m.quantileCount + 1, pop.first,
-                               pop.second, tf);
+                               pop.second, m.levelsOrNull(), tf);
 }
 AnyKernel makeIqr(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                   const ModelFamily&) {
-    return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, tf);
+    return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, nullptr, tf);
 }
 AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf,
                            const ClassifyOptions& o, const ModelFamily& f) {
-    return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount,
+    return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount, m.levelsOrNull(),
                               f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m, o),
                               tf);
 }
@@ -80,29 +80,29 @@ AnyKernel2D makeGaussian2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOpti
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
-                       const float* data, int stride, int lo, int hi, bool quantileMean,
-                       bool density) {
+                       const float* data, int stride, int lo, int hi, const double* levels,
+                       bool quantileMean, bool density) {
     if (hi - lo + 1 > kMaxBoundaries2D)
         UDVR_FAIL("2D transfer functions handle at most "
                   << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
     const float* gradients = s.gradients.of(m.grid, data, stride, lo, hi - lo + 1).data();
-    return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, quantileMean, density,
+    return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, levels, quantileMean, density,
                             kQuantileZeroWidth * span(m, o), s.exact, s.fast, s.meanGradient);
 }
 AnyKernel2D makeQuantileRange2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                                 const ModelFamily& f) {
-    const auto pop = quantilePopulation(f.kind, m.quantileCount, o);
+    const auto pop = quantilePopulation(f.kind, m, o);
     return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, pop.first, pop.second,
-                      false, false);
+                      m.levelsOrNull(), false, false);
 }
 AnyKernel2D makeIqr2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                       const ModelFamily&) {
-    return quantile2D(m, s, o, m.iqr.data(), 2, 0, 1, false, false);
+    return quantile2D(m, s, o, m.iqr.data(), 2, 0, 1, nullptr, false, false);
 }
 AnyKernel2D makeQuantileMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                                const ModelFamily& f) {
-    return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, 0, m.quantileCount, true,
-                      f.kind == ModelKind::QuantileMean);
+    return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, 0, m.quantileCount,
+                      m.levelsOrNull(), true, f.kind == ModelKind::QuantileMean);
 }
 
 // kind, name, arrays, floats per voxel, population, label shows q, realizations, kernel,
@@ -230,11 +230,22 @@ const ModelFamily& modelFamily(ModelKind kind) {
     UDVR_FAIL("unknown model kind " << static_cast<int>(kind));
 }
 
-std::pair<int, int> quantilePopulation(ModelKind kind, int q, const ClassifyOptions& options) {
+std::pair<int, int> quantilePopulation(ModelKind kind, const ModelVolume& model,
+                                       const ClassifyOptions& options) {
     const ModelFamily& f = modelFamily(kind);
     if (!(f.population.second > f.population.first))
         UDVR_FAIL("model '" << f.name << "' is not a quantile-range model");
+    const int q = model.quantileCount;
     const bool whole = f.population.first == 0.0 && f.population.second == 1.0;
+    if (!whole && !model.quantileLevels.empty()) {
+        const int lo = model.boundaryAtLevel(f.population.first);
+        const int hi = model.boundaryAtLevel(f.population.second);
+        if (lo < 0 || hi < 0)
+            UDVR_FAIL("model '" << f.name << "' needs boundaries at the levels "
+                                << f.population.first << " and " << f.population.second
+                                << ", which the model's --quantile-levels lack");
+        return {lo, hi};
+    }
     const int d = options.quartileDivisor;
     if (!whole && (d <= 0 || q % d != 0))
         UDVR_FAIL("model '" << f.name << "' needs a quantile count divisible by " << d
@@ -270,8 +281,7 @@ void checkModelHasArrays(const ModelVolume& model, ModelKind kind, const Classif
     if ((need & kArrayGmm) && f.makeKernel && model.gmmComponents > kMaxKernelGmmComponents)
         UDVR_FAIL("model has " << model.gmmComponents << " GMM components; at most "
                                << kMaxKernelGmmComponents << " are supported");
-    if (f.population.second > f.population.first)
-        quantilePopulation(kind, model.quantileCount, options);
+    if (f.population.second > f.population.first) quantilePopulation(kind, model, options);
 }
 
 }  // namespace udvr

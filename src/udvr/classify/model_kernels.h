@@ -399,19 +399,21 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
 /// (the 2-boundary iqr array, 0…1).
 struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
     const float* boundaries;
-    int stride;  // boundaries per voxel
-    int j0, j1;  // population: quantiles j0+1 … j1
+    int stride;             // boundaries per voxel
+    int j0, j1;             // population: quantiles j0+1 … j1
+    QuantileLevels levels;  // of boundaries j0 …
 
+    /// `levels`: the model's t_0 … t_q (null: even).
     QuantileRangeKernel(const Grid3& grid, const float* b, int s, int lo, int hi,
-                        const TfPiecesStorage& tf)
-        : KernelBase(grid, tf), boundaries(b), stride(s), j0(lo), j1(hi) {}
+                        const double* levelsIn, const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), boundaries(b), stride(s), j0(lo), j1(hi), levels{levelsIn, lo} {}
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         const int count = j1 - j0 + 1;
         return detail::quantileLoad<T>(
             *this, boundaries, stride, j0, count, false, c, live,
             [&](const auto& t, const auto& boundary, const auto&, T* out) {
-                expectedTfQuantileRange<T>(t, boundary, count, out);
+                expectedTfQuantileRange<T>(t, boundary, count, levels, out);
             });
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
@@ -427,19 +429,27 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
 struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
     const float* quantiles;
     int q;
+    QuantileLevels levels;
     bool densityWeights;
     double zeroWidth;  // data units
 
-    QuantileMeanKernel(const Grid3& grid, const float* b, int qIn, bool density, double zero,
-                       const TfPiecesStorage& tf)
-        : KernelBase(grid, tf), quantiles(b), q(qIn), densityWeights(density), zeroWidth(zero) {}
+    /// `levels`: the model's t_0 … t_q (null: even).
+    QuantileMeanKernel(const Grid3& grid, const float* b, int qIn, const double* levelsIn,
+                       bool density, double zero, const TfPiecesStorage& tf)
+        : KernelBase(grid, tf),
+          quantiles(b),
+          q(qIn),
+          levels{levelsIn, 0},
+          densityWeights(density),
+          zeroWidth(zero) {}
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         const T zero = lanes::splat<T>(static_cast<lanes::ScalarOf<T>>(zeroWidth));
         return detail::quantileLoad<T>(
             *this, quantiles, q + 1, 0, q + 1, densityWeights, c, live,
             [&](const auto& t, const auto& boundary, const auto& width, T* out) {
-                expectedTfQuantileMean<T>(t, boundary, width, q, densityWeights, zero, live, out);
+                expectedTfQuantileMean<T>(t, boundary, width, q, levels, densityWeights, zero, live,
+                                          out);
             });
     }
     /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
@@ -474,8 +484,11 @@ std::pair<double, double> modelDataRange(const ModelVolume& model);
 void checkModelHasArrays(const ModelVolume& model, ModelKind kind,
                          const ClassifyOptions& options = {});
 
-/// The quantile population [j0, j1] (boundary indices) of a quantile-range-family kind for q
-/// quantiles: quantile-range (0, q), quartile views (0, q/4), (q/4, 3q/4), (3q/4, q).
-std::pair<int, int> quantilePopulation(ModelKind kind, int q, const ClassifyOptions& options = {});
+/// The quantile population [j0, j1] (boundary indices) of a quantile-range-family kind over the
+/// model's q quantiles: quantile-range (0, q); the quartile views the boundaries at levels
+/// (0, .25), (.25, .75), (.75, 1) — (0, q/4), (q/4, 3q/4), (3q/4, q) for even levels, which
+/// need q divisible by options.quartileDivisor. Throws UdvrError where a level has no boundary.
+std::pair<int, int> quantilePopulation(ModelKind kind, const ModelVolume& model,
+                                       const ClassifyOptions& options = {});
 
 }  // namespace udvr

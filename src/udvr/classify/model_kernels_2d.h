@@ -157,19 +157,23 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     int stride;                      // floats per voxel of `boundaries`
     int j0, j1;                      // boundaries j0 … j1 (j1 − j0 + 1 ≤ kMaxBoundaries2D)
     const float* boundaryGradients;  // per boundary j0 … j1, 3 planes (gridGradients' layout)
+    QuantileLevels levels;           // of boundaries j0 …
     bool quantileMean;               // Eq. 5 at midpoints (else Eq. 4 along segments)
     bool densityWeights;             // quantile-mean: 1/w_j weights (else equal)
     double zeroWidth;                // quantile-mean: widths at or below are point masses
 
+    /// `levelsIn`: the model's t_0 … t_q (null: even).
     Quantile2DKernel(const Grid3& grid, const float* b, int s, int lo, int hi, const float* bGrad,
-                     bool qm, bool density, double zero, const Tf2Raster<double>& exact,
-                     const Tf2Raster<float>& fast, const float* meanGrad)
+                     const double* levelsIn, bool qm, bool density, double zero,
+                     const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
+                     const float* meanGrad)
         : Kernel2DBase(grid, exact, fast, meanGrad),
           boundaries(b),
           stride(s),
           j0(lo),
           j1(hi),
           boundaryGradients(bGrad),
+          levels{levelsIn, lo},
           quantileMean(qm),
           densityWeights(density),
           zeroWidth(zero) {}
@@ -210,7 +214,8 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         const auto& t = tf2<T>();
         if (!quantileMean) {
             expectedTf2QuantileRange<T>(
-                t, [&](int j) { return x[j]; }, [&](int j) { return g[j]; }, count, live, out);
+                t, [&](int j) { return x[j]; }, [&](int j) { return g[j]; }, count, levels, live,
+                out);
             return;
         }
         const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
@@ -218,7 +223,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             [&](int j, T v[4]) {
                 tf2At<T>(t, (x[j] + x[j + 1]) * S(0.5), (g[j] + g[j + 1]) * S(0.5), live, v);
             },
-            width, count - 1, densityWeights, zero, live, out);
+            width, count - 1, levels, densityWeights, zero, live, out);
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {

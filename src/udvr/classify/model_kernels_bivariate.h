@@ -43,11 +43,13 @@ struct FieldMarginal {
             if (pi[i] != 0.0) normalOrPoint(mu[i], sigma[i], pi[i]);
     }
     void operator()(const QuantileRangeKernel& k) const {
-        // Rank population j0 … j1: each quantile uniform between its boundaries (Eq. 2).
-        const double mass = 1.0 / (k.j1 - k.j0);
+        // Rank population j0 … j1: each quantile uniform between its boundaries (Eq. 2), with
+        // its share of the population's mass.
+        const double inv = k.levels.inverseTotal<double>(k.j1 - k.j0 + 1);
         double a = boundaryAt<double>(k.geometry, k.boundaries, k.stride, k.j0, cell, true);
         for (int j = k.j0 + 1; j <= k.j1; ++j) {
             const double b = boundaryAt<double>(k.geometry, k.boundaries, k.stride, j, cell, true);
+            const double mass = k.levels.mass(j - k.j0) * inv;
             if (b > a)
                 sink.uniform(a, b, mass);
             else
@@ -56,9 +58,9 @@ struct FieldMarginal {
         }
     }
     void operator()(const QuantileMeanKernel& k) const {
-        // Eq. 5: point masses at the midpoints, p_j ∝ 1/w_j (or equal); quantiles of width ≤
-        // zeroWidth are infinitely dense and share all the weight (SPEC §4). Two passes: the
-        // weights' total, then the points.
+        // Eq. 5: point masses at the midpoints, p_j ∝ m_j/w_j (or m_j; m_j the quantile's mass,
+        // 1 for even levels); quantiles of width ≤ zeroWidth are infinitely dense and share all
+        // the weight by their masses (SPEC §4). Two passes: the weights' total, then the points.
         const int q = k.q, stride = q + 1;
         const auto width = [&](int j) {
             return widthAt<double>(k.geometry, k.quantiles, stride, j, cell, true);
@@ -67,9 +69,10 @@ struct FieldMarginal {
         for (int j = 0; k.densityWeights && j < q; ++j)
             anyZero = anyZero || width(j) <= k.zeroWidth;
         const auto weight = [&](int j) {
-            if (!k.densityWeights) return 1.0;
+            const double m = k.levels.mass(j + 1);
+            if (!k.densityWeights) return m;
             const double w = width(j);
-            return anyZero ? (w <= k.zeroWidth ? 1.0 : 0.0) : 1.0 / w;
+            return anyZero ? (w <= k.zeroWidth ? m : 0.0) : m / w;
         };
         double total = 0.0;
         for (int j = 0; j < q; ++j) total += weight(j);

@@ -28,6 +28,11 @@ void sampleCdf(ProbeDistribution& d, Cdf cdf) {
     }
 }
 
+/// The model's levels t_0 … t_{count−1} (uneven levels only: levels.levels is set).
+std::vector<double> levelsOf(const QuantileLevels& levels, int count) {
+    return {levels.levels, levels.levels + count};
+}
+
 void pad(ProbeDistribution& d, double fraction) {
     const double w = d.hi - d.lo;
     d.lo -= fraction * w;
@@ -129,13 +134,19 @@ struct Describe {
         j["boundaries"] = b;
         const int j0 = k.j0, j1 = k.j1;
         if (family.population.second > family.population.first) j["population"] = {j0, j1};
+        if (k.levels.levels) j["levels"] = levelsOf(k.levels, k.stride);
         d.lo = b[j0], d.hi = b[j1];
         pad(d, 0.05);
-        // Zero-width quantiles inside the population are point masses of 1/(j1−j0).
+        // Quantile i's share of the population (1/(j1−j0) for even levels); zero-width
+        // quantiles are point masses of that share.
+        const double inv = k.levels.inverseTotal<double>(j1 - j0 + 1);
+        const auto share = [&](int i) { return k.levels.mass(i - j0) * inv; };
+        double atomTotal = 0;
         for (int i = j0 + 1; i <= j1; ++i)
             if (!(b[i] > b[i - 1])) {
                 d.atoms.push_back(b[i]);
-                d.atomMass.push_back(1.0 / (j1 - j0));
+                d.atomMass.push_back(share(i));
+                atomTotal += share(i);
             }
         const std::vector<double> atoms = d.atoms, masses = d.atomMass;
         sampleCdf(d, [&](double x) {
@@ -143,13 +154,13 @@ struct Describe {
             for (int i = j0 + 1; i <= j1; ++i) {
                 const double w = b[i] - b[i - 1];
                 if (!(w > 0)) continue;
-                s += std::clamp((x - b[i - 1]) / w, 0.0, 1.0) / (j1 - j0);
+                s += std::clamp((x - b[i - 1]) / w, 0.0, 1.0) * share(i);
             }
             return s;
         });
         d.atoms = atoms;
         d.atomMass = masses;
-        d.continuousMass = 1.0 - static_cast<double>(atoms.size()) / (j1 - j0);
+        d.continuousMass = 1.0 - atomTotal;
     }
     void operator()(const QuantileMeanKernel& k) const {
         const int q = k.q;
@@ -159,14 +170,16 @@ struct Describe {
         for (int i = 0; i < q; ++i)
             w[i] = widthAt<double>(k.geometry, k.quantiles, q + 1, i, cell, true);
         j["boundaries"] = b;
-        // Discrete: midpoints m_j with weights p_j (Eq. 5), as the kernel weighs them.
+        if (k.levels.levels) j["levels"] = levelsOf(k.levels, q + 1);
+        // Discrete: midpoints m_j with weights p_j (Eq. 5: mass m_j, over w_j with density
+        // weights), as the kernel weighs them.
         int zeros = 0;
         for (double wi : w) zeros += (wi <= k.zeroWidth);
         std::vector<double> p(static_cast<std::size_t>(q));
         double ws = 0;
         for (int i = 0; i < q; ++i) {
-            p[i] =
-                !k.densityWeights ? 1.0 : (zeros ? (w[i] <= k.zeroWidth ? 1.0 : 0.0) : 1.0 / w[i]);
+            const double m = k.levels.mass(i + 1);
+            p[i] = !k.densityWeights ? m : (zeros ? (w[i] <= k.zeroWidth ? m : 0.0) : m / w[i]);
             ws += p[i];
         }
         std::vector<double> mids, probs;
@@ -245,14 +258,15 @@ struct DescribeGradient {
     void operator()(const Quantile2DKernel& k) const {
         double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
         const int n = k.polylineAt<double>(cell, true, x, g);
-        // G(t) linear on each of the n − 1 segments of equal probability.
+        // G(t) linear on each of the n − 1 segments, each with its probability (equal for
+        // even levels).
         double m1 = 0, m2 = 0;
+        const double inv = k.levels.inverseTotal<double>(n);
         for (int i = 1; i < n; ++i) {
-            m1 += 0.5 * (g[i - 1] + g[i]);
-            m2 += (g[i - 1] * g[i - 1] + g[i - 1] * g[i] + g[i] * g[i]) / 3.0;
+            const double p = k.levels.mass(i) * inv;
+            m1 += p * 0.5 * (g[i - 1] + g[i]);
+            m2 += p * (g[i - 1] * g[i - 1] + g[i - 1] * g[i] + g[i] * g[i]) / 3.0;
         }
-        m1 /= n - 1;
-        m2 /= n - 1;
         j["gradient_magnitude"] = {{"mean", m1},
                                    {"stddev", std::sqrt(std::max(0.0, m2 - m1 * m1))}};
         j["polyline"] = {{"x", std::vector<double>(x, x + n)},

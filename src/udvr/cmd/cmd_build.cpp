@@ -71,7 +71,7 @@ void addBuildCommand(CLI::App& app) {
         "or from K^3 bricks of one field, written as a .vti model");
     struct Opts {
         std::vector<std::string> inputs;
-        std::string out, density = "empirical", bandwidth = "silverman", var, memberDim;
+        std::string out, density = "empirical", bandwidth = "silverman", var, memberDim, levels;
         int quantiles = 8, gmm = 4, downsample = 0;
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
@@ -90,6 +90,9 @@ void addBuildCommand(CLI::App& app) {
         "K: model one field's K^3 bricks (reduced grid floor(N/K) per axis, at brick centres)");
     o->quantilesOpt = sub->add_option("--quantiles", o->quantiles,
                                       "q quantiles, q+1 boundaries (default 8; 0 skips)");
+    sub->add_option("--quantile-levels", o->levels,
+                    "t_0,t_1,...,t_q: uneven quantile levels, increasing from 0 to 1 (q from "
+                    "their count; default j/q)");
     o->gmmOpt = sub->add_option("--gmm", o->gmm,
                                 "GMM components K (default 4, lowered to the samples per voxel "
                                 "when there are fewer; 0 skips)");
@@ -107,6 +110,16 @@ void addBuildCommand(CLI::App& app) {
         requireOutputExtension(o->out, "-o", {".vti"}, "build writes a model as VTK ImageData");
         BuildOptions opt;
         opt.quantiles = o->quantiles;
+        if (!o->levels.empty()) {
+            opt.quantileLevels = parseDoubleList(o->levels, "--quantile-levels");
+            const int q = static_cast<int>(opt.quantileLevels.size()) - 1;
+            if (o->quantilesOpt->count() > 0 && o->quantiles != q)
+                UDVR_FAIL("--quantiles " << o->quantiles << " disagrees with the " << q + 1
+                                         << " values of --quantile-levels (q + 1 boundaries)");
+            opt.quantiles = q;
+            // Checked before any input is read.
+            normalizedQuantileLevels(opt.quantileLevels, q, "--quantile-levels");
+        }
         opt.gmmComponents = o->gmm;
         opt.density = parseDensityEstimate(o->density);
         opt.bandwidthText = o->bandwidth;
@@ -189,10 +202,10 @@ void addBuildCommand(CLI::App& app) {
         const auto& d = model.grid.dims;
         std::fprintf(
             stderr,
-            "build: %s -> %dx%dx%d voxels x %d samples; q=%d (%s%s), GMM K=%d; "
+            "build: %s -> %dx%dx%d voxels x %d samples; q=%d (%s%s%s), GMM K=%d; "
             "%d threads\n",
             what.c_str(), d[0], d[1], d[2], rep.samplesPerVoxel, opt.quantiles,
-            model.density.c_str(),
+            model.quantileLevels.empty() ? "" : "uneven levels, ", model.density.c_str(),
             opt.density == DensityEstimate::Kde
                 ? (", h " + model.bandwidthRule + " median " + std::to_string(model.bandwidth))
                       .c_str()

@@ -156,6 +156,7 @@ Described describeFile(const std::string& path, const InfoOpts& o) {
         mj["samples_per_voxel"] = m.samplesPerVoxel;
         mj["downsample"] = m.downsample;
         mj["quantiles"] = m.hasQuantiles() ? m.quantileCount : 0;
+        if (m.hasQuantiles() && !m.quantileLevels.empty()) mj["quantile_levels"] = m.quantileLevels;
         mj["iqr"] = !m.iqr.empty();
         mj["gmm_components"] = m.hasGmm() ? m.gmmComponents : 0;
         mj["density"] = m.density;
@@ -245,6 +246,11 @@ void printText(const json& j) {
             std::printf(" (%d^3 bricks of one field)", m["downsample"].get<int>());
         std::printf("; q = %d quantiles, GMM K = %d%s\n", m["quantiles"].get<int>(),
                     m["gmm_components"].get<int>(), m["iqr"].get<bool>() ? ", IQR" : "");
+        if (m.contains("quantile_levels")) {
+            std::printf("  levels   ");
+            for (const json& t : m["quantile_levels"]) std::printf(" %.6g", t.get<double>());
+            std::printf(" (uneven)\n");
+        }
         if (m.contains("bandwidth_rule"))
             std::printf("  kde       bandwidth %s (median h %.6g), tail eps %.3g\n",
                         m["bandwidth_rule"].get<std::string>().c_str(),

@@ -397,6 +397,12 @@ void writeModelVti(const fs::path& path, const ModelVolume& model) {
 
     vtkFieldData* fd = image->GetFieldData();
     addInt(fd, "quantile_count", model.hasQuantiles() ? model.quantileCount : 0);
+    if (model.hasQuantiles()) {
+        std::vector<double> levels(static_cast<std::size_t>(model.quantileCount) + 1);
+        for (int j = 0; j <= model.quantileCount; ++j)
+            levels[static_cast<std::size_t>(j)] = model.quantileLevel(j);
+        addDouble(fd, "quantile_levels", levels);
+    }
     addString(fd, "density", model.density);
     addDouble(fd, "bandwidth", {model.bandwidth});
     addString(fd, "bandwidth_rule", model.bandwidthRule);
@@ -448,6 +454,8 @@ ModelVolume readModelVti(const fs::path& path) {
         if (q < 1) UDVR_FAIL(path.string() << ": array 'quantiles' needs at least 2 components");
         m.quantiles = get("quantiles", q + 1);
         m.quantileCount = q;
+        m.quantileLevels = normalizedQuantileLevels(
+            getDoubles(fd, "quantile_levels"), q, path.string() + ": field data 'quantile_levels'");
     }
     int k = getInt(path, fd, "gmm_components", 0);
     if (vtkDataArray* a = pd->GetArray("gmm")) {

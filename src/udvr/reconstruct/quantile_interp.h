@@ -1,14 +1,35 @@
 #pragma once
 // Quantile interpolation in 3D (Athawale et al. 2021, §3.2, Eq. 2; SPEC §3): the j'th boundary of
 // the interpolated distribution is the trilinear interpolation of the corners' j'th boundaries,
-// so each quantile keeps probability 1/q and its width w_j(p) = Σ_c w_c w_{j,c} (the paper's
-// closed form Pr(Q_j) = (1/q)/w_j). The interpolated density is piecewise constant: 1/(q·w_j)
-// on [b_{j−1}(p), b_j(p)]. Cost O(q) per point.
+// so each quantile keeps its probability (1/q for even levels, t_j − t_{j−1} for the uneven
+// levels of QuantileLevels) and its width w_j(p) = Σ_c w_c w_{j,c} (the paper's closed form
+// Pr(Q_j) = (1/q)/w_j). The interpolated density is piecewise constant: mass_j/w_j on
+// [b_{j−1}(p), b_j(p)]. Cost O(q) per point.
 #include <cstddef>
 
 #include "udvr/reconstruct/cell.h"
 
 namespace udvr {
+
+/// The levels of a run of quantile boundaries (SPEC §7 `quantile_levels`, paper §6's uneven
+/// quantiles): quantile j of the run, between its boundaries j − 1 and j, holds probability
+/// mass t_{first+j} − t_{first+j−1}. Null levels are even levels, where each quantile's mass is
+/// taken as 1 (weights are relative), so even levels keep the arithmetic of equal weights.
+struct QuantileLevels {
+    const double* levels = nullptr;  // t_0 … t_q of the model; null: even
+    int first = 0;                   // the run's first boundary
+
+    /// Mass of quantile j ≥ 1 of the run.
+    UDVR_CPU_GPU double mass(int j) const {
+        return levels ? levels[first + j] - levels[first + j - 1] : 1.0;
+    }
+    /// 1 / (the run's mass over boundaries 0 … count − 1), in S.
+    template <class S>
+    UDVR_CPU_GPU S inverseTotal(int count) const {
+        return levels ? static_cast<S>(1.0 / (levels[first + count - 1] - levels[first]))
+                      : S(1) / static_cast<S>(count - 1);
+    }
+};
 
 /// Boundary j of a voxel-major array with `stride` floats per voxel, interpolated at a cell
 /// (Eq. 2): b_j(p) = Σ_c w_c b_{j,c} by lerps. Lanes outside `live` are 0.

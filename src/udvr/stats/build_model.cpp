@@ -85,6 +85,10 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     m.iqr.resize(2 * voxels);
     m.quantileCount = q;
     if (q > 0) m.quantiles.resize(voxels * static_cast<std::size_t>(q + 1));
+    m.quantileLevels = normalizedQuantileLevels(opt.quantileLevels, q, "--quantile-levels");
+    // b(0.25), b(0.75) among the boundaries (kde: the IQR is then read off them).
+    const int quarter = q > 0 ? m.boundaryAtLevel(0.25) : -1;
+    const int threeQuarters = q > 0 ? m.boundaryAtLevel(0.75) : -1;
     m.gmmComponents = K;
     if (K > 0) m.gmm.resize(voxels * static_cast<std::size_t>(3 * K));
     std::vector<float> bandwidths;  // per voxel h (kde), NaN for constant voxels
@@ -125,14 +129,13 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     iqr[0] = iqr[1] = s[0];
                     if (kde) bandwidths[v] = std::numeric_limits<float>::quiet_NaN();
                 } else if (!kde) {
-                    // numpy's linear quantile at j/q; b_0 = min and b_q = max exactly.
+                    // numpy's linear quantile at t_j; b_0 = min and b_q = max exactly.
                     for (int j = 0; qv && j <= q; ++j)
-                        qv[j] = static_cast<float>(
-                            empiricalQuantile(sorted, static_cast<double>(j) / q));
+                        qv[j] = static_cast<float>(empiricalQuantile(sorted, m.quantileLevel(j)));
                     iqr[0] = static_cast<float>(empiricalQuantile(sorted, 0.25));
                     iqr[1] = static_cast<float>(empiricalQuantile(sorted, 0.75));
                 } else {
-                    // b_j = F⁻¹(j/q), tails at ε and 1 − ε; Newton from the sample quantile.
+                    // b_j = F⁻¹(t_j), tails at ε and 1 − ε; Newton from the sample quantile.
                     const double h = kdeBandwidth(sorted, mom.stddev, opt.bandwidth);
                     bandwidths[v] = static_cast<float>(h);
                     auto inv = [&](double p) {
@@ -140,15 +143,13 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     };
                     double prev = -std::numeric_limits<double>::infinity();
                     for (int j = 0; qv && j <= q; ++j) {
-                        const double p = j == 0   ? eps
-                                         : j == q ? 1.0 - eps
-                                                  : static_cast<double>(j) / q;
+                        const double p = j == 0 ? eps : j == q ? 1.0 - eps : m.quantileLevel(j);
                         prev = std::max(prev, inv(p));  // monotone despite solver tolerance
                         qv[j] = static_cast<float>(prev);
                     }
-                    if (qv && q % 4 == 0) {  // b(0.25), b(0.75) are b_{q/4}, b_{3q/4}
-                        iqr[0] = qv[q / 4];
-                        iqr[1] = qv[3 * q / 4];
+                    if (qv && quarter > 0 && threeQuarters > 0) {
+                        iqr[0] = qv[quarter];
+                        iqr[1] = qv[threeQuarters];
                     } else {
                         iqr[0] = static_cast<float>(inv(0.25));
                         iqr[1] =
@@ -225,6 +226,7 @@ void validateBuildOptions(const BuildOptions& o, int n) {
     if (o.quantiles < 0 || o.quantiles > 1024)
         UDVR_FAIL("--quantiles " << o.quantiles
                                  << " is out of range; expected 1..1024 (or 0 to skip quantiles)");
+    normalizedQuantileLevels(o.quantileLevels, o.quantiles, "--quantile-levels");
     if (o.gmmComponents < 0 || o.gmmComponents > kMaxGmmComponents)
         UDVR_FAIL("--gmm " << o.gmmComponents << " is out of range; expected 1.."
                            << kMaxGmmComponents << " components (or 0 to skip the GMM)");
@@ -239,9 +241,16 @@ void validateBuildOptions(const BuildOptions& o, int n) {
         if (o.tailEps != 0.0) {
             if (!(o.tailEps > 0.0 && o.tailEps < 0.5))
                 UDVR_FAIL("--tail-eps " << o.tailEps << " is out of range; expected 0 < E < 0.5");
-            if (o.quantiles > 0 && o.tailEps > 1.0 / o.quantiles)
-                UDVR_FAIL("--tail-eps " << o.tailEps << " exceeds 1/q = " << 1.0 / o.quantiles
-                                        << "; the tail boundaries would cross b_1");
+            // The tails must stay inside the outer quantiles: ε ≤ t_1 and 1 − ε ≥ t_{q−1}.
+            const double outer =
+                o.quantileLevels.size() > 2
+                    ? std::min(o.quantileLevels[1], 1.0 - o.quantileLevels[o.quantiles - 1])
+                    : 1.0 / o.quantiles;
+            if (o.quantiles > 0 && o.tailEps > outer)
+                UDVR_FAIL("--tail-eps "
+                          << o.tailEps << " exceeds "
+                          << (o.quantileLevels.size() > 2 ? "the outer quantiles' mass " : "1/q = ")
+                          << outer << "; the tail boundaries would cross b_1");
         }
     } else if (o.tailEps != 0.0) {
         UDVR_FAIL("--tail-eps applies to --density kde only");

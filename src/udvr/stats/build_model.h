@@ -3,6 +3,7 @@
 // one field → a ModelVolume with moments, quantile boundaries, IQR and a GMM.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "udvr/io/field.h"
 #include "udvr/stats/gmm.h"
@@ -14,7 +15,9 @@ namespace udvr {
 class ProgressBar;
 
 struct BuildOptions {
-    int quantiles = 8;      // q ≥ 1; 0 skips the quantile array
+    int quantiles = 8;  // q ≥ 1; 0 skips the quantile array
+    /// q + 1 levels t_0 = 0 < … < t_q = 1 of the boundaries (`--quantile-levels`); empty: j/q.
+    std::vector<double> quantileLevels;
     int gmmComponents = 4;  // K ≥ 1; 0 skips the GMM
     DensityEstimate density = DensityEstimate::Empirical;
     KdeBandwidth bandwidth;                   // kde only

@@ -2,6 +2,7 @@
 // The model volume: per-voxel distribution models (SPEC §2, §7). Written by `udvr build`,
 // read by render/probe. Arrays are empty when the model was not built.
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,9 @@ struct ModelVolume {
     int quantileCount = 0;         // q; quantiles holds q+1 boundaries per voxel (0 = absent)
     std::vector<float> quantiles;  // b_0..b_q contiguous per voxel: quantiles[v*(q+1)+j]
     std::vector<float> iqr;        // b(0.25), b(0.75) per voxel (empty = absent)
+    /// The levels t_0 = 0 < … < t_q = 1 of the boundaries (SPEC §7 `quantile_levels`), quantile
+    /// j holding mass t_j − t_{j−1}; empty: even, t_j = j/q (evenLevels normalises to empty).
+    std::vector<double> quantileLevels;
 
     int gmmComponents = 0;   // K (0 = absent)
     std::vector<float> gmm;  // 3K per voxel: π_1..π_K, μ_1..μ_K, σ_1..σ_K; sorted by μ
@@ -38,6 +42,21 @@ struct ModelVolume {
 
     std::size_t voxelCount() const { return grid.pointCount(); }
     bool hasQuantiles() const { return quantileCount > 0 && !quantiles.empty(); }
+    /// t_j of boundary j (j/q for even levels).
+    double quantileLevel(int j) const {
+        return quantileLevels.empty() ? static_cast<double>(j) / quantileCount
+                                      : quantileLevels[static_cast<std::size_t>(j)];
+    }
+    /// The boundary j at level t (within 1e−9), or −1 where no boundary sits there.
+    int boundaryAtLevel(double t) const {
+        for (int j = 0; j <= quantileCount; ++j)
+            if (std::abs(quantileLevel(j) - t) <= 1e-9) return j;
+        return -1;
+    }
+    /// The levels for the kernels: null for even levels.
+    const double* levelsOrNull() const {
+        return quantileLevels.empty() ? nullptr : quantileLevels.data();
+    }
     bool hasGmm() const { return gmmComponents > 0 && !gmm.empty(); }
     const float* quantilesAt(std::size_t v) const {
         return quantiles.data() + v * static_cast<std::size_t>(quantileCount + 1);
@@ -46,6 +65,13 @@ struct ModelVolume {
         return gmm.data() + v * static_cast<std::size_t>(3 * gmmComponents);
     }
 };
+
+/// Checks quantile levels for q quantiles (q + 1 values, t_0 = 0, strictly increasing, t_q = 1)
+/// and returns them, or an empty vector where every t_j is within 1e−9 of j/q (even levels, so
+/// that even levels given explicitly give exactly the images of the even default). `what` names
+/// the source in the UdvrError thrown otherwise.
+std::vector<double> normalizedQuantileLevels(const std::vector<double>& levels, int q,
+                                             const std::string& what);
 
 /// A deterministic field as a model: mean = min = max = the values, stddev = 0; no quantiles or
 /// GMM. Rendering it with model `mean` is the ground truth of SPEC §5.
