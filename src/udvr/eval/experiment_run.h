@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -81,6 +82,8 @@ inline Sizes resolveSizes(const std::string& name, const ExperimentOptions& o) {
         s.dims = q ? 64 : 128, s.image = q ? 96 : 384;
     } else if (name == "fiber-isabel") {
         s.image = q ? 96 : 384;
+    } else if (name == "quantile-levels") {
+        s.dims = q ? 32 : 64, s.members = 50, s.image = q ? 96 : 512;
     }
     if (o.dims > 0) s.dims = o.dims;
     if (o.members > 0) s.members = o.members;
@@ -451,5 +454,6 @@ inline fs::path isabelPath(const ExperimentOptions& options, int step) {
 ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& options);  // Fig. 10
 ExperimentResult runFiber(const fs::path& dir, const ExperimentOptions& options);    // Fig. 11
 ExperimentResult runFiberIsabel(const fs::path& dir, const ExperimentOptions& options);
+ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions& options);
 
 }  // namespace udvr::experiment_detail

@@ -352,6 +352,7 @@ ExperimentResult runOne(const std::string& name, const fs::path& dir,
     if (name == "tooth2d") return runTooth2d(dir, options);
     if (name == "fiber") return runFiber(dir, options);
     if (name == "fiber-isabel") return runFiberIsabel(dir, options);
+    if (name == "quantile-levels") return runQuantileLevels(dir, options);
     std::string names;
     for (const std::string& n : experimentNames()) names += n + ", ";
     UDVR_FAIL("unknown experiment '" << name << "' (expected one of " << names << "all)");
@@ -366,9 +367,9 @@ fs::path executableDir() {
 }  // namespace
 
 const std::vector<std::string>& experimentNames() {
-    static const std::vector<std::string> names = {"tangle",    "tangle-sweep", "teardrop",
-                                                   "quartiles", "spheres",      "chest",
-                                                   "tooth2d",   "fiber",        "fiber-isabel"};
+    static const std::vector<std::string> names = {
+        "tangle", "tangle-sweep", "teardrop", "quartiles",    "spheres",
+        "chest",  "tooth2d",      "fiber",    "fiber-isabel", "quantile-levels"};
     return names;
 }
 

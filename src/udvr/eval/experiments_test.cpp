@@ -129,6 +129,21 @@ TEST(Experiments, TinyAllRunsEndToEnd) {
     for (const ResultRow& row : s.rows)
         if (row.quantiles > 0) ++quantileRows;
     EXPECT_EQ(quantileRows, 2 /*densities*/ * 3 /*q*/ * 2 /*members*/ * 2 /*QR, QM*/);
+
+    // Uneven quantile levels: tangle and spheres (no chest here), a truth and QR, QM at three
+    // level sets each; the levels change the images; one verdict per dataset and model.
+    const auto ql = std::find_if(results.begin(), results.end(), [](const ExperimentResult& r) {
+        return r.name == "quantile-levels";
+    });
+    ASSERT_NE(ql, results.end());
+    ASSERT_EQ(ql->rows.size(), 2u * 7u);
+    for (std::size_t d = 0; d < 2; ++d) {
+        const ResultRow* rows = &ql->rows[d * 7];
+        EXPECT_EQ(rows[0].model, "ground-truth");
+        for (int i = 1; i < 7; ++i) EXPECT_EQ(rows[i].quantiles, 8) << rows[i].label;
+        EXPECT_NE(rows[2].rmse, rows[4].rmse) << "QM even vs tail-heavy: " << rows[2].label;
+    }
+    EXPECT_EQ(ql->claims.size(), 4u);
     fs::remove_all(dir);
 }
 
