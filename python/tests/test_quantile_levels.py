@@ -146,8 +146,10 @@ def test_tf2_probe_with_uneven_levels_matches_reference(uneven_case, kind):
     (["--quantile-levels", "0,0.5,0.9"], "start at 0 and end at 1"),
     (["--quantile-levels", "0,0.5,1", "--quantiles", "4"], "disagrees"),
     (["--quantile-levels", "0,nan,1"], "--quantile-levels"),
+    (["--quantiles", "-1"], "out of range"),  # the other input-free checks come first too
+    (["--gmm", "99"], "out of range"),
 ])
-def test_bad_levels_are_refused_before_reading(tmp_path, args, message):
+def test_bad_options_are_refused_before_reading(tmp_path, args, message):
     from conftest import run_udvr
     r = run_udvr("build", tmp_path / "missing.nc", *args, "-o", tmp_path / "m.vti")
     assert r.returncode != 0

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -117,8 +118,6 @@ void addBuildCommand(CLI::App& app) {
                 UDVR_FAIL("--quantiles " << o->quantiles << " disagrees with the " << q + 1
                                          << " values of --quantile-levels (q + 1 boundaries)");
             opt.quantiles = q;
-            // Checked before any input is read.
-            normalizedQuantileLevels(opt.quantileLevels, q, "--quantile-levels");
         }
         opt.gmmComponents = o->gmm;
         opt.density = parseDensityEstimate(o->density);
@@ -129,6 +128,9 @@ void addBuildCommand(CLI::App& app) {
                 UDVR_FAIL("--tail-eps " << o->tailEps << " is out of range; expected 0 < E < 0.5");
             opt.tailEps = o->tailEps;
         }
+        // What does not depend on the input is checked before it is read (the sample count
+        // is then assumed large enough; fitOptionsToSamples checks against the real one).
+        validateBuildOptions(opt, std::numeric_limits<int>::max());
         const bool bricks = o->downsampleOpt->count() > 0;
         for (const std::string& in : o->inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
         if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
