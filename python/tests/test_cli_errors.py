@@ -394,6 +394,9 @@ CASES = {
     "render/missing-input": lambda p, t: (
         ["render", t / "absent.vti", "--tf", p.tf, "--size", "8", "-o", o(t, "i.png")],
         ["absent.vti"]),
+    "render/tf2-widgets-given-as-tf": lambda p, t: (
+        ["render", p.model, "--tf", pathlib.Path(__file__).resolve().parents[2] / "data" / "tf2"
+         / "tangle.json", "--size", "8", "-o", o(t, "i.png")], ["--tf2"]),
     "render/directory-input": lambda p, t: (
         ["render", p.dir, "--tf", p.tf, "--size", "8", "-o", o(t, "i.png")], [p.dir.name]),
     "render/truncated-vti": lambda p, t: (

@@ -52,7 +52,11 @@ TransferFunction1D parseTransferFunction(const std::string& text, const std::str
     if (!obj)
         UDVR_FAIL(what << ": expected a ParaView transfer function (a list of objects or one "
                           "object with \"RGBPoints\" and \"Points\")");
-    if (!obj->contains("RGBPoints")) UDVR_FAIL(what << ": no \"RGBPoints\" [x,r,g,b,...] array");
+    if (!obj->contains("RGBPoints")) {
+        if (obj->contains("widgets"))  // a 2D TF's widget file (docs/formats.md)
+            UDVR_FAIL(what << " is a 2D transfer function (widgets): pass it with --tf2, not --tf");
+        UDVR_FAIL(what << ": no \"RGBPoints\" [x,r,g,b,...] array");
+    }
 
     TransferFunction1D tf;
     const std::vector<double> rgb = numberArray(*obj, "RGBPoints", what);
