@@ -1,4 +1,5 @@
-// The `udvr` Python module: a thin pybind11 layer over the library (no algorithm of its own).
+// `udvr._udvr`, the compiled half of the Python package `udvr` (python/udvr/): a thin pybind11
+// layer over the library (no algorithm of its own).
 // Arrays cross as NumPy arrays in C order (z, y, x), so x is fastest as in SPEC §1.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -122,8 +123,11 @@ ModelVolume modelFromArrays(
 
 }  // namespace
 
-PYBIND11_MODULE(udvr, m) {
-    m.doc() = "udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021)";
+PYBIND11_MODULE(_udvr, m) {
+    m.doc() =
+        "udvr's compiled core (the package `udvr` wraps it): direct volume rendering of "
+        "uncertain data (Athawale et al., TVCG 2021)";
+    m.attr("__version__") = std::string(udvr::build::kVersion);  // as `udvr --version`
     // e.g. "target native: AVX-512, 16-float lanes in 1 register of 512 bits" (as `udvr --version`)
     m.attr("__build__") = std::string(udvr::build::buildDescription());
     py::register_exception<UdvrError>(m, "UdvrError", PyExc_ValueError);
