@@ -87,15 +87,41 @@ std::vector<float> voxelValues(const std::optional<FloatArray>& a, const Grid3& 
     return v;
 }
 
-ModelVolume modelFromArrays(
-    const FloatArray& mean, const std::optional<FloatArray>& stddev,
-    const std::optional<FloatArray>& min, const std::optional<FloatArray>& max,
-    const std::optional<FloatArray>& quantiles, const std::optional<FloatArray>& iqr,
-    const std::optional<FloatArray>& gmm, std::array<double, 3> origin,
-    std::array<double, 3> spacing, const std::optional<std::array<double, 6>>& bounds,
-    const std::optional<double>& fullResMinSpacing, int downsample, int samplesPerVoxel,
-    const std::string& density, const std::string& source, double bandwidth,
-    const std::string& bandwidthRule, double tailEps) {
+// An array of real numbers (any real dtype, a list) as C-ordered float32; complex, object,
+// string and date arrays are a TypeError (a cast would drop the imaginary part silently).
+FloatArray realArray(const py::handle& h, const char* name) {
+    py::array a = py::array::ensure(h);
+    const char kind = a ? a.dtype().kind() : 'O';
+    if (kind != 'b' && kind != 'i' && kind != 'u' && kind != 'f')
+        throw py::type_error(std::string(name) +
+                             " must hold real numbers (bool, integer or float), got " +
+                             (a ? "dtype " + std::string(py::str(a.dtype()))
+                                : std::string(py::str(py::type::of(h).attr("__name__")))));
+    return FloatArray::ensure(a);
+}
+
+std::optional<FloatArray> optionalRealArray(const py::object& o, const char* name) {
+    if (o.is_none()) return std::nullopt;
+    return realArray(o, name);
+}
+
+ModelVolume modelFromArrays(const py::object& meanIn, const py::object& stddevIn,
+                            const py::object& minIn, const py::object& maxIn,
+                            const py::object& quantilesIn, const py::object& iqrIn,
+                            const py::object& gmmIn, std::array<double, 3> origin,
+                            std::array<double, 3> spacing,
+                            const std::optional<std::array<double, 6>>& bounds,
+                            const std::optional<double>& fullResMinSpacing, int downsample,
+                            int samplesPerVoxel, const std::string& density,
+                            const std::string& source, double bandwidth,
+                            const std::string& bandwidthRule, double tailEps) {
+    const FloatArray mean = realArray(meanIn, "Model: mean");
+    const auto stddev = optionalRealArray(stddevIn, "Model: stddev");
+    const auto min = optionalRealArray(minIn, "Model: min");
+    const auto max = optionalRealArray(maxIn, "Model: max");
+    const auto quantiles = optionalRealArray(quantilesIn, "Model: quantiles");
+    const auto iqr = optionalRealArray(iqrIn, "Model: iqr");
+    const auto gmm = optionalRealArray(gmmIn, "Model: gmm");
     ModelVolume mv;
     mv.grid = gridFromShape(mean, 0);
     for (int a = 0; a < 3; ++a) {
@@ -199,8 +225,9 @@ ImageRgba imageFromArray(const FloatArray& a, const char* name) {
 }
 
 // Run `work` with the GIL released. With a `progress(done, total)` callable, the work runs on a
-// worker thread while this thread calls it about 10 times a second and once at the end (on the
-// caller's thread, as notebook widgets want); an exception from it is raised after the work.
+// worker thread while this thread calls it about 10 times a second and once at the end when the
+// work succeeded (on the caller's thread, as notebook widgets want); an exception from it is
+// raised after the work.
 template <class Work>
 auto withProgress(Work work, const ProgressBar& bar, const py::object& progress) {
     if (progress.is_none()) {
@@ -208,21 +235,28 @@ auto withProgress(Work work, const ProgressBar& bar, const py::object& progress)
         return work();
     }
     auto future = std::async(std::launch::async, std::move(work));
-    for (bool ready = false; !ready;) {
-        {
-            py::gil_scoped_release release;
-            ready = future.wait_for(std::chrono::milliseconds(100)) == std::future_status::ready;
-        }
+    const auto report = [&](std::size_t done) {
         try {
-            progress(ready ? bar.total() : bar.done(), bar.total());
+            progress(done, bar.total());
         } catch (...) {
             py::gil_scoped_release release;
             future.wait();
             throw;
         }
+    };
+    for (;;) {
+        {
+            py::gil_scoped_release release;
+            if (future.wait_for(std::chrono::milliseconds(100)) == std::future_status::ready) break;
+        }
+        report(bar.done());
     }
-    py::gil_scoped_release release;
-    return future.get();
+    auto result = [&] {
+        py::gil_scoped_release release;
+        return future.get();  // the work's exception, if any, before 100 % is reported
+    }();
+    report(bar.total());
+    return result;
 }
 
 struct BuildResult {
@@ -340,8 +374,9 @@ PYBIND11_MODULE(_udvr, m) {
         });
 
     py::class_<ScalarField>(m, "Field")
-        .def(py::init([](const FloatArray& values, std::array<double, 3> origin,
+        .def(py::init([](const py::object& valuesIn, std::array<double, 3> origin,
                          std::array<double, 3> spacing, std::string name) {
+                 const FloatArray values = realArray(valuesIn, "Field: values");
                  ScalarField f;
                  f.grid = gridFromShape(values, 0);
                  f.grid.origin = origin;
@@ -450,8 +485,9 @@ PYBIND11_MODULE(_udvr, m) {
                     "then rising to 0.5")
         .def_static(
             "preset_over",
-            [](const std::string& name, const FloatArray& values,
+            [](const std::string& name, const py::object& valuesIn,
                std::optional<std::array<double, 2>> range) {
+                const FloatArray values = realArray(valuesIn, "values");
                 if (range && !((*range)[0] < (*range)[1])) throw UdvrError("range expects lo < hi");
                 return transferFunctionPresetOver(
                            name,
