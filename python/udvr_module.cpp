@@ -397,6 +397,7 @@ PYBIND11_MODULE(_udvr, m) {
     py::class_<Ensemble>(m, "Ensemble")
         .def_readwrite("grid", &Ensemble::grid)
         .def_readonly("members", &Ensemble::members)
+        .def_readonly("name", &Ensemble::name)
         .def_property_readonly(
             "values",
             [](const Ensemble& e) {

@@ -48,8 +48,10 @@ def _in_notebook():
 def _tqdm_bar(label, total):
     """A tqdm bar (a widget in notebooks where ipywidgets is installed, text otherwise)."""
     try:
-        from tqdm.auto import tqdm
-        return tqdm(total=total, desc=label)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # tqdm.auto's "IProgress not found"
+            from tqdm.auto import tqdm
+            return tqdm(total=total, desc=label)
     except ImportError:  # tqdm.notebook without ipywidgets: the text bar
         from tqdm import tqdm
         return tqdm(total=total, desc=label)
@@ -220,9 +222,7 @@ def _to_xarray(self):
     quantiles, iqr, gmm with a trailing component dim) as views of the model's memory, the
     grid as x, y, z coordinates and the field data as attributes."""
     import xarray as xr
-    g = self.grid
-    coords = {name: g.origin[a] + g.spacing[a] * np.arange(g.dims[a])
-              for a, name in enumerate("xyz")}
+    coords = _coords(self.grid)
     data = {}
     for name in _SCALARS + tuple(_COMPONENT_DIMS):
         values = getattr(self, name)
@@ -236,6 +236,26 @@ def _to_xarray(self):
              "bounds": list(self.bounds), "full_res_min_spacing": self.full_res_min_spacing,
              "source": self.source}
     return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _coords(g):
+    """x, y, z coordinate values of a grid's points (world units)."""
+    return {name: g.origin[a] + g.spacing[a] * np.arange(g.dims[a]) for a, name in enumerate("xyz")}
+
+
+def _ensemble_to_xarray(self):
+    """The members as an xarray.DataArray (member, z, y, x) with x, y, z coordinates (a copy),
+    what udvr.build takes back."""
+    import xarray as xr
+    return xr.DataArray(self.values, dims=("member", "z", "y", "x"), coords=_coords(self.grid),
+                        name=self.name or "value")
+
+
+def _field_to_xarray(self):
+    """The field as an xarray.DataArray (z, y, x) with x, y, z coordinates (a copy)."""
+    import xarray as xr
+    return xr.DataArray(self.values, dims=("z", "y", "x"), coords=_coords(self.grid),
+                        name=self.name or "value")
 
 
 def _from_xarray(ds):
@@ -457,6 +477,8 @@ def experiment(name, quick=True, out=None, *, dims=0, members=0, image_size=0, r
     return rows, (figure if os.path.exists(figure) else None)
 
 
+Ensemble.to_xarray = _ensemble_to_xarray
+Field.to_xarray = _field_to_xarray
 Model.save = _save
 Model.to_xarray = _to_xarray
 Model.from_xarray = staticmethod(_from_xarray)
