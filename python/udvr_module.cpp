@@ -320,6 +320,15 @@ py::tuple probeOutput(const ProbeResult& r) {
     return py::make_tuple(r.json.dump(2), dist);
 }
 
+// probe at an index-space point with a 1D or 2D TF (uniform_width minmax: `minmax`).
+template <class Tf>
+py::tuple probeAt(const ModelVolume& model, const std::string& kind, const Tf& tf,
+                  std::array<double, 3> point, bool minmax) {
+    ClassifyOptions o;
+    o.uniformMinMax = minmax;
+    return probeOutput(probeModel(model, parseModelKind(kind), tf, point, o));
+}
+
 template <class Tf>
 py::array renderArray(const ModelVolume& model, const std::string& kind, const Tf& tf,
                       const RenderSettings& s) {
@@ -797,24 +806,10 @@ PYBIND11_MODULE(_udvr, m) {
         py::arg("tail_eps"), py::arg("gmm_given"), py::arg("quantiles_given"), py::arg("source"),
         py::arg("progress"));
 
-    m.def(
-        "_probe",
-        [](const ModelVolume& model, const std::string& kind, const TransferFunction1D& tf,
-           std::array<double, 3> point, bool minmax) {
-            ClassifyOptions o;
-            o.uniformMinMax = minmax;
-            return probeOutput(probeModel(model, parseModelKind(kind), tf, point, o));
-        },
-        py::arg("model"), py::arg("kind"), py::arg("tf"), py::arg("point"), py::arg("minmax"));
-    m.def(
-        "_probe",
-        [](const ModelVolume& model, const std::string& kind, const TransferFunction2D& tf,
-           std::array<double, 3> point, bool minmax) {
-            ClassifyOptions o;
-            o.uniformMinMax = minmax;
-            return probeOutput(probeModel(model, parseModelKind(kind), tf, point, o));
-        },
-        py::arg("model"), py::arg("kind"), py::arg("tf"), py::arg("point"), py::arg("minmax"));
+    m.def("_probe", &probeAt<TransferFunction1D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
+          py::arg("point"), py::arg("minmax"));
+    m.def("_probe", &probeAt<TransferFunction2D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
+          py::arg("point"), py::arg("minmax"));
     m.def(
         "_probe_bivariate",
         [](const ModelVolume& first, const ModelVolume& second, const std::string& kind,
