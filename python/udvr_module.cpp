@@ -1,27 +1,40 @@
-// The `udvr` Python module: a thin pybind11 layer over the library (no algorithm of its own).
+// `udvr._udvr`, the compiled half of the Python package `udvr` (python/udvr/): a thin pybind11
+// layer over the library (no algorithm of its own).
 // Arrays cross as NumPy arrays in C order (z, y, x), so x is fastest as in SPEC §1.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <future>
 #include <optional>
+#include <utility>
 
 #include "udvr/classify/model_kind.h"
+#include "udvr/classify/probe.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/noise.h"
 #include "udvr/data/synthetic.h"
+#include "udvr/eval/experiments.h"
+#include "udvr/eval/image_metrics.h"
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/image.h"
 #include "udvr/io/model_io.h"
+#include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/io/transfer_function_io.h"
+#include "udvr/render/camera.h"
+#include "udvr/render/framing.h"
 #include "udvr/render/render.h"
+#include "udvr/stats/build_model.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/build_info.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
+#include "udvr/util/progress.h"
 
 namespace py = pybind11;
 using namespace udvr;
@@ -74,17 +87,39 @@ std::vector<float> voxelValues(const std::optional<FloatArray>& a, const Grid3& 
     return v;
 }
 
-ModelVolume modelFromArrays(const FloatArray& mean, const std::optional<FloatArray>& stddev,
-                            const std::optional<FloatArray>& min,
-                            const std::optional<FloatArray>& max,
-                            const std::optional<FloatArray>& quantiles,
-                            const std::optional<FloatArray>& iqr,
-                            const std::optional<FloatArray>& gmm, std::array<double, 3> origin,
-                            std::array<double, 3> spacing,
-                            const std::optional<std::array<double, 6>>& bounds,
-                            const std::optional<double>& fullResMinSpacing, int downsample,
-                            int samplesPerVoxel, const std::string& density,
-                            const std::string& source, const std::vector<double>& quantileLevels) {
+// An array of real numbers (any real dtype, a list) as C-ordered float32; complex, object,
+// string and date arrays are a TypeError (a cast would drop the imaginary part silently).
+FloatArray realArray(const py::handle& h, const char* name) {
+    py::array a = py::array::ensure(h);
+    const char kind = a ? a.dtype().kind() : 'O';
+    if (kind != 'b' && kind != 'i' && kind != 'u' && kind != 'f')
+        throw py::type_error(std::string(name) +
+                             " must hold real numbers (bool, integer or float), got " +
+                             (a ? "dtype " + std::string(py::str(a.dtype()))
+                                : std::string(py::str(py::type::of(h).attr("__name__")))));
+    return FloatArray::ensure(a);
+}
+
+std::optional<FloatArray> optionalRealArray(const py::object& o, const char* name) {
+    if (o.is_none()) return std::nullopt;
+    return realArray(o, name);
+}
+
+ModelVolume modelFromArrays(
+    const py::object& meanIn, const py::object& stddevIn, const py::object& minIn,
+    const py::object& maxIn, const py::object& quantilesIn, const py::object& iqrIn,
+    const py::object& gmmIn, std::array<double, 3> origin, std::array<double, 3> spacing,
+    const std::optional<std::array<double, 6>>& bounds,
+    const std::optional<double>& fullResMinSpacing, int downsample, int samplesPerVoxel,
+    const std::string& density, const std::string& source, double bandwidth,
+    const std::string& bandwidthRule, double tailEps, const std::vector<double>& quantileLevels) {
+    const FloatArray mean = realArray(meanIn, "Model: mean");
+    const auto stddev = optionalRealArray(stddevIn, "Model: stddev");
+    const auto min = optionalRealArray(minIn, "Model: min");
+    const auto max = optionalRealArray(maxIn, "Model: max");
+    const auto quantiles = optionalRealArray(quantilesIn, "Model: quantiles");
+    const auto iqr = optionalRealArray(iqrIn, "Model: iqr");
+    const auto gmm = optionalRealArray(gmmIn, "Model: gmm");
     ModelVolume mv;
     mv.grid = gridFromShape(mean, 0);
     for (int a = 0; a < 3; ++a) {
@@ -124,16 +159,219 @@ ModelVolume modelFromArrays(const FloatArray& mean, const std::optional<FloatArr
     mv.samplesPerVoxel = samplesPerVoxel;
     mv.density = density;
     mv.source = source;
+    mv.bandwidth = bandwidth;
+    mv.bandwidthRule = bandwidthRule;
+    mv.tailEps = tailEps;
     return mv;
+}
+
+// The per-voxel arrays of SPEC §7 as the Python Model shows them: name, member, values per voxel.
+struct ModelArrayRow {
+    const char* name;
+    std::vector<float> ModelVolume::*values;
+    int (*components)(const ModelVolume&);
+    const char* doc;
+};
+int one(const ModelVolume&) { return 1; }
+const ModelArrayRow kModelArrays[] = {
+    {"mean", &ModelVolume::mean, one, "μ per voxel, (Z, Y, X)"},
+    {"stddev", &ModelVolume::stddev, one, "σ per voxel (ddof = 1), (Z, Y, X)"},
+    {"min", &ModelVolume::min, one, "sample minimum per voxel, (Z, Y, X)"},
+    {"max", &ModelVolume::max, one, "sample maximum per voxel, (Z, Y, X)"},
+    {"quantiles", &ModelVolume::quantiles, [](const ModelVolume& m) { return m.quantileCount + 1; },
+     "boundaries b_0..b_q per voxel, (Z, Y, X, q+1); None when not built"},
+    {"iqr", &ModelVolume::iqr, [](const ModelVolume&) { return 2; },
+     "b(0.25), b(0.75) per voxel, (Z, Y, X, 2); None when not built"},
+    {"gmm", &ModelVolume::gmm, [](const ModelVolume& m) { return 3 * m.gmmComponents; },
+     "π_1..π_K, μ_1..μ_K, σ_1..σ_K per voxel, (Z, Y, X, 3K); None when not built"},
+};
+
+// A read-only NumPy view of one of the model's arrays (no copy): `owner`, the Python Model,
+// stays alive as long as the view does. None where the model has no such array.
+py::object modelView(py::handle owner, const Grid3& g, const std::vector<float>& values,
+                     int components) {
+    if (values.empty()) return py::none();
+    std::vector<py::ssize_t> shape{g.dims[2], g.dims[1], g.dims[0]};
+    if (components > 1) shape.push_back(components);
+    py::ssize_t n = 1;
+    for (py::ssize_t d : shape) n *= d;
+    if (values.size() != static_cast<std::size_t>(n))
+        throw UdvrError("array size does not match the grid");
+    py::array_t<float> a(shape, values.data(), owner);
+    py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+    return a;
+}
+
+// An image as an (H, W, 4) float32 array that owns the image's pixels (moved, not copied).
+py::array imageArray(ImageRgba&& image) {
+    auto* pixels = new std::vector<float>(std::move(image.rgba));
+    py::capsule owner(pixels, [](void* p) { delete static_cast<std::vector<float>*>(p); });
+    return py::array_t<float>({static_cast<py::ssize_t>(image.height),
+                               static_cast<py::ssize_t>(image.width), py::ssize_t{4}},
+                              pixels->data(), owner);
+}
+
+// An (H, W, 4) or (H, W, 3) array (RGB: alpha 1) as an image.
+ImageRgba imageFromArray(const FloatArray& a, const char* name) {
+    if (a.ndim() != 3 || (a.shape(2) != 3 && a.shape(2) != 4) || a.shape(0) < 1 || a.shape(1) < 1)
+        throw UdvrError(std::string(name) + " must be an (H, W, 4) or (H, W, 3) image array");
+    ImageRgba img;
+    img.height = static_cast<int>(a.shape(0));
+    img.width = static_cast<int>(a.shape(1));
+    const auto channels = static_cast<std::size_t>(a.shape(2));
+    img.rgba.resize(static_cast<std::size_t>(img.width) * img.height * 4, 1.f);
+    const float* src = a.data();
+    for (std::size_t p = 0; p < img.rgba.size() / 4; ++p)
+        for (std::size_t c = 0; c < channels; ++c) img.rgba[4 * p + c] = src[channels * p + c];
+    return img;
+}
+
+// Run `work` with the GIL released. With a `progress(done, total)` callable, the work runs on a
+// worker thread while this thread calls it about 10 times a second and once at the end when the
+// work succeeded (on the caller's thread, as notebook widgets want); an exception from it is
+// raised after the work.
+template <class Work>
+auto withProgress(Work work, const ProgressBar& bar, const py::object& progress) {
+    if (progress.is_none()) {
+        py::gil_scoped_release release;
+        return work();
+    }
+    auto future = std::async(std::launch::async, std::move(work));
+    const auto report = [&](std::size_t done) {
+        try {
+            progress(done, bar.total());
+        } catch (...) {
+            py::gil_scoped_release release;
+            future.wait();
+            throw;
+        }
+    };
+    for (;;) {
+        {
+            py::gil_scoped_release release;
+            if (future.wait_for(std::chrono::milliseconds(100)) == std::future_status::ready) break;
+        }
+        report(bar.done());
+    }
+    auto result = [&] {
+        py::gil_scoped_release release;
+        return future.get();  // the work's exception, if any, before 100 % is reported
+    }();
+    report(bar.total());
+    return result;
+}
+
+struct BuildResult {
+    ModelVolume model;
+    BuildReport report;
+};
+
+// `udvr build` from an array: (members, Z, Y, X) ensemble, or a (Z, Y, X) field in K³ bricks
+// (downsample = K ≥ 2). The options are fitted to the samples per voxel as the CLI does;
+// returns (model, warnings, info, dropped planes in x, y, z).
+py::tuple buildFromArray(const FloatArray& values, std::array<double, 3> origin,
+                         std::array<double, 3> spacing, int downsample, BuildOptions opt,
+                         bool gmmGiven, bool quantilesGiven, const py::object& progress) {
+    const bool bricks = downsample != 0;
+    const Grid3 grid = [&] {
+        Grid3 g = gridFromShape(values, bricks ? 0 : 1);
+        g.origin = origin;
+        g.spacing = spacing;
+        return g;
+    }();
+    for (int a = 0; a < 3; ++a)
+        if (!(spacing[a] > 0.0) || !std::isfinite(spacing[a]) || !std::isfinite(origin[a]))
+            throw UdvrError("spacing must be positive and origin finite");
+    const Grid3 model = bricks ? downsampledGrid(grid, downsample) : grid;
+    const long long n = bricks ? 1LL * downsample * downsample * downsample : values.shape(0);
+    const BuildFitNotes notes = fitBuildOptionsToSamples(opt, n, gmmGiven, quantilesGiven);
+    ProgressBar bar("build", model.pointCount(), 0.0, /*draw=*/false);
+    opt.progress = &bar;
+    const float* data = values.data();
+    const auto count = static_cast<std::size_t>(values.size());
+    BuildResult r = withProgress(
+        [&, data, count] {
+            BuildResult out;
+            if (bricks) {
+                ScalarField f{grid, std::vector<float>(data, data + count), "value"};
+                out.model = buildModelDownsampled(f, downsample, opt, &out.report);
+            } else {
+                Ensemble e{grid, static_cast<int>(n), std::vector<float>(data, data + count),
+                           "value"};
+                out.model = buildModel(e, opt, &out.report);
+            }
+            return out;
+        },
+        bar, progress);
+    return py::make_tuple(std::move(r.model), notes.warnings, notes.info, r.report.droppedPlanes);
+}
+
+// What probe returns to Python: (the SPEC §8 JSON text, exactly as `probe --json` prints it,
+// and the distribution's CDF for plots).
+py::tuple probeOutput(const ProbeResult& r) {
+    const ProbeDistribution& d = r.distribution;
+    py::dict dist;
+    dist["lo"] = d.lo;
+    dist["hi"] = d.hi;
+    dist["continuous_mass"] = d.continuousMass;
+    dist["atoms"] = py::array_t<double>(static_cast<py::ssize_t>(d.atoms.size()), d.atoms.data());
+    dist["atom_mass"] =
+        py::array_t<double>(static_cast<py::ssize_t>(d.atomMass.size()), d.atomMass.data());
+    dist["cdf_x"] = py::array_t<double>(static_cast<py::ssize_t>(d.cdfX.size()), d.cdfX.data());
+    dist["cdf_y"] = py::array_t<double>(static_cast<py::ssize_t>(d.cdfY.size()), d.cdfY.data());
+    return py::make_tuple(r.json.dump(2), dist);
+}
+
+// probe at an index-space point with a 1D or 2D TF (uniform_width minmax: `minmax`).
+template <class Tf>
+py::tuple probeAt(const ModelVolume& model, const std::string& kind, const Tf& tf,
+                  std::array<double, 3> point, bool minmax) {
+    ClassifyOptions o;
+    o.uniformMinMax = minmax;
+    return probeOutput(probeModel(model, parseModelKind(kind), tf, point, o));
+}
+
+template <class Tf>
+py::array renderArray(const ModelVolume& model, const std::string& kind, const Tf& tf,
+                      const RenderSettings& s) {
+    const ModelKind k = parseModelKind(kind);
+    ImageRgba img;
+    {
+        py::gil_scoped_release release;
+        img = renderVolume(model, k, tf, s);
+    }
+    return imageArray(std::move(img));
+}
+
+py::dict resultRowDict(const ResultRow& r) {
+    py::dict d;
+    d["experiment"] = r.experiment;
+    d["label"] = r.label;
+    d["model"] = r.model;
+    d["quantiles"] = r.quantiles;
+    d["gmm_components"] = r.gmmComponents;
+    d["density"] = r.density;
+    d["members"] = r.members;
+    d["rmse"] = r.rmse;
+    d["render_ms"] = r.renderMs;
+    d["memory_ratio"] = r.memoryRatio;
+    d["image"] = r.image;
+    return d;
 }
 
 }  // namespace
 
-PYBIND11_MODULE(udvr, m) {
-    m.doc() = "udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021)";
+PYBIND11_MODULE(_udvr, m) {
+    m.doc() =
+        "udvr's compiled core (the package `udvr` wraps it): direct volume rendering of "
+        "uncertain data (Athawale et al., TVCG 2021)";
+    m.attr("__version__") = std::string(udvr::build::kVersion);  // as `udvr --version`
     // e.g. "target native: AVX-512, 16-float lanes in 1 register of 512 bits" (as `udvr --version`)
     m.attr("__build__") = std::string(udvr::build::buildDescription());
+    // C++ user errors arrive with the CLI's message: files as OSError, the rest as ValueError
+    // (pybind11 tries the translator registered last first).
     py::register_exception<UdvrError>(m, "UdvrError", PyExc_ValueError);
+    py::register_exception<FileError>(m, "FileError", PyExc_OSError);
 
     py::class_<Grid3>(m, "Grid")
         .def(py::init<>())
@@ -147,8 +385,9 @@ PYBIND11_MODULE(udvr, m) {
         });
 
     py::class_<ScalarField>(m, "Field")
-        .def(py::init([](const FloatArray& values, std::array<double, 3> origin,
+        .def(py::init([](const py::object& valuesIn, std::array<double, 3> origin,
                          std::array<double, 3> spacing, std::string name) {
+                 const FloatArray values = realArray(valuesIn, "Field: values");
                  ScalarField f;
                  f.grid = gridFromShape(values, 0);
                  f.grid.origin = origin;
@@ -169,6 +408,7 @@ PYBIND11_MODULE(udvr, m) {
     py::class_<Ensemble>(m, "Ensemble")
         .def_readwrite("grid", &Ensemble::grid)
         .def_readonly("members", &Ensemble::members)
+        .def_readonly("name", &Ensemble::name)
         .def_property_readonly(
             "values",
             [](const Ensemble& e) {
@@ -181,7 +421,8 @@ PYBIND11_MODULE(udvr, m) {
             },
             "the members as a (members, Z, Y, X) float32 array (a copy)");
 
-    py::class_<ModelVolume>(m, "Model")
+    py::class_<ModelVolume> modelClass(m, "Model");
+    modelClass
         .def(py::init(&modelFromArrays), py::arg("mean"), py::kw_only(),
              py::arg("stddev") = py::none(), py::arg("min") = py::none(),
              py::arg("max") = py::none(), py::arg("quantiles") = py::none(),
@@ -190,12 +431,15 @@ PYBIND11_MODULE(udvr, m) {
              py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("bounds") = py::none(),
              py::arg("full_res_min_spacing") = py::none(), py::arg("downsample") = 0,
              py::arg("samples_per_voxel") = 0, py::arg("density") = "empirical",
-             py::arg("source") = "python", py::arg("quantile_levels") = std::vector<double>{},
+             py::arg("source") = "python", py::arg("bandwidth") = 0.0,
+             py::arg("bandwidth_rule") = "", py::arg("tail_eps") = 0.0,
+             py::arg("quantile_levels") = std::vector<double>{},
              "a model from NumPy arrays of shape (Z, Y, X[, components]): mean (required), "
              "stddev, min, max (default: mean), quantiles (Z,Y,X,q+1), iqr (Z,Y,X,2), gmm "
              "(Z,Y,X,3K: pi_1..pi_K, mu_1..mu_K, sigma_1..sigma_K); bounds (xmin,xmax,ymin,ymax,"
              "zmin,zmax) and full_res_min_spacing default to the model grid's")
-        .def_readwrite("grid", &ModelVolume::grid)
+        .def_property_readonly(
+            "grid", [](const ModelVolume& mv) { return mv.grid; }, "the model's grid (a copy)")
         .def_readonly("quantile_count", &ModelVolume::quantileCount)
         .def_property_readonly(
             "quantile_levels",
@@ -212,25 +456,150 @@ PYBIND11_MODULE(udvr, m) {
         .def_readonly("downsample", &ModelVolume::downsample)
         .def_readonly("bounds", &ModelVolume::bounds)
         .def_readonly("full_res_min_spacing", &ModelVolume::fullResMinSpacing)
+        .def_readonly("bandwidth", &ModelVolume::bandwidth, "kde: median h over voxels, else 0")
+        .def_readonly("bandwidth_rule", &ModelVolume::bandwidthRule)
+        .def_readonly("tail_eps", &ModelVolume::tailEps)
+        .def_readonly("source", &ModelVolume::source)
         .def(
             "array",
             [](const ModelVolume& mv, const std::string& name) {
-                if (name == "mean") return voxelArray(mv.grid, mv.mean, 1);
-                if (name == "stddev") return voxelArray(mv.grid, mv.stddev, 1);
-                if (name == "min") return voxelArray(mv.grid, mv.min, 1);
-                if (name == "max") return voxelArray(mv.grid, mv.max, 1);
-                if (name == "quantiles")
-                    return voxelArray(mv.grid, mv.quantiles, mv.quantileCount + 1);
-                if (name == "iqr") return voxelArray(mv.grid, mv.iqr, 2);
-                if (name == "gmm") return voxelArray(mv.grid, mv.gmm, 3 * mv.gmmComponents);
+                for (const ModelArrayRow& r : kModelArrays)
+                    if (name == r.name) return voxelArray(mv.grid, mv.*r.values, r.components(mv));
                 throw UdvrError("unknown model array '" + name +
                                 "'; expected mean, stddev, min, max, quantiles, iqr or gmm");
             },
-            py::arg("name"), "a per-voxel array as (Z, Y, X[, components])");
+            py::arg("name"), "a per-voxel array as (Z, Y, X[, components]) (a copy)");
+    for (const ModelArrayRow& r : kModelArrays)
+        modelClass.def_property_readonly(
+            r.name,
+            [r](py::object self) {
+                const auto& mv = self.cast<const ModelVolume&>();
+                return modelView(self, mv.grid, mv.*r.values, r.components(mv));
+            },
+            (std::string(r.doc) + ": a read-only view of the model's memory (no copy)").c_str());
 
     py::class_<TransferFunction1D>(m, "TransferFunction")
+        .def(py::init([](const std::vector<std::array<double, 4>>& colors,
+                         const std::vector<std::array<double, 2>>& opacities) {
+                 TransferFunction1D tf;
+                 for (const auto& c : colors) {
+                     tf.colorX.push_back(c[0]);
+                     tf.color.push_back({c[1], c[2], c[3]});
+                 }
+                 for (const auto& o : opacities) {
+                     tf.opacityX.push_back(o[0]);
+                     tf.opacity.push_back(o[1]);
+                 }
+                 tf.validate();
+                 return tf;
+             }),
+             py::arg("colors"), py::arg("opacities"),
+             "a 1D TF from control points: colors [(x, r, g, b), ...], opacities [(x, alpha), "
+             "...], x ascending (a repeated x makes a step), values in [0, 1] (SPEC §4)")
+        .def_static("from_json", &parseTransferFunction, py::arg("text"),
+                    py::arg("what") = "transfer function JSON",
+                    "a TF from ParaView JSON text (RGBPoints, Points)")
+        .def_static("read", &readTransferFunction, py::arg("path"),
+                    "a TF from a ParaView JSON file")
+        .def_static("preset", &transferFunctionPreset, py::arg("name"), py::arg("range"),
+                    py::arg("ramp_start"),
+                    "a named preset over [range[0], range[1]]: opacity 0 below ramp_start, "
+                    "then rising to 0.5")
+        .def_static(
+            "preset_over",
+            [](const std::string& name, const py::object& valuesIn,
+               std::optional<std::array<double, 2>> range) {
+                const FloatArray values = realArray(valuesIn, "values");
+                if (range && !((*range)[0] < (*range)[1])) throw UdvrError("range expects lo < hi");
+                return transferFunctionPresetOver(
+                           name,
+                           std::span<const float>(values.data(),
+                                                  static_cast<std::size_t>(values.size())),
+                           range)
+                    .tf;
+            },
+            py::arg("name"), py::arg("values"), py::arg("range") = py::none(),
+            "the preset `udvr render` uses without --tf: over the values' 0.5-99.5th "
+            "percentiles (or `range`), opacity rising from their median")
+        .def_static("preset_names", &transferFunctionPresetNames)
+        .def("to_json", &transferFunctionToJson, py::arg("name") = "udvr",
+             "ParaView JSON text (as `--save-tf` writes)")
+        .def_property_readonly(
+            "colors",
+            [](const TransferFunction1D& tf) {
+                std::vector<std::array<double, 4>> v;
+                for (std::size_t i = 0; i < tf.colorX.size(); ++i)
+                    v.push_back({tf.colorX[i], tf.color[i][0], tf.color[i][1], tf.color[i][2]});
+                return v;
+            },
+            "colour control points [(x, r, g, b), ...]")
+        .def_property_readonly(
+            "opacities",
+            [](const TransferFunction1D& tf) {
+                std::vector<std::array<double, 2>> v;
+                for (std::size_t i = 0; i < tf.opacityX.size(); ++i)
+                    v.push_back({tf.opacityX[i], tf.opacity[i]});
+                return v;
+            },
+            "opacity control points [(x, alpha), ...]")
+        .def(
+            "__call__",
+            [](const TransferFunction1D& tf, const py::array_t<double, py::array::forcecast>& x) {
+                // (..., 4): straight colour and opacity (r, g, b, α) at each x.
+                std::vector<py::ssize_t> shape(x.shape(), x.shape() + x.ndim());
+                shape.push_back(4);
+                py::array_t<double> out(shape);
+                const double* in = x.data();
+                double* o = out.mutable_data();
+                for (py::ssize_t i = 0; i < x.size(); ++i) {
+                    const auto c = tf.colorAt(in[i]);
+                    o[4 * i] = c[0];
+                    o[4 * i + 1] = c[1];
+                    o[4 * i + 2] = c[2];
+                    o[4 * i + 3] = tf.opacityAt(in[i]);
+                }
+                return out;
+            },
+            py::arg("x"), "(r, g, b, alpha) at each x: an array of shape x.shape + (4,)")
         .def("classify", &TransferFunction1D::classify)
         .def("domain", &TransferFunction1D::domain);
+
+    py::class_<TransferFunction2D>(m, "TransferFunction2D")
+        .def_static(
+            "read",
+            [](const std::filesystem::path& path, std::optional<std::array<double, 4>> domain,
+               std::optional<std::array<int, 2>> resolution) {
+                Tf2ReadOptions o;
+                o.domain = domain;
+                o.resolution = resolution;
+                return readTransferFunction2D(path, o);
+            },
+            py::arg("path"), py::arg("domain") = py::none(), py::arg("resolution") = py::none(),
+            "a 2D TF (SPEC §9) from a raster .vti, an .npy with domain=(x0, x1, y0, y1), or a "
+            "widget .json (rasterised at resolution=(W, H))")
+        .def_static(
+            "from_widgets",
+            [](const std::string& json, std::optional<std::array<int, 2>> resolution) {
+                Tf2ReadOptions o;
+                o.resolution = resolution;
+                return transferFunction2DFromWidgets(json, "widget JSON", o);
+            },
+            py::arg("json"), py::arg("resolution") = py::none(),
+            "a 2D TF from widget JSON text (docs/formats.md)")
+        .def_readonly("x0", &TransferFunction2D::x0)
+        .def_readonly("x1", &TransferFunction2D::x1)
+        .def_readonly("y0", &TransferFunction2D::y0)
+        .def_readonly("y1", &TransferFunction2D::y1)
+        .def_property_readonly(
+            "raster",
+            [](const TransferFunction2D& tf) {
+                FloatArray a({static_cast<py::ssize_t>(tf.height),
+                              static_cast<py::ssize_t>(tf.width), py::ssize_t{4}});
+                std::memcpy(a.mutable_data(), tf.rgba.data(), tf.rgba.size() * sizeof(float));
+                return a;
+            },
+            "(H, W, 4) r, g, b, alpha; row 0 at y0, column 0 at x0 (a copy)")
+        .def("classify", &TransferFunction2D::classify, py::arg("x"), py::arg("y"));
     py::class_<Rgba>(m, "Rgba")
         .def_readonly("r", &Rgba::r)
         .def_readonly("g", &Rgba::g)
@@ -288,6 +657,24 @@ PYBIND11_MODULE(udvr, m) {
         py::arg("inputs"), py::arg("var") = "", py::arg("member_dim") = "");
     m.def("write_ensemble", &writeEnsembleNetcdf, py::arg("path"), py::arg("ensemble"));
     m.def("read_model", &readModelVti, py::arg("path"));
+    m.def(
+        "_read_model_or_field",
+        [](const std::filesystem::path& path, const std::string& var) {
+            FieldReadOptions o;
+            o.var = var;
+            return readModelOrField(path, o);
+        },
+        py::arg("path"), py::arg("var") = "");
+    m.def(
+        "_regular_axis",
+        [](const std::vector<double>& coords, const std::string& what) {
+            if (coords.empty()) throw UdvrError(what + " is empty");
+            return regularAxis(coords, what);
+        },
+        py::arg("coords"), py::arg("what"));
+    m.def(
+        "_check_model", [](const std::string& name) { parseModelKind(name); }, py::arg("name"),
+        "raises ValueError (the CLI's message) unless `name` is a model");
     m.def("write_model", &writeModelVti, py::arg("path"), py::arg("model"));
     m.def("model_from_field", &modelFromField, py::arg("field"));
     m.def("read_transfer_function", &readTransferFunction, py::arg("path"));
@@ -296,32 +683,225 @@ PYBIND11_MODULE(udvr, m) {
         for (ModelKind k : allModelKinds()) names.emplace_back(modelName(k));
         return names;
     });
+    py::class_<Camera>(m, "Camera")
+        .def(py::init([](std::array<double, 3> position, std::array<double, 3> focalPoint,
+                         std::array<double, 3> viewUp, double viewAngle,
+                         std::optional<double> parallelScale) {
+                 Camera c;
+                 c.position = position;
+                 c.focalPoint = focalPoint;
+                 c.viewUp = viewUp;
+                 c.viewAngleDeg = viewAngle;
+                 if (parallelScale) {
+                     if (!(*parallelScale > 0.0))
+                         throw UdvrError("parallel_scale must be > 0, got " +
+                                         std::to_string(*parallelScale));
+                     c.parallel = true;
+                     c.parallelScale = *parallelScale;
+                 }
+                 makeCameraFrame(c, 1, 1);  // refuses a degenerate camera now, not at render
+                 return c;
+             }),
+             py::kw_only(), py::arg("position"), py::arg("focal_point"),
+             py::arg("view_up") = std::array<double, 3>{0, 1, 0}, py::arg("view_angle") = 30.0,
+             py::arg("parallel_scale") = py::none(),
+             "a VTK camera, world units (SPEC §5): perspective with view_angle (degrees, "
+             "vertical), orthographic with parallel_scale (half the view height)")
+        .def_readwrite("position", &Camera::position)
+        .def_readwrite("focal_point", &Camera::focalPoint)
+        .def_readwrite("view_up", &Camera::viewUp)
+        .def_readwrite("view_angle", &Camera::viewAngleDeg)
+        .def_readwrite("parallel", &Camera::parallel)
+        .def_readwrite("parallel_scale", &Camera::parallelScale)
+        .def_static("default", &defaultCamera, py::arg("bounds"), py::arg("azimuth") = 30.0,
+                    py::arg("elevation") = 20.0, py::arg("zoom") = 1.0,
+                    py::arg("view_angle") = 30.0,
+                    "SPEC §5's default camera for a box (xmin,xmax,ymin,ymax,zmin,zmax): what "
+                    "`udvr render --tf FILE` uses")
+        .def_static(
+            "framed",
+            [](std::array<double, 6> box, const std::string& view, std::optional<double> azimuth,
+               std::optional<double> elevation, double zoom, double viewAngle, double aspect) {
+                // As `udvr render --view/--frame`: the z-up front view turned 30°, raised 20°;
+                // an axis view straight along its axis.
+                const ViewDirection v = view.empty() ? kZUpFrontView : parseViewDirection(view);
+                return framedCamera(box, v, azimuth.value_or(view.empty() ? 30.0 : 0.0),
+                                    elevation.value_or(view.empty() ? 20.0 : 0.0), zoom, viewAngle,
+                                    aspect);
+            },
+            py::arg("box"), py::arg("view") = "", py::arg("azimuth") = py::none(),
+            py::arg("elevation") = py::none(), py::arg("zoom") = 1.0, py::arg("view_angle") = 30.0,
+            py::arg("aspect") = 1.0,
+            "a camera that frames `box` (e.g. visible_bounds): view '' (z up, front) or "
+            "+x|-x|+y|-y|+z|-z")
+        .def("__repr__", [](const Camera& c) {
+            char text[320];
+            std::snprintf(text, sizeof text,
+                          "Camera(position=(%g, %g, %g), focal_point=(%g, %g, %g), view_up=(%g, "
+                          "%g, %g), %s=%g)",
+                          c.position[0], c.position[1], c.position[2], c.focalPoint[0],
+                          c.focalPoint[1], c.focalPoint[2], c.viewUp[0], c.viewUp[1], c.viewUp[2],
+                          c.parallel ? "parallel_scale" : "view_angle",
+                          c.parallel ? c.parallelScale : c.viewAngleDeg);
+            return std::string(text);
+        });
     m.def(
-        "render",
-        [](const ModelVolume& model, const std::string& kind, const TransferFunction1D& tf,
-           std::array<int, 2> size, double azimuth, double elevation, double zoom, double step,
-           int realizations, std::uint64_t seed) {
-            RenderSettings s;
-            s.width = size[0];
-            s.height = size[1];
-            s.camera = defaultCamera(model.bounds, azimuth, elevation, zoom);
-            s.step = step;
-            s.realizations = realizations;
-            s.seed = seed;
-            ModelKind k = parseModelKind(kind);
+        "visible_bounds",
+        [](const ModelVolume& model, const TransferFunction1D& tf) {
+            return visibleBounds(model, tf);
+        },
+        py::arg("model"), py::arg("tf"),
+        "the box of the voxels the TF makes visible (what the CLI's framed camera fits)");
+    m.def(
+        "visible_bounds",
+        [](const ModelVolume& model, const TransferFunction2D& tf) {
+            return visibleBounds(model, tf);
+        },
+        py::arg("model"), py::arg("tf"));
+
+    py::class_<RenderSettings>(m, "RenderSettings")
+        .def(py::init<>())
+        .def_readwrite("width", &RenderSettings::width)
+        .def_readwrite("height", &RenderSettings::height)
+        .def_readwrite("camera", &RenderSettings::camera)
+        .def_readwrite("step", &RenderSettings::step, "world units; 0: half the smallest spacing")
+        .def_readwrite("unit_distance", &RenderSettings::unitDistance, "world units; 0: default")
+        .def_readwrite("early_exit", &RenderSettings::earlyExit)
+        .def_readwrite("background", &RenderSettings::background)
+        .def_readwrite("skip_empty", &RenderSettings::skipEmpty)
+        .def_readwrite("realizations", &RenderSettings::realizations)
+        .def_readwrite("seed", &RenderSettings::seed)
+        .def_readwrite("jitter_seed", &RenderSettings::jitterSeed)
+        .def_readwrite("uniform_minmax", &RenderSettings::uniformMinMax);
+    m.def("_render", &renderArray<TransferFunction1D>, py::arg("model"), py::arg("kind"),
+          py::arg("tf"), py::arg("settings"));
+    m.def("_render", &renderArray<TransferFunction2D>, py::arg("model"), py::arg("kind"),
+          py::arg("tf"), py::arg("settings"));
+    m.def(
+        "_render_bivariate",
+        [](const ModelVolume& first, const ModelVolume& second, const std::string& kind,
+           const TransferFunction2D& tf, const RenderSettings& s) {
+            const ModelKind k = parseModelKind(kind);
             ImageRgba img;
             {
                 py::gil_scoped_release release;
-                img = renderVolume(model, k, tf, s);
+                img = renderBivariate(first, second, k, tf, s);
             }
-            FloatArray a({static_cast<py::ssize_t>(img.height), static_cast<py::ssize_t>(img.width),
-                          py::ssize_t{4}});
-            std::memcpy(a.mutable_data(), img.rgba.data(), img.rgba.size() * sizeof(float));
-            return a;
+            return imageArray(std::move(img));
         },
-        py::arg("model"), py::arg("kind"), py::arg("tf"),
-        py::arg("size") = std::array<int, 2>{512, 512}, py::arg("azimuth") = 30.0,
-        py::arg("elevation") = 20.0, py::arg("zoom") = 1.0, py::arg("step") = 0.0,
-        py::arg("realizations") = 200, py::arg("seed") = 1,
-        "render with the default camera; returns an (H, W, 4) float32 RGBA array");
+        py::arg("first"), py::arg("second"), py::arg("kind"), py::arg("tf"), py::arg("settings"));
+
+    m.def(
+        "_build",
+        [](const FloatArray& values, std::array<double, 3> origin, std::array<double, 3> spacing,
+           int downsample, int quantiles, int gmm, const std::string& density,
+           const std::string& bandwidth, std::optional<double> tailEps, bool gmmGiven,
+           bool quantilesGiven, const std::string& source, const py::object& progress,
+           const std::vector<double>& levels) {
+            BuildOptions opt;
+            opt.quantiles = quantiles;
+            if (!levels.empty()) {  // as build --quantile-levels: q from their count
+                const int q = static_cast<int>(levels.size()) - 1;
+                if (quantilesGiven && quantiles != q)
+                    UDVR_FAIL("--quantiles " << quantiles << " disagrees with the " << q + 1
+                                             << " values of --quantile-levels (q + 1 boundaries)");
+                opt.quantiles = q;
+                opt.quantileLevels = levels;
+            }
+            opt.gmmComponents = gmm;
+            opt.density = parseDensityEstimate(density);
+            opt.bandwidthText = bandwidth;
+            if (opt.density == DensityEstimate::Kde) opt.bandwidth = parseBandwidth(bandwidth);
+            if (tailEps) {
+                if (!(*tailEps > 0.0))
+                    UDVR_FAIL("--tail-eps " << *tailEps
+                                            << " is out of range; expected 0 < E < 0.5");
+                opt.tailEps = *tailEps;
+            }
+            opt.source = source;
+            return buildFromArray(values, origin, spacing, downsample, opt, gmmGiven,
+                                  quantilesGiven, progress);
+        },
+        py::arg("values"), py::arg("origin"), py::arg("spacing"), py::arg("downsample"),
+        py::arg("quantiles"), py::arg("gmm"), py::arg("density"), py::arg("bandwidth"),
+        py::arg("tail_eps"), py::arg("gmm_given"), py::arg("quantiles_given"), py::arg("source"),
+        py::arg("progress"), py::arg("quantile_levels") = std::vector<double>{});
+
+    m.def("_probe", &probeAt<TransferFunction1D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
+          py::arg("point"), py::arg("minmax"));
+    m.def("_probe", &probeAt<TransferFunction2D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
+          py::arg("point"), py::arg("minmax"));
+    m.def(
+        "_probe_bivariate",
+        [](const ModelVolume& first, const ModelVolume& second, const std::string& kind,
+           const TransferFunction2D& tf, std::array<double, 3> point, bool minmax) {
+            ClassifyOptions o;
+            o.uniformMinMax = minmax;
+            return probeOutput(probeBivariate(first, second, parseModelKind(kind), tf, point, o));
+        },
+        py::arg("first"), py::arg("second"), py::arg("kind"), py::arg("tf"), py::arg("point"),
+        py::arg("minmax"));
+    m.def("index_from_world", &indexFromWorld, py::arg("grid"), py::arg("world"),
+          py::arg("what") = "world point",
+          "index-space point of a world position (ValueError outside the grid)");
+
+    m.def(
+        "rmse",
+        [](const FloatArray& model, const FloatArray& truth) {
+            return imageRmse(imageFromArray(model, "model image"),
+                             imageFromArray(truth, "truth image"));
+        },
+        py::arg("model"), py::arg("truth"),
+        "SPEC §6: sqrt(mean over pixels of |mean(RGB) - mean(RGB of truth)|^2), as `udvr "
+        "compare`");
+    m.def(
+        "read_image", [](const std::filesystem::path& path) { return imageArray(readImage(path)); },
+        py::arg("path"), "a .png, .npy or .pfm image as an (H, W, 4) float32 array in [0, 1]");
+    m.def(
+        "difference_image",
+        [](const FloatArray& model, const FloatArray& truth, double maxDiff) {
+            return imageArray(differenceImage(imageFromArray(model, "model image"),
+                                              imageFromArray(truth, "truth image"), maxDiff));
+        },
+        py::arg("model"), py::arg("truth"), py::arg("max_diff") = 0.0,
+        "the blue-yellow difference image of `udvr compare --diff` as an (H, W, 4) array; "
+        "max_diff <= 0: the largest difference is full yellow");
+
+    m.def("experiment_names", &experimentNames);
+    m.def(
+        "_experiment",
+        [](const std::string& name, const std::filesystem::path& out, bool quick,
+           const std::filesystem::path& tfDir, const std::filesystem::path& dataDir, int dims,
+           int members, int imageSize, int realizations, bool log) {
+            ExperimentOptions o;
+            o.quick = quick;
+            o.tfDir = tfDir;
+            o.dataDir = dataDir;
+            o.dims = dims;
+            o.members = members;
+            o.imageSize = imageSize;
+            o.realizations = realizations;
+            o.log = log;
+            std::vector<ExperimentResult> results;
+            {
+                py::gil_scoped_release release;
+                results = runExperiments(name, out, o);
+            }
+            py::list list;
+            for (const ExperimentResult& r : results) {
+                py::dict d;
+                d["name"] = r.name;
+                d["dir"] = r.dir;
+                py::list rows;
+                for (const ResultRow& row : r.rows) rows.append(resultRowDict(row));
+                d["rows"] = rows;
+                d["files"] = r.files;
+                d["seconds"] = r.seconds;
+                list.append(d);
+            }
+            return list;
+        },
+        py::arg("name"), py::arg("out"), py::arg("quick"), py::arg("tf_dir"), py::arg("data_dir"),
+        py::arg("dims"), py::arg("members"), py::arg("image_size"), py::arg("realizations"),
+        py::arg("log"));
 }

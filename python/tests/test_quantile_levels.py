@@ -168,3 +168,17 @@ def test_quartile_view_needs_its_levels(tmp_path):
     r = run_udvr("probe", tmp_path / "m.vti", "--point", "1,1,1", "--model", "quartile-lower",
                  "--json")
     assert r.returncode != 0 and "levels 0 and 0.25" in r.stderr, r.stderr
+
+
+def test_python_build_with_levels_equals_the_cli_and_keeps_them_through_xarray(tmp_path):
+    rng = np.random.default_rng(12)
+    mem = trb.random_members(rng, [4, 3, 5], 12)
+    cli = trb.build(tmp_path, mem, "--quantile-levels", LEVELS_TEXT)
+    py = udvr.build(mem, gmm=0, quantile_levels=LEVELS, origin=[0.5, -1.0, 2.0],
+                    spacing=[1.0, 0.5, 2.0], progress=False)
+    assert np.array_equal(py.quantiles, cli.array("quantiles"))
+    np.testing.assert_array_equal(py.quantile_levels, LEVELS)
+    back = udvr.Model.from_xarray(py.to_xarray())
+    np.testing.assert_array_equal(back.quantile_levels, LEVELS)
+    with pytest.raises(ValueError, match="disagrees"):
+        udvr.build(mem, quantiles=4, gmm=0, quantile_levels=LEVELS, progress=False)

@@ -201,7 +201,7 @@ struct Describe {
 namespace {
 
 // The cell of an index-space probe point (inside the grid, else UdvrError) and the SPEC §8
-// fields every probe prints: model, point, corners, value.
+// fields every probe prints: model, point, world, grid_dims, corners, value.
 Cell<double> probeCell(const ModelVolume& model, const ModelFamily& family,
                        const std::array<double, 3>& point, json& j) {
     if (family.realizations)
@@ -220,6 +220,8 @@ Cell<double> probeCell(const ModelVolume& model, const ModelFamily& family,
                        static_cast<float>(point[2]));
     j["model"] = std::string(family.name);
     j["point"] = {point[0], point[1], point[2]};
+    j["world"] = worldFromIndex(model.grid, point);
+    j["grid_dims"] = model.grid.dims;
     double weights[8];
     trilinearWeights(cell, weights);
     json corners = json::array();
@@ -398,6 +400,25 @@ ProbeResult probeBivariate(const ModelVolume& first, const ModelVolume& second, 
         Describe{family, cell, r.json, r.distribution}(k);
     });
     return r;
+}
+
+std::array<double, 3> worldFromIndex(const Grid3& g, const std::array<double, 3>& index) {
+    std::array<double, 3> w{};
+    for (int a = 0; a < 3; ++a) w[a] = g.origin[a] + index[a] * g.spacing[a];
+    return w;
+}
+
+std::array<double, 3> indexFromWorld(const Grid3& g, const std::array<double, 3>& world,
+                                     const std::string& what) {
+    std::array<double, 3> p{};
+    for (int a = 0; a < 3; ++a) {
+        p[a] = (world[a] - g.origin[a]) / g.spacing[a];
+        const double top = g.origin[a] + (g.dims[a] - 1) * g.spacing[a];
+        if (!(p[a] >= 0.0 && p[a] <= g.dims[a] - 1))
+            UDVR_FAIL(what << " is outside the input's grid: "
+                           << "xyz"[a] << " must lie in [" << g.origin[a] << ", " << top << "]");
+    }
+    return p;
 }
 
 }  // namespace udvr

@@ -3,6 +3,7 @@
 // at one index-space point, as data for JSON, a summary and a PDF plot.
 #include <array>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "udvr/classify/model_families.h"
@@ -25,7 +26,7 @@ struct ProbeResult {
     ModelKind kind;
     std::array<double, 3> point;  // index space
     Rgba expected;        // (E[α·r], E[α·g], E[α·b], E[α]), before opacity correction
-    nlohmann::json json;  // SPEC §8 object: model, point, expected_rgba, distribution
+    nlohmann::json json;  // SPEC §8 object: model, point, world, grid_dims, expected_rgba, …
     ProbeDistribution distribution;
 };
 
@@ -46,5 +47,12 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
 ProbeResult probeBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
                            const TransferFunction2D& tf, const std::array<double, 3>& point,
                            const ClassifyOptions& options = {});
+
+/// World position of an index-space point: origin + index·spacing (SPEC §1).
+std::array<double, 3> worldFromIndex(const Grid3& grid, const std::array<double, 3>& index);
+/// Index-space point of a world position; throws UdvrError naming `what` ("--world 1,2,3")
+/// when it lies outside the grid.
+std::array<double, 3> indexFromWorld(const Grid3& grid, const std::array<double, 3>& world,
+                                     const std::string& what);
 
 }  // namespace udvr

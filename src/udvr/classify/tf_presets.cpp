@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "udvr/stats/value_summary.h"
 #include "udvr/util/check.h"
 
 namespace udvr {
@@ -95,6 +96,17 @@ TransferFunction1D transferFunctionPreset(std::string_view name, std::array<doub
     }
     tf.validate();
     return tf;
+}
+
+PresetOverValues transferFunctionPresetOver(std::string_view name, std::span<const float> values,
+                                            const std::optional<std::array<double, 2>>& range) {
+    const ValueSummary summary = summarizeValues(values);
+    PresetOverValues p;
+    p.range = range ? *range : robustRange(summary);
+    p.constant = !(summary.max > summary.min);
+    p.rampStart = p.constant ? p.range[0] : summary.percentile(50);
+    p.tf = transferFunctionPreset(name, p.range, p.rampStart);
+    return p;
 }
 
 }  // namespace udvr

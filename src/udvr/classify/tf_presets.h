@@ -2,6 +2,8 @@
 // Named transfer-function presets (ParaView-like colour maps with an opacity ramp) spread over a
 // value range: what `udvr render` uses when no --tf is given, and what `--tf NAME` picks.
 #include <array>
+#include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,5 +26,20 @@ bool isTransferFunctionPreset(std::string_view name);
 /// rampStart is clamped into the range.
 TransferFunction1D transferFunctionPreset(std::string_view name, std::array<double, 2> range,
                                           double rampStart);
+
+/// A preset spread over data (what `render`/`probe` use without --tf): the TF and what it was
+/// made from, for the note the front end prints.
+struct PresetOverValues {
+    TransferFunction1D tf;
+    std::array<double, 2> range{};  // the values' 0.5–99.5th percentiles, or the given range
+    double rampStart = 0.0;         // the values' median (range[0] for a constant volume)
+    bool constant = false;          // all values equal: the ramp rises over the whole range
+};
+/// The preset `name` over `range` (default: robustRange of `values`, which must be finite and
+/// non-empty), its opacity ramp starting at the values' median. A constant volume would be
+/// clear with the ramp starting at its value, so its ramp starts at the bottom of the range and
+/// the volume shows as a translucent box.
+PresetOverValues transferFunctionPresetOver(std::string_view name, std::span<const float> values,
+                                            const std::optional<std::array<double, 2>>& range);
 
 }  // namespace udvr

@@ -26,41 +26,15 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-/// Fit the GMM and quantile counts to n samples per voxel, check every option against n, then
-/// say what was fitted on stderr (after the check, so an error stays the one line): a
-/// K-component GMM needs n >= K samples (fitGmm), so a larger K is lowered to n; empirical
-/// quantiles with q > n only interpolate between the n order statistics (kde quantiles come
-/// from the smooth density, so they are not mentioned). An explicit --gmm or --quantiles gets a
-/// warning line each; the defaults one `build:` info line together.
+/// Fit the options to n samples per voxel (the library's rule) and say what was fitted on
+/// stderr (after the check, so an error stays the one line).
 void fitOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven, bool quantilesGiven) {
-    const int n = static_cast<int>(std::min<long long>(samples, 1 << 30));
-    std::vector<std::string> warnings;
-    std::string info;
-    if (n >= 2 && opt.gmmComponents > n && opt.gmmComponents <= kMaxGmmComponents) {
-        if (gmmGiven)
-            warnings.push_back("--gmm " + std::to_string(opt.gmmComponents) + " needs at least " +
-                               std::to_string(opt.gmmComponents) +
-                               " samples per voxel, the input has " + std::to_string(n) +
-                               ": GMM K lowered from " + std::to_string(opt.gmmComponents) +
-                               " to " + std::to_string(n));
-        else
-            info += "GMM K lowered from " + std::to_string(opt.gmmComponents) + " to " +
-                    std::to_string(n);
-        opt.gmmComponents = n;
-    }
-    if (n >= 2 && opt.density == DensityEstimate::Empirical && opt.quantiles > n) {
-        const std::string text = "the " + std::to_string(opt.quantiles + 1) +
-                                 " quantile boundaries interpolate between only " +
-                                 std::to_string(n) + " sample values";
-        if (quantilesGiven)
-            warnings.push_back("--quantiles " + std::to_string(opt.quantiles) + " with " +
-                               std::to_string(n) + " samples per voxel: " + text);
-        else
-            info += (info.empty() ? "" : "; ") + text;
-    }
-    validateBuildOptions(opt, n);
-    for (const std::string& w : warnings) std::fprintf(stderr, "udvr: warning: %s\n", w.c_str());
-    if (!info.empty()) std::fprintf(stderr, "build: %d samples per voxel: %s\n", n, info.c_str());
+    const BuildFitNotes notes = fitBuildOptionsToSamples(opt, samples, gmmGiven, quantilesGiven);
+    for (const std::string& w : notes.warnings)
+        std::fprintf(stderr, "udvr: warning: %s\n", w.c_str());
+    if (!notes.info.empty())
+        std::fprintf(stderr, "build: %d samples per voxel: %s\n",
+                     static_cast<int>(std::min<long long>(samples, 1 << 30)), notes.info.c_str());
 }
 
 }  // namespace

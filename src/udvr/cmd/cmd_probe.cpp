@@ -76,22 +76,11 @@ void addProbeCommand(CLI::App& app) {
         if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model.mean, "probe");
         const TransferFunction1D& tf = tfChoice.tf;
         const Grid3& g = model.grid;
-        std::array<double, 3> p{};
-        if (!o->world.empty()) {
-            const auto w = parseVec3(o->world, "--world");
-            for (int a = 0; a < 3; ++a) {
-                p[a] = (w[a] - g.origin[a]) / g.spacing[a];
-                const double top = g.origin[a] + (g.dims[a] - 1) * g.spacing[a];
-                if (!(p[a] >= 0.0 && p[a] <= g.dims[a] - 1))
-                    UDVR_FAIL("--world " << o->world << " is outside the input's grid: "
-                                         << "xyz"[a] << " must lie in [" << g.origin[a] << ", "
-                                         << top << "]");
-            }
-        } else {
-            p = parseVec3(o->point, "--point");
-        }
-        std::array<double, 3> world{};
-        for (int a = 0; a < 3; ++a) world[a] = g.origin[a] + p[a] * g.spacing[a];
+        const std::array<double, 3> p =
+            o->world.empty()
+                ? parseVec3(o->point, "--point")
+                : indexFromWorld(g, parseVec3(o->world, "--world"), "--world " + o->world);
+        const std::array<double, 3> world = worldFromIndex(g, p);
         const ProbeResult r =
             !o->second.empty()
                 ? probeBivariate(model, readModelOrField(o->second, o->var, o->raw), kind,
@@ -104,10 +93,7 @@ void addProbeCommand(CLI::App& app) {
         finishTransferFunction(o->tf, tfChoice);  // --save-tf first: a bad one leaves no plot
         if (!o->plot.empty()) writePng(o->plot, renderProbePlot(r, tf));
         if (o->json) {
-            nlohmann::json j = r.json;
-            j["world"] = world;
-            j["grid_dims"] = g.dims;
-            std::cout << j.dump(2) << "\n";
+            std::cout << r.json.dump(2) << "\n";
             return;
         }
         const std::string reduced =

@@ -6,11 +6,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 
 #include "udvr/classify/tf_presets.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_io.h"
-#include "udvr/stats/value_summary.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
 
@@ -171,26 +171,7 @@ ModelVolume readModelOrField(const std::string& path, const std::string& var,
     FieldReadOptions fo;
     fo.var = var;
     fo.raw = toRawLayout(raw);
-    if (lowerExtension(path) == ".vti" && var.empty()) {
-        std::string modelError;
-        try {
-            ModelVolume m = readModelVti(path);
-            if (!m.mean.empty()) return m;
-            modelError = path + " has no 'mean' array";
-        } catch (const UdvrError& e) {
-            modelError = e.what();
-        }
-        try {
-            return modelFromField(readField(path, fo));
-        } catch (const UdvrError& e) {
-            // Both readers open the file the same way: a missing, truncated or corrupt file
-            // fails both for one reason, which is said once.
-            if (modelError == e.what()) throw;
-            UDVR_FAIL(path << " is neither a model (" << modelError << ") nor a field (" << e.what()
-                           << ")");
-        }
-    }
-    return modelFromField(readField(path, fo));
+    return udvr::readModelOrField(path, fo);
 }
 
 void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags) {
@@ -269,19 +250,18 @@ TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> val
         return choice;
     }
     const std::string name = flags.tf.empty() ? transferFunctionPresetNames().front() : flags.tf;
-    const ValueSummary summary = summarizeValues(values);
-    std::array<double, 2> range = robustRange(summary);
+    std::optional<std::array<double, 2>> given;
     const char* rangeText = "the 0.5-99.5th percentiles of the values";
     if (!flags.range.empty()) {
         const std::vector<double> r = parseDoubleList(flags.range, "--tf-range");
-        range = {r[0], r[1]};
+        given = std::array<double, 2>{r[0], r[1]};
         rangeText = "--tf-range";
     }
-    // A constant volume would be clear with the ramp starting at its value: start it at the
-    // bottom of the range instead, so the volume shows as a translucent box.
-    const bool constant = !(summary.max > summary.min);
-    const double median = constant ? range[0] : summary.percentile(50);
-    choice.tf = transferFunctionPreset(name, range, median);
+    const PresetOverValues preset = transferFunctionPresetOver(name, values, given);
+    const std::array<double, 2>& range = preset.range;
+    const bool constant = preset.constant;
+    const double median = preset.rampStart;
+    choice.tf = preset.tf;
     // What the opacity does, as built (the start is clamped into the range).
     char ramp[128];
     if (constant)

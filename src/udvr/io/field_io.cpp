@@ -52,9 +52,9 @@ void checkFinite(const fs::path& path, const Grid3& grid, std::span<const float>
 void requireFile(const fs::path& path) {
     std::error_code ec;
     auto status = fs::status(path, ec);
-    if (!fs::exists(status)) UDVR_FAIL("cannot read " << path.string() << ": no such file");
+    if (!fs::exists(status)) UDVR_FILE_FAIL("cannot read " << path.string() << ": no such file");
     if (!fs::is_regular_file(status)) {
-        UDVR_FAIL("cannot read " << path.string() << ": not a regular file");
+        UDVR_FILE_FAIL("cannot read " << path.string() << ": not a regular file");
     }
 }
 
@@ -193,9 +193,9 @@ void decode(ScalarType t, bool bigEndian, const unsigned char* src, std::size_t 
 std::string readWholeFile(const fs::path& path) {
     detail::requireFile(path);
     std::ifstream in(path, std::ios::binary);
-    if (!in) UDVR_FAIL("cannot open " << path.string());
+    if (!in) UDVR_FILE_FAIL("cannot open " << path.string());
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) UDVR_FAIL("cannot read " << path.string() << ": I/O error");
+    if (in.bad()) UDVR_FILE_FAIL("cannot read " << path.string() << ": I/O error");
     return bytes;
 }
 
@@ -694,7 +694,7 @@ namespace detail {
 std::string nrrdTypeName(const fs::path& path) {
     // The header only: the lines up to the first empty one (attached data is not read).
     std::ifstream in(path, std::ios::binary);
-    if (!in) UDVR_FAIL("cannot open " << path.string());
+    if (!in) UDVR_FILE_FAIL("cannot open " << path.string());
     std::string header, line;
     while (std::getline(in, line)) {
         header += line + "\n";

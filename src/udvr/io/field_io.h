@@ -4,6 +4,7 @@
 // and non-finite values with a UdvrError that names the file.
 #include <array>
 #include <filesystem>
+#include <span>
 #include <string>
 #include <utility>
 
@@ -52,5 +53,11 @@ void writeFieldVti(const std::filesystem::path& path, const ScalarField& field);
 void writeFieldNetcdf(const std::filesystem::path& path, const ScalarField& field);
 /// Write by extension (.vti or .nc).
 void writeField(const std::filesystem::path& path, const ScalarField& field);
+
+/// Origin and spacing of an axis from its grid points' positions (CF coordinate values, SPEC §7):
+/// finite, increasing, evenly spaced within float rounding (1e-4 of a step + 1e-6 of the
+/// magnitude); one point: spacing 1. `what` names the axis in errors ("f.nc: coordinate
+/// variable x"). Throws UdvrError otherwise.
+std::pair<double, double> regularAxis(std::span<const double> coords, const std::string& what);
 
 }  // namespace udvr

@@ -128,7 +128,7 @@ struct FileCloser {
 std::string readBytes(const fs::path& path) {
     detail::requireFile(path);
     std::ifstream in(path, std::ios::binary);
-    if (!in) UDVR_FAIL("cannot open " << path.string());
+    if (!in) UDVR_FILE_FAIL("cannot open " << path.string());
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
@@ -367,13 +367,13 @@ void writePng(const fs::path& path, const ImageRgba& image) {
     }
     writeAtomically(path, [&](const fs::path& tmp) {
         std::unique_ptr<FILE, FileCloser> fp(std::fopen(tmp.c_str(), "wb"));
-        if (!fp) UDVR_FAIL("cannot open " << tmp.string() << " for writing");
+        if (!fp) UDVR_FILE_FAIL("cannot open " << tmp.string() << " for writing");
         PngErrorState err;
         if (!pngWriteRgba8(fp.get(), bytes.data(), image.width, image.height, &err)) {
-            UDVR_FAIL("cannot write " << path.string() << ": " << err.message);
+            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << err.message);
         }
         if (std::fclose(fp.release()) != 0) {
-            UDVR_FAIL("cannot write " << path.string() << " (disk full?)");
+            UDVR_FILE_FAIL("cannot write " << path.string() << " (disk full?)");
         }
     });
 }
@@ -381,7 +381,7 @@ void writePng(const fs::path& path, const ImageRgba& image) {
 ImageRgba readPng(const fs::path& path) {
     detail::requireFile(path);
     std::unique_ptr<FILE, FileCloser> fp(std::fopen(path.c_str(), "rb"));
-    if (!fp) UDVR_FAIL("cannot open " << path.string());
+    if (!fp) UDVR_FILE_FAIL("cannot open " << path.string());
     unsigned char sig[8] = {};
     if (std::fread(sig, 1, 8, fp.get()) != 8 || png_sig_cmp(sig, 0, 8) != 0) {
         UDVR_FAIL(path.string() << ": not a PNG file (bad signature)");

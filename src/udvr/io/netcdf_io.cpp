@@ -12,6 +12,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "udvr/io/ensemble_io.h"
@@ -331,32 +332,8 @@ Grid3 gridFromCoordinates(const fs::path& path, int nc, const VarInfo& var, std:
         }
         std::vector<double> c(len);
         ncCheck(nc_get_var_double(nc, cid, c.data()), path, "coordinate variable " + dimName);
-        for (double v : c) {
-            if (!std::isfinite(v)) {
-                UDVR_FAIL(path.string()
-                          << ": coordinate variable " << dimName << " holds a non-finite value");
-            }
-        }
-        g.origin[a] = c[0];
-        if (len < 2) continue;
-        double s = (c[len - 1] - c[0]) / static_cast<double>(len - 1);
-        if (!(s > 0.0)) {
-            UDVR_FAIL(path.string()
-                      << ": coordinate variable " << dimName << " must increase (first " << c[0]
-                      << ", last " << c[len - 1] << ")");
-        }
-        // Float-stored coordinates round at about 1e-7 of their magnitude.
-        double tol = 1e-4 * s + 1e-6 * std::max(std::abs(c[0]), std::abs(c[len - 1]));
-        for (std::size_t i = 0; i < len; ++i) {
-            double want = c[0] + static_cast<double>(i) * s;
-            if (std::abs(c[i] - want) > tol) {
-                UDVR_FAIL(path.string()
-                          << ": coordinate variable " << dimName << " is unevenly spaced (value "
-                          << i << " is " << c[i] << ", an even axis has " << want
-                          << "); expected a regular grid");
-            }
-        }
-        g.spacing[a] = s;
+        std::tie(g.origin[a], g.spacing[a]) =
+            regularAxis(c, path.string() + ": coordinate variable " + dimName);
     }
     if (!missing.empty() && note != nullptr) {
         *note = "udvr: note: " + path.string() + " has no coordinate variables for " + missing +
@@ -733,6 +710,26 @@ std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
     }
     nc_close(nc);
     return arrays;
+}
+
+std::pair<double, double> regularAxis(std::span<const double> c, const std::string& what) {
+    UDVR_CHECK(!c.empty());
+    for (double v : c)
+        if (!std::isfinite(v)) UDVR_FAIL(what << " holds a non-finite value");
+    const std::size_t len = c.size();
+    if (len < 2) return {c[0], 1.0};
+    const double s = (c[len - 1] - c[0]) / static_cast<double>(len - 1);
+    if (!(s > 0.0))
+        UDVR_FAIL(what << " must increase (first " << c[0] << ", last " << c[len - 1] << ")");
+    // Float-stored coordinates round at about 1e-7 of their magnitude.
+    const double tol = 1e-4 * s + 1e-6 * std::max(std::abs(c[0]), std::abs(c[len - 1]));
+    for (std::size_t i = 0; i < len; ++i) {
+        const double want = c[0] + static_cast<double>(i) * s;
+        if (std::abs(c[i] - want) > tol)
+            UDVR_FAIL(what << " is unevenly spaced (value " << i << " is " << c[i]
+                           << ", an even axis has " << want << "); expected a regular grid");
+    }
+    return {c[0], s};
 }
 
 }  // namespace udvr

@@ -27,10 +27,10 @@ using nlohmann::json;
 std::string readAll(const fs::path& path) {
     detail::requireFile(path);
     std::ifstream in(path, std::ios::binary);
-    if (!in) UDVR_FAIL("cannot open " << path.string());
+    if (!in) UDVR_FILE_FAIL("cannot open " << path.string());
     std::ostringstream ss;
     ss << in.rdbuf();
-    if (in.bad()) UDVR_FAIL("cannot read " << path.string());
+    if (in.bad()) UDVR_FILE_FAIL("cannot read " << path.string());
     return ss.str();
 }
 

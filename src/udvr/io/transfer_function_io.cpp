@@ -108,10 +108,10 @@ TransferFunction1D parseTransferFunction(const std::string& text, const std::str
 
 TransferFunction1D readTransferFunction(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);
-    if (!in) UDVR_FAIL("cannot open transfer function '" << path.string() << "'");
+    if (!in) UDVR_FILE_FAIL("cannot open transfer function '" << path.string() << "'");
     std::ostringstream ss;
     ss << in.rdbuf();
-    if (in.bad()) UDVR_FAIL("cannot read transfer function '" << path.string() << "'");
+    if (in.bad()) UDVR_FILE_FAIL("cannot read transfer function '" << path.string() << "'");
     return parseTransferFunction(ss.str(), path.string());
 }
 

@@ -270,7 +270,7 @@ void writeImageData(const fs::path& path, vtkImageData* image,
             writer->SetCompressorTypeToZLib();
         writer->SetHeaderTypeToUInt64();
         if (writer->Write() != 1 || errors->count > 0 || writer->GetErrorCode() != 0) {
-            UDVR_FAIL("cannot write " << path.string() << ": " << errors->message);
+            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << errors->message);
         }
     });
 }
@@ -647,6 +647,30 @@ std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
         arrays.push_back(a);
     }
     return arrays;
+}
+
+ModelVolume readModelOrField(const fs::path& path, const FieldReadOptions& options) {
+    if (detail::lowerExtension(path) == ".vti" && options.var.empty()) {
+        std::string modelError;
+        try {
+            ModelVolume m = readModelVti(path);
+            if (!m.mean.empty()) return m;
+            modelError = path.string() + " has no 'mean' array";
+        } catch (const UdvrError& e) {
+            modelError = e.what();
+        }
+        try {
+            return modelFromField(readField(path, options));
+        } catch (const UdvrError& e) {
+            // Both readers open the file the same way: a missing, truncated or corrupt file
+            // fails both for one reason, which is said once (as the error it was: a FileError
+            // stays one).
+            if (modelError == e.what()) throw;
+            UDVR_FAIL(path.string() << " is neither a model (" << modelError << ") nor a field ("
+                                    << e.what() << ")");
+        }
+    }
+    return modelFromField(readField(path, options));
 }
 
 }  // namespace udvr

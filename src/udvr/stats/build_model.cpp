@@ -257,6 +257,37 @@ void validateBuildOptions(const BuildOptions& o, int n) {
     }
 }
 
+BuildFitNotes fitBuildOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven,
+                                       bool quantilesGiven) {
+    const int n = static_cast<int>(std::min<long long>(samples, 1 << 30));
+    BuildFitNotes notes;
+    std::string& info = notes.info;
+    if (n >= 2 && opt.gmmComponents > n && opt.gmmComponents <= kMaxGmmComponents) {
+        if (gmmGiven)
+            notes.warnings.push_back("--gmm " + std::to_string(opt.gmmComponents) +
+                                     " needs at least " + std::to_string(opt.gmmComponents) +
+                                     " samples per voxel, the input has " + std::to_string(n) +
+                                     ": GMM K lowered from " + std::to_string(opt.gmmComponents) +
+                                     " to " + std::to_string(n));
+        else
+            info += "GMM K lowered from " + std::to_string(opt.gmmComponents) + " to " +
+                    std::to_string(n);
+        opt.gmmComponents = n;
+    }
+    if (n >= 2 && opt.density == DensityEstimate::Empirical && opt.quantiles > n) {
+        const std::string text = "the " + std::to_string(opt.quantiles + 1) +
+                                 " quantile boundaries interpolate between only " +
+                                 std::to_string(n) + " sample values";
+        if (quantilesGiven)
+            notes.warnings.push_back("--quantiles " + std::to_string(opt.quantiles) + " with " +
+                                     std::to_string(n) + " samples per voxel: " + text);
+        else
+            info += (info.empty() ? "" : "; ") + text;
+    }
+    validateBuildOptions(opt, n);
+    return notes;
+}
+
 ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* report) {
     if (e.members < 2)
         UDVR_FAIL("the ensemble has " << e.members << " member(s); build needs at least 2");

@@ -45,6 +45,23 @@ struct BuildReport {
 /// large, ε out of range, bandwidth not positive).
 void validateBuildOptions(const BuildOptions& options, int samplesPerVoxel);
 
+/// What fitBuildOptionsToSamples changed or noticed, for the user: one warning per option given
+/// explicitly, and one info text for the defaults (empty when nothing).
+struct BuildFitNotes {
+    std::vector<std::string> warnings;
+    std::string info;
+};
+
+/// Fit the GMM and quantile counts to n samples per voxel, then check every option against n
+/// (validateBuildOptions): a K-component GMM needs n ≥ K samples (fitGmm), so a larger K is
+/// lowered to n; empirical quantiles with q > n only interpolate between the n order statistics
+/// (kde quantiles come from the smooth density, so they are not mentioned). `gmmGiven` /
+/// `quantilesGiven`: the user chose K / q (a warning each) rather than the defaults (one info
+/// text together). The CLI and the Python module say the notes after this returned, so an error
+/// stays the one message.
+BuildFitNotes fitBuildOptionsToSamples(BuildOptions& options, long long samplesPerVoxel,
+                                       bool gmmGiven, bool quantilesGiven);
+
 /// Model from an ensemble: the members' values at a voxel are its samples. Throws UdvrError for
 /// fewer than 2 members or non-finite samples (with their count and the first voxel).
 ModelVolume buildModel(const Ensemble& ensemble, const BuildOptions& options,

@@ -14,8 +14,8 @@ void writeAtomically(const std::filesystem::path& path,
     namespace fs = std::filesystem;
     fs::path dir = path.parent_path();
     if (!dir.empty() && !fs::is_directory(dir)) {
-        UDVR_FAIL("cannot write " << path.string() << ": directory " << dir.string()
-                                  << " does not exist");
+        UDVR_FILE_FAIL("cannot write " << path.string() << ": directory " << dir.string()
+                                       << " does not exist");
     }
     fs::path tmp = path;
     tmp.replace_filename("." + path.stem().string() + ".tmp" + std::to_string(getpid()) +
@@ -33,17 +33,17 @@ void writeAtomically(const std::filesystem::path& path,
         const std::string why = fs::is_directory(path) ? "it is a directory" : ec.message();
         std::error_code removeError;  // ec holds the reason; do not overwrite it
         fs::remove(tmp, removeError);
-        UDVR_FAIL("cannot write " << path.string() << ": " << why);
+        UDVR_FILE_FAIL("cannot write " << path.string() << ": " << why);
     }
 }
 
 void writeFileAtomically(const std::filesystem::path& path, const std::string& bytes) {
     writeAtomically(path, [&](const std::filesystem::path& tmp) {
         std::ofstream out(tmp, std::ios::binary);
-        if (!out) UDVR_FAIL("cannot open " << tmp.string() << " for writing");
+        if (!out) UDVR_FILE_FAIL("cannot open " << tmp.string() << " for writing");
         out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
         out.close();
-        if (!out) UDVR_FAIL("write failed for " << path.string() << " (disk full?)");
+        if (!out) UDVR_FILE_FAIL("write failed for " << path.string() << " (disk full?)");
     });
 }
 

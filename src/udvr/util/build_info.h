@@ -45,6 +45,9 @@
 
 namespace udvr::build {
 
+/// The release, as `udvr --version` and Python's `udvr.__version__` print it ("0.1.0").
+inline constexpr std::string_view kVersion = UDVR_VERSION;
+
 /// The CMake CPU target: "native", "x86-64-v4", "x86-64-v3" or "generic".
 inline constexpr std::string_view kArchName = UDVR_ARCH_NAME;
 

@@ -1,6 +1,8 @@
 #pragma once
 // Checks and user-facing errors.
 //  - UdvrError: a user error (bad input, bad flag). The CLI prints what() on one line, exits 2.
+//  - FileError: a UdvrError about a file that cannot be found, opened, read or written (not about
+//    its contents); Python raises OSError for it, ValueError for other UdvrErrors.
 //  - UDVR_CHECK: an always-on invariant; throws InternalError with file:line.
 //  - UDVR_DCHECK: same, debug builds only.
 #include <sstream>
@@ -13,6 +15,12 @@ namespace udvr {
 class UdvrError : public std::runtime_error {
   public:
     explicit UdvrError(const std::string& message) : std::runtime_error(message) {}
+};
+
+/// A user error about a path: missing, not a regular file, cannot be opened, read or written.
+class FileError : public UdvrError {
+  public:
+    using UdvrError::UdvrError;
 };
 
 /// A violated invariant (a bug, not bad input).
@@ -55,6 +63,14 @@ namespace detail {
         std::ostringstream udvr_fail_os_;             \
         udvr_fail_os_ << stream_expr;                 \
         throw ::udvr::UdvrError(udvr_fail_os_.str()); \
+    } while (0)
+
+/// Throw a FileError built with stream syntax (as UDVR_FAIL).
+#define UDVR_FILE_FAIL(stream_expr)                   \
+    do {                                              \
+        std::ostringstream udvr_fail_os_;             \
+        udvr_fail_os_ << stream_expr;                 \
+        throw ::udvr::FileError(udvr_fail_os_.str()); \
     } while (0)
 
 #ifdef __CUDACC__

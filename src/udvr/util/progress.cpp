@@ -11,11 +11,11 @@ bool ProgressBar::enabled() {
     return isatty(fileno(stderr)) != 0 && std::getenv("UDVR_NO_PROGRESS") == nullptr;
 }
 
-ProgressBar::ProgressBar(std::string label, std::size_t total, double showAfterSeconds)
+ProgressBar::ProgressBar(std::string label, std::size_t total, double showAfterSeconds, bool draw)
     : label_(std::move(label)),
       total_(total == 0 ? 1 : total),
       start_(std::chrono::steady_clock::now()),
-      enabled_(enabled()),
+      enabled_(draw && enabled()),
       showAfterNs_(static_cast<long long>(showAfterSeconds * 1e9)) {}
 
 ProgressBar::~ProgressBar() { finish(); }

@@ -13,8 +13,10 @@ class ProgressBar {
   public:
     /// label: what is being done ("build"); total: units of work (voxels, rows, frames).
     /// Nothing is drawn before `showAfterSeconds` have passed (work that ends sooner stays
-    /// silent: e.g. a render frame, which is usually far shorter).
-    ProgressBar(std::string label, std::size_t total, double showAfterSeconds = 0.0);
+    /// silent: e.g. a render frame, which is usually far shorter). `draw` false: never drawn,
+    /// only counted (a front end that shows done() its own way: Python's progress callback).
+    ProgressBar(std::string label, std::size_t total, double showAfterSeconds = 0.0,
+                bool draw = true);
     ~ProgressBar();
     ProgressBar(const ProgressBar&) = delete;
     ProgressBar& operator=(const ProgressBar&) = delete;
@@ -23,6 +25,10 @@ class ProgressBar {
     void advance(std::size_t units = 1);
     /// Draw 100 % and end the line (also done by the destructor).
     void finish();
+    /// Units done so far (any thread may read it while others advance).
+    std::size_t done() const { return done_.load(std::memory_order_relaxed); }
+    /// Units of work in all (at least 1).
+    std::size_t total() const { return total_; }
     /// Whether bars are drawn at all (stderr is a tty and UDVR_NO_PROGRESS is unset).
     static bool enabled();
 

@@ -1,0 +1,493 @@
+"""udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021), for notebooks.
+
+The compiled core is `udvr._udvr` (the same C++ library as the `udvr` command); this package
+adds NumPy/xarray conversion, progress bars and matplotlib plots (`udvr.plot`) around it, with
+no algorithm of its own. The pipeline mirrors the CLI (SPEC §8):
+
+    model = udvr.build(ensemble)                 # (members, z, y, x) array or DataArray, a path
+    tf = udvr.TransferFunction.from_paraview("tf.json")
+    model.probe((10, 20, 30), model="quantile-range", tf=tf)    # what `probe --json` prints
+    image = udvr.render(model, "quantile-range", tf, (256, 256))   # (H, W, 4) float32
+
+Errors from the library carry the CLI's message: OSError for files, ValueError for values,
+TypeError for the wrong kind of argument.
+"""
+import json
+import os
+import tempfile
+import warnings
+
+import numpy as np
+
+from . import _arrays, _udvr
+from ._udvr import (Camera, Ensemble, Field, FileError, Grid, Model, RenderSettings,  # noqa: F401
+                    TransferFunction, TransferFunction2D, UdvrError, experiment_names, generate,
+                    model_from_field, model_names, perturb, read_ensemble, read_field,
+                    read_image, read_model, read_transfer_function, set_threads, visible_bounds,
+                    write_ensemble, write_field, write_model)
+from ._udvr import __version__  # the release, as `udvr --version` prints it
+
+__build__ = _udvr.__build__  # CPU target and vector width, as `udvr --version`
+
+__all__ = ["Camera", "Ensemble", "Field", "Grid", "Model", "TransferFunction",
+           "TransferFunction2D", "build", "difference_image", "experiment", "generate", "load",
+           "model_names", "perturb", "render", "rmse", "__version__"]
+
+
+# ---- progress ------------------------------------------------------------------------------
+
+def _in_notebook():
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return False
+    ip = get_ipython()
+    return ip is not None and "IPKernelApp" in getattr(ip, "config", {})
+
+
+def _tqdm_bar(label, total):
+    """A tqdm bar (a widget in notebooks where ipywidgets is installed, text otherwise)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # tqdm.auto's "IProgress not found"
+            from tqdm.auto import tqdm
+            return tqdm(total=total, desc=label)
+    except ImportError:  # tqdm.notebook without ipywidgets: the text bar
+        from tqdm import tqdm
+        return tqdm(total=total, desc=label)
+
+
+class _Progress:
+    """progress=: a callable(done, total); True (a tqdm bar); "auto" (a tqdm bar in a Jupyter
+    kernel when tqdm is installed, else nothing); None or False (nothing)."""
+
+    def __init__(self, progress, label):
+        self.bar = None
+        self.callback = None
+        if progress is None or progress is False:
+            return
+        if callable(progress):
+            self.callback = progress
+            return
+        if progress == "auto" and not _in_notebook():
+            return
+        if progress not in (True, "auto"):
+            raise TypeError(f"progress must be a callable(done, total), True, False, None or "
+                            f"'auto', got {progress!r}")
+        try:
+            import tqdm  # noqa: F401
+        except ImportError:
+            if progress is True:
+                raise ImportError("progress=True needs tqdm (apt install python3-tqdm)") from None
+            return
+        self.label = label
+        self.callback = self._update
+
+    def _update(self, done, total):
+        if self.bar is None:
+            self.bar = _tqdm_bar(self.label, total)
+        self.bar.update(done - self.bar.n)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+# ---- build -----------------------------------------------------------------------------------
+
+def _count(value, name):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    return int(value)
+
+
+def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
+          bandwidth="silverman", tail_eps=None, origin=None, spacing=None, var=None,
+          member_dim=None, progress="auto", quantile_levels=None):
+    """Per-voxel distribution models, as `udvr build` (SPEC §2): from a NumPy array of shape
+    (members, z, y, x), a (z, y, x) field with downsample=K (its K³ bricks), an xarray
+    DataArray (a member dim, or a field with downsample; its x, y, z coordinates give origin and
+    spacing), or a file path (or a list of member files) as the CLI reads them.
+
+    quantiles: q (0 skips), gmm: K (0 skips; lowered to the samples per voxel where fewer),
+    density: "empirical" | "kde" (bandwidth "silverman" | "scott" | h, tail_eps). origin and
+    spacing (x, y, z; world units) for arrays: default 0 and 1. quantile_levels: t_0 = 0 < … <
+    t_q = 1, uneven levels of the boundaries (q from their count), as --quantile-levels. The GIL is released while it
+    runs; progress: a callable(done, total), True for a tqdm bar, "auto" (a bar in notebooks).
+    """
+    quantiles = _count(quantiles, "quantiles")
+    gmm = _count(gmm, "gmm")
+    if downsample is not None:
+        downsample = _count(downsample, "downsample")
+        if downsample < 2:
+            raise ValueError(f"downsample must be K >= 2 (K^3 bricks), got {downsample}")
+    if not isinstance(density, str) or not isinstance(bandwidth, (str, int, float)):
+        raise TypeError("density must be a string, bandwidth a string or a number")
+    source = "python"
+    if _arrays.is_path(data) or (isinstance(data, (list, tuple)) and data
+                                 and all(_arrays.is_path(p) for p in data)):
+        paths = [os.fspath(p) for p in ([data] if _arrays.is_path(data) else data)]
+        source = " ".join(paths) + (f" --downsample {downsample}" if downsample else "")
+        if downsample:
+            if len(paths) != 1:
+                raise ValueError(f"--downsample takes one field, got {len(paths)} inputs")
+            f = read_field(paths[0], var or "")
+            values, g = f.values, f.grid
+        else:
+            e = read_ensemble(paths, var or "", member_dim or "")
+            values, g = e.values, e.grid
+        origin = g.origin if origin is None else origin
+        spacing = g.spacing if spacing is None else spacing
+    elif _arrays.is_dataarray(data):
+        values, o, s = _arrays.split_dataarray(data, member_dim, field=downsample is not None)
+        origin = o if origin is None else origin
+        spacing = s if spacing is None else spacing
+        source = f"xarray {data.name}" if data.name is not None else "xarray"
+    elif _arrays.is_dataset(data):
+        raise TypeError("build takes one variable: pass ds['name'] (a DataArray), not a Dataset")
+    else:
+        values = _arrays.real_array(data, "data", (3, 4))
+        if values.ndim == 3 and downsample is None:
+            raise ValueError(
+                f"a {values.shape} array is one field: downsample=K models its K^3 bricks; an "
+                "ensemble is a (members, z, y, x) array")
+    if values.ndim == 4 and downsample is not None:
+        raise ValueError(f"downsample reduces one (z, y, x) field; got a {values.shape} "
+                         "ensemble: drop downsample to build from its members")
+    origin = _arrays.vec3((0, 0, 0) if origin is None else origin, "origin")
+    spacing = _arrays.vec3((1, 1, 1) if spacing is None else spacing, "spacing", positive=True)
+    bar = _Progress(progress, "build")
+    try:
+        model, warns, info, dropped = _udvr._build(
+            values, origin, spacing, downsample or 0, quantiles, gmm, density, str(bandwidth),
+            tail_eps, gmm != 4, quantiles != 8, source, bar.callback,
+            [] if quantile_levels is None else [float(t) for t in quantile_levels])
+    finally:
+        bar.close()
+    for w in warns:
+        warnings.warn(w, stacklevel=2)
+    if info:
+        warnings.warn(f"build: {info}", stacklevel=2)
+    if any(dropped):
+        d = values.shape
+        warnings.warn(f"build: {d[2]}x{d[1]}x{d[0]} is not a multiple of {downsample}; left "
+                      f"out the trailing {dropped[0]},{dropped[1]},{dropped[2]} planes in x,y,z",
+                      stacklevel=2)
+    return model
+
+
+def load(path, var=None):
+    """A model .vti (from build or save) or any scalar field as a mean-only model, as `render`
+    and `probe` read them."""
+    if not _arrays.is_path(path):
+        raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
+    return _udvr._read_model_or_field(os.fspath(path), var or "")
+
+
+def _save(self, path):
+    """Write the model as a .vti (SPEC §7), as `udvr build -o` does."""
+    if not _arrays.is_path(path):
+        raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
+    path = os.fspath(path)
+    if not path.lower().endswith(".vti"):
+        raise ValueError(f"path must name a .vti file (a model is written as VTK ImageData), "
+                         f"got '{path}'")
+    write_model(path, self)
+
+
+def _as_model(x, name="model"):
+    """A Model; a Field, a (z, y, x) array or a 3-dim DataArray as a mean-only model (ground
+    truth); a path as load()."""
+    if isinstance(x, Model):
+        return x
+    if isinstance(x, Field):
+        return model_from_field(x)
+    if _arrays.is_path(x):
+        return load(x)
+    if _arrays.is_dataarray(x):
+        values, origin, spacing = _arrays.split_dataarray(x, field=True)
+        return model_from_field(Field(values, origin, spacing))
+    if isinstance(x, (np.ndarray, list, tuple)):
+        return model_from_field(Field(_arrays.real_array(x, name, 3)))
+    raise TypeError(f"{name} must be a udvr.Model, a Field, a (z, y, x) array, a DataArray or "
+                    f"a path, got {type(x).__name__}")
+
+
+# ---- xarray ------------------------------------------------------------------------------------
+
+_SCALARS = ("mean", "stddev", "min", "max")
+_COMPONENT_DIMS = {"quantiles": "quantile_boundary", "iqr": "iqr_boundary", "gmm": "gmm_parameter"}
+
+
+def _to_xarray(self):
+    """An xarray.Dataset with the arrays of SPEC §7 (mean, stddev, min, max over (z, y, x);
+    quantiles, iqr, gmm with a trailing component dim) as views of the model's memory, the
+    grid as x, y, z coordinates and the field data as attributes."""
+    import xarray as xr
+    coords = _coords(self.grid)
+    data = {}
+    for name in _SCALARS + tuple(_COMPONENT_DIMS):
+        values = getattr(self, name)
+        if values is not None:
+            dims = ("z", "y", "x") + ((_COMPONENT_DIMS[name],) if name in _COMPONENT_DIMS else ())
+            data[name] = (dims, values)
+    attrs = {"quantile_count": self.quantile_count, "quantile_levels": self.quantile_levels,
+             "gmm_components": self.gmm_components,
+             "density": self.density, "bandwidth": self.bandwidth,
+             "bandwidth_rule": self.bandwidth_rule, "tail_eps": self.tail_eps,
+             "samples_per_voxel": self.samples_per_voxel, "downsample": self.downsample,
+             "bounds": list(self.bounds), "full_res_min_spacing": self.full_res_min_spacing,
+             "source": self.source}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _coords(g):
+    """x, y, z coordinate values of a grid's points (world units)."""
+    return {name: g.origin[a] + g.spacing[a] * np.arange(g.dims[a]) for a, name in enumerate("xyz")}
+
+
+def _ensemble_to_xarray(self):
+    """The members as an xarray.DataArray (member, z, y, x) with x, y, z coordinates (a copy),
+    what udvr.build takes back."""
+    import xarray as xr
+    return xr.DataArray(self.values, dims=("member", "z", "y", "x"), coords=_coords(self.grid),
+                        name=self.name or "value")
+
+
+def _field_to_xarray(self):
+    """The field as an xarray.DataArray (z, y, x) with x, y, z coordinates (a copy)."""
+    import xarray as xr
+    return xr.DataArray(self.values, dims=("z", "y", "x"), coords=_coords(self.grid),
+                        name=self.name or "value")
+
+
+def _from_xarray(ds):
+    """A Model from an xarray.Dataset as to_xarray makes it (at least a `mean` variable over
+    z, y, x; its coordinates give origin and spacing, its attributes the field data)."""
+    if not _arrays.is_dataset(ds):
+        raise TypeError(f"from_xarray takes an xarray.Dataset, got {type(ds).__name__}")
+    if "mean" not in ds.data_vars:
+        raise ValueError("the Dataset has no 'mean' variable (SPEC §7 names: mean, stddev, min, "
+                         "max, quantiles, iqr, gmm)")
+    spatial = [d for d in ("z", "y", "x") if d in ds["mean"].dims]
+    if len(spatial) != 3:
+        spatial = list(ds["mean"].dims)
+    origin, spacing = _arrays.geometry_of(ds["mean"], spatial)
+    arrays = {}
+    for name in _SCALARS + tuple(_COMPONENT_DIMS):
+        if name in ds.data_vars:
+            v = ds[name]
+            order = spatial + [d for d in v.dims if d not in spatial]
+            arrays[name] = _arrays.real_array(v.transpose(*order).values, name)
+    a = ds.attrs
+    bounds = a.get("bounds")
+    full = a.get("full_res_min_spacing")
+    return Model(arrays.pop("mean"), **arrays, origin=origin, spacing=spacing,
+                 bounds=None if bounds is None else [float(b) for b in np.ravel(bounds)],
+                 full_res_min_spacing=None if full is None else float(full),
+                 downsample=int(a.get("downsample", 0)),
+                 samples_per_voxel=int(a.get("samples_per_voxel", 0)),
+                 density=str(a.get("density", "empirical")), source=str(a.get("source", "xarray")),
+                 bandwidth=float(a.get("bandwidth", 0.0)),
+                 bandwidth_rule=str(a.get("bandwidth_rule", "")),
+                 tail_eps=float(a.get("tail_eps", 0.0)),
+                 quantile_levels=[float(t) for t in np.ravel(a.get("quantile_levels", []))]
+                 if "quantiles" in arrays else [])
+
+
+# ---- transfer functions ------------------------------------------------------------------------
+
+def _tf_from_paraview(source):
+    """A 1D TF from ParaView JSON: a file path, JSON text, or the parsed list/dict."""
+    if isinstance(source, (dict, list)):
+        return TransferFunction.from_json(json.dumps(source), "transfer function")
+    if isinstance(source, str) and source.lstrip()[:1] in ("[", "{"):
+        return TransferFunction.from_json(source, "transfer function JSON")
+    if _arrays.is_path(source):
+        return TransferFunction.read(os.fspath(source))
+    raise TypeError(f"from_paraview takes a path, JSON text or a parsed list/dict, got "
+                    f"{type(source).__name__}")
+
+
+def _tf_save(self, path, name="udvr"):
+    """Write ParaView JSON (what `--save-tf` writes)."""
+    with open(path, "w") as f:
+        f.write(self.to_json(name))
+
+
+def _tf_plot(self, ax=None, range=None):  # noqa: A002  (matplotlib's word)
+    """The colour strip and opacity curve (udvr.plot.transfer_function)."""
+    from . import plot
+    return plot.transfer_function(self, ax=ax, range=range)
+
+
+def _resolve_tf(tf, model, tf_range=None):
+    """(the TF, whether the user gave one): None or a preset name gives the preset over the
+    model's means as the CLI without --tf (0.5–99.5th percentiles, or tf_range)."""
+    presets = TransferFunction.preset_names()
+    if tf is None or (isinstance(tf, str) and tf in presets and not os.path.exists(tf)):
+        return TransferFunction.preset_over(tf or presets[0], model.mean, tf_range), False
+    if tf_range is not None:
+        raise ValueError("tf_range spreads a preset; the TF given is not one")
+    if isinstance(tf, (TransferFunction, TransferFunction2D)):
+        return tf, True
+    if isinstance(tf, str) and not os.path.exists(tf) and not tf.lower().endswith(".json") \
+            and tf.lstrip()[:1] not in ("[", "{"):
+        raise ValueError(f"tf '{tf}' is neither a file nor a preset (presets: "
+                         f"{', '.join(presets)})")
+    return _tf_from_paraview(tf), True
+
+
+# ---- probe -------------------------------------------------------------------------------------
+
+_UNIFORM_WIDTH = {"variance": False, "std": False, "minmax": True}
+
+
+def _uniform_minmax(text):
+    if text not in _UNIFORM_WIDTH:
+        raise ValueError(f"uniform_width must be 'variance' (or 'std') or 'minmax', got '{text}'")
+    return _UNIFORM_WIDTH[text]
+
+
+def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
+                uniform_width="variance", second=None, tf_range=None):
+    _udvr._check_model(model)
+    minmax = _uniform_minmax(uniform_width)
+    if (point is None) == (world is None):
+        raise ValueError("give the point as point=(i, j, k) (index) or world=(x, y, z), one of "
+                         "them")
+    if world is not None:
+        w = _arrays.vec3(world, "world")
+        point = _udvr.index_from_world(self.grid, w, "world ({:g}, {:g}, {:g})".format(*w))
+    point = _arrays.vec3(point, "point")
+    tf, _ = _resolve_tf(tf, self, tf_range)
+    if second is not None:
+        if not isinstance(tf, TransferFunction2D):
+            raise ValueError("second gives the y of a 2D transfer function: it needs a "
+                             "TransferFunction2D")
+        text, dist = _udvr._probe_bivariate(self, _as_model(second, "second"), model, tf, point,
+                                            minmax)
+    else:
+        text, dist = _udvr._probe(self, model, tf, point, minmax)
+    return json.loads(text), dist, tf
+
+
+def _probe(self, point=None, model="mean", tf=None, *, world=None, uniform_width="variance",
+           second=None, tf_range=None):
+    """The distribution and expected TF at one point, as the dict `udvr probe --json` prints
+    (SPEC §8): model, point (index space), world, grid_dims, expected_rgba ([E[αr], E[αg],
+    E[αb], E[α]]), value and the model's parameters (mean/stddev, boundaries, …).
+
+    point: index coordinates (i, j, k), or world=(x, y, z); model: a name of udvr.model_names();
+    tf: a TransferFunction (or TransferFunction2D), a ParaView JSON path, a preset name, or None
+    (the CLI's default preset over the model's means); second: the model giving a 2D TF's y.
+    """
+    return _probe_full(self, point, model, tf, world=world, uniform_width=uniform_width,
+                       second=second, tf_range=tf_range)[0]
+
+
+# ---- render, metrics, experiments ------------------------------------------------------------
+
+def _size(size):
+    if isinstance(size, (int, np.integer)) and not isinstance(size, bool):
+        size = (int(size), int(size))
+    try:
+        w, h = (int(s) for s in size)
+    except (TypeError, ValueError):
+        raise TypeError(f"size must be N or (width, height), got {size!r}") from None
+    if not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise ValueError(f"size {w}x{h}: each side must lie in [1, 16384]")
+    return w, h
+
+
+def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, view=None,
+           azimuth=None, elevation=None, zoom=1.0, view_angle=30.0, step=0.0, unit_distance=0.0,
+           early_exit=0.99, background=(1.0, 1.0, 1.0), skip_empty=True,
+           uniform_width="variance", realizations=200, seed=1, jitter=None, second=None,
+           tf_range=None):
+    """Ray-cast a model (or a field: a Field, (z, y, x) array, DataArray or path) with noise
+    model `model_name`, as `udvr render` (SPEC §5): an (H, W, 4) float32 RGBA array (straight
+    colour over the background; the values `--float` writes). The GIL is released while it runs.
+
+    size: N or (width, height). camera: a udvr.Camera; else, with a TF of your own, SPEC §5's
+    default camera (azimuth 30, elevation 20, zoom), and without one (a preset) or with view=
+    (+x|-x|+y|-y|+z|-z), a camera framing the visible voxels, as the CLI.
+    """
+    _udvr._check_model(model_name)
+    minmax = _uniform_minmax(uniform_width)
+    w, h = _size(size)
+    model = _as_model(model)
+    tf, given = _resolve_tf(tf, model, tf_range)
+    if camera is None:
+        if view is not None or not given:
+            camera = Camera.framed(visible_bounds(model, tf), view or "", azimuth, elevation,
+                                   zoom, view_angle, w / h)
+        else:
+            camera = Camera.default(model.bounds, 30.0 if azimuth is None else azimuth,
+                                    20.0 if elevation is None else elevation, zoom, view_angle)
+    elif not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a udvr.Camera, got {type(camera).__name__}")
+    s = RenderSettings()
+    s.width, s.height, s.camera = w, h, camera
+    s.step, s.unit_distance, s.early_exit = float(step), float(unit_distance), float(early_exit)
+    s.background = [float(c) for c in _arrays.vec3(background, "background")]
+    s.skip_empty, s.uniform_minmax = bool(skip_empty), minmax
+    s.realizations, s.seed = _count(realizations, "realizations"), _count(seed, "seed")
+    s.jitter_seed = None if jitter is None else _count(jitter, "jitter")
+    if second is not None:
+        if not isinstance(tf, TransferFunction2D):
+            raise ValueError("second gives the y of a 2D transfer function: it needs a "
+                             "TransferFunction2D")
+        return _udvr._render_bivariate(model, _as_model(second, "second"), model_name, tf, s)
+    return _udvr._render(model, model_name, tf, s)
+
+
+def _image(a, name):
+    return _arrays.real_array(a, name, 3)
+
+
+def rmse(model, truth):
+    """SPEC §6 between two (H, W, 4) or (H, W, 3) images, as `udvr compare` prints it."""
+    return _udvr.rmse(_image(model, "model image"), _image(truth, "truth image"))
+
+
+def difference_image(model, truth, max_diff=0.0):
+    """The blue-yellow difference image of `udvr compare --diff`, (H, W, 4) float32."""
+    return _udvr.difference_image(_image(model, "model image"), _image(truth, "truth image"),
+                                  float(max_diff))
+
+
+def experiment(name, quick=True, out=None, *, dims=0, members=0, image_size=0, realizations=0,
+               tf_dir=None, data_dir=None, log=False):
+    """Run one of the paper's experiments as `udvr experiment NAME -o OUT [--quick]` (the GIL
+    released): returns (table, figure), the results table as a pandas DataFrame when pandas is
+    installed (else a list of dicts) and the path of its figure.png. out: the output folder
+    (default: a new temporary folder); dims, members, image_size, realizations: smaller runs.
+    """
+    if name not in experiment_names():
+        raise ValueError(f"unknown experiment '{name}' (expected one of "
+                         f"{', '.join(experiment_names())})")
+    out = tempfile.mkdtemp(prefix=f"udvr-{name}-") if out is None else os.fspath(out)
+    results = _udvr._experiment(name, out, bool(quick), os.fspath(tf_dir or ""),
+                                os.fspath(data_dir or ""), dims, members, image_size,
+                                realizations, bool(log))
+    r = results[0]
+    rows = r["rows"]
+    figure = os.path.join(r["dir"], "figure.png")
+    try:
+        import pandas as pd
+        rows = pd.DataFrame(rows)
+    except ImportError:
+        pass
+    return rows, (figure if os.path.exists(figure) else None)
+
+
+Ensemble.to_xarray = _ensemble_to_xarray
+Field.to_xarray = _field_to_xarray
+Model.save = _save
+Model.to_xarray = _to_xarray
+Model.from_xarray = staticmethod(_from_xarray)
+Model.probe = _probe
+TransferFunction.from_paraview = staticmethod(_tf_from_paraview)
+TransferFunction.save = _tf_save
+TransferFunction.plot = _tf_plot
