@@ -178,6 +178,8 @@ def test_python_build_with_levels_equals_the_cli_and_keeps_them_through_xarray(t
                     spacing=[1.0, 0.5, 2.0], progress=False)
     assert np.array_equal(py.quantiles, cli.array("quantiles"))
     np.testing.assert_array_equal(py.quantile_levels, LEVELS)
+    assert repr(py) == "<udvr.Model 4x3x5 voxels, q=8 (uneven levels), empirical, 12 samples " \
+        "per voxel>"
     back = udvr.Model.from_xarray(py.to_xarray())
     np.testing.assert_array_equal(back.quantile_levels, LEVELS)
     with pytest.raises(ValueError, match="disagrees"):

@@ -488,6 +488,23 @@ Model.save = _save
 Model.to_xarray = _to_xarray
 Model.from_xarray = staticmethod(_from_xarray)
 Model.probe = _probe
+
+
+def _model_repr(self):
+    g = self.grid
+    parts = ["x".join(map(str, g.dims)) + " voxels"]
+    if self.quantile_count:
+        even = np.allclose(self.quantile_levels, np.linspace(0, 1, self.quantile_count + 1))
+        parts.append(f"q={self.quantile_count}" + ("" if even else " (uneven levels)"))
+    if self.gmm_components:
+        parts.append(f"GMM K={self.gmm_components}")
+    parts.append(self.density)
+    if self.samples_per_voxel:
+        parts.append(f"{self.samples_per_voxel} samples per voxel")
+    return "<udvr.Model " + ", ".join(parts) + ">"
+
+
+Model.__repr__ = _model_repr
 TransferFunction.from_paraview = staticmethod(_tf_from_paraview)
 TransferFunction.save = _tf_save
 TransferFunction.plot = _tf_plot
