@@ -54,6 +54,19 @@ Grid3 gridFromShape(const FloatArray& a, int leadingDims) {
     return g;
 }
 
+// A field or an ensemble (T) from an array of (leadingDims axes, Z, Y, X), placed in the world.
+template <class T>
+T gridded(const FloatArray& values, int leadingDims, const std::array<double, 3>& origin,
+          const std::array<double, 3>& spacing, std::string name) {
+    T t;
+    t.grid = gridFromShape(values, leadingDims);
+    t.grid.origin = origin;
+    t.grid.spacing = spacing;
+    t.values = toVector(values);
+    t.name = std::move(name);
+    return t;
+}
+
 // A per-voxel array with `components` values per voxel on grid g (components 0: no trailing axis).
 std::vector<float> voxelValues(const std::optional<FloatArray>& a, const Grid3& g, int components,
                                const char* name) {
@@ -142,13 +155,7 @@ PYBIND11_MODULE(udvr, m) {
     py::class_<ScalarField>(m, "Field")
         .def(py::init([](const FloatArray& values, std::array<double, 3> origin,
                          std::array<double, 3> spacing, std::string name) {
-                 ScalarField f;
-                 f.grid = gridFromShape(values, 0);
-                 f.grid.origin = origin;
-                 f.grid.spacing = spacing;
-                 f.values = toVector(values);
-                 f.name = std::move(name);
-                 return f;
+                 return gridded<ScalarField>(values, 0, origin, spacing, std::move(name));
              }),
              py::arg("values"), py::arg("origin") = std::array<double, 3>{0, 0, 0},
              py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("name") = "value",
@@ -160,6 +167,15 @@ PYBIND11_MODULE(udvr, m) {
             "the values as a (Z, Y, X) float32 array (a copy)");
 
     py::class_<Ensemble>(m, "Ensemble")
+        .def(py::init([](const FloatArray& values, std::array<double, 3> origin,
+                         std::array<double, 3> spacing, std::string name) {
+                 Ensemble e = gridded<Ensemble>(values, 1, origin, spacing, std::move(name));
+                 e.members = static_cast<int>(values.shape(0));
+                 return e;
+             }),
+             py::arg("values"), py::arg("origin") = std::array<double, 3>{0, 0, 0},
+             py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("name") = "value",
+             "an ensemble from a (members, Z, Y, X) array")
         .def_readwrite("grid", &Ensemble::grid)
         .def_readonly("members", &Ensemble::members)
         .def_property_readonly(

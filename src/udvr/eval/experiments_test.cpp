@@ -93,8 +93,8 @@ TEST(Experiments, TinyAllRunsEndToEnd) {
             EXPECT_GE(row.renderMs, 0.0);
             if (row.model != "ground-truth") {
                 // The memory column is the formula of the paper's §5.
-                EXPECT_EQ(row.memoryRatio,
-                          memoryRatio(parseModelKind(row.model), row.quantiles, row.gmmComponents))
+                EXPECT_EQ(row.memoryRatio, memoryRatio(parseModelKind(row.model), row.quantiles,
+                                                       row.gmmComponents, row.members))
                     << row.label;
             }
         }
