@@ -25,12 +25,14 @@ ModelVolume benchModel(int q) {
     m.gmmComponents = 4;
     CounterRng rng(1234, static_cast<std::uint64_t>(q), 0);
     std::vector<double> s(32);
+    m.memberCount = static_cast<int>(s.size());  // the samples, as drawn, are the members
     const double ns = static_cast<double>(s.size());
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i) {
                 const double c = 10.0 * std::sin(0.3 * i) * std::cos(0.2 * j) + 0.3 * k - 5.0;
                 for (auto& x : s) x = c + (rng.uniform() < 0.3 ? -2.0 : 1.0) + rng.normal();
+                for (double x : s) m.members.push_back(static_cast<float>(x));
                 std::sort(s.begin(), s.end());
                 double mean = 0, var = 0;
                 for (double x : s) mean += x / ns;

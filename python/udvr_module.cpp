@@ -67,6 +67,19 @@ Grid3 gridFromShape(const FloatArray& a, int leadingDims) {
     return g;
 }
 
+// A field or an ensemble (T) from an array of (leadingDims axes, Z, Y, X), placed in the world.
+template <class T>
+T gridded(const FloatArray& values, int leadingDims, const std::array<double, 3>& origin,
+          const std::array<double, 3>& spacing, std::string name) {
+    T t;
+    t.grid = gridFromShape(values, leadingDims);
+    t.grid.origin = origin;
+    t.grid.spacing = spacing;
+    t.values = toVector(values);
+    t.name = std::move(name);
+    return t;
+}
+
 // A per-voxel array with `components` values per voxel on grid g (components 0: no trailing axis).
 std::vector<float> voxelValues(const std::optional<FloatArray>& a, const Grid3& g, int components,
                                const char* name) {
@@ -387,14 +400,8 @@ PYBIND11_MODULE(_udvr, m) {
     py::class_<ScalarField>(m, "Field")
         .def(py::init([](const py::object& valuesIn, std::array<double, 3> origin,
                          std::array<double, 3> spacing, std::string name) {
-                 const FloatArray values = realArray(valuesIn, "Field: values");
-                 ScalarField f;
-                 f.grid = gridFromShape(values, 0);
-                 f.grid.origin = origin;
-                 f.grid.spacing = spacing;
-                 f.values = toVector(values);
-                 f.name = std::move(name);
-                 return f;
+                 return gridded<ScalarField>(realArray(valuesIn, "Field: values"), 0, origin,
+                                             spacing, std::move(name));
              }),
              py::arg("values"), py::arg("origin") = std::array<double, 3>{0, 0, 0},
              py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("name") = "value",
@@ -406,6 +413,16 @@ PYBIND11_MODULE(_udvr, m) {
             "the values as a (Z, Y, X) float32 array (a copy)");
 
     py::class_<Ensemble>(m, "Ensemble")
+        .def(py::init([](const py::object& valuesIn, std::array<double, 3> origin,
+                         std::array<double, 3> spacing, std::string name) {
+                 const FloatArray values = realArray(valuesIn, "Ensemble: values");
+                 Ensemble e = gridded<Ensemble>(values, 1, origin, spacing, std::move(name));
+                 e.members = static_cast<int>(values.shape(0));
+                 return e;
+             }),
+             py::arg("values"), py::arg("origin") = std::array<double, 3>{0, 0, 0},
+             py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("name") = "value",
+             "an ensemble from a (members, Z, Y, X) array")
         .def_readwrite("grid", &Ensemble::grid)
         .def_readonly("members", &Ensemble::members)
         .def_readonly("name", &Ensemble::name)

@@ -405,6 +405,23 @@ class RefModel:
         raise ValueError("unknown model " + model)
 
 
+class RefMembers:
+    """The ensemble's own expected classification (`members`, issue 12): each member is a mean
+    field (RefModel of its values), and a sample's (E[α·c], E[α]) is the average over the members
+    of their mean-field classifications at the point (before compositing, not an average of
+    images). Geometry as RefModel; members (n, Z, Y, X)."""
+
+    def __init__(self, members, origin=(0, 0, 0), spacing=(1, 1, 1)):
+        self.fields = [RefModel(m, origin=origin, spacing=spacing) for m in np.asarray(members)]
+        first = self.fields[0]
+        self.dims, self.origin, self.spacing = first.dims, first.origin, first.spacing
+        self.bounds, self.full_res_min_spacing = first.bounds, first.full_res_min_spacing
+
+    def classify(self, model, tf, p, uniform_width="variance"):
+        assert model == "members", model
+        return np.mean([f.classify("mean", tf, p) for f in self.fields], axis=0)
+
+
 # ----------------------------------------------------------------------------------------------
 # Camera and rendering (SPEC §5)
 # ----------------------------------------------------------------------------------------------

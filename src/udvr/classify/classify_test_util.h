@@ -78,8 +78,9 @@ inline double sampleQuantile(const std::vector<double>& sorted, double p) {
     return sorted[i] + t * (sorted[i + 1] - sorted[i]);
 }
 
-/// A model over `dims` from random samples per voxel: mean, stddev, min, max, q quantiles, iqr
-/// and a sorted K-component mixture (random parameters). Distribution kinds cycle over voxels.
+/// A model over `dims` from random samples per voxel: mean, stddev, min, max, q quantiles, iqr,
+/// a sorted K-component mixture (random parameters) and the samples as members (in draw order).
+/// Distribution kinds cycle over voxels.
 inline ModelVolume randomModel(CounterRng& rng, std::array<int, 3> dims, int q, int gmmK = 3,
                                int samples = 40) {
     ModelVolume m;
@@ -87,9 +88,11 @@ inline ModelVolume randomModel(CounterRng& rng, std::array<int, 3> dims, int q, 
     const std::size_t n = m.voxelCount();
     m.quantileCount = q;
     m.gmmComponents = gmmK;
+    m.memberCount = samples;
     for (std::size_t v = 0; v < n; ++v) {
         const int kind = static_cast<int>(rng.uniform() * 5);
         auto s = randomSamples(rng, kind, samples, 2.0 * rng.normal(), 0.2 + rng.uniform());
+        for (double x : s) m.members.push_back(static_cast<float>(x));
         std::sort(s.begin(), s.end());
         double mean = 0, var = 0;
         for (double x : s) mean += x;
@@ -118,6 +121,37 @@ inline ModelVolume randomModel(CounterRng& rng, std::array<int, 3> dims, int q, 
         for (double x : sg) m.gmm.push_back(static_cast<float>(x));
     }
     return m;
+}
+
+/// The 8 corners and trilinear weights of index-space point (x, y, z), written out here (SPEC
+/// §1, §3) independently of reconstruct/cell.h: clamped into the grid, the last plane in the cell
+/// below it with fraction 1, a 1-point axis has fraction 0.
+struct RefCell {
+    std::size_t corner[8];
+    double weight[8];
+};
+inline RefCell refCell(const std::array<int, 3>& dims, float x, float y, float z) {
+    const float p[3] = {x, y, z};
+    int base[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        const double v = std::clamp(static_cast<double>(p[a]), 0.0, dims[a] - 1.0);
+        base[a] = dims[a] == 1 ? 0 : std::min(static_cast<int>(std::floor(v)), dims[a] - 2);
+        f[a] = v - base[a];
+    }
+    RefCell c;
+    for (int k = 0; k < 8; ++k) {
+        std::size_t idx[3];
+        c.weight[k] = 1.0;
+        for (int a = 0; a < 3; ++a) {
+            const bool up = (k >> a) & 1;
+            idx[a] = static_cast<std::size_t>(base[a] + (up && dims[a] > 1 ? 1 : 0));
+            c.weight[k] *= up ? f[a] : 1.0 - f[a];
+        }
+        c.corner[k] = idx[0] + static_cast<std::size_t>(dims[0]) *
+                                   (idx[1] + static_cast<std::size_t>(dims[1]) * idx[2]);
+    }
+    return c;
 }
 
 /// Monte Carlo mean and standard error per channel of TF(X) for draws X = draw().

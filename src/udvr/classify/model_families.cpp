@@ -20,12 +20,14 @@ unsigned uniformArrays(const ClassifyOptions& o) {
 unsigned gmmArrays(const ClassifyOptions&) { return kArrayGmm; }
 unsigned quantileArrays(const ClassifyOptions&) { return kArrayQuantiles; }
 unsigned iqrArrays(const ClassifyOptions&) { return kArrayIqr; }
+unsigned memberArrays(const ClassifyOptions&) { return kArrayMembers; }
 
 // Floats per voxel.
-double one(int, int) { return 1.0; }
-double two(int, int) { return 2.0; }
-double perComponent(int, int k) { return 3.0 * k; }
-double perBoundary(int q, int) { return q + 1.0; }
+double one(int, int, int) { return 1.0; }
+double two(int, int, int) { return 2.0; }
+double perComponent(int, int k, int) { return 3.0 * k; }
+double perBoundary(int q, int, int) { return q + 1.0; }
+double perMember(int, int, int n) { return n; }
 
 double span(const ModelVolume& model, const ClassifyOptions& options = {}) {
     if (options.dataSpan > 0.0) return options.dataSpan;
@@ -66,6 +68,10 @@ AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf,
     return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount, m.levelsOrNull(),
                               f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m, o),
                               tf);
+}
+AnyKernel makeMembers(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                      const ModelFamily&) {
+    return MembersKernel(m.grid, m.members.data(), m.memberCount, tf);
 }
 
 // 2D kernels (SPEC §9).
@@ -109,7 +115,7 @@ AnyKernel2D makeQuantileMean2D(const ModelVolume& m, Tf2Setup& s, const Classify
 // 2D kernel.
 using K = ModelKind;
 // clang-format off
-constexpr std::array<ModelFamily, 12> kFamilies{{
+constexpr std::array<ModelFamily, 13> kFamilies{{
     {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D},
     {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
     {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
@@ -122,6 +128,7 @@ constexpr std::array<ModelFamily, 12> kFamilies{{
     {K::QuartileLower, "quartile-lower", quantileArrays, perBoundary, {0, .25}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D},
+    {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr},
 }};
 // clang-format on
 
@@ -132,7 +139,7 @@ struct ArrayInfo {
     const std::vector<float> ModelVolume::*values;
     const char* hint;
 };
-constexpr std::array<ArrayInfo, 7> kArrays{{
+constexpr std::array<ArrayInfo, 8> kArrays{{
     {kArrayMean, "mean", &ModelVolume::mean, "rebuild it with `udvr build`"},
     {kArrayStddev, "stddev", &ModelVolume::stddev, "rebuild it with `udvr build`"},
     {kArrayMin, "min", &ModelVolume::min, "rebuild it with `udvr build`"},
@@ -140,6 +147,7 @@ constexpr std::array<ArrayInfo, 7> kArrays{{
     {kArrayQuantiles, "quantiles", &ModelVolume::quantiles, "build with --quantiles Q"},
     {kArrayIqr, "iqr", &ModelVolume::iqr, "rebuild it with `udvr build`"},
     {kArrayGmm, "gmm", &ModelVolume::gmm, "build with --gmm K"},
+    {kArrayMembers, "members", &ModelVolume::members, "read the ensemble itself"},
 }};
 
 std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
@@ -150,6 +158,8 @@ std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
             return 2;
         case kArrayGmm:
             return 3 * static_cast<std::size_t>(m.gmmComponents);
+        case kArrayMembers:
+            return static_cast<std::size_t>(m.memberCount);
         default:
             return 1;
     }
@@ -264,6 +274,14 @@ void checkModelHasArrays(const ModelVolume& model, ModelKind kind, const Classif
         if (!(need & a.bit)) continue;
         const std::vector<float>& v = model.*a.values;
         const std::size_t per = valuesPerVoxel(a.bit, model);
+        // No file holds the members: the model or field was read, not the ensemble.
+        if (a.bit == kArrayMembers && (v.empty() || per == 0))
+            UDVR_FAIL("model '"
+                      << f.name
+                      << "' needs an ensemble (a .nc with a member dimension, member files or a "
+                         "quoted glob), not "
+                      << (model.samplesPerVoxel == 1 ? "a single field" : "a model file")
+                      << ": it averages the TF over the members themselves");
         // A plain field read as a model (modelFromField: one sample per voxel) has mean, min,
         // max and a zero stddev; the distribution arrays come only from `udvr build`.
         if ((v.empty() || per == 0) && model.samplesPerVoxel == 1)

@@ -29,6 +29,7 @@ enum ModelArray : unsigned {
     kArrayQuantiles = 1u << 4,  // q + 1 per voxel
     kArrayIqr = 1u << 5,        // 2 per voxel
     kArrayGmm = 1u << 6,        // 3K per voxel
+    kArrayMembers = 1u << 7,    // n per voxel: the ensemble itself (membersModel), not a file's
 };
 
 /// Any model's kernel with a 2D TF (SPEC §9).
@@ -66,8 +67,8 @@ struct ModelFamily {
     std::string_view name;  // the CLI name (SPEC §3–4)
     /// Arrays the classification reads (for the options given).
     unsigned (*arrays)(const ClassifyOptions& options);
-    /// Floats stored per voxel for the model, relative to the mean field's one.
-    double (*floatsPerVoxel)(int quantiles, int gmmComponents);
+    /// Floats stored per voxel for the model, relative to the mean field's one (n members).
+    double (*floatsPerVoxel)(int quantiles, int gmmComponents, int members);
     /// For the quantile-range family: the covered rank interval [lo, hi] of [0, 1] (SPEC §4
     /// quartile views); {0, 0} for other models.
     std::pair<double, double> population;

@@ -463,9 +463,61 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
     void prefetch(int v) const { prefetchRows(quantiles, v, q + 1); }
 };
 
+/// The ensemble's own expected classification (`members`, no model; issue 12): each member
+/// f_i interpolated trilinearly as the mean field is, then E[α·c] = (1/n) Σ_i α(f_i)·c(f_i) and
+/// E[α] = (1/n) Σ_i α(f_i). Keeps every spatial correlation of the ensemble.
+struct MembersKernel : KernelBase, detail::ClassifyInLoad {
+    const float* members;  // n per voxel, voxel-major: members[v·n + i]
+    int n;
+
+    MembersKernel(const Grid3& grid, const float* m, int count, const TfPiecesStorage& tf)
+        : KernelBase(grid, tf), members(m), n(count) {}
+    /// Member i at a cell: Σ_c w_c f_{i,c} by the lerps of the mean field.
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE T memberAt(int i, const Cell<T>& c, lanes::MaskOf<T> live) const {
+        return boundaryAt<T>(geometry, members, n, i, c, live);
+    }
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r{};
+        withTf<T>([&](const auto& t) {
+            const auto add = [&](T value) {
+                T e[4];
+                tfAt<T>(t, value, e);
+                for (int ch = 0; ch < 4; ++ch) r.v[ch] += e[ch];
+            };
+            if constexpr (lanes::kIsVector<T>) {
+                // Blocks of members as the batch's transposed rows (contiguous per voxel).
+                lanes::Vf f[kMaxRowBoundaries];
+                for (int first = 0; first < n; first += kMaxRowBoundaries) {
+                    const int count = n - first < kMaxRowBoundaries ? n - first : kMaxRowBoundaries;
+                    boundaryRows(geometry, members, n, first, count, c, live, f);
+                    for (int i = 0; i < count; ++i) add(f[i]);
+                }
+            } else {
+                for (int i = 0; i < n; ++i) add(memberAt<T>(i, c, live));
+            }
+        });
+        const T inv = lanes::splat<T>(static_cast<lanes::ScalarOf<T>>(1.0 / n));
+        for (int ch = 0; ch < 4; ++ch) r.v[ch] *= inv;
+        detail::keepLive<T>(live, r.v);
+        return r;
+    }
+    /// [min, max] over the voxel's members: each f_i(p) is a convex blend of its corners.
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        const float* f = members + voxel * static_cast<std::size_t>(n);
+        lo = hi = f[0];
+        for (int i = 1; i < n; ++i) {
+            lo = f[i] < lo ? f[i] : lo;
+            hi = f[i] > hi ? f[i] : hi;
+        }
+    }
+    void prefetch(int v) const { prefetchRows(members, v, n); }
+};
+
 /// Any model's kernel.
 using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrderedKernel,
-                               QuantileRangeKernel, QuantileMeanKernel>;
+                               QuantileRangeKernel, QuantileMeanKernel, MembersKernel>;
 
 /// Options that change classification but are not part of the model file.
 struct ClassifyOptions {

@@ -5,9 +5,9 @@
 // kernel (model_kernels.h: the same interpolation, one place), so every model with a per-sample
 // kernel has a bivariate classification: mean (TF2 at the two means), uniform (the paper's tensor
 // product of two box splines), gaussian, gmm-ordered, the quantile-range family (Σ_j Σ_k 1/q²
-// × mean of TF2 over [b_j, b_j+1] × [b'_k, b'_k+1]) and quantile-mean (TF2 at the pairs of
-// midpoints, Eq. 5's weights per field). The same interface as the 1D kernels, so the same ray
-// loop and probe serve them.
+// × mean of TF2 over [b_j, b_j+1] × [b'_k, b'_k+1]), quantile-mean (TF2 at the pairs of
+// midpoints, Eq. 5's weights per field) and the members (a point mass 1/n at each member's
+// value). The same interface as the 1D kernels, so the same ray loop and probe serve them.
 #include <variant>
 
 #include "udvr/classify/expected_tf2.h"
@@ -83,6 +83,10 @@ struct FieldMarginal {
             if (p != 0.0) sink.point(0.5 * (a + b), p);
             a = b;
         }
+    }
+
+    void operator()(const MembersKernel& k) const {
+        for (int i = 0; i < k.n; ++i) sink.point(k.memberAt<double>(i, cell, true), 1.0 / k.n);
     }
 
   private:

@@ -105,7 +105,7 @@ TransferFunction2D transposed(const TransferFunction2D& t) {
 // A model whose every array describes the constant c with no spread.
 ModelVolume constantModel(const ModelVolume& like, float c) {
     ModelVolume m = like;
-    for (auto* a : {&m.mean, &m.min, &m.max, &m.quantiles, &m.iqr})
+    for (auto* a : {&m.mean, &m.min, &m.max, &m.quantiles, &m.iqr, &m.members})
         std::fill(a->begin(), a->end(), c);
     std::fill(m.stddev.begin(), m.stddev.end(), 0.f);
     const int k = m.gmmComponents;

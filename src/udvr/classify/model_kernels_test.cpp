@@ -28,36 +28,8 @@ Rgba classify(const ModelVolume& m, ModelKind kind, const TransferFunction1D& tf
     return out;
 }
 
-// The 8 corners and trilinear weights of index-space point (x, y, z), written out here (SPEC
-// §1, §3) independently of reconstruct/cell.h: clamped into the grid, the last plane in the cell
-// below it with fraction 1, a 1-point axis has fraction 0.
-struct RefCell {
-    std::size_t corner[8];
-    double weight[8];
-};
-RefCell refCell(const std::array<int, 3>& dims, float x, float y, float z) {
-    const float p[3] = {x, y, z};
-    int base[3];
-    double f[3];
-    for (int a = 0; a < 3; ++a) {
-        const double v = std::clamp(static_cast<double>(p[a]), 0.0, dims[a] - 1.0);
-        base[a] = dims[a] == 1 ? 0 : std::min(static_cast<int>(std::floor(v)), dims[a] - 2);
-        f[a] = v - base[a];
-    }
-    RefCell c;
-    for (int k = 0; k < 8; ++k) {
-        std::size_t idx[3];
-        c.weight[k] = 1.0;
-        for (int a = 0; a < 3; ++a) {
-            const bool up = (k >> a) & 1;
-            idx[a] = static_cast<std::size_t>(base[a] + (up && dims[a] > 1 ? 1 : 0));
-            c.weight[k] *= up ? f[a] : 1.0 - f[a];
-        }
-        c.corner[k] = idx[0] + static_cast<std::size_t>(dims[0]) *
-                                   (idx[1] + static_cast<std::size_t>(dims[1]) * idx[2]);
-    }
-    return c;
-}
+using testing::RefCell;
+using testing::refCell;
 
 // |kernel − MC| ≤ 5 standard errors (+ float rounding of the result).
 void expectMc(const Rgba& got, const TransferFunction1D& tf, const std::function<double()>& draw,
@@ -277,6 +249,7 @@ TEST(Kernels, DegenerateDistributionsReduceToTheMeanField) {
         m.min[v] = m.max[v] = x;
         for (int j = 0; j <= 8; ++j) m.quantiles[v * 9 + j] = x;
         m.iqr[2 * v] = m.iqr[2 * v + 1] = x;
+        for (int i = 0; i < m.memberCount; ++i) m.members[v * m.memberCount + i] = x;
         for (int k = 0; k < 2; ++k) {
             m.gmm[v * 6 + 2 + k] = x;
             m.gmm[v * 6 + 4 + k] = 0.f;
@@ -315,6 +288,7 @@ TEST(Kernels, GridFacesAndCornersUseOnlyTheNearVoxels) {
     };
     keep(single.mean, 1), keep(single.stddev, 1), keep(single.min, 1), keep(single.max, 1);
     keep(single.quantiles, 9), keep(single.iqr, 2), keep(single.gmm, 9);
+    keep(single.members, static_cast<std::size_t>(single.memberCount));
     for (ModelKind kind : allModelKinds()) {
         if (kind == ModelKind::GmmMc) continue;
         const Rgba a = classify(c.model, kind, c.tf, px, py, pz);
@@ -421,9 +395,9 @@ TransferFunction1D laneTestTf(bool step, bool dense, double offset) {
     return testing::withFloatBreaks(tf);
 }
 
-// The model with every value (means, bounds, quantiles, GMM means) moved by `offset`.
+// The model with every value (means, bounds, quantiles, GMM means, members) moved by `offset`.
 void shiftModel(ModelVolume& m, float offset) {
-    for (auto* a : {&m.mean, &m.min, &m.max, &m.quantiles, &m.iqr})
+    for (auto* a : {&m.mean, &m.min, &m.max, &m.quantiles, &m.iqr, &m.members})
         for (float& v : *a) v += offset;
     const int k = m.gmmComponents;
     for (std::size_t v = 0; v < m.voxelCount(); ++v)

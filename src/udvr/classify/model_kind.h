@@ -19,6 +19,7 @@ enum class ModelKind {
     QuartileLower,     // quantile-range over [0, .25]
     QuartileMiddle,    // quantile-range over [.25, .75]
     QuartileUpper,     // quantile-range over [.75, 1]
+    Members,           // no model: the TF averaged over an ensemble's members (issue 12)
 };
 
 /// Parse a CLI model name ("quantile-mean"); throws UdvrError listing the valid names.

@@ -194,6 +194,27 @@ struct Describe {
         d.atoms = mids;
         d.atomMass = probs;
     }
+    void operator()(const MembersKernel& k) const {
+        // The members' values at the point, each a point mass 1/n (the TF is averaged over them).
+        std::vector<double> f(static_cast<std::size_t>(k.n));
+        for (int i = 0; i < k.n; ++i) f[i] = k.memberAt<double>(i, cell, true);
+        double mean = 0.0, ss = 0.0;
+        for (double x : f) mean += x;
+        mean /= k.n;
+        for (double x : f) ss += (x - mean) * (x - mean);
+        const auto [lo, hi] = std::minmax_element(f.begin(), f.end());
+        j["members"] = k.n;
+        j["member_values"] = f;
+        j["min"] = *lo;
+        j["max"] = *hi;
+        j["mean"] = mean;
+        j["stddev"] = k.n > 1 ? std::sqrt(ss / (k.n - 1)) : 0.0;  // ddof = 1, as SPEC §2's σ
+        d.lo = *lo, d.hi = *hi;
+        if (!(d.hi > d.lo)) d.lo -= 0.5, d.hi += 0.5;
+        pad(d, 0.05);
+        d.atoms = f;
+        d.atomMass.assign(f.size(), 1.0 / k.n);
+    }
 };
 
 }  // namespace
@@ -329,6 +350,7 @@ ModelVolume probeNeighbourhood(const ModelVolume& m, const Cell<double>& cell,
     c.quantiles = cut(m.quantiles, static_cast<std::size_t>(m.quantileCount) + 1);
     c.iqr = cut(m.iqr, 2);
     c.gmm = cut(m.gmm, 3 * static_cast<std::size_t>(m.gmmComponents));
+    c.members = cut(m.members, static_cast<std::size_t>(m.memberCount));
     return c;
 }
 

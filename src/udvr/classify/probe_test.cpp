@@ -33,6 +33,14 @@ TEST(Probe, JsonHoldsTheDistributionAndExpectation) {
         if (kind == ModelKind::GmmOrdered) {
             EXPECT_EQ(j["weights"].size(), 3u);
         }
+        if (kind == ModelKind::Members) {
+            EXPECT_EQ(j["members"], m.memberCount);
+            ASSERT_EQ(j["member_values"].size(), static_cast<std::size_t>(m.memberCount));
+            EXPECT_LE(j["min"].get<double>(), j["mean"].get<double>());
+            EXPECT_LE(j["mean"].get<double>(), j["max"].get<double>());
+            // The members' mean at the point is the interpolated mean array ("value").
+            EXPECT_NEAR(j["mean"].get<double>(), j["value"].get<double>(), 1e-5);
+        }
         // Continuous part + point masses = 1.
         double mass = p.distribution.continuousMass;
         for (double a : p.distribution.atomMass) mass += a;
@@ -65,8 +73,11 @@ TEST(Probe, PlainFieldNamesTheModelsItLacksArraysFor) {
             ADD_FAILURE() << modelName(kind) << " probed a plain field";
         } catch (const UdvrError& e) {
             const std::string msg = e.what();
-            EXPECT_NE(msg.find("plain field"), std::string::npos) << msg;
-            EXPECT_NE(msg.find("udvr build"), std::string::npos) << msg;
+            // members needs the ensemble itself, which no build makes.
+            const bool members = kind == ModelKind::Members;
+            EXPECT_NE(msg.find(members ? "single field" : "plain field"), std::string::npos) << msg;
+            EXPECT_NE(msg.find(members ? "needs an ensemble" : "udvr build"), std::string::npos)
+                << msg;
             EXPECT_NE(msg.find(modelName(kind)), std::string::npos) << msg;
         }
     }

@@ -138,13 +138,9 @@ Described describeFile(const std::string& path, const InfoOpts& o) {
     bool model = false;
     if (ext == ".vti" && o.var.empty())
         for (const ArrayInfo& a : arrays) model = model || a.name == "mean";
-    if (ext == ".nc") {
-        // The chosen variable (or, without --var, any) with a member dimension: an ensemble.
-        bool ensemble = false;
-        for (const ArrayInfo& a : arrays)
-            ensemble = ensemble || (a.dimNames.size() == 4 && (o.var.empty() || a.name == o.var));
-        if (ensemble) return describeEnsemble({path}, o, path);
-    }
+    // The chosen variable (or, without --var, any) with a member dimension: an ensemble.
+    if (ext == ".nc" && netcdfHoldsEnsemble(arrays, o.var))
+        return describeEnsemble({path}, o, path);
     Described d;
     d.info["file"] = path;
     d.info["arrays"] = arraysJson(arrays);

@@ -1,8 +1,9 @@
-// udvr probe {model.vti | field} {--point i,j,k | --world x,y,z} --model NAME [--tf tf.json|PRESET]
-//   [--json] [--plot out.png]
+// udvr probe {model.vti | field | ensemble --model members} {--point i,j,k | --world x,y,z}
+//   --model NAME [--tf tf.json|PRESET] [--json] [--plot out.png]
 #include <cstdio>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "udvr/classify/probe.h"
 #include "udvr/cmd/commands.h"
@@ -19,16 +20,18 @@ void addProbeCommand(CLI::App& app) {
     auto* sub = app.add_subcommand(
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
-        std::string model, point, world, kind = "mean", plot, uniformWidth = "variance", second,
-                                         var;
+        std::vector<std::string> inputs;  // one model or field; an ensemble for --model members
+        std::string point, world, kind = "mean", plot, uniformWidth = "variance", second, var;
+        EnsembleFlags ensemble;
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
         bool json = false;
     };
     auto o = std::make_shared<Opts>();
-    sub->add_option("model", o->model,
-                    "model (.vti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw)")
+    sub->add_option("model", o->inputs,
+                    "model (.vti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw); "
+                    "with --model members an ensemble (.nc, member files or a quoted glob)")
         ->required();
     sub->add_option("--point", o->point,
                     "index coordinates i,j,k on the input's own grid (a downsampled model's "
@@ -36,7 +39,7 @@ void addProbeCommand(CLI::App& app) {
     sub->add_option("--world", o->world, "world coordinates x,y,z instead of --point");
     sub->add_option("--model", o->kind,
                     "noise model (mean, uniform, gaussian, gmm-ordered, "
-                    "quantile-range, ...; default mean)");
+                    "quantile-range, ..., members; default mean)");
     addTfOptions(sub, o->tf);
     sub->add_option("--tf2", o->tf2.file,
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
@@ -50,8 +53,14 @@ void addProbeCommand(CLI::App& app) {
                     "uniform model: variance (alias std; mu +- sqrt(3) sigma, default) or minmax");
     sub->add_option("--var", o->var, "array/variable name in the input");
     addRawLayoutOptions(sub, o->raw);
+    addEnsembleOptions(sub, o->ensemble);
     sub->callback([o] {
         const ModelKind kind = parseModelKind(o->kind);
+        const bool members = kind == ModelKind::Members;
+        if (!members && o->inputs.size() != 1)
+            UDVR_FAIL("probe takes one model or field, got "
+                      << o->inputs.size()
+                      << " inputs (member files are an ensemble: --model members probes them)");
         if (o->point.empty() == o->world.empty())
             UDVR_FAIL("give the point as --point i,j,k (index) or --world x,y,z, one of them");
         ClassifyOptions options;
@@ -64,6 +73,8 @@ void addProbeCommand(CLI::App& app) {
         }
         requireOneTf(o->tf.tf, o->tf2);
         const bool twoD = !o->tf2.file.empty();
+        if (members && twoD)
+            UDVR_FAIL("--model members classifies with a 1D transfer function (--tf), not --tf2");
         if (twoD && !o->plot.empty())
             UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
         if (!o->second.empty() && !twoD)
@@ -72,7 +83,8 @@ void addProbeCommand(CLI::App& app) {
         const bool tfFile = !twoD && !tfIsPreset(o->tf);
         TfChoice tfChoice;
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
-        const ModelVolume model = readModelOrField(o->model, o->var, o->raw);
+        const ModelVolume model = members ? readMembersModel(o->inputs, o->var, o->raw, o->ensemble)
+                                          : readModelOrField(o->inputs.front(), o->var, o->raw);
         if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model.mean, "probe");
         const TransferFunction1D& tf = tfChoice.tf;
         const Grid3& g = model.grid;
@@ -104,7 +116,7 @@ void addProbeCommand(CLI::App& app) {
             "%g, %g)\n",
             std::string(modelName(kind)).c_str(), p[0], p[1], p[2], g.dims[0], g.dims[1], g.dims[2],
             reduced.c_str(), world[0], world[1], world[2]);
-        for (const char* key : {"value", "mean", "stddev", "low", "high"})
+        for (const char* key : {"members", "value", "mean", "stddev", "low", "high", "min", "max"})
             if (r.json.contains(key)) std::printf("  %-8s %.6g\n", key, r.json[key].get<double>());
         for (const char* key : {"boundaries", "weights", "means", "sigmas", "population"})
             if (r.json.contains(key)) std::printf("  %-8s %s\n", key, r.json[key].dump().c_str());

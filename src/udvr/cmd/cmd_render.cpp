@@ -1,6 +1,6 @@
-// udvr render {field|model.vti} --model NAME {--tf tf.json | --tf2 TF2} [--size WxH] [camera…]
-// [--step S]
-//             [--unit-distance U] [--float img.npy|.pfm] [--frames N] -o img.png   (SPEC §8)
+// udvr render {field|model.vti|ensemble --model members} --model NAME {--tf tf.json | --tf2 TF2}
+//             [--size WxH] [camera…] [--step S] [--unit-distance U] [--float img.npy|.pfm]
+//             [--frames N] [--memory-cap GIB] -o img.png   (SPEC §8)
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -29,7 +29,8 @@ namespace udvr::cmd {
 namespace {
 
 struct RenderOpts {
-    std::string input, model = "mean", size = "512x512", out, floatOut;
+    std::vector<std::string> inputs;  // one model or field; an ensemble for --model members
+    std::string model = "mean", size = "512x512", out, floatOut;
     TfFlags tf;               // 1D TF: file or preset (default: a preset over the data)
     std::string view, frame;  // framed default camera (render/framing.h)
     bool force = false;
@@ -43,6 +44,7 @@ struct RenderOpts {
     RawLayoutFlags raw;  // headerless .raw input
     std::string var;
     std::string second, secondVar;  // bivariate fields (SPEC §9 --second)
+    EnsembleFlags ensemble;         // --model members
 };
 
 // More samples than this per frame (an upper bound: every ray crossing the box's diagonal)
@@ -122,6 +124,15 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
     const ModelKind kind = parseModelKind(o.model);
     requireOneTf(o.tf.tf, o.tf2);
     const bool twoD = !o.tf2.file.empty();
+    const bool members = kind == ModelKind::Members;
+    if (!members && o.inputs.size() != 1)
+        UDVR_FAIL("render takes one model or field, got "
+                  << o.inputs.size()
+                  << " inputs (member files are an ensemble: --model members renders its members' "
+                     "average classification, `udvr build` models it)");
+    if (members && twoD)
+        UDVR_FAIL("--model members classifies with a 1D transfer function (--tf), not --tf2");
+    const std::string& input = o.inputs.front();
     checkTfFlags(o.tf, twoD);
     const auto size = parseSize(o.size, "--size");
     if (static_cast<double>(size[0]) * size[1] > kMaxPixelsWithoutForce && !o.force)
@@ -139,7 +150,8 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
         twoD ? readTransferFunction2D(o.tf2.file, toTf2ReadOptions(o.tf2)) : TransferFunction2D{};
     if (!o.second.empty() && !twoD)
         UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
-    const ModelVolume model = readModelOrField(o.input, o.var, o.raw);
+    const ModelVolume model = members ? readMembersModel(o.inputs, o.var, o.raw, o.ensemble)
+                                      : readModelOrField(input, o.var, o.raw);
     if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model.mean, "render");
     const TransferFunction1D& tf = tfChoice.tf;
     const ModelVolume second =
@@ -231,13 +243,13 @@ void run(const RenderOpts& o, bool jitterGiven, bool parallelGiven, bool azimuth
                          "udvr: warning: the TF gives no voxel an opacity of 10 %% of its largest: "
                          "the image shows little or nothing (udvr info %s --histogram h.png "
                          "shows the values)\n",
-                         o.input.c_str());
+                         input.c_str());
         else if (wholeBox && !tfGiven)
             std::fprintf(stderr,
                          "render: the preset shows voxels out to the volume's faces, which may "
                          "hide the inside: --tf-range lo,hi or a TF file with opacity 0 at their "
                          "values shows it (udvr info %s --histogram h.png shows the values)\n",
-                         o.input.c_str());
+                         input.c_str());
     }
     const auto& cam = s.camera;
     std::fprintf(stderr,
@@ -260,12 +272,14 @@ void addRenderCommand(CLI::App& app) {
     auto* sub = app.add_subcommand(
         "render", "ray-cast a field or a model volume with a transfer function (SPEC §5)");
     auto o = std::make_shared<RenderOpts>();
-    sub->add_option("input", o->input, "model .vti from 'udvr build', or any scalar field")
+    sub->add_option("input", o->inputs,
+                    "model .vti from 'udvr build', or any scalar field; with --model members an "
+                    "ensemble (.nc with a member dimension, member files or a quoted glob)")
         ->required();
     sub->add_option("--model", o->model,
                     "mean | uniform | gaussian | gmm-ordered | gmm-mc | quantile-range | "
-                    "quantile-mean | quantile-mean-mass | iqr | quartile-lower|middle|upper "
-                    "(default mean)");
+                    "quantile-mean | quantile-mean-mass | iqr | quartile-lower|middle|upper | "
+                    "members (an ensemble's TF averaged over its members; default mean)");
     addTfOptions(sub, o->tf);
     sub->add_option("--tf2", o->tf2.file,
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
@@ -317,6 +331,7 @@ void addRenderCommand(CLI::App& app) {
                     "time N frames after one warm-up; print median/min ms and frames/s");
     addRawLayoutOptions(sub, o->raw);
     sub->add_option("--var", o->var, "array/variable name in the input");
+    addEnsembleOptions(sub, o->ensemble);
     sub->callback([o, jit, ps, az, el] {
         run(*o, jit->count() > 0, ps->count() > 0, az->count() > 0, el->count() > 0);
     });

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "udvr/classify/tf_presets.h"
+#include "udvr/io/ensemble_io.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_io.h"
 #include "udvr/util/atomic_file.h"
@@ -172,6 +173,68 @@ ModelVolume readModelOrField(const std::string& path, const std::string& var,
     fo.var = var;
     fo.raw = toRawLayout(raw);
     return udvr::readModelOrField(path, fo);
+}
+
+bool netcdfHoldsEnsemble(const std::vector<ArrayInfo>& arrays, const std::string& var) {
+    for (const ArrayInfo& a : arrays)
+        if (a.dimNames.size() == 4 && (var.empty() || a.name == var)) return true;
+    return false;
+}
+
+bool isEnsembleInput(const std::vector<std::string>& inputs, const std::string& var,
+                     const RawLayoutFlags& raw) {
+    if (inputs.size() != 1) return inputs.size() > 1;
+    const std::string& path = inputs.front();
+    if (path.find_first_of("*?[") != std::string::npos && !std::filesystem::exists(path))
+        return true;
+    return lowerExtension(path) == ".nc" &&
+           netcdfHoldsEnsemble(listArrays(path, toRawLayout(raw)), var);
+}
+
+void addEnsembleOptions(CLI::App* sub, EnsembleFlags& flags) {
+    sub->add_option("--member-dim", flags.memberDim,
+                    "--model members: the NetCDF member dimension's name");
+    sub->add_option("--memory-cap", flags.memoryCapGiB,
+                    "--model members: the most GiB the members may take in memory (n x voxels x "
+                    "4 bytes; default 8)");
+}
+
+ModelVolume readMembersModel(const std::vector<std::string>& inputs, const std::string& var,
+                             const RawLayoutFlags& raw, const EnsembleFlags& flags) {
+    if (!(flags.memoryCapGiB > 0.0) || !std::isfinite(flags.memoryCapGiB))
+        UDVR_FAIL("--memory-cap must be a positive number of GiB, got " << flags.memoryCapGiB);
+    if (!isEnsembleInput(inputs, var, raw)) {
+        const std::string& path = inputs.front();
+        bool model = false;
+        if (lowerExtension(path) == ".vti" && var.empty())
+            for (const ArrayInfo& a : listArrays(path, toRawLayout(raw)))
+                model = model || a.name == "mean";
+        UDVR_FAIL(
+            "--model members needs an ensemble (a .nc with a member dimension, 2+ member "
+            "files or a quoted glob), but "
+            << path << " is " << (model ? "a model file" : "a single field")
+            << ": it averages the TF over the members themselves");
+    }
+    EnsembleReadOptions ro;
+    ro.var = var;
+    ro.memberDim = flags.memberDim;
+    ro.raw = toRawLayout(raw);
+    ro.voxelMajor = true;
+    ro.checkSize = [&](int members, const Grid3& grid) {
+        const double gib = static_cast<double>(members) * static_cast<double>(grid.pointCount()) *
+                           sizeof(float) / (1024.0 * 1024.0 * 1024.0);
+        if (gib > flags.memoryCapGiB) {
+            char text[64];
+            std::snprintf(text, sizeof text, "%.3g GiB", gib);
+            UDVR_FAIL("--model members holds the "
+                      << members << " members of " << grid.dims[0] << "x" << grid.dims[1] << "x"
+                      << grid.dims[2] << " points in memory: " << text << ", over the cap of "
+                      << flags.memoryCapGiB
+                      << " GiB (raise it with --memory-cap GIB, or "
+                         "render a model built with `udvr build`)");
+        }
+    };
+    return membersModel(readEnsemble(inputs, ro));
 }
 
 void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags) {

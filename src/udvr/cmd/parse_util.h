@@ -8,6 +8,7 @@
 
 #include "udvr/classify/transfer_function.h"
 #include "udvr/io/field_io.h"
+#include "udvr/io/file_info.h"
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/stats/model_volume.h"
 
@@ -55,6 +56,27 @@ std::string lowerExtension(const std::string& path);
 /// `var` names the field's array/variable, `raw` the layout of a headerless .raw file.
 ModelVolume readModelOrField(const std::string& path, const std::string& var,
                              const RawLayoutFlags& raw);
+
+/// Whether a NetCDF file whose variables are `arrays` (listArrays) holds an ensemble: the
+/// variable `var` (or, empty, any) has 4 dims (a member dimension and 3 grid dims).
+bool netcdfHoldsEnsemble(const std::vector<ArrayInfo>& arrays, const std::string& var);
+/// Whether `inputs` name an ensemble rather than one field or model (`udvr build`'s inputs): 2
+/// or more files, a glob that is not itself a file, or a NetCDF ensemble (its header only).
+bool isEnsembleInput(const std::vector<std::string>& inputs, const std::string& var,
+                     const RawLayoutFlags& raw);
+
+/// How `--model members` reads an ensemble: --member-dim and --memory-cap.
+struct EnsembleFlags {
+    std::string memberDim;
+    double memoryCapGiB = 8.0;  // the members' n·voxels·4 bytes may not pass this
+};
+/// Register --member-dim and --memory-cap.
+void addEnsembleOptions(CLI::App* sub, EnsembleFlags& flags);
+/// The ensemble `inputs` as the `members` reference (membersModel), read voxel-major under the
+/// memory cap (refused, saying the size needed, before any value is allocated). Fails for
+/// inputs that are not an ensemble: a model file or a single field.
+ModelVolume readMembersModel(const std::vector<std::string>& inputs, const std::string& var,
+                             const RawLayoutFlags& raw, const EnsembleFlags& flags);
 
 /// 2D TF flags as typed: --tf2 FILE, --tf2-domain x0,x1,y0,y1, --tf2-resolution WxH.
 struct Tf2Flags {

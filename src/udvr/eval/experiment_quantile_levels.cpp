@@ -5,6 +5,7 @@
 // shared data is present). Every model's RMSE is against its dataset's full-resolution truth.
 #include <algorithm>
 #include <limits>
+#include <memory>
 
 #include "udvr/data/noise.h"
 #include "udvr/data/synthetic.h"
@@ -42,6 +43,7 @@ struct Dataset {
     ModelVolume truth;
     int samples = 0;  // per voxel of the models
     std::function<ModelVolume(const BuildOptions&)> build;
+    std::shared_ptr<const Ensemble> ensemble;  // for the members image; null for bricks
 };
 
 }  // namespace
@@ -57,9 +59,9 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
         NoiseParams noise;
         noise.seed = kNoiseSeed;
         auto ensemble = std::make_shared<Ensemble>(perturbField(tangle, s.members, noise));
-        datasets.push_back(
-            {"tangle", "tangle.json", modelFromField(tangle), s.members,
-             [ensemble](const BuildOptions& o) { return buildModel(*ensemble, o); }});
+        datasets.push_back({"tangle", "tangle.json", modelFromField(tangle), s.members,
+                            [ensemble](const BuildOptions& o) { return buildModel(*ensemble, o); },
+                            ensemble});
         setup.push_back("tangle: " + std::to_string(s.dims) + "³, " + std::to_string(s.members) +
                         " members with the paper's bimodal noise (seed " +
                         std::to_string(kNoiseSeed) + "), TF `data/tf/tangle.json`.");
@@ -71,7 +73,8 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
         std::make_shared<ScalarField>(makeNestedSpheres(sphereDims, sphereDims, sphereDims));
     datasets.push_back(
         {"spheres", "spheres.json", modelFromField(*spheres), kBrick * kBrick * kBrick,
-         [spheres](const BuildOptions& o) { return buildModelDownsampled(*spheres, kBrick, o); }});
+         [spheres](const BuildOptions& o) { return buildModelDownsampled(*spheres, kBrick, o); },
+         nullptr});
     setup.push_back("spheres: nested spheres " + std::to_string(sphereDims) + "³ reduced by " +
                     std::to_string(kBrick) + "³ bricks, TF `data/tf/spheres.json`.");
     const fs::path chest = sharedDataPath(options, "chest-ct/chest.nhdr");
@@ -79,7 +82,8 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
         auto field = std::make_shared<ScalarField>(readField(chest));
         datasets.push_back(
             {"chest", "chest-ct.json", modelFromField(*field), kBrick * kBrick * kBrick,
-             [field](const BuildOptions& o) { return buildModelDownsampled(*field, kBrick, o); }});
+             [field](const BuildOptions& o) { return buildModelDownsampled(*field, kBrick, o); },
+             nullptr});
         setup.push_back("chest: the chest CT `" + chest.string() + "` reduced by " +
                         std::to_string(kBrick) + "³ bricks, TF `data/tf/chest-ct.json`.");
     } else {
@@ -91,6 +95,9 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
         "Equal memory: every model stores q + 1 = 9 boundaries per voxel (empirical quantiles, "
         "no GMM); RMSE against each dataset's full-resolution ground truth.");
     setup.push_back(
+        "Ensembles (the tangle) also render the members image (`--model members`: the TF "
+        "averaged over the members at each sample), and each row's RMSE against it.");
+    setup.push_back(
         "Each dataset in its own default view (azimuth 30°, elevation 20°, framing its box); the "
         "camera and TF lines below are the last dataset's.");
 
@@ -101,7 +108,13 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
         run.renderTruth(d.truth, 1, 1.0);
         run.result().rows.back().label = d.name + ": ground truth";
         run.items().back().caption[0] = d.name + ": ground truth";
-        d.truth = {};  // the rendered truth is all that is needed from here on
+        d.truth = {};      // the rendered truth is all that is needed from here on
+        if (d.ensemble) {  // the ensemble's own expected image: rows get their RMSE against it
+            run.addMembers(*d.ensemble, " (" + d.name + ")", true, false);
+            run.items().back().caption[0] = d.name + ": members";
+        } else {
+            run.addPanelItem({});  // a blank cell, so every dataset's row lines up
+        }
         std::map<std::string, double> rmse;  // "<kind> <levels>"
         for (const LevelSet& ls : levelSets()) {
             BuildOptions bo;
@@ -143,7 +156,7 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
     }
     const std::string title =
         "Uneven quantile levels at equal memory (q = 8): QR = quantile-range, QM = quantile-mean";
-    run.writeFigure("figure.png", renderPanel(makePanel(title, run.items(), 7)));
+    run.writeFigure("figure.png", renderPanel(makePanel(title, run.items(), 8)));
     return run.finish(title, setup, {"figure.png"});
 }
 

@@ -257,9 +257,11 @@ class Run {
     }
 
     /// Render the ground truth (a mean model of the deterministic field) and record it.
+    /// A new truth starts a new dataset: no members image until addMembers is called again.
     void renderTruth(const ModelVolume& truthModel, int memberCount, double memory) {
         double ms = 0;
         truth_ = render(truthModel, ModelKind::Mean, "ground truth", &ms);
+        members_ = {};
         ResultRow row;
         row.experiment = result_.name;
         row.label = "ground truth";
@@ -275,7 +277,16 @@ class Run {
     }
     const ImageRgba& truth() const { return truth_; }
 
-    /// Render `kind` of `model`, compare with the truth, write the image and its difference.
+    /// The ensemble's own expected image (model `members`, issue 12): rendered and recorded as
+    /// a row, and every row added after it is compared with it too (ResultRow::rmseMembers).
+    void addMembers(const Ensemble& ensemble, const std::string& labelSuffix = "",
+                    bool inPanel = true, bool withDiff = true) {
+        add(membersModel(ensemble), ModelKind::Members, ensemble.members, labelSuffix, inPanel,
+            withDiff);
+    }
+
+    /// Render `kind` of `model`, compare with the truth (and the members image, once there is
+    /// one), write the image and its difference.
     ResultRow add(const ModelVolume& model, ModelKind kind, int memberCount,
                   const std::string& labelSuffix = "", bool inPanel = true, bool withDiff = true) {
         const int q = usesQuantiles(kind) ? model.quantileCount : 0;
@@ -291,11 +302,14 @@ class Run {
         row.members = memberCount;
         ImageRgba img = render(model, kind, row.label, &row.renderMs);
         row.rmse = imageRmse(img, truth_);
-        row.memoryRatio = memoryRatio(kind, q, k);
+        if (kind == ModelKind::Members) members_ = img;
+        if (members_.width > 0) row.rmseMembers = imageRmse(img, members_);
+        row.memoryRatio = memoryRatio(kind, q, k, memberCount);
         const std::string base = "images/" + slug(row.label);
         row.image = base + ".png";
         writeImage(row.image, img);
-        log(row.label + ": RMSE " + fmt("%.5f", row.rmse));
+        log(row.label + ": RMSE " + fmt("%.5f", row.rmse) +
+            (members_.width > 0 ? ", against the members " + fmt("%.5f", row.rmseMembers) : ""));
         result_.rows.push_back(row);
         if (inPanel) {
             std::string line2 = "RMSE " + fmt("%.4f", row.rmse);
@@ -422,6 +436,7 @@ class Run {
     std::vector<ClaimCheck> extraClaims_;
     RenderSettings settings_;
     ImageRgba truth_;
+    ImageRgba members_;  // the last members image (addMembers); empty before
     std::vector<PanelItem> items_;
     double diffScale_ = 0.0;
 };

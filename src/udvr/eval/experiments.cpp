@@ -59,6 +59,12 @@ void renderTruthOf(Run& run, const ScalarField& truthField, double zoom = 1.0) {
     run.renderTruth(truthModel, 1, 1.0);
 }
 
+/// What the members image is, for the setup lists of the ensemble experiments.
+constexpr const char* kMembersLine =
+    "members = the ensemble's own expected image, no model: the TF averaged over the members at "
+    "each sample (each member interpolated trilinearly), composited as any model; the table's "
+    "rmse_members compares every later image with it.";
+
 Ensemble makeEnsemble(const ScalarField& truth, int members, double scale = 1.0) {
     return perturbField(truth, members, noiseParams(scale));
 }
@@ -81,6 +87,8 @@ ExperimentResult runEnsembleExperiment(const std::string& name, const fs::path& 
     // The drop (x ∈ [−1, 0], radius ≤ 0.2) fills little of its box: come closer.
     renderTruthOf(run, truthField, tangle ? 1.0 : 1.6);
 
+    // The ensemble's own expected image first: every model is compared with it too.
+    run.addMembers(ensemble);
     // One build with q = 8 and the GMM serves every model but the smaller q's.
     const ModelVolume m8 = run.build(ensemble, 8, 4, DensityEstimate::Empirical);
     for (ModelKind k : {ModelKind::Mean, ModelKind::Uniform, ModelKind::Gaussian, ModelKind::GmmMc,
@@ -107,7 +115,7 @@ ExperimentResult runEnsembleExperiment(const std::string& name, const fs::path& 
                : "Teardrop " + std::to_string(s.dims) + "³, " + std::to_string(s.members) +
                      " members, bimodal noise (Athawale et al. 2021, teaser a)";
     const double scale = run.writeDifferenceImages();
-    run.writeFigure("figure.png", renderPanel(makePanel(title, run.items(), 7)));
+    run.writeFigure("figure.png", renderPanel(makePanel(title, run.items(), 8)));
     std::vector<std::string> setup = {
         std::string(tangle ? "Tangle" : "Teardrop") + " field on " + std::to_string(s.dims) +
             "³ grid points (`udvr generate " + name +
@@ -116,6 +124,7 @@ ExperimentResult runEnsembleExperiment(const std::string& name, const fs::path& 
         "Models built with empirical quantiles (q = 8 and, for the tangle, 2 and 4), GMM K = 4 "
         "(EM); gmm-mc averages " +
             std::to_string(s.realizations) + " realizations.",
+        kMembersLine,
         "Difference images: per-pixel |Δ mean RGB| against the ground truth, blue (0) to yellow (" +
             fmt("%.3f", scale) + ", the largest difference of any model)."};
     return run.finish(title, setup, {"figure.png"});
@@ -145,6 +154,7 @@ ExperimentResult runSweep(const fs::path& dir, const ExperimentOptions& options)
                                                                        static_cast<std::ptrdiff_t>(
                                                                            full.grid.pointCount()));
         const std::string suffix = ", " + std::to_string(m) + " members";
+        run.addMembers(e, suffix, false, false);
         bool parametricDone = false;
         for (DensityEstimate d : densities)
             for (int q : qs) {
@@ -185,12 +195,13 @@ ExperimentResult runSweep(const fs::path& dir, const ExperimentOptions& options)
                         }
                 ax.series.push_back(std::move(ser));
             }
-        for (const char* model : {"mean", "gaussian"}) {
+        for (const char* model : {"mean", "gaussian", "members"}) {
             PlotSeries ser;
             ser.label = model;
-            ser.color = model == std::string("mean") ? std::array<double, 3>{0.2, 0.2, 0.2}
-                                                     : std::array<double, 3>{0.6, 0.6, 0.6};
-            ser.dashed = true;
+            ser.color = model == std::string("mean")       ? std::array<double, 3>{0.2, 0.2, 0.2}
+                        : model == std::string("gaussian") ? std::array<double, 3>{0.6, 0.6, 0.6}
+                                                           : std::array<double, 3>{0.1, 0.4, 0.8};
+            ser.dashed = model != std::string("members");
             for (int m : s.sweepMembers)
                 for (const ResultRow& r : run.result().rows)
                     if (r.model == model && r.members == m) {
@@ -212,7 +223,8 @@ ExperimentResult runSweep(const fs::path& dir, const ExperimentOptions& options)
         "q ∈ {2, 4, 8} for both density estimates of SPEC §2: empirical (numpy-linear sample "
         "quantiles) and KDE (Silverman's robust bandwidth, tails at ε = 1/(2n)).",
         "QR = quantile-range (Eq. 4, solid), QM = quantile-mean (Eq. 5, dashed); mean and "
-        "gaussian for reference."};
+        "gaussian for reference, and the members image (solid blue).",
+        std::string(kMembersLine) + " Each member count has its own members image."};
     return run.finish(title, setup, {"figure.png"});
 }
 
@@ -225,6 +237,7 @@ ExperimentResult runQuartiles(const fs::path& dir, const ExperimentOptions& opti
     const ScalarField truthField = makeTangle(s.dims, s.dims, s.dims);
     const Ensemble ensemble = makeEnsemble(truthField, s.members);
     renderTruthOf(run, truthField);
+    run.addMembers(ensemble, "", false, false);
     const ModelVolume m8 = run.build(ensemble, 8, 0, DensityEstimate::Empirical);
     for (ModelKind k :
          {ModelKind::QuartileLower, ModelKind::QuartileMiddle, ModelKind::QuartileUpper})
@@ -236,7 +249,8 @@ ExperimentResult runQuartiles(const fs::path& dir, const ExperimentOptions& opti
     std::vector<std::string> setup = {
         "Tangle on " + std::to_string(s.dims) + "³ grid points, " + noiseLine(s.members),
         "Empirical quantiles, q = 8: quartile-lower integrates the TF over quantiles 1–2 "
-        "([0, .25]), quartile-middle over 3–6, quartile-upper over 7–8 (SPEC §4)."};
+        "([0, .25]), quartile-middle over 3–6, quartile-upper over 7–8 (SPEC §4).",
+        kMembersLine};
     return run.finish(title, setup, {"figure.png"});
 }
 

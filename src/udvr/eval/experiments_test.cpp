@@ -93,8 +93,8 @@ TEST(Experiments, TinyAllRunsEndToEnd) {
             EXPECT_GE(row.renderMs, 0.0);
             if (row.model != "ground-truth") {
                 // The memory column is the formula of the paper's §5.
-                EXPECT_EQ(row.memoryRatio,
-                          memoryRatio(parseModelKind(row.model), row.quantiles, row.gmmComponents))
+                EXPECT_EQ(row.memoryRatio, memoryRatio(parseModelKind(row.model), row.quantiles,
+                                                       row.gmmComponents, row.members))
                     << row.label;
             }
         }
@@ -130,18 +130,25 @@ TEST(Experiments, TinyAllRunsEndToEnd) {
         if (row.quantiles > 0) ++quantileRows;
     EXPECT_EQ(quantileRows, 2 /*densities*/ * 3 /*q*/ * 2 /*members*/ * 2 /*QR, QM*/);
 
-    // Uneven quantile levels: tangle and spheres (no chest here), a truth and QR, QM at three
-    // level sets each; the levels change the images; one verdict per dataset and model.
+    // Uneven quantile levels: tangle (with its members image) and spheres (no chest here), a
+    // truth and QR, QM at three level sets each; the levels change the images; the tangle's
+    // rows are compared with its members image, the spheres' (bricks) with none; one verdict
+    // per dataset and model.
     const auto ql = std::find_if(results.begin(), results.end(), [](const ExperimentResult& r) {
         return r.name == "quantile-levels";
     });
     ASSERT_NE(ql, results.end());
-    ASSERT_EQ(ql->rows.size(), 2u * 7u);
-    for (std::size_t d = 0; d < 2; ++d) {
-        const ResultRow* rows = &ql->rows[d * 7];
-        EXPECT_EQ(rows[0].model, "ground-truth");
-        for (int i = 1; i < 7; ++i) EXPECT_EQ(rows[i].quantiles, 8) << rows[i].label;
-        EXPECT_NE(rows[2].rmse, rows[4].rmse) << "QM even vs tail-heavy: " << rows[2].label;
+    ASSERT_EQ(ql->rows.size(), 8u + 7u);
+    EXPECT_EQ(ql->rows[0].model, "ground-truth");
+    EXPECT_EQ(ql->rows[1].model, "members");
+    EXPECT_EQ(ql->rows[8].model, "ground-truth");
+    for (const std::size_t first : {std::size_t{2}, std::size_t{9}}) {
+        const ResultRow* rows = &ql->rows[first];
+        for (int i = 0; i < 6; ++i) {
+            EXPECT_EQ(rows[i].quantiles, 8) << rows[i].label;
+            EXPECT_EQ(std::isnan(rows[i].rmseMembers), first == 9) << rows[i].label;
+        }
+        EXPECT_NE(rows[1].rmse, rows[3].rmse) << "QM even vs tail-heavy: " << rows[1].label;
     }
     EXPECT_EQ(ql->claims.size(), 4u);
     fs::remove_all(dir);

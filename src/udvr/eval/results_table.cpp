@@ -18,7 +18,9 @@ namespace {
 
 const std::vector<std::string> kColumns = {"experiment", "label",        "model",   "q",
                                            "gmm_k",      "density",      "members", "rmse",
-                                           "render_ms",  "memory_ratio", "image"};
+                                           "render_ms",  "memory_ratio", "image",   "rmse_members"};
+// Columns a table may lack (written before they were added): read as NaN.
+constexpr std::size_t kFirstOptionalColumn = 11;
 
 std::string formatDouble(double v) {
     if (std::isnan(v)) return "nan";
@@ -116,8 +118,8 @@ std::string readText(const std::filesystem::path& path) {
 
 }  // namespace
 
-double memoryRatio(ModelKind kind, int quantiles, int gmmComponents) {
-    return modelFamily(kind).floatsPerVoxel(quantiles, gmmComponents);
+double memoryRatio(ModelKind kind, int quantiles, int gmmComponents, int members) {
+    return modelFamily(kind).floatsPerVoxel(quantiles, gmmComponents, members);
 }
 
 std::string resultsToCsv(const std::vector<ResultRow>& rows) {
@@ -135,7 +137,8 @@ std::string resultsToCsv(const std::vector<ResultRow>& rows) {
                                             formatDouble(r.rmse),
                                             formatDouble(r.renderMs),
                                             formatDouble(r.memoryRatio),
-                                            csvField(r.image)};
+                                            csvField(r.image),
+                                            formatDouble(r.rmseMembers)};
         for (std::size_t i = 0; i < f.size(); ++i) out += (i ? "," : "") + f[i];
         out += "\n";
     }
@@ -150,7 +153,7 @@ std::vector<ResultRow> resultsFromCsv(const std::string& text) {
     for (std::size_t c = 0; c < kColumns.size(); ++c)
         for (std::size_t h = 0; h < header.size(); ++h)
             if (header[h] == kColumns[c]) col[c] = static_cast<int>(h);
-    for (std::size_t c = 0; c < kColumns.size(); ++c)
+    for (std::size_t c = 0; c < kFirstOptionalColumn; ++c)
         if (col[c] < 0) UDVR_FAIL("results CSV: no column '" << kColumns[c] << "' in the header");
     std::vector<ResultRow> rows;
     for (std::size_t r = 1; r < records.size(); ++r) {
@@ -173,6 +176,7 @@ std::vector<ResultRow> resultsFromCsv(const std::string& text) {
         row.renderMs = parseDouble(get(8), "render_ms");
         row.memoryRatio = parseDouble(get(9), "memory_ratio");
         row.image = get(10);
+        if (col[11] >= 0) row.rmseMembers = parseDouble(get(11), "rmse_members");
         rows.push_back(std::move(row));
     }
     return rows;
@@ -193,6 +197,7 @@ std::string resultsToJson(const std::vector<ResultRow>& rows) {
         o["render_ms"] = r.renderMs;
         o["memory_ratio"] = r.memoryRatio;
         o["image"] = r.image;
+        o["rmse_members"] = r.rmseMembers;
         list.push_back(std::move(o));
     }
     return list.dump(1) + "\n";
@@ -226,6 +231,7 @@ std::vector<ResultRow> resultsFromJson(const std::string& text) {
             r.renderMs = num("render_ms");
             r.memoryRatio = num("memory_ratio");
             r.image = o.at("image").get<std::string>();
+            if (o.contains("rmse_members")) r.rmseMembers = num("rmse_members");
             rows.push_back(std::move(r));
         }
     } catch (const nlohmann::json::exception& e) {

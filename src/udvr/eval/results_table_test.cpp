@@ -72,7 +72,8 @@ TEST(ResultsTable, CsvRoundTrips) {
     const auto rows = sampleRows();
     const std::string csv = resultsToCsv(rows);
     EXPECT_EQ(csv.substr(0, csv.find('\n')),
-              "experiment,label,model,q,gmm_k,density,members,rmse,render_ms,memory_ratio,image");
+              "experiment,label,model,q,gmm_k,density,members,rmse,render_ms,memory_ratio,image,"
+              "rmse_members");
     expectSame(rows, resultsFromCsv(csv));
 }
 
@@ -117,7 +118,8 @@ TEST(ResultsTable, MemoryRatioFormula) {
         EXPECT_EQ(memoryRatio(ModelKind::QuartileLower, q, 4), q + 1.0);
     }
     EXPECT_EQ(memoryRatio(ModelKind::Iqr, 8, 4), 2.0);
-    for (ModelKind k : allModelKinds()) EXPECT_GT(memoryRatio(k, 8, 4), 0.0);
+    EXPECT_EQ(memoryRatio(ModelKind::Members, 8, 4, 50), 50.0);  // the ensemble itself
+    for (ModelKind k : allModelKinds()) EXPECT_GT(memoryRatio(k, 8, 4, 50), 0.0);
 }
 
 }  // namespace

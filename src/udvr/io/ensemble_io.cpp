@@ -79,6 +79,23 @@ std::string gridText(const Grid3& g) {
 
 }  // namespace
 
+void detail::allocateEnsemble(Ensemble& e, const EnsembleReadOptions& options) {
+    if (options.checkSize) options.checkSize(e.members, e.grid);
+    e.voxelMajor = options.voxelMajor;
+    e.values.resize(e.grid.pointCount() * static_cast<std::size_t>(e.members));
+}
+
+void detail::storeMember(Ensemble& e, int m, std::span<const float> values) {
+    const std::size_t n = e.grid.pointCount(), members = static_cast<std::size_t>(e.members);
+    UDVR_CHECK_MSG(values.size() == n && m >= 0 && m < e.members, "member size vs grid");
+    if (!e.voxelMajor) {
+        std::copy(values.begin(), values.end(), e.member(m));
+        return;
+    }
+    float* out = e.values.data() + m;
+    for (std::size_t p = 0; p < n; ++p) out[p * members] = values[p];
+}
+
 Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleReadOptions& options) {
     std::vector<std::string> files;
     for (const auto& in : inputs) {
@@ -111,22 +128,19 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
     fieldOptions.var = options.var;
     Ensemble e;
     e.members = static_cast<int>(files.size());
-    std::size_t n = 0;
     std::string note;  // about member 0's geometry; printed once all members have been read
     for (std::size_t m = 0; m < files.size(); ++m) {
         ScalarField f = detail::readFieldImpl(files[m], fieldOptions, m == 0 ? &note : nullptr);
         if (m == 0) {
             e.grid = f.grid;
             e.name = f.name;
-            n = f.grid.pointCount();
-            e.values.resize(n * files.size());
+            detail::allocateEnsemble(e, options);
         } else if (!sameGrid(f.grid, e.grid)) {
             UDVR_FAIL("ensemble members on different grids: "
                       << files[m] << " is " << gridText(f.grid) << ", " << files[0] << " is "
                       << gridText(e.grid));
         }
-        std::copy(f.values.begin(), f.values.end(),
-                  e.values.begin() + static_cast<std::ptrdiff_t>(m * n));
+        detail::storeMember(e, static_cast<int>(m), f.values);
     }
     detail::printNote(note);
     return e;

@@ -2,6 +2,7 @@
 // Ensemble readers and writers (SPEC §7): one NetCDF variable with a member dimension, or a
 // list (or glob) of member files of any field format, all on the same grid.
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,12 @@ struct EnsembleReadOptions {
     std::string var;        // NetCDF variable; empty = the only variable with a member dimension
     std::string memberDim;  // empty = member/ensemble/realization/number (first found)
     RawLayout raw;          // for raw member files
+    /// Store the values voxel-major (Ensemble::voxelMajor: a voxel's members contiguous, the
+    /// `members` kernel's layout) instead of member-major; costs one member of scratch.
+    bool voxelMajor = false;
+    /// Called with the member count and grid once they are known and before the values are
+    /// allocated (e.g. a memory cap); may throw.
+    std::function<void(int members, const Grid3& grid)> checkSize;
 };
 
 /// inputs: one .nc file with a member dimension, or ≥2 member files, or glob patterns ('m_*.nhdr').

@@ -1,11 +1,14 @@
-// Ensembles from member files and glob patterns: natural order, same-grid check, member count.
+// Ensembles from member files and glob patterns: natural order, same-grid check, member count,
+// voxel-major reads.
 #include "udvr/io/ensemble_io.h"
 
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "udvr/io/io_test_util.h"
+#include "udvr/util/check.h"
 
 namespace udvr {
 namespace {
@@ -87,6 +90,45 @@ TEST(IoEnsemble, RawMembersUseTheGivenLayout) {
     ASSERT_EQ(e.members, 3);
     EXPECT_EQ(e.grid.dims, (std::array<int, 3>{2, 3, 2}));
     EXPECT_EQ(e.member(2)[5], 42.f);
+}
+
+// Voxel-major reading (the `members` layout) from member files and from NetCDF: the same
+// values as member-major, transposed; checkSize sees the shape first and may refuse it.
+TEST(IoEnsemble, VoxelMajorReadsTransposeAndCheckTheSizeFirst) {
+    TempDir dir;
+    Ensemble source;
+    source.grid.dims = {3, 2, 2};
+    source.members = 4;
+    for (int m = 0; m < 4; ++m)
+        for (int p = 0; p < 12; ++p) source.values.push_back(static_cast<float>(100 * m + p));
+    std::vector<std::string> files;
+    for (int m = 0; m < 4; ++m) {
+        const std::vector<float> v(source.member(m), source.member(m) + 12);
+        files.push_back((dir / ("m_" + std::to_string(m) + ".nrrd")).string());
+        writeBytes(files.back(),
+                   "NRRD0004\ntype: float\ndimension: 3\nsizes: 3 2 2\nendian: little\n"
+                   "encoding: raw\n\n" +
+                       testing::bytesOf(v));
+    }
+    writeEnsembleNetcdf(dir / "ens.nc", source);
+    for (const std::vector<std::string>& inputs :
+         {files, std::vector<std::string>{(dir / "ens.nc").string()}}) {
+        EnsembleReadOptions o;
+        o.voxelMajor = true;
+        int seenMembers = 0;
+        o.checkSize = [&](int members, const Grid3& grid) {
+            seenMembers = members;
+            EXPECT_EQ(grid.dims, source.grid.dims);
+        };
+        const Ensemble e = readEnsemble(inputs, o);
+        EXPECT_EQ(seenMembers, 4);
+        ASSERT_TRUE(e.voxelMajor);
+        ASSERT_EQ(e.values.size(), 48u);
+        for (int p = 0; p < 12; ++p)
+            for (int m = 0; m < 4; ++m) EXPECT_EQ(e.values[p * 4 + m], source.member(m)[p]);
+        o.checkSize = [](int, const Grid3&) { UDVR_FAIL("too big"); };
+        expectUdvrError([&] { readEnsemble(inputs, o); }, {"too big"});
+    }
 }
 
 }  // namespace

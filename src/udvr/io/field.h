@@ -14,12 +14,15 @@ struct ScalarField {
     std::string name;           // array/variable name where the file had one
 };
 
-/// n members on one grid. Member-major: values[m * pointCount + p] (each member contiguous).
+/// n members on one grid. Member-major: values[m * pointCount + p] (each member contiguous);
+/// voxel-major where `voxelMajor` (EnsembleReadOptions::voxelMajor): values[p * members + m],
+/// and member() does not apply.
 struct Ensemble {
     Grid3 grid;
     int members = 0;
     std::vector<float> values;  // members * grid.pointCount()
     std::string name;
+    bool voxelMajor = false;
 
     const float* member(int m) const {
         return values.data() + static_cast<std::size_t>(m) * grid.pointCount();

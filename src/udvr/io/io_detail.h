@@ -42,6 +42,11 @@ ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string
                             std::string* geometryNote);
 /// .nc with a member dimension (netcdf_io.cpp).
 Ensemble readEnsembleNetcdf(const std::filesystem::path& path, const EnsembleReadOptions& options);
+/// Size `e.values` for e.members × e.grid in options' layout, after options.checkSize
+/// (ensemble_io.cpp).
+void allocateEnsemble(Ensemble& e, const EnsembleReadOptions& options);
+/// Store member m's values in e's layout (member-major or voxel-major).
+void storeMember(Ensemble& e, int m, std::span<const float> values);
 
 /// The arrays of a .vti's point data (vti_io.cpp) and the numeric variables of a .nc
 /// (netcdf_io.cpp), for listArrays.

@@ -630,15 +630,18 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
     e.members = static_cast<int>(members);
     e.name = var->name;
     std::size_t n = e.grid.pointCount();
-    e.values.resize(members * n);
+    detail::allocateEnsemble(e, options);
+    std::vector<float> scratch(e.voxelMajor ? n : 0);  // one member, stored voxel-major after
     for (std::size_t m = 0; m < members; ++m) {
         std::vector<std::size_t> start(4, 0), count(var->lengths);
         start[md] = m;
         count[md] = 1;
         std::string what = " (member " + std::to_string(m) + ")";
-        std::span<float> out(e.values.data() + m * n, n);
+        std::span<float> out =
+            e.voxelMajor ? std::span<float>(scratch) : std::span<float>(e.values.data() + m * n, n);
         readSlab(path, file.id, *var, start, count, out, what);
         checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
+        if (e.voxelMajor) detail::storeMember(e, static_cast<int>(m), out);
     }
     detail::printNote(geometryNote);  // only now: an error must stay the one line on stderr
     return e;
@@ -650,10 +653,10 @@ void writeFieldNetcdf(const fs::path& path, const ScalarField& field) {
 }
 
 void writeEnsembleNetcdf(const fs::path& path, const Ensemble& ensemble) {
-    UDVR_CHECK_MSG(ensemble.members >= 1 &&
+    UDVR_CHECK_MSG(ensemble.members >= 1 && !ensemble.voxelMajor &&
                        ensemble.values.size() ==
                            static_cast<std::size_t>(ensemble.members) * ensemble.grid.pointCount(),
-                   "ensemble size vs grid");
+                   "ensemble size vs grid (member-major)");
     writeNetcdf(path, ensemble.grid, safeName(ensemble.name, "value"), ensemble.members,
                 ensemble.values);
 }

@@ -443,6 +443,7 @@ ModelVolume tinyModel(std::uint64_t seed, bool wide) {
         for (int j = 0; j <= 8; ++j) move(m.quantiles[v * 9 + j]);
         move(m.iqr[2 * v]);
         move(m.iqr[2 * v + 1]);
+        for (int i = 0; i < m.memberCount; ++i) move(m.members[v * m.memberCount + i]);
         for (int k = 0; k < 3; ++k) {
             move(m.gmm[v * 9 + 3 + k]);
             m.gmm[v * 9 + 6 + k] = static_cast<float>(s * m.gmm[v * 9 + 6 + k]);

@@ -91,7 +91,7 @@ struct CacheKey {
 
 std::vector<const void*> arraysOf(const ModelVolume& m) {
     return {m.mean.data(),      m.stddev.data(), m.min.data(), m.max.data(),
-            m.quantiles.data(), m.iqr.data(),    m.gmm.data()};
+            m.quantiles.data(), m.iqr.data(),    m.gmm.data(), m.members.data()};
 }
 
 CacheKey makeKey(const ModelVolume& m, ModelKind kind, bool twoD,

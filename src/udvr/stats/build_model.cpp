@@ -292,7 +292,8 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
     if (e.members < 2)
         UDVR_FAIL("the ensemble has " << e.members << " member(s); build needs at least 2");
     const std::size_t P = e.grid.pointCount();
-    UDVR_CHECK(P > 0 && e.values.size() == static_cast<std::size_t>(e.members) * P);
+    UDVR_CHECK(P > 0 && !e.voxelMajor &&
+               e.values.size() == static_cast<std::size_t>(e.members) * P);
     validateBuildOptions(opt, e.members);
     const auto start = std::chrono::steady_clock::now();
 

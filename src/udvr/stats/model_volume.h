@@ -29,6 +29,10 @@ struct ModelVolume {
     int gmmComponents = 0;   // K (0 = absent)
     std::vector<float> gmm;  // 3K per voxel: π_1..π_K, μ_1..μ_K, σ_1..σ_K; sorted by μ
 
+    // The ensemble itself, for the `members` reference (membersModel); never written to a file.
+    int memberCount = 0;         // n (0 = absent)
+    std::vector<float> members;  // n per voxel, voxel-major: members[v*n + i]
+
     // Field data (SPEC §7).
     std::string density = "empirical";  // "empirical" or "kde"
     double bandwidth = 0.0;             // kde: median h over voxels (rule may vary per voxel)
@@ -72,6 +76,11 @@ struct ModelVolume {
 /// the source in the UdvrError thrown otherwise.
 std::vector<double> normalizedQuantileLevels(const std::vector<double>& levels, int q,
                                              const std::string& what);
+
+/// The ensemble as the `members` reference (no model, issue 12): its members voxel-major (a
+/// member-major ensemble is transposed, a voxel-major one moved), their mean per voxel (framing,
+/// TF presets, probe's "value"), its grid, bounds and spacing; samplesPerVoxel = n.
+ModelVolume membersModel(Ensemble ensemble);
 
 /// A deterministic field as a model: mean = min = max = the values, stddev = 0; no quantiles or
 /// GMM. Rendering it with model `mean` is the ground truth of SPEC §5.
