@@ -356,22 +356,6 @@ py::array renderArray(const ModelVolume& model, const std::string& kind, const T
     return imageArray(std::move(img));
 }
 
-py::dict resultRowDict(const ResultRow& r) {
-    py::dict d;
-    d["experiment"] = r.experiment;
-    d["label"] = r.label;
-    d["model"] = r.model;
-    d["quantiles"] = r.quantiles;
-    d["gmm_components"] = r.gmmComponents;
-    d["density"] = r.density;
-    d["members"] = r.members;
-    d["rmse"] = r.rmse;
-    d["render_ms"] = r.renderMs;
-    d["memory_ratio"] = r.memoryRatio;
-    d["image"] = r.image;
-    return d;
-}
-
 }  // namespace
 
 PYBIND11_MODULE(_udvr, m) {
@@ -909,9 +893,8 @@ PYBIND11_MODULE(_udvr, m) {
                 py::dict d;
                 d["name"] = r.name;
                 d["dir"] = r.dir;
-                py::list rows;
-                for (const ResultRow& row : r.rows) rows.append(resultRowDict(row));
-                d["rows"] = rows;
+                // The rows as results.json holds them (one writer, the same keys).
+                d["rows"] = py::module_::import("json").attr("loads")(resultsToJson(r.rows));
                 d["files"] = r.files;
                 d["seconds"] = r.seconds;
                 list.append(d);

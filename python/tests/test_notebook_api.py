@@ -269,6 +269,7 @@ def test_experiment_table_and_figure(tmp_path):
     rows = table.to_dict("records") if hasattr(table, "to_dict") else table
     written = json.loads((tmp_path / "results.json").read_text())
     assert [r["label"] for r in rows] == [r["label"] for r in written]
+    assert all(set(r) == set(w) for r, w in zip(rows, written))  # results.json's columns
     for r, w in zip(rows, written):
         assert r["rmse"] == pytest.approx(w["rmse"], rel=1e-12, abs=1e-15)
     assert figure and figure.endswith("figure.png")

@@ -461,25 +461,26 @@ def experiment(name, quick=True, out=None, *, dims=0, members=0, image_size=0, r
                tf_dir=None, data_dir=None, log=False):
     """Run one of the paper's experiments as `udvr experiment NAME -o OUT [--quick]` (the GIL
     released): returns (table, figure), the results table as a pandas DataFrame when pandas is
-    installed (else a list of dicts) and the path of its figure.png. out: the output folder
+    installed (else a list of dicts, the rows of results.json) and the path of its figure.png;
+    "all" runs every experiment and returns all their rows (no figure). out: the output folder
     (default: a new temporary folder); dims, members, image_size, realizations: smaller runs.
     """
-    if name not in experiment_names():
+    if name != "all" and name not in experiment_names():
         raise ValueError(f"unknown experiment '{name}' (expected one of "
                          f"{', '.join(experiment_names())})")
     out = tempfile.mkdtemp(prefix=f"udvr-{name}-") if out is None else os.fspath(out)
     results = _udvr._experiment(name, out, bool(quick), os.fspath(tf_dir or ""),
                                 os.fspath(data_dir or ""), dims, members, image_size,
                                 realizations, bool(log))
-    r = results[0]
-    rows = r["rows"]
-    figure = os.path.join(r["dir"], "figure.png")
+    # "all": every experiment's rows (their `experiment` column tells them apart); no figure.
+    rows = [row for r in results for row in r["rows"]]
+    figure = os.path.join(results[0]["dir"], "figure.png") if len(results) == 1 else ""
     try:
         import pandas as pd
         rows = pd.DataFrame(rows)
     except ImportError:
         pass
-    return rows, (figure if os.path.exists(figure) else None)
+    return rows, (figure if figure and os.path.exists(figure) else None)
 
 
 Ensemble.to_xarray = _ensemble_to_xarray

@@ -101,7 +101,7 @@ def panel(images, labels=None, *, truth=None, ncols=None, title=None, size=2.6):
     return fig
 
 
-def rmse_curve(table, x="quantiles", *, by=("model", "density"), ax=None, title=None):
+def rmse_curve(table, x="q", *, by=("model", "density"), ax=None, title=None):
     """RMSE against `x` (q, or "members") for each group of rows (the paper's Fig. 5a): `table`
     as udvr.experiment returns it (DataFrame or list of dicts). Rows without an x (models
     without quantiles) are drawn as horizontal lines."""

@@ -43,12 +43,7 @@ json gridJson(const Grid3& g) {
     j["dims"] = g.dims;
     j["spacing"] = g.spacing;
     j["origin"] = g.origin;
-    std::array<double, 6> b{};
-    for (int a = 0; a < 3; ++a) {
-        b[2 * a] = g.origin[a];
-        b[2 * a + 1] = g.origin[a] + (g.dims[a] - 1) * g.spacing[a];
-    }
-    j["bounds"] = b;
+    j["bounds"] = g.bounds();
     j["points"] = g.pointCount();
     return j;
 }
