@@ -115,6 +115,30 @@ void fillColumns(const std::vector<double>& breaks, const std::vector<Piece>& pi
     }
 }
 
+// Every channel 0 on the whole piece.
+bool isZero(const Piece& p) {
+    for (int ch = 0; ch < 4; ++ch)
+        if (p.a[ch] != 0.0 || p.b[ch] != 0.0 || p.c[ch] != 0.0) return false;
+    return true;
+}
+
+// Drops each breakpoint between two zero pieces (α = 0 on both sides: colour points where
+// nothing is visible, and the clamped ends), so the TF is the same function with fewer pieces:
+// every search and Gaussian sweep walks fewer bounds, and small TFs fit smaller lookup tables.
+// The merged piece keeps the left one's origin (its polynomials are 0 about any origin); at least
+// one breakpoint stays. cum (computed after) is unchanged: the integral over zero pieces is 0.
+void mergeZeroRuns(std::vector<double>& breaks, std::vector<Piece>& pieces) {
+    std::size_t kept = 0;  // breaks[0 … kept) and pieces[0 … kept] are the output so far
+    for (std::size_t k = 0; k < breaks.size(); ++k) {
+        const bool redundant = isZero(pieces[kept]) && isZero(pieces[k + 1]);
+        if (redundant && !(kept == 0 && k + 1 == breaks.size())) continue;
+        breaks[kept] = breaks[k];
+        pieces[++kept] = pieces[k + 1];
+    }
+    breaks.resize(kept);
+    pieces.resize(kept + 1);
+}
+
 }  // namespace
 
 TfPiecesStorage::TfPiecesStorage(const TransferFunction1D& tf, int bucketCount) {
@@ -124,22 +148,24 @@ TfPiecesStorage::TfPiecesStorage(const TransferFunction1D& tf, int bucketCount) 
     breaks.insert(breaks.end(), tf.opacityX.begin(), tf.opacityX.end());
     std::sort(breaks.begin(), breaks.end());
     breaks.erase(std::unique(breaks.begin(), breaks.end()), breaks.end());
-    const int n = static_cast<int>(breaks.size());
+    const int breakCount = static_cast<int>(breaks.size());
 
-    std::vector<Piece> pieces(static_cast<std::size_t>(n) + 1);
+    std::vector<Piece> pieces(static_cast<std::size_t>(breakCount) + 1);
     pieces[0].origin = breaks[0];
     const Sides first = leftSide(tf, breaks[0]);
     pieces[0].setLines(first, first, 0.0);
-    for (int k = 1; k < n; ++k) {
+    for (int k = 1; k < breakCount; ++k) {
         Piece& p = pieces[static_cast<std::size_t>(k)];
         const double x0 = breaks[k - 1], x1 = breaks[k];
         p.origin = x0;
         p.setLines(rightSide(tf, x0), leftSide(tf, x1), x1 - x0);
     }
-    Piece& lastPiece = pieces[static_cast<std::size_t>(n)];
-    lastPiece.origin = breaks[static_cast<std::size_t>(n) - 1];
+    Piece& lastPiece = pieces[static_cast<std::size_t>(breakCount)];
+    lastPiece.origin = breaks[static_cast<std::size_t>(breakCount) - 1];
     const Sides last = rightSide(tf, lastPiece.origin);
     lastPiece.setLines(last, last, 0.0);
+    mergeZeroRuns(breaks, pieces);
+    const int n = static_cast<int>(breaks.size());
     // Prefix sums of the exact integrals: cum of piece k+1 = cum of piece k + ∫ piece k.
     for (int k = 1; k < n; ++k) {
         const Piece& p = pieces[static_cast<std::size_t>(k)];

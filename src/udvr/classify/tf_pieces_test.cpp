@@ -12,6 +12,7 @@
 
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/expected_tf.h"
+#include "udvr/data/synthetic.h"
 
 namespace udvr {
 namespace {
@@ -31,6 +32,31 @@ std::vector<double> breakpoints(const TransferFunction1D& tf) {
     std::sort(u.begin(), u.end());
     u.erase(std::unique(u.begin(), u.end()), u.end());
     return u;
+}
+
+// The breakpoints the pieces keep: those of `breakpoints` except where the TF is 0 on both sides
+// (TfPiecesStorage merges zero pieces), judged from the TF's own evaluator at three interior
+// points of each neighbouring stretch (each channel is a polynomial of degree ≤ 2 there); at
+// least the last one stays.
+std::vector<double> visibleBreakpoints(const TransferFunction1D& tf) {
+    const std::vector<double> u = breakpoints(tf);
+    const auto zeroOn = [&](double lo, double hi) {  // open interval, ends may be ±1 beyond u
+        for (double t : {0.25, 0.5, 0.75}) {
+            double v[4];
+            reference(tf, lo + t * (hi - lo), v);
+            for (double c : v)
+                if (c != 0.0) return false;
+        }
+        return true;
+    };
+    std::vector<double> kept;
+    for (std::size_t i = 0; i < u.size(); ++i) {
+        const double lo = i > 0 ? u[i - 1] : u[0] - 1.0;
+        const double hi = i + 1 < u.size() ? u[i + 1] : u[i] + 1.0;
+        if (!(zeroOn(lo, u[i]) && zeroOn(u[i], hi))) kept.push_back(u[i]);
+    }
+    if (kept.empty()) kept.push_back(u.back());
+    return kept;
 }
 
 // Piece of x by counting: the number of breakpoints ≤ x (NaN: 0).
@@ -81,10 +107,10 @@ TEST(TfPieces, ExactMatchesTransferFunctionEverywhere) {
         const TransferFunction1D tf = testing::randomTf(rng, -1.0, 2.0);
         const TfPiecesStorage st(tf, trial % 2 ? 4096 : 3);  // few buckets exercise the walk
         const TfPieces<double>& t = st.exact();
-        const std::vector<double> u = breakpoints(tf);
+        const std::vector<double> u = visibleBreakpoints(tf);
         ASSERT_EQ(t.breakCount, static_cast<int>(u.size()));
         std::vector<double> xs = {-5.0, 7.0, -1e300, 1e300};
-        for (double x : u) {  // breakpoints and steps exactly, and their neighbours
+        for (double x : breakpoints(tf)) {  // breakpoints and steps exactly, and their neighbours
             xs.push_back(x);
             xs.push_back(std::nextafter(x, -1e300));
             xs.push_back(std::nextafter(x, 1e300));
@@ -101,6 +127,35 @@ TEST(TfPieces, ExactMatchesTransferFunctionEverywhere) {
         const double nan = std::numeric_limits<double>::quiet_NaN();
         EXPECT_EQ(t.pieceOf(nan), 0);
     }
+}
+
+// The tangle TF's colour points at −2 and 1.5 and its ends −6.95 and 35.24 sit where α = 0 on
+// both sides: its 13 breakpoints make 9 pieces' bounds, and the TF is unchanged everywhere.
+TEST(TfPieces, ZeroStretchesMerge) {
+    const TransferFunction1D tf = tangleTransferFunction();
+    ASSERT_EQ(breakpoints(tf).size(), 13u);
+    const TfPiecesStorage st(tf);
+    const std::vector<double> want = {-5.5, -4.5, -3.5, -0.6, 0.0, 0.6, 2.4, 3.0, 3.6};
+    ASSERT_EQ(st.exact().breakCount, static_cast<int>(want.size()));
+    for (std::size_t k = 0; k < want.size(); ++k)
+        EXPECT_EQ(st.exact().at(kTfBound, static_cast<int>(k)), want[k]);
+    for (int i = 0; i <= 5000; ++i) {
+        const double x = -8.0 + 45.0 * i / 5000.0;
+        double v[4], ref[4];
+        tfAt<double>(st.exact(), x, v);
+        reference(tf, x, ref);
+        for (int ch = 0; ch < 4; ++ch) EXPECT_NEAR(v[ch], ref[ch], 1e-12) << x;
+    }
+    // ∫ over the whole TF from the prefix sums against quadrature over the original stretches.
+    double mean[4], ref[4];
+    tfMeanOver<double>(st.exact(), -7.0, 36.0, st.exact().pieceOf(-7.0), st.exact().pieceOf(36.0),
+                       mean);
+    quadratureMean(tf, -7.0, 36.0, ref);
+    for (int ch = 0; ch < 4; ++ch) EXPECT_NEAR(mean[ch], ref[ch], 1e-13);
+    // A TF that is 0 everywhere keeps one bound.
+    TransferFunction1D clear = tf;
+    for (double& a : clear.opacity) a = 0.0;
+    EXPECT_EQ(TfPiecesStorage(clear).exact().breakCount, 1);
 }
 
 TEST(TfPieces, StepIsRightContinuous) {
@@ -305,7 +360,7 @@ TEST(TfPieces, ManyBreakpointsTakeGatherLookups) {
     for (int n : {16, 17, 31, 32, 33, 40, 64, 100, 300}) {
         const TransferFunction1D tf = manyBreaksTf(n);
         const TfPiecesStorage st(tf);
-        const int breaks = static_cast<int>(breakpoints(tf).size());
+        const int breaks = static_cast<int>(visibleBreakpoints(tf).size());
         ASSERT_EQ(st.fast().breakCount, breaks);
         EXPECT_EQ(st.fast().stride == kTfSmall, breaks <= 31) << n;
         EXPECT_GE(st.fast().stride, breaks + 1);
