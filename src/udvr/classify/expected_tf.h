@@ -162,15 +162,16 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Bounda
 /// (`quantile-mean-mass`). With density weights, quantiles of width ≤ zeroWidth are point masses
 /// of infinite density: they share all the weight in proportion to their masses (SPEC §4). Only
 /// `live` lanes are looked at for zero widths (dead lanes of a batch have width 0 and would send
-/// every quantile down the zero-width path). valueAt is called for j = 0, 1, … in order.
+/// every quantile down the zero-width path). valueAt is called for j = 0, 1, … in order, and
+/// once more from j = 0 where some lane has a zero width: that rare second pass keeps the point
+/// masses' sums out of the first, whose live vectors are then few enough for AVX2's 16 registers.
 template <class T, class ValueAt, class Width>
 UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const Width& width,
                                                    int q, const QuantileLevels& levels,
                                                    bool densityWeights, T zeroWidth,
                                                    lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
-    T sum[4] = {}, zeroSum[4] = {}, weightSum{}, zeroCount{};
-    bool anyZeroSeen = false;
+    T sum[4] = {}, weightSum{};
     auto anyZero = lanes::MaskOf<T>{};
     for (int j = 0; j < q; ++j) {
         T v[4];
@@ -180,23 +181,23 @@ UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const
         const T weight = densityWeights ? mass / w : lanes::splat<T>(mass);
         for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
         weightSum += weight;
-        if (densityWeights) {
-            const auto zero = live & (w <= zeroWidth);
-            if (lanes::anyOf(zero)) {
-                anyZeroSeen = true;
-                anyZero = anyZero | zero;
-                const T m = lanes::splat<T>(mass);
-                for (int ch = 0; ch < 4; ++ch)
-                    zeroSum[ch] =
-                        detail::select(zero, lanes::fma(m, v[ch], zeroSum[ch]), zeroSum[ch]);
-                zeroCount = detail::select(zero, zeroCount + mass, zeroCount);
-            }
-        }
+        if (densityWeights) anyZero = anyZero | (live & (w <= zeroWidth));
     }
     for (int ch = 0; ch < 4; ++ch) out[ch] = sum[ch] / weightSum;
-    if (anyZeroSeen)
+    if (!densityWeights || !lanes::anyOf(anyZero)) return;
+    T zeroSum[4] = {}, zeroCount{};
+    for (int j = 0; j < q; ++j) {
+        T v[4];
+        valueAt(j, v);
+        const S mass = static_cast<S>(levels.mass(j + 1));
+        const auto zero = anyZero & (width(j) <= zeroWidth);
+        const T m = lanes::splat<T>(mass);
         for (int ch = 0; ch < 4; ++ch)
-            out[ch] = detail::select(anyZero, zeroSum[ch] / zeroCount, out[ch]);
+            zeroSum[ch] = detail::select(zero, lanes::fma(m, v[ch], zeroSum[ch]), zeroSum[ch]);
+        zeroCount = detail::select(zero, zeroCount + mass, zeroCount);
+    }
+    for (int ch = 0; ch < 4; ++ch)
+        out[ch] = detail::select(anyZero, zeroSum[ch] / zeroCount, out[ch]);
 }
 
 /// Quantile-mean expectation (Eq. 5) with a 1D TF: quantileMeanWeighted of TF(m_j), m_j the
@@ -208,9 +209,10 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileMean(const Tf& tf, const Boundar
                                                      bool densityWeights, T zeroWidth,
                                                      lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
-    T bPrev = boundary(0);
+    T bPrev{};
     quantileMeanWeighted<T>(
         [&](int j, T v[4]) {
+            if (j == 0) bPrev = boundary(0);
             const T b = boundary(j + 1);
             tfAt<T>(tf, (bPrev + b) * S(0.5), v);
             bPrev = b;

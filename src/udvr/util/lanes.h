@@ -376,6 +376,23 @@ inline void transpose(Vf r[kWidth]) {
         r[c + 4] = _mm512_shuffle_f32x4(w0, w1, 0x88);
         r[c + 12] = _mm512_shuffle_f32x4(w0, w1, 0xDD);
     }
+#elif defined(__AVX2__)
+    // In-lane unpacks and shuffles, then 128-bit halves across rows (24 single-cycle shuffles;
+    // the generic rounds below take two-source cross-lane permutes, 2 to 3 instructions each).
+    __m256 t[8], u[8];
+    for (int i = 0; i < 8; i += 2) {
+        t[i] = _mm256_unpacklo_ps(r[i], r[i + 1]);
+        t[i + 1] = _mm256_unpackhi_ps(r[i], r[i + 1]);
+    }
+    for (int i = 0; i < 8; i += 4)
+        for (int h = 0; h < 2; ++h) {
+            u[i + 2 * h] = _mm256_shuffle_ps(t[i + h], t[i + 2 + h], 0x44);
+            u[i + 2 * h + 1] = _mm256_shuffle_ps(t[i + h], t[i + 2 + h], 0xEE);
+        }
+    for (int c = 0; c < 4; ++c) {
+        r[c] = _mm256_permute2f128_ps(u[c], u[4 + c], 0x20);
+        r[c + 4] = _mm256_permute2f128_ps(u[c], u[4 + c], 0x31);
+    }
 #else
     // log2(kWidth) rounds of interleaving row i with row i + kWidth/2 (a perfect shuffle of the
     // index bits (row, column): each round rotates them by one, so the rounds swap row and
