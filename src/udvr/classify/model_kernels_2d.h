@@ -22,6 +22,9 @@ namespace udvr {
 
 /// Boundaries a 2D quantile kernel handles per sample (q ≤ 127).
 inline constexpr int kMaxBoundaries2D = 128;
+/// Gradient components (3 per boundary) a batch blends from its rows (Quantile2DKernel):
+/// q ≤ 20 on AVX-512, 9 on AVX2, 4 on SSE2/NEON; more take trilinear gathers.
+inline constexpr int kMaxGradientRows = 4 * lanes::kWidth;
 
 /// What every 2D kernel holds: the grid, the TF2 raster over double and float, and the grid
 /// gradients of the `mean` array (world units; three planes of one float per voxel, the layout
@@ -156,7 +159,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     const float* boundaries;
     int stride;                      // floats per voxel of `boundaries`
     int j0, j1;                      // boundaries j0 … j1 (j1 − j0 + 1 ≤ kMaxBoundaries2D)
-    const float* boundaryGradients;  // per boundary j0 … j1, 3 planes (gridGradients' layout)
+    const float* boundaryGradients;  // of boundaries j0 … j1, GradientLayout::VoxelRows
     QuantileLevels levels;           // of boundaries j0 …
     bool quantileMean;               // Eq. 5 at midpoints (else Eq. 4 along segments)
     bool densityWeights;             // quantile-mean: 1/w_j weights (else equal)
@@ -179,21 +182,34 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
           zeroWidth(zero) {}
 
     /// The polyline's vertices X[0 … count−1], G[…] at a cell, X_j = boundary(j); returns count.
+    /// On lanes, the gradients of up to kMaxGradientRows / 3 boundaries come from the batch's
+    /// transposed rows (boundaryRows over the VoxelRows layout: 27 floats per corner for q = 8,
+    /// in two or four loads, against 27 trilinear blends of 4 pair gathers each).
     template <class T, class Boundary>
     UDVR_CPU_GPU UDVR_INLINE int polylineAt(const Cell<T>& c, lanes::MaskOf<T> live,
                                             const Boundary& boundary, T* x, T* g) const {
         const int count = j1 - j0 + 1;
         T n[3];
         meanDirectionAt(c, live, n);
-        for (int j = 0; j < count; ++j) {
-            x[j] = boundary(j);
-            T gj{};
-            for (int a = 0; a < 3; ++a)
-                gj = lanes::fma(
-                    n[a], trilinear(geometry, boundaryGradients + (3 * j + a) * plane, 1, c, live),
-                    gj);
-            g[j] = gj;
+        const int rowLength = 3 * count;
+        const auto polyline = [&](const auto& component) {
+            for (int j = 0; j < count; ++j) {
+                x[j] = boundary(j);
+                T gj{};
+                for (int a = 0; a < 3; ++a) gj = lanes::fma(n[a], component(a * count + j), gj);
+                g[j] = gj;
+            }
+        };
+        if constexpr (lanes::kIsVector<T>) {
+            if (rowLength <= kMaxGradientRows) {
+                lanes::Vf rows[kMaxGradientRows];
+                boundaryRows(geometry, boundaryGradients, rowLength, 0, rowLength, c, live, rows);
+                polyline([&](int i) { return rows[i]; });
+                return count;
+            }
         }
+        polyline(
+            [&](int i) { return trilinear(geometry, boundaryGradients + i, rowLength, c, live); });
         return count;
     }
     /// polylineAt with each boundary blended on its own (Eq. 2).
@@ -231,7 +247,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         T x[kMaxBoundaries2D], g[kMaxBoundaries2D];
         const int count = j1 - j0 + 1;
         if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(stride)) {
+            if (!gathersFit(stride) || !gathersFit(3 * count)) {
                 detail::exactLanes(*this, c, live, r.v);
                 return r;
             }
@@ -262,6 +278,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     }
     void prefetch(int v) const {
         prefetchRows(boundaries + j0, v, stride);
+        prefetchRows(boundaryGradients, v, 3 * (j1 - j0 + 1));
         prefetchRows(meanGradient, v, 1);
     }
 };

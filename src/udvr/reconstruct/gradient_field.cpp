@@ -9,7 +9,7 @@
 namespace udvr {
 
 std::vector<float> gridGradients(const Grid3& grid, const float* values, int perVoxel, int first,
-                                 int count) {
+                                 int count, GradientLayout layout) {
     const CellGeometry g(grid);
     const GradientGeometry gg(grid);
     const std::size_t n = grid.pointCount();
@@ -21,10 +21,12 @@ std::vector<float> gridGradients(const Grid3& grid, const float* values, int per
             const int k = static_cast<int>(row / grid.dims[1]);
             for (int i = 0; i < grid.dims[0]; ++i) {
                 const std::size_t v = grid.index(i, j, k);
-                for (int l = 0; l < count; ++l) {
+                const std::size_t c = static_cast<std::size_t>(count);
+                for (std::size_t l = 0; l < c; ++l) {
                     const auto d = gridGradient(g, gg, values + first + l, perVoxel, i, j, k);
-                    for (int a = 0; a < 3; ++a)
-                        out[(static_cast<std::size_t>(l) * 3 + a) * n + v] =
+                    for (std::size_t a = 0; a < 3; ++a)
+                        out[layout == GradientLayout::Planes ? (l * 3 + a) * n + v
+                                                             : (v * 3 + a) * c + l] =
                             static_cast<float>(d[a]);
                 }
             }
@@ -34,18 +36,19 @@ std::vector<float> gridGradients(const Grid3& grid, const float* values, int per
 }
 
 const std::vector<float>& GradientCache::of(const Grid3& grid, const float* values, int perVoxel,
-                                            int first, int count) {
+                                            int first, int count, GradientLayout layout) {
     // Least recently used first: a hit moves to the back (the vectors move, their data stay put),
     // so the two arrays of one kernel never evict each other.
     for (auto it = entries_.begin(); it != entries_.end(); ++it)
         if (it->values == values && it->perVoxel == perVoxel && it->first == first &&
-            it->count == count && it->dims == grid.dims && it->spacing == grid.spacing) {
+            it->count == count && it->layout == layout && it->dims == grid.dims &&
+            it->spacing == grid.spacing) {
             std::rotate(it, it + 1, entries_.end());
             return entries_.back().gradients;
         }
     if (entries_.size() >= 2) entries_.erase(entries_.begin());
-    entries_.push_back({values, perVoxel, first, count, grid.dims, grid.spacing,
-                        gridGradients(grid, values, perVoxel, first, count)});
+    entries_.push_back({values, perVoxel, first, count, layout, grid.dims, grid.spacing,
+                        gridGradients(grid, values, perVoxel, first, count, layout)});
     return entries_.back().gradients;
 }
 

@@ -69,8 +69,8 @@ UDVR_CPU_GPU UDVR_INLINE T widthAt(const CellGeometry& g, const float* data, int
 /// AVX2, 7 on SSE2/NEON; larger populations gather each boundary (boundaryAt).
 inline constexpr int kMaxRowBoundaries = 2 * lanes::kWidth;
 
-/// boundaryAt and widthAt for boundaries first … first + count − 1 (count ≤ kMaxRowBoundaries;
-/// b and w hold kMaxRowBoundaries vectors)
+/// boundaryAt and widthAt for boundaries first … first + count − 1 (b and w hold count vectors
+/// rounded up to a multiple of kWidth: kMaxRowBoundaries for the quantile kernels' rows)
 /// of a batch's samples at once: per block of kWidth boundaries, each live sample's 8 corner
 /// rows are one vector each (masked loads), blended by the same lerps, then the samples' rows
 /// are transposed, so b[j] holds boundary first + j of every sample and the classification runs
