@@ -150,6 +150,17 @@ TEST(Gradient, CacheReusesArraysAndKeepsTheTwoLastUsed) {
     EXPECT_EQ(cache.of(grid, b.data(), 3, 1, 2), gridGradients(grid, b.data(), 3, 1, 2));
     EXPECT_EQ(cache.of(grid, b.data(), 3, 1, 2).data(), first);  // a hit: not recomputed
     EXPECT_EQ(cache.of(grid, b.data(), 3, 0, 2), gridGradients(grid, b.data(), 3, 0, 2));
+    // The per-voxel rows hold the planes' numbers: voxel v, axis a, layer l.
+    const std::vector<float> planes = gridGradients(grid, b.data(), 3, 0, 3);
+    const std::vector<float>& rows = cache.of(grid, b.data(), 3, 0, 3, GradientLayout::VoxelRows);
+    const std::size_t n = grid.pointCount();
+    ASSERT_EQ(rows.size(), planes.size());
+    for (std::size_t v = 0; v < n; ++v)
+        for (std::size_t axis = 0; axis < 3; ++axis)
+            for (std::size_t l = 0; l < 3; ++l)
+                ASSERT_EQ(rows[(v * 3 + axis) * 3 + l], planes[(l * 3 + axis) * n + v]);
+    const float* rowsData = rows.data();
+    EXPECT_NE(cache.of(grid, b.data(), 3, 0, 3).data(), rowsData);  // the layout is in the key
     // The mean asked for first in a kernel survives the boundaries asked for next.
     GradientCache lru;
     const float* mean = lru.of(grid, a.data(), 1, 0, 1).data();
