@@ -45,8 +45,6 @@ void addServeCommand(CLI::App& app) {
         requireOneTf(o->tf.tf, o->tf2);
         const bool twoD = !o->tf2.file.empty();
         checkTfFlags(o->tf, twoD);
-        if (!o->tf.save.empty())
-            UDVR_FAIL("serve saves TFs from the page; --save-tf is for render");
         if (!o->second.empty() && !twoD)
             UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
         if (!o->second.empty() && !o->truth.empty())
@@ -75,9 +73,9 @@ void addServeCommand(CLI::App& app) {
                          "serve: warning: listening on %s: whoever reaches this address can use "
                          "the viewer (no authentication)\n",
                          o->host.c_str());
-        if (!twoD) finishTransferFunction(o->tf, tfChoice);  // the preset's note
         serve::Api api(std::move(data));
         serve::runHttpServer(api, o->host, o->port, [&](int port) {
+            if (!twoD) finishTransferFunction(o->tf, tfChoice);  // --save-tf, the preset's note
             const std::string shown =
                 o->host.find(':') != std::string::npos ? "[" + o->host + "]" : o->host;
             std::printf("udvr serve: http://%s:%d/ (Ctrl-C stops)\n", shown.c_str(), port);

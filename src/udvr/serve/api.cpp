@@ -39,7 +39,7 @@ const std::vector<std::string> kControlKeys = {"channel", "seq", "source"};
 ApiResponse jsonResponse(const json& body, int status = 200) {
     ApiResponse r;
     r.status = status;
-    r.body = body.dump();
+    r.body = body.dump(-1, ' ', false, json::error_handler_t::replace);  // bad UTF-8 → U+FFFD
     return r;
 }
 

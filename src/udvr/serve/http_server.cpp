@@ -41,6 +41,12 @@ void runHttpServer(Api& api, const std::string& host, int port,
     server.new_task_queue = [] { return new httplib::ThreadPool(kRequestThreads); };
     server.set_keep_alive_timeout(2);
     server.set_payload_max_length(kMaxBodyBytes);
+    // SO_REUSEADDR (a restart may take the port at once) but not httplib's SO_REUSEPORT, with
+    // which a second server on the same port would start and share the requests.
+    server.set_socket_options([](socket_t sock) {
+        int yes = 1;
+        setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
     const auto apiHandler = [&api](const httplib::Request& req, httplib::Response& res) {
         answer(api.handle(toApiRequest(req)), res);
     };
