@@ -19,7 +19,7 @@ class RenderGate {
   public:
     /// Counts since the start, and what is under way now.
     struct Stats {
-        std::uint64_t completed = 0;   // renders that returned an image
+        std::uint64_t completed = 0;   // renders that finished (an image or an error)
         std::uint64_t cancelled = 0;   // stopped mid-frame by a newer request
         std::uint64_t superseded = 0;  // never started: a newer request came first
         int running = 0, waiting = 0;
