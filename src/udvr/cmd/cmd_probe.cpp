@@ -41,10 +41,7 @@ void addProbeCommand(CLI::App& app) {
                     "noise model (mean, uniform, gaussian, gmm-ordered, "
                     "quantile-range, ..., members; default mean)");
     addTfOptions(sub, o->tf);
-    sub->add_option("--tf2", o->tf2.file,
-                    "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
-                    ".json; SPEC 9)");
-    addTf2FormOptions(sub, o->tf2);
+    addTf2Options(sub, o->tf2);
     sub->add_option("--second", o->second,
                     "bivariate fields: the model giving the TF2's y (same grid; SPEC 9)");
     sub->add_flag("--json", o->json, "print one JSON object");

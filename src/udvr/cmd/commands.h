@@ -14,5 +14,6 @@ void addCompareCommand(CLI::App& app);
 void addExperimentCommand(CLI::App& app);
 void addTf2Command(CLI::App& app);
 void addInfoCommand(CLI::App& app);
+void addServeCommand(CLI::App& app);
 
 }  // namespace udvr::cmd

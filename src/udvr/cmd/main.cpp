@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
     udvr::cmd::addExperimentCommand(app);
     udvr::cmd::addTf2Command(app);
     udvr::cmd::addInfoCommand(app);
+    udvr::cmd::addServeCommand(app);
     // --threads also after the command word (`udvr render m.vti --threads 1`): every subcommand
     // takes it into the same variable, with the same check.
     for (CLI::App* sub : app.get_subcommands({}))

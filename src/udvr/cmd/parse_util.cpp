@@ -237,6 +237,13 @@ ModelVolume readMembersModel(const std::vector<std::string>& inputs, const std::
     return membersModel(readEnsemble(inputs, ro));
 }
 
+void addTf2Options(CLI::App* sub, Tf2Flags& flags) {
+    sub->add_option("--tf2", flags.file,
+                    "2D transfer function over value x gradient magnitude (.vti, .npy, widget "
+                    ".json; SPEC 9)");
+    addTf2FormOptions(sub, flags);
+}
+
 void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags) {
     sub->add_option("--tf2-domain", flags.domain,
                     "x0,x1,y0,y1: the domain of a .npy 2D TF (required there); overrides a "

@@ -82,6 +82,8 @@ ModelVolume readMembersModel(const std::vector<std::string>& inputs, const std::
 struct Tf2Flags {
     std::string file, domain, resolution;
 };
+/// Register --tf2 FILE with --tf2-domain and --tf2-resolution.
+void addTf2Options(CLI::App* sub, Tf2Flags& flags);
 /// Register --tf2-domain and --tf2-resolution (the file option is the caller's: a positional or
 /// --tf2).
 void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags);

@@ -42,8 +42,16 @@ void pngError(png_structp png, png_const_charp message) {
 
 void pngWarning(png_structp, png_const_charp) {}  // benign chunks (e.g. iCCP) are not errors
 
-/// Returns false (with err->message) on a libpng error.
-bool pngWriteRgba8(FILE* fp, const unsigned char* rgba, int width, int height, PngErrorState* err) {
+void pngAppend(png_structp png, png_bytep data, png_size_t length) {
+    auto* out = static_cast<std::vector<unsigned char>*>(png_get_io_ptr(png));
+    out->insert(out->end(), data, data + length);
+}
+void pngFlushNothing(png_structp) {}
+
+/// To `fp`, or with fp null to `*memory`; zlib `level` (-1: libpng's default). Returns false
+/// (with err->message) on a libpng error.
+bool pngWriteRgba8(FILE* fp, std::vector<unsigned char>* memory, int level,
+                   const unsigned char* rgba, int width, int height, PngErrorState* err) {
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, err, pngError, pngWarning);
     if (png == nullptr) return false;
     png_infop info = png_create_info_struct(png);
@@ -51,7 +59,11 @@ bool pngWriteRgba8(FILE* fp, const unsigned char* rgba, int width, int height, P
         png_destroy_write_struct(&png, &info);
         return false;
     }
-    png_init_io(png, fp);
+    if (fp)
+        png_init_io(png, fp);
+    else
+        png_set_write_fn(png, memory, pngAppend, pngFlushNothing);
+    if (level >= 0) png_set_compression_level(png, level);
     png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8,
                  PNG_COLOR_TYPE_RGBA, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                  PNG_FILTER_TYPE_DEFAULT);
@@ -357,7 +369,9 @@ void checkImage(const ImageRgba& image) {
 
 }  // namespace
 
-void writePng(const fs::path& path, const ImageRgba& image) {
+namespace {
+// 8-bit RGBA: values clamped to [0, 1] and rounded (NaN → 0).
+std::vector<unsigned char> pngBytes8(const ImageRgba& image) {
     checkImage(image);
     std::vector<unsigned char> bytes(image.rgba.size());
     for (std::size_t i = 0; i < bytes.size(); ++i) {
@@ -365,11 +379,37 @@ void writePng(const fs::path& path, const ImageRgba& image) {
         v = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
         bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
     }
+    return bytes;
+}
+}  // namespace
+
+ImageRgba asWrittenToPng(const ImageRgba& image) {
+    const std::vector<unsigned char> bytes = pngBytes8(image);
+    ImageRgba out;
+    out.width = image.width;
+    out.height = image.height;
+    out.rgba.resize(bytes.size());
+    for (std::size_t i = 0; i < bytes.size(); ++i)
+        out.rgba[i] = static_cast<float>(bytes[i]) / 255.0f;  // as readPng
+    return out;
+}
+
+std::vector<unsigned char> encodePng(const ImageRgba& image, int level) {
+    const std::vector<unsigned char> bytes = pngBytes8(image);
+    std::vector<unsigned char> png;
+    PngErrorState err;
+    if (!pngWriteRgba8(nullptr, &png, level, bytes.data(), image.width, image.height, &err))
+        UDVR_FAIL("cannot encode PNG: " << err.message);
+    return png;
+}
+
+void writePng(const fs::path& path, const ImageRgba& image) {
+    const std::vector<unsigned char> bytes = pngBytes8(image);
     writeAtomically(path, [&](const fs::path& tmp) {
         std::unique_ptr<FILE, FileCloser> fp(std::fopen(tmp.c_str(), "wb"));
         if (!fp) UDVR_FILE_FAIL("cannot open " << tmp.string() << " for writing");
         PngErrorState err;
-        if (!pngWriteRgba8(fp.get(), bytes.data(), image.width, image.height, &err)) {
+        if (!pngWriteRgba8(fp.get(), nullptr, -1, bytes.data(), image.width, image.height, &err)) {
             UDVR_FILE_FAIL("cannot write " << path.string() << ": " << err.message);
         }
         if (std::fclose(fp.release()) != 0) {

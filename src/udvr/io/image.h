@@ -20,6 +20,11 @@ struct ImageRgba {
 
 /// PNG, 8 bits per channel RGBA, values clamped to [0,1] and rounded; atomically.
 void writePng(const std::filesystem::path& path, const ImageRgba& image);
+/// The PNG file writePng writes, in memory; zlib `level` 0–9 (-1: libpng's default; the pixels
+/// are the same at every level).
+std::vector<unsigned char> encodePng(const ImageRgba& image, int level = -1);
+/// The image as written to a PNG and read back (8-bit values / 255): what `udvr compare` reads.
+ImageRgba asWrittenToPng(const ImageRgba& image);
 /// Read an 8-bit or 16-bit PNG (gray, RGB or RGBA) into [0,1] floats.
 ImageRgba readPng(const std::filesystem::path& path);
 /// float32 image by extension: .npy (shape height×width×4, '<f4', RGBA) or .pfm (colour "PF",

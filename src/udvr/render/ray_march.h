@@ -165,6 +165,7 @@ struct MarchParams {
     bool skipEmpty = true;
     bool jitter = false;
     std::uint64_t jitterSeed = 0;
+    const std::atomic<bool>* cancel = nullptr;  // when true, the remaining tiles are left undone
 };
 
 /// Counters summed over all rays of a frame.
@@ -366,9 +367,11 @@ inline void writePixel(float* out, float r, float g, float b, float a, const Mar
 }
 
 /// Calls f(x0, y0, x1, y1) for the tiles of the image, tiles spread over the cores; f returns
-/// the (classified, skipped) sample counts it saw, summed into `counters`.
+/// the (classified, skipped) sample counts it saw, summed into `counters`. Once `*cancel` is
+/// true the remaining tiles are skipped (the caller discards the image).
 template <class F>
-void forEachTile(int width, int height, MarchCounters& counters, const F& f) {
+void forEachTile(int width, int height, MarchCounters& counters, const F& f,
+                 const std::atomic<bool>* cancel = nullptr) {
     const int tilesX = (width + kTilePixels - 1) / kTilePixels;
     const int tilesY = (height + kTilePixels - 1) / kTilePixels;
     // Long frames (costly models, 2D TFs, big images) show a bar after 2 s.
@@ -377,6 +380,7 @@ void forEachTile(int width, int height, MarchCounters& counters, const F& f) {
         static_cast<std::size_t>(tilesX) * tilesY, 1, [&](std::size_t t0, std::size_t t1) {
             std::uint64_t samples = 0, skipped = 0;
             for (std::size_t tile = t0; tile < t1; ++tile) {
+                if (cancel && cancel->load(std::memory_order_relaxed)) break;
                 const int x0 =
                     static_cast<int>(tile % static_cast<std::size_t>(tilesX)) * kTilePixels;
                 const int y0 =
@@ -503,7 +507,8 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const std::uint32
                     if (!(active[k] = start(ray))) --inFlight;
                 }
             }
-        });
+        },
+        p.cancel);
 }
 
 }  // namespace udvr::detail

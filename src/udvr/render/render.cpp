@@ -1,5 +1,6 @@
 #include "udvr/render/render.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <type_traits>
@@ -62,6 +63,7 @@ detail::MarchParams makeParams(const ModelVolume& model, const RenderSettings& s
     p.skipEmpty = s.skipEmpty;
     p.jitter = s.jitterSeed.has_value();
     p.jitterSeed = s.jitterSeed.value_or(0);
+    p.cancel = s.cancel;
     return p;
 }
 
@@ -196,6 +198,7 @@ ImageRgba timedFrame(const ModelVolume& model, const RenderSettings& settings, R
     ImageRgba image = blankImage(settings.width, settings.height);
     detail::MarchCounters counters;
     march(p, image, counters);
+    if (settings.cancel && settings.cancel->load()) throw RenderCancelled();
     if (stats) {
         stats->milliseconds =
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -235,6 +238,7 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
             ImageRgba frame = blankImage(settings.width, settings.height);
             ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
             for (int r = 0; r < settings.realizations; ++r) {
+                if (p.cancel && p.cancel->load()) return;  // timedFrame throws RenderCancelled
                 drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
                 renderKernel(MeanKernel(model.grid, values.data(), pieces), p, ranges, frame,
                              counters);
@@ -288,6 +292,83 @@ ImageRgba renderBivariate(const ModelVolume& first, const ModelVolume& second, M
                 renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
             });
         });
+}
+
+namespace {
+
+// The first sample of pixel (px, py)'s ray whose E[α] passes the pick thresholds (render.h).
+template <class Kernel>
+std::optional<std::array<double, 3>> pickOnRay(const Kernel& kernel, const detail::MarchParams& p,
+                                               int px, int py) {
+    if (px < 0 || py < 0 || px >= p.frame.width || py >= p.frame.height)
+        UDVR_FAIL("pixel (" << px << ", " << py << ") is outside the " << p.frame.width << "x"
+                            << p.frame.height << " image");
+    const detail::RaySamples r = detail::raySamples(p, px, py);
+    std::vector<double> alpha(static_cast<std::size_t>(std::max<std::int64_t>(r.n, 0)));
+    double largest = 0.0;
+    const auto at = [&](std::int64_t s, int ax) {  // index space, as the ray loop's a + s·b
+        return static_cast<double>(r.a[ax]) + static_cast<double>(s) * r.b[ax];
+    };
+    for (std::int64_t s = 0; s < r.n; ++s) {
+        double v[4];
+        classifyAt<double>(kernel, static_cast<float>(at(s, 0)), static_cast<float>(at(s, 1)),
+                           static_cast<float>(at(s, 2)), v);
+        alpha[static_cast<std::size_t>(s)] = v[3];
+        largest = std::max(largest, v[3]);
+    }
+    const double threshold = std::max(kPickMinOpacity, kPickOpacityFraction * largest);
+    for (std::int64_t s = 0; s < r.n; ++s) {
+        if (!(alpha[static_cast<std::size_t>(s)] >= threshold)) continue;
+        std::array<double, 3> point;
+        for (int ax = 0; ax < 3; ++ax)
+            point[ax] = std::clamp(at(s, ax), 0.0, static_cast<double>(p.grid.dims[ax] - 1));
+        return point;
+    }
+    return std::nullopt;
+}
+
+// Pick on the frame of `settings` over `model` with the kernel withKernel(options, f) makes.
+template <class WithKernel>
+std::optional<std::array<double, 3>> pick(const ModelVolume& model, const RenderSettings& settings,
+                                          int px, int py, const WithKernel& withKernel) {
+    const detail::MarchParams p = makeParams(model, settings);
+    ClassifyOptions options;
+    options.uniformMinMax = settings.uniformMinMax;
+    std::optional<std::array<double, 3>> hit;
+    withKernel(options, [&](const auto& kernel) { hit = pickOnRay(kernel, p, px, py); });
+    return hit;
+}
+
+}  // namespace
+
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+                                                        const TransferFunction1D& tf,
+                                                        const RenderSettings& settings, int px,
+                                                        int py) {
+    tf.validate();
+    const ModelKind pickKind = modelFamily(kind).realizations ? ModelKind::GmmOrdered : kind;
+    return pick(model, settings, px, py, [&](const ClassifyOptions& options, const auto& f) {
+        withKernel(model, pickKind, tf, options, f);
+    });
+}
+
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+                                                        const TransferFunction2D& tf,
+                                                        const RenderSettings& settings, int px,
+                                                        int py) {
+    tf.validate();
+    return pick(model, settings, px, py, [&](const ClassifyOptions& options, const auto& f) {
+        withKernel2D(model, kind, tf, options, f);
+    });
+}
+
+std::optional<std::array<double, 3>> firstVisibleSampleBivariate(
+    const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+    const TransferFunction2D& tf, const RenderSettings& settings, int px, int py) {
+    tf.validate();
+    return pick(first, settings, px, py, [&](const ClassifyOptions& options, const auto& f) {
+        withKernelBivariate(first, second, kind, tf, options, f);
+    });
 }
 
 }  // namespace udvr

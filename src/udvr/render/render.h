@@ -2,9 +2,11 @@
 // The CPU ray caster (SPEC §5): VTK-style camera, fixed step, opacity correction,
 // premultiplied front-to-back compositing, early termination, empty-space skipping.
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function.h"
@@ -42,6 +44,15 @@ struct RenderSettings {
     std::uint64_t seed = 1;                   // gmm-mc realization seed
     std::optional<std::uint64_t> jitterSeed;  // per-ray start jitter in [0, Δ) when set
     bool uniformMinMax = false;  // model `uniform`: U[min, max] (`--uniform-width minmax`)
+    /// When set and it turns true, the frame stops between tiles (and gmm-mc realizations) and
+    /// the render throws RenderCancelled (`udvr serve`: a newer request supersedes this one).
+    const std::atomic<bool>* cancel = nullptr;
+};
+
+/// Thrown by a render whose RenderSettings::cancel turned true; no image comes back.
+class RenderCancelled : public std::runtime_error {
+  public:
+    RenderCancelled() : std::runtime_error("render cancelled") {}
 };
 
 struct RenderStats {
@@ -92,5 +103,28 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
 ImageRgba renderBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
                           const TransferFunction2D& tf, const RenderSettings& settings,
                           RenderStats* stats = nullptr, RenderCache* cache = nullptr);
+
+/// Picking (`udvr serve`'s click probe): a sample is visible when its E[α] (the exact double
+/// body) is at least this fraction of the largest E[α] on its ray, and at least kPickMinOpacity.
+inline constexpr double kPickOpacityFraction = 0.01;
+inline constexpr double kPickMinOpacity = 1e-4;  // opacity per unit distance
+
+/// The first visible sample on the ray through pixel (px, py) of the frame `settings` describe
+/// (SPEC §5 sample positions t_entry + (s + ½)Δ; jitter ignored), as an index-space point clamped
+/// into the grid; nullopt when the ray misses the box or meets no visible sample. gmm-mc has no
+/// per-sample kernel: it picks with gmm-ordered's expectation of the same mixtures.
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+                                                        const TransferFunction1D& tf,
+                                                        const RenderSettings& settings, int px,
+                                                        int py);
+/// firstVisibleSample with a 2D TF (value × gradient magnitude, SPEC §9).
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+                                                        const TransferFunction2D& tf,
+                                                        const RenderSettings& settings, int px,
+                                                        int py);
+/// firstVisibleSample for bivariate fields with a 2D TF (SPEC §9 `--second`).
+std::optional<std::array<double, 3>> firstVisibleSampleBivariate(
+    const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+    const TransferFunction2D& tf, const RenderSettings& settings, int px, int py);
 
 }  // namespace udvr

@@ -1,0 +1,215 @@
+"""`udvr serve`'s HTTP API against the CLI: /api/render's PNG is `udvr render`'s for the same flags,
+/api/probe's JSON is `udvr probe --json`'s, the diff and RMSE are `udvr compare`'s; bad requests
+get a 4xx with a message and the server keeps serving; a burst of requests leaves no backlog."""
+import concurrent.futures
+import json
+import urllib.parse
+
+import numpy as np
+import pytest
+
+from conftest import assert_one_line_error, run_ok, run_udvr
+from serve_util import Server, cli_probe, cli_render, make_inputs, png_pixels
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    return make_inputs(tmp_path_factory.mktemp("serve_api"))
+
+
+@pytest.fixture(scope="module")
+def server(inputs):
+    s = Server(inputs.model, "--tf", inputs.tf, "--truth", inputs.truth)
+    yield s
+    s.stop()
+
+
+def render(server, **params):
+    status, headers, body = server.get("/api/render?" + urllib.parse.urlencode(params))
+    assert status == 200, body[:300]
+    return png_pixels(body), headers
+
+
+def flags_of(params):
+    out = []
+    for k, v in params.items():
+        out += [f"--{k}", str(v)]
+    return out
+
+
+@pytest.mark.parametrize("params", [
+    {"model": "quantile-mean", "size": "96x64", "azimuth": 40, "elevation": -15, "zoom": 1.3},
+    {"model": "gaussian", "size": "64x64"},
+    {"model": "quartile-upper", "size": "48x48", "azimuth": 200},
+    {"model": "uniform", "size": "64x48", "position": "6,2,5", "focal-point": "0.1,0,0",
+     "view-up": "0,0,1", "view-angle": 40},
+    {"model": "gmm-ordered", "size": "40x40", "parallel-scale": 3, "step": 0.05},
+    {"model": "gmm-mc", "size": "32x32", "realizations": 5, "seed": 4},
+    {"model": "mean", "size": "48x48", "view": "+x", "frame": "box"},
+])
+def test_render_is_the_cli_image(server, inputs, tmp_path, params):
+    page, headers = render(server, **params)
+    cli = cli_render(inputs, tmp_path / "cli.png", "--tf", inputs.tf, *flags_of(params))
+    assert page.shape == cli.shape
+    assert np.array_equal(page, cli)
+    assert float(headers["X-Udvr-Render-Ms"]) >= 0
+
+
+def test_truth_diff_and_rmse_are_compares(server, inputs, tmp_path):
+    params = {"model": "quantile-range", "size": "64x64", "azimuth": 10}
+    truth, _ = render(server, source="truth", **params)
+    diff, headers = render(server, source="diff", **params)
+    flags = ["--tf", inputs.tf, *flags_of({k: v for k, v in params.items() if k != "model"})]
+    cli_render(inputs, tmp_path / "m.png", "--model", "quantile-range", *flags)
+    cli_truth = cli_render(inputs, tmp_path / "t.png", "--model", "mean", *flags,
+                           model_file=inputs.truth)
+    assert np.array_equal(truth, cli_truth)
+    out = run_ok("compare", tmp_path / "m.png", tmp_path / "t.png", "--diff", tmp_path / "d.png")
+    assert float(headers["X-Udvr-Rmse"]) == pytest.approx(float(out.stdout), abs=1e-8)
+    assert np.array_equal(diff, png_pixels(tmp_path / "d.png"))
+
+
+def test_posted_tf_renders_and_reads_back(server, inputs, tmp_path):
+    tf = [{"RGBPoints": [-5, 0.1, 0.2, 0.9, 10, 0.9, 0.8, 0.1, 30, 1, 0, 0],
+           "Points": [-5, 0, 0.5, 0, 4, 0.05, 0.5, 0, 12, 0.6, 0.5, 0, 30, 0.2, 0.5, 0]}]
+    try:
+        assert server.json("/api/tf", data=json.dumps(tf).encode(), method="POST")["tf_version"] > 1
+        back = server.json("/api/tf")
+        assert back[0]["RGBPoints"] == tf[0]["RGBPoints"]
+        assert back[0]["Points"] == tf[0]["Points"]
+        (tmp_path / "tf.json").write_text(json.dumps(back))
+        page, _ = render(server, model="iqr", size="64x64")
+        cli = cli_render(inputs, tmp_path / "c.png", "--tf", tmp_path / "tf.json", "--model", "iqr",
+                         "--size", "64x64")
+        assert np.array_equal(page, cli)
+    finally:
+        server.get("/api/tf", data=inputs.tf.read_bytes(), method="POST")
+
+
+@pytest.mark.parametrize("model", ["quantile-range", "gaussian", "gmm-ordered", "uniform"])
+def test_probe_under_a_pixel_is_the_cli_probe(server, inputs, model):
+    hit = server.json(f"/api/probe?model={model}&size=64x64&azimuth=30&x=32&y=30")
+    # The first visible sample: E[alpha] there is at least 1 % of the ray's largest.
+    assert hit["expected_rgba"][3] > 0
+    assert hit == cli_probe(inputs.model, inputs.tf, model, hit["point"])
+    again = server.json(f"/api/probe?model={model}&point=" + ",".join(map(repr, hit["point"])))
+    assert again == hit
+
+
+def test_probe_of_an_empty_pixel_says_so(server):
+    status, _, body = server.get("/api/probe?size=64x64&x=0&y=0")
+    assert status == 404 and "no visible sample" in json.loads(body)["error"]
+
+
+def test_histogram_counts_every_voxel(server):
+    h = server.json("/api/histogram?bins=50")
+    assert len(h["counts"]) == 50 and sum(h["counts"]) == 32 ** 3
+    assert h["lo"] < h["hi"] and h["below"] == 0 and h["above"] == 0
+
+
+def test_state_lists_every_model(server):
+    state = server.json("/api/state")
+    names = [m["name"] for m in state["models"]]
+    assert names[:12] == ["mean", "uniform", "gaussian", "gmm-ordered", "gmm-mc", "quantile-range",
+                          "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower",
+                          "quartile-middle", "quartile-upper"]
+    by = {m["name"]: m for m in state["models"]}
+    assert by["quantile-mean"]["label"] == "quantile-mean (q=8)" and by["quantile-mean"]["available"]
+    assert not by["members"]["available"] and by["members"]["reason"]
+    assert state["truth"] and state["model"]["dims"] == [32, 32, 32]
+
+
+BAD = [
+    ("/api/render?size=100000x100000", "size"),
+    ("/api/render?size=4096x16", "2048"),
+    ("/api/render?size=-3x4", "size"),
+    ("/api/render?azimuth=nan", "azimuth"),
+    ("/api/render?zoom=inf", "zoom"),
+    ("/api/render?zoom=0", "zoom"),
+    ("/api/render?elevation=1e400", "elevation"),
+    ("/api/render?model=nonsense", "unknown model"),
+    ("/api/render?model=members", "ensemble"),
+    ("/api/render?realizations=100000&model=gmm-mc", "realizations"),
+    ("/api/render?step=1e-9", "step"),
+    ("/api/render?position=../../etc/passwd", "position"),
+    ("/api/render?model=%2Fetc%2Fpasswd", "unknown model"),
+    ("/api/render?file=/etc/passwd", "unknown parameter"),
+    ("/api/render?size=8x8&size=9x9", "twice"),
+    ("/api/render?channel=../x", "channel"),
+    ("/api/render?view=up", "view"),
+    ("/api/render?position=1,1,1&view=+x", "view"),
+    ("/api/probe?x=5", "x and y"),
+    ("/api/probe?size=8x8&x=8&y=1", "x"),
+    ("/api/probe?point=99,0,0", "outside"),
+    ("/api/probe?model=gmm-mc&point=1,1,1", "gmm-mc"),
+    ("/api/histogram?bins=0", "bins"),
+    ("/api/preset?name=../../tf", "preset"),
+    ("/api/nothing", "no such endpoint"),
+]
+
+
+@pytest.mark.parametrize("path,mention", BAD)
+def test_bad_requests_get_a_4xx_with_a_message(server, path, mention):
+    status, _, body = server.get(path)
+    assert 400 <= status < 500, (status, body[:200])
+    message = json.loads(body)["error"]
+    assert mention.lower() in message.lower() and "\n" not in message
+    assert server.alive()
+
+
+@pytest.mark.parametrize("body", [b'{"RGBPoints": [', b"[]",
+                                  b'[{"RGBPoints": [0, 0, 0, 0], "Points": [0, "a", 0.5, 0]}]',
+                                  b'[{"RGBPoints": [1, 0, 0, 0, 0, 1, 1, 1], "Points": [0, 2, 0.5, 0]}]',
+                                  b"\xff\xfe"])
+def test_broken_tf_json_is_refused_and_the_tf_kept(server, body):
+    before = server.get("/api/tf")[2]
+    status, _, answer = server.get("/api/tf", data=body, method="POST")
+    assert status == 400 and json.loads(answer)["error"]
+    assert server.get("/api/tf")[2] == before
+
+
+def test_path_like_requests_never_reach_files(server):
+    for path in ["/../../../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd", "/web/app.js",
+                 "/index.html/../../CMakeLists.txt", "/CMakeLists.txt"]:
+        status, _, body = server.get(path)
+        assert status == 404 and b"root:" not in body
+    status, headers, body = server.get("/")
+    assert status == 200 and headers["Content-Type"].startswith("text/html")
+    assert server.get("/app.js")[1]["Content-Type"].startswith("text/javascript")
+
+
+def test_a_burst_of_200_requests_leaves_no_backlog(server, inputs, tmp_path):
+    """200 requests on one channel, sent at once in any order: the newest (seq 200) is answered with
+    its own image, older ones are superseded or cancelled, and nothing is left queued."""
+    def one(seq):
+        q = urllib.parse.urlencode({"model": "quantile-mean", "size": "160x160",
+                                    "azimuth": seq * 1.5, "channel": "burst", "seq": seq})
+        return seq, server.get("/api/render?" + q)
+
+    with concurrent.futures.ThreadPoolExecutor(16) as pool:
+        answers = dict(pool.map(one, reversed(range(1, 201))))
+    status, _, body = answers[200]
+    assert status == 200
+    cli = cli_render(inputs, tmp_path / "c.png", "--tf", inputs.tf, "--model", "quantile-mean",
+                     "--size", "160x160", "--azimuth", "300")
+    assert np.array_equal(png_pixels(body), cli)
+    codes = [a[0] for a in answers.values()]
+    assert set(codes) <= {200, 409} and codes.count(409) > 100
+    stats = server.json("/api/status")
+    assert stats["running"] == 0 and stats["waiting"] == 0
+    assert stats["superseded"] + stats["cancelled"] >= codes.count(409)
+
+
+def test_serve_cli_errors(inputs, tmp_path):
+    assert_one_line_error(run_udvr("serve", tmp_path / "missing.vti"), "missing.vti")
+    assert_one_line_error(run_udvr("serve", inputs.model, "--second", inputs.model), "--tf2")
+    assert_one_line_error(run_udvr("serve", inputs.model, "--port", "70000"), "port")
+    assert_one_line_error(run_udvr("serve", inputs.model, "--tf", tmp_path / "none.json"), "none.json")
+    s = Server(inputs.model, "--tf", inputs.tf)
+    try:
+        assert s.url.startswith("http://127.0.0.1:")
+        port = s.url.rsplit(":", 1)[1]
+        r = run_udvr("serve", inputs.model, "--port", port, timeout=20)
+        assert_one_line_error(r, port)
+    finally:
+        s.stop()

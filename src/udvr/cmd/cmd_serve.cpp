@@ -1,0 +1,87 @@
+// udvr serve MODEL [--tf TF|PRESET] [--truth FIELD] [--second MODEL2 --tf2 TF2] [--port 8080]
+//            [--host 127.0.0.1]   — the interactive viewer in a browser (SPEC §8, docs/serve.md)
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "udvr/cmd/commands.h"
+#include "udvr/cmd/parse_util.h"
+#include "udvr/io/transfer_function_2d_io.h"
+#include "udvr/serve/api.h"
+#include "udvr/serve/http_server.h"
+#include "udvr/util/check.h"
+
+namespace udvr::cmd {
+
+void addServeCommand(CLI::App& app) {
+    auto* sub = app.add_subcommand(
+        "serve",
+        "explore a model in the browser: orbit, edit the TF, switch models, probe (docs/serve.md)");
+    struct Opts {
+        std::string model, truth, second, var, host = "127.0.0.1";
+        int port = 8080;
+        TfFlags tf;
+        Tf2Flags tf2;
+        RawLayoutFlags raw;
+    };
+    auto o = std::make_shared<Opts>();
+    sub->add_option("model", o->model,
+                    "model (.vti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw)")
+        ->required();
+    addTfOptions(sub, o->tf);
+    addTf2Options(sub, o->tf2);
+    sub->add_option("--truth", o->truth,
+                    "ground-truth field: shown beside the model with the difference image and "
+                    "the RMSE (SPEC 6)");
+    sub->add_option("--second", o->second,
+                    "bivariate fields: the model giving the TF2's y (same grid; needs --tf2)");
+    sub->add_option("--port", o->port, "TCP port (default 8080; 0 picks a free one)")
+        ->check(wholeNumberIn(0, 65535));
+    sub->add_option("--host", o->host,
+                    "address to listen on (default 127.0.0.1: this machine only)");
+    sub->add_option("--var", o->var, "array/variable name in the inputs");
+    addRawLayoutOptions(sub, o->raw);
+    sub->callback([o] {
+        requireOneTf(o->tf.tf, o->tf2);
+        const bool twoD = !o->tf2.file.empty();
+        checkTfFlags(o->tf, twoD);
+        if (!o->second.empty() && !twoD)
+            UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
+        if (!o->second.empty() && !o->truth.empty())
+            UDVR_FAIL("--truth compares one field with the model; it does not go with --second");
+        serve::ServeData data;
+        TfChoice tfChoice;  // a TF file is read before the volume, so a bad one costs nothing
+        if (!twoD && !tfIsPreset(o->tf)) tfChoice.tf = readTransferFunctionFile(o->tf);
+        if (twoD) data.tf2 = readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2));
+        data.tf2File = o->tf2.file;
+        data.model = readModelOrField(o->model, o->var, o->raw);
+        data.modelFile = o->model;
+        // With --tf2 the 1D TF is the default preset, for the page's editor only.
+        if (twoD || tfIsPreset(o->tf))
+            tfChoice = chooseTransferFunction(twoD ? TfFlags{} : o->tf, data.model.mean, "serve");
+        data.tf = tfChoice.tf;
+        if (!o->truth.empty()) {
+            data.truth = readModelOrField(o->truth, o->var, o->raw);
+            data.truthFile = o->truth;
+        }
+        if (!o->second.empty()) {
+            data.second = readModelOrField(o->second, o->var, o->raw);
+            data.secondFile = o->second;
+        }
+        if (o->host != "127.0.0.1" && o->host != "localhost" && o->host != "::1")
+            std::fprintf(stderr,
+                         "serve: warning: listening on %s: whoever reaches this address can use "
+                         "the viewer (no authentication)\n",
+                         o->host.c_str());
+        serve::Api api(std::move(data));
+        serve::runHttpServer(api, o->host, o->port, [&](int port) {
+            if (!twoD) finishTransferFunction(o->tf, tfChoice);  // --save-tf, the preset's note
+            const std::string shown =
+                o->host.find(':') != std::string::npos ? "[" + o->host + "]" : o->host;
+            std::printf("udvr serve: http://%s:%d/ (Ctrl-C stops)\n", shown.c_str(), port);
+            std::fflush(stdout);
+        });
+    });
+}
+
+}  // namespace udvr::cmd

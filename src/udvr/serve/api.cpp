@@ -1,0 +1,513 @@
+#include "udvr/serve/api.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <new>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "udvr/classify/model_families.h"
+#include "udvr/classify/probe.h"
+#include "udvr/classify/tf_presets.h"
+#include "udvr/cmd/parse_util.h"
+#include "udvr/cmd/render_flags.h"
+#include "udvr/eval/image_metrics.h"
+#include "udvr/io/transfer_function_io.h"
+#include "udvr/render/framing.h"
+#include "udvr/stats/value_summary.h"
+#include "udvr/util/build_info.h"
+#include "udvr/util/check.h"
+
+namespace udvr::serve {
+namespace {
+
+using nlohmann::json;
+
+// The /api/render parameters that choose the image: the `udvr render` flags of the same names.
+const std::vector<std::string> kRenderKeys = {
+    "model",       "size",          "azimuth",    "elevation",      "zoom",          "position",
+    "focal-point", "view-up",       "view-angle", "parallel-scale", "view",          "frame",
+    "step",        "unit-distance", "early-exit", "background",     "uniform-width", "realizations",
+    "seed",        "jitter",        "no-skip"};
+// Parameters that steer the request, not the image.
+const std::vector<std::string> kControlKeys = {"channel", "seq", "source"};
+
+ApiResponse jsonResponse(const json& body, int status = 200) {
+    ApiResponse r;
+    r.status = status;
+    r.body = body.dump(-1, ' ', false, json::error_handler_t::replace);  // bad UTF-8 → U+FFFD
+    return r;
+}
+
+ApiResponse errorResponse(int status, const std::string& message) {
+    return jsonResponse(json{{"error", message}}, status);
+}
+
+// The query as a map, each key at most once and from `allowed`, values of bounded length.
+class Query {
+  public:
+    Query(const std::vector<std::pair<std::string, std::string>>& params,
+          const std::vector<std::vector<std::string>>& allowed) {
+        for (const auto& [key, value] : params) {
+            bool known = false;
+            for (const auto& list : allowed)
+                known = known || std::find(list.begin(), list.end(), key) != list.end();
+            if (!known) {
+                std::string names;
+                for (const auto& list : allowed)
+                    for (const auto& k : list) names += (names.empty() ? "" : ", ") + k;
+                UDVR_FAIL("unknown parameter '" << clip(key) << "' (expected: " << names << ")");
+            }
+            if (value.size() > kMaxValueChars)
+                UDVR_FAIL("parameter '" << key << "' is longer than " << kMaxValueChars
+                                        << " characters");
+            if (!values_.emplace(key, value).second)
+                UDVR_FAIL("parameter '" << key << "' is given twice");
+        }
+    }
+    const std::string* find(const std::string& key) const {
+        const auto it = values_.find(key);
+        return it == values_.end() ? nullptr : &it->second;
+    }
+    bool has(const std::string& key) const { return values_.count(key) > 0; }
+    std::string text(const std::string& key, const std::string& fallback = "") const {
+        const std::string* v = find(key);
+        return v ? *v : fallback;
+    }
+    /// A finite number in [lo, hi] (lo/hi exclusive when the flags say so).
+    std::optional<double> number(const std::string& key, double lo, double hi,
+                                 bool loOpen = false) const {
+        const std::string* v = find(key);
+        if (!v) return std::nullopt;
+        char* end = nullptr;
+        const double x = std::strtod(v->c_str(), &end);
+        if (v->empty() || end != v->c_str() + v->size() || !std::isfinite(x))
+            UDVR_FAIL(key << ": '" << clip(*v) << "' is not a finite number");
+        if (x > hi || x < lo || (loOpen && x == lo))
+            UDVR_FAIL(key << " must lie in " << (loOpen ? "(" : "[") << lo << ", " << hi
+                          << "], got " << *v);
+        return x;
+    }
+    /// A whole number in [lo, hi].
+    std::optional<std::uint64_t> whole(const std::string& key, std::uint64_t lo,
+                                       std::uint64_t hi) const {
+        const std::string* v = find(key);
+        if (!v) return std::nullopt;
+        errno = 0;
+        char* end = nullptr;
+        const unsigned long long x = std::strtoull(v->c_str(), &end, 10);
+        if (v->empty() || (*v)[0] == '-' || end != v->c_str() + v->size() || errno == ERANGE ||
+            x < lo || x > hi)
+            UDVR_FAIL(key << ": '" << clip(*v) << "' is not a whole number in [" << lo << ", " << hi
+                          << "]");
+        return x;
+    }
+    /// Every key of `keys` that is present, as key=value&… in the order of `keys`.
+    std::string canonical(const std::vector<std::string>& keys) const {
+        std::string out;
+        for (const auto& k : keys)
+            if (const std::string* v = find(k)) out += k + "=" + *v + "&";
+        return out;
+    }
+    static std::string clip(const std::string& s) {
+        return s.size() > 40 ? s.substr(0, 40) + "..." : s;
+    }
+
+  private:
+    std::map<std::string, std::string> values_;
+};
+
+std::string pngHeaderSafe(double v) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%.10g", v);
+    return text;
+}
+
+// "a-z0-9_-", 1–32 characters: channel names.
+bool isToken(const std::string& s) {
+    if (s.empty() || s.size() > 32) return false;
+    for (char c : s)
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_')) return false;
+    return true;
+}
+
+}  // namespace
+
+// An image as `udvr render` writes it to PNG (8-bit values / 255), with how long it took.
+struct Api::Frame {
+    ImageRgba image;
+    double milliseconds = 0.0;
+    double rmse = -1.0;  // diff images: RMSE of the model image against the truth (SPEC §6)
+};
+
+// A parsed /api/render (or /api/probe) request.
+struct Api::RenderRequest {
+    ModelKind kind = ModelKind::Mean;
+    cmd::RenderFlags flags;
+    std::string channel = "main", source = "model";
+    std::optional<std::uint64_t> seq;
+    std::shared_ptr<const TransferFunction1D> tf;
+    std::uint64_t tfVersion = 0;
+    std::string key;  // the image's identity: every image parameter, the TF version
+};
+
+Api::Api(ServeData data)
+    : data_(std::move(data)), tf_(std::make_shared<TransferFunction1D>(data_.tf)) {
+    tf_->validate();
+    if (data_.tf2) data_.tf2->validate();
+}
+
+Api::~Api() = default;
+
+std::pair<std::shared_ptr<const TransferFunction1D>, std::uint64_t> Api::currentTf() const {
+    std::lock_guard lock(tfMutex_);
+    return {tf_, tfVersion_};
+}
+
+ApiResponse Api::handle(const ApiRequest& request) {
+    try {
+        return route(request);
+    } catch (const RenderCancelled&) {
+        return errorResponse(409, "superseded by a newer request on this channel");
+    } catch (const UdvrError& e) {
+        return errorResponse(400, e.what());
+    } catch (const std::bad_alloc&) {
+        return errorResponse(503, "out of memory");
+    } catch (const std::exception& e) {
+        return errorResponse(500, std::string("internal error: ") + e.what());
+    } catch (...) {
+        return errorResponse(500, "internal error");
+    }
+}
+
+ApiResponse Api::route(const ApiRequest& request) {
+    const std::string& p = request.path;
+    const bool get = request.method == "GET", post = request.method == "POST";
+    if (p == "/api/state" && get) return getState();
+    if (p == "/api/render" && get) return getRender(request);
+    if (p == "/api/probe" && get) return getProbe(request);
+    if (p == "/api/histogram" && get) return getHistogram(request);
+    if (p == "/api/tf" && get) return getTf();
+    if (p == "/api/tf" && post) return postTf(request);
+    if (p == "/api/preset" && get) return getPreset(request);
+    if (p == "/api/status" && get) return getStatus();
+    for (const char* known : {"/api/state", "/api/render", "/api/probe", "/api/histogram",
+                              "/api/tf", "/api/preset", "/api/status"})
+        if (p == known) return errorResponse(405, "method " + request.method + " not allowed");
+    return errorResponse(404, "no such endpoint: " + Query::clip(p));
+}
+
+ApiResponse Api::getState() {
+    const ModelVolume& m = data_.model;
+    json models = json::array();
+    for (ModelKind kind : allModelKinds()) {
+        const ModelFamily& family = modelFamily(kind);
+        json row{{"name", std::string(family.name)}};
+        std::string label(family.name);
+        if (family.labelShowsQ && m.quantileCount > 0)
+            label += " (q=" + std::to_string(m.quantileCount) + ")";
+        if (kind == ModelKind::GmmOrdered || kind == ModelKind::GmmMc)
+            if (m.gmmComponents > 0) label += " (K=" + std::to_string(m.gmmComponents) + ")";
+        row["label"] = label;
+        std::string reason;
+        try {
+            checkModelHasArrays(m, kind, ClassifyOptions{});
+            if (data_.tf2 && !family.makeKernel2D && !(data_.second && family.makeKernel))
+                reason = "no 2D transfer-function classification for this model";
+        } catch (const UdvrError& e) {
+            reason = e.what();
+        }
+        row["available"] = reason.empty();
+        if (!reason.empty()) row["reason"] = reason;
+        row["probe"] = !family.realizations;
+        models.push_back(row);
+    }
+    const auto [tf, version] = currentTf();
+    json presets = json::array();
+    for (const auto& name : transferFunctionPresetNames()) presets.push_back(name);
+    json state{
+        {"version", std::string(build::versionLine())},
+        {"model",
+         {{"file", data_.modelFile},
+          {"dims", m.grid.dims},
+          {"origin", m.grid.origin},
+          {"spacing", m.grid.spacing},
+          {"bounds", m.bounds},
+          {"quantiles", m.quantileCount},
+          {"gmm_components", m.gmmComponents},
+          {"density", m.density},
+          {"samples_per_voxel", m.samplesPerVoxel},
+          {"downsample", m.downsample}}},
+        {"models", models},
+        {"truth", data_.truth ? json(data_.truthFile) : json(nullptr)},
+        {"second", data_.second ? json(data_.secondFile) : json(nullptr)},
+        {"tf2", data_.tf2 ? json(data_.tf2File) : json(nullptr)},
+        {"tf_version", version},
+        {"presets", presets},
+        {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
+        {"defaults", {{"size", "512x512"}, {"azimuth", 30.0}, {"elevation", 20.0}, {"zoom", 1.0}}}};
+    return jsonResponse(state);
+}
+
+ApiResponse Api::getStatus() {
+    const RenderGate::Stats s = gate_.stats();
+    return jsonResponse(json{{"completed", s.completed},
+                             {"cancelled", s.cancelled},
+                             {"superseded", s.superseded},
+                             {"running", s.running},
+                             {"waiting", s.waiting}});
+}
+
+namespace {
+
+// The RenderFlags of a query (`udvr render`'s flags by the same names), range-checked.
+cmd::RenderFlags renderFlagsOf(const Query& q) {
+    cmd::RenderFlags f;
+    f.size = q.text("size", f.size);
+    std::array<int, 2> size{};
+    try {
+        size = cmd::parseSize(f.size, "size");
+    } catch (const UdvrError&) {
+        size = {kMaxImageSide + 1, 0};  // the message below says what is allowed
+    }
+    if (size[0] > kMaxImageSide || size[1] > kMaxImageSide || size[1] < 1)
+        UDVR_FAIL("size must be WxH between 1x1 and " << kMaxImageSide << "x" << kMaxImageSide
+                                                      << ", got '" << Query::clip(f.size) << "'");
+    if (auto v = q.number("azimuth", -3600, 3600)) f.azimuth = *v, f.azimuthGiven = true;
+    if (auto v = q.number("elevation", -90, 90)) f.elevation = *v, f.elevationGiven = true;
+    if (auto v = q.number("zoom", 0, 1000, true)) f.zoom = *v;
+    if (auto v = q.number("view-angle", 0, 179.9, true)) f.viewAngle = *v;
+    if (auto v = q.number("parallel-scale", 0, 1e12, true))
+        f.parallelScale = *v, f.parallelGiven = true;
+    if (auto v = q.number("step", 0, 1e12, true)) f.step = *v;
+    if (auto v = q.number("unit-distance", 0, 1e12, true)) f.unit = *v;
+    if (auto v = q.number("early-exit", 0, 1, true)) f.earlyExit = *v;
+    if (auto v = q.whole("realizations", 1, kMaxRealizations))
+        f.realizations = static_cast<int>(*v);
+    if (auto v = q.whole("seed", 0, UINT64_MAX)) f.seed = *v;
+    if (auto v = q.whole("jitter", 0, UINT64_MAX)) f.jitter = *v, f.jitterGiven = true;
+    if (auto v = q.whole("no-skip", 0, 1)) f.noSkip = *v == 1;
+    f.position = q.text("position");
+    f.focal = q.text("focal-point");
+    f.up = q.text("view-up");
+    f.view = q.text("view");
+    f.frame = q.text("frame");
+    f.background = q.text("background");
+    f.uniformWidth = q.text("uniform-width", f.uniformWidth);
+    cmd::checkRenderFlags(f);
+    return f;
+}
+
+}  // namespace
+
+std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::string& source,
+                                             const std::atomic<bool>& cancel) {
+    const std::string key = source + "|" + r.key;
+    {
+        std::lock_guard lock(cacheMutex_);
+        for (auto it = frames_.begin(); it != frames_.end(); ++it)
+            if (it->first == key) {
+                frames_.splice(frames_.begin(), frames_, it);  // most recently used first
+                return it->second;
+            }
+    }
+    auto out = std::make_shared<Frame>();
+    if (source == "diff") {
+        const auto model = frame(r, "model", cancel);
+        const auto truth = frame(r, "truth", cancel);
+        // As `udvr compare model.png truth.png --diff`: both images as their PNGs hold them.
+        out->image = asWrittenToPng(differenceImage(model->image, truth->image));
+        out->rmse = imageRmse(model->image, truth->image);
+    } else {
+        const bool truth = source == "truth";
+        const ModelVolume& volume = truth ? *data_.truth : data_.model;
+        const ModelKind kind = truth ? ModelKind::Mean : r.kind;
+        const bool twoD = data_.tf2.has_value();
+        bool anyVisible = true;
+        const auto visibleBox = [&] {
+            return twoD ? visibleBounds(volume, *data_.tf2, &anyVisible)
+                        : visibleBounds(volume, *r.tf, &anyVisible);
+        };
+        std::string note;
+        RenderSettings s = cmd::renderSettingsFromFlags(r.flags, volume, true, visibleBox, note);
+        s.cancel = &cancel;
+        auto& cache = renderCaches_[{source, kind}];
+        if (!cache) cache = std::make_unique<RenderCache>();
+        RenderStats stats;
+        const ImageRgba image =
+            data_.second && !truth
+                ? renderBivariate(volume, *data_.second, kind, *data_.tf2, s, &stats, cache.get())
+            : twoD ? renderVolume(volume, kind, *data_.tf2, s, &stats, cache.get())
+                   : renderVolume(volume, kind, *r.tf, s, &stats, cache.get());
+        out->image = asWrittenToPng(image);
+        out->milliseconds = stats.milliseconds;
+    }
+    std::lock_guard lock(cacheMutex_);
+    frames_.emplace_front(key, out);
+    constexpr std::size_t kCachedFrames = 12;  // ≤ 12 × 2048² × 16 bytes; 512²: 50 MB
+    while (frames_.size() > kCachedFrames) frames_.pop_back();
+    return out;
+}
+
+ApiResponse Api::getRender(const ApiRequest& request) {
+    const Query q(request.params, {kRenderKeys, kControlKeys});
+    RenderRequest r;
+    r.kind = parseModelKind(q.text("model", "mean"));
+    r.flags = renderFlagsOf(q);
+    r.channel = q.text("channel", "main");
+    if (!isToken(r.channel))
+        UDVR_FAIL("channel must be 1-32 letters, digits, '-' or '_', got '"
+                  << Query::clip(r.channel) << "'");
+    r.seq = q.whole("seq", 0, UINT64_MAX);
+    r.source = q.text("source", "model");
+    if (r.source != "model" && r.source != "truth" && r.source != "diff")
+        UDVR_FAIL("source must be model, truth or diff, got '" << Query::clip(r.source) << "'");
+    if (r.source != "model" && !data_.truth)
+        UDVR_FAIL("source=" << r.source << " needs a ground truth: start udvr serve with --truth");
+    std::tie(r.tf, r.tfVersion) = currentTf();
+    r.key = q.canonical(kRenderKeys) + "tf=" + std::to_string(data_.tf2 ? 0 : r.tfVersion);
+    // Errors that need no rendering come before the gate: the model's arrays.
+    if (r.source != "truth") checkModelHasArrays(data_.model, r.kind, ClassifyOptions{});
+    std::shared_ptr<const Frame> result;
+    const bool done = gate_.run(r.channel, r.seq, [&](const std::atomic<bool>& cancel) {
+        result = frame(r, r.source, cancel);
+    });
+    if (!done) return errorResponse(409, "superseded by a newer request on channel " + r.channel);
+    ApiResponse out;
+    out.type = "image/png";
+    const std::vector<unsigned char> png = encodePng(result->image, 1);
+    out.body.assign(png.begin(), png.end());
+    out.headers.emplace_back("X-Udvr-Render-Ms", pngHeaderSafe(result->milliseconds));
+    out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(r.tfVersion));
+    if (result->rmse >= 0.0) out.headers.emplace_back("X-Udvr-Rmse", pngHeaderSafe(result->rmse));
+    return out;
+}
+
+ApiResponse Api::getProbe(const ApiRequest& request) {
+    const Query q(request.params, {kRenderKeys, {"x", "y", "point"}});
+    const ModelKind kind = parseModelKind(q.text("model", "mean"));
+    ClassifyOptions options;
+    options.uniformMinMax = cmd::parseUniformWidthMinMax(q.text("uniform-width", "variance"));
+    const auto [tf, version] = currentTf();
+    std::array<double, 3> point{};
+    if (q.has("point")) {
+        if (q.has("x") || q.has("y")) UDVR_FAIL("give either point=i,j,k or x and y, not both");
+        point = cmd::parseVec3(q.text("point"), "point");
+        for (int a = 0; a < 3; ++a)
+            if (point[a] < 0.0 || point[a] > data_.model.grid.dims[a] - 1)
+                UDVR_FAIL("point " << q.text("point") << " is outside the "
+                                   << data_.model.grid.dims[0] << "x" << data_.model.grid.dims[1]
+                                   << "x" << data_.model.grid.dims[2] << " grid");
+    } else {
+        if (!q.has("x") || !q.has("y"))
+            UDVR_FAIL("give the pixel as x and y (or an index point as point=i,j,k)");
+        const cmd::RenderFlags flags = renderFlagsOf(q);
+        bool anyVisible = true;
+        const auto visibleBox = [&] {
+            return data_.tf2 ? visibleBounds(data_.model, *data_.tf2, &anyVisible)
+                             : visibleBounds(data_.model, *tf, &anyVisible);
+        };
+        std::string note;
+        const RenderSettings s =
+            cmd::renderSettingsFromFlags(flags, data_.model, true, visibleBox, note);
+        const int x = static_cast<int>(*q.whole("x", 0, static_cast<std::uint64_t>(s.width - 1)));
+        const int y = static_cast<int>(*q.whole("y", 0, static_cast<std::uint64_t>(s.height - 1)));
+        const auto hit = data_.second ? firstVisibleSampleBivariate(data_.model, *data_.second,
+                                                                    kind, *data_.tf2, s, x, y)
+                         : data_.tf2  ? firstVisibleSample(data_.model, kind, *data_.tf2, s, x, y)
+                                      : firstVisibleSample(data_.model, kind, *tf, s, x, y);
+        if (!hit)
+            return errorResponse(404, "no visible sample under pixel (" + std::to_string(x) + ", " +
+                                          std::to_string(y) +
+                                          "): the ray misses the volume or the TF hides it");
+        point = *hit;
+    }
+    const ProbeResult r =
+        data_.second ? probeBivariate(data_.model, *data_.second, kind, *data_.tf2, point, options)
+        : data_.tf2  ? probeModel(data_.model, kind, *data_.tf2, point, options)
+                     : probeModel(data_.model, kind, *tf, point, options);
+    ApiResponse out = jsonResponse(r.json);
+    out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(version));
+    return out;
+}
+
+ApiResponse Api::getHistogram(const ApiRequest& request) {
+    const Query q(request.params, {{"bins", "source", "lo", "hi"}});
+    const int bins = static_cast<int>(q.whole("bins", 1, kMaxHistogramBins).value_or(256));
+    const std::string source = q.text("source", "model");
+    if (source != "model" && source != "truth" && source != "second")
+        UDVR_FAIL("source must be model, truth or second, got '" << Query::clip(source) << "'");
+    const ModelVolume* volume = &data_.model;
+    if (source == "truth") volume = data_.truth ? &*data_.truth : nullptr;
+    if (source == "second") volume = data_.second ? &*data_.second : nullptr;
+    if (!volume)
+        UDVR_FAIL("no " << source << " field: udvr serve was started without --" << source);
+    const std::vector<float>& values = volume->mean;
+    if (values.empty()) UDVR_FAIL("the " << source << " has no values");
+    const auto [mn, mx] = std::minmax_element(values.begin(), values.end());
+    double lo = q.number("lo", -1e300, 1e300).value_or(*mn);
+    double hi = q.number("hi", -1e300, 1e300).value_or(*mx);
+    if (!(hi > lo)) {
+        if (q.has("lo") || q.has("hi")) UDVR_FAIL("hi must be above lo");
+        lo -= 0.5, hi += 0.5;
+    }
+    const Histogram h = histogramOf(values, lo, hi, bins);
+    const ValueSummary summary = summarizeValues(values);
+    const auto robust = robustRange(summary);
+    return jsonResponse(json{
+        {"source", source},
+        {"values", volume->quantileCount > 0 || volume->gmmComponents > 0 || !volume->stddev.empty()
+                       ? "means"
+                       : "values"},
+        {"lo", h.lo},
+        {"hi", h.hi},
+        {"counts", h.counts},
+        {"below", h.below},
+        {"above", h.above},
+        {"robust_range", robust},
+        {"median", summary.percentile(50)}});
+}
+
+ApiResponse Api::getTf() {
+    const auto [tf, version] = currentTf();
+    ApiResponse out;
+    out.body = transferFunctionToJson(*tf, "udvr serve");
+    out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(version));
+    return out;
+}
+
+ApiResponse Api::postTf(const ApiRequest& request) {
+    if (request.body.size() > kMaxBodyBytes)
+        UDVR_FAIL("the TF JSON is over " << kMaxBodyBytes << " bytes");
+    auto tf = std::make_shared<TransferFunction1D>(
+        parseTransferFunction(request.body, "the posted transfer function"));
+    tf->validate();
+    std::lock_guard lock(tfMutex_);
+    tf_ = std::move(tf);
+    const std::uint64_t version = ++tfVersion_;
+    return jsonResponse(json{{"tf_version", version}});
+}
+
+ApiResponse Api::getPreset(const ApiRequest& request) {
+    const Query q(request.params, {{"name", "range"}});
+    const std::string name = q.text("name", transferFunctionPresetNames().front());
+    if (!isTransferFunctionPreset(name))
+        UDVR_FAIL("unknown preset '" << Query::clip(name) << "' (expected one of: "
+                                     << transferFunctionPresetList() << ")");
+    std::optional<std::array<double, 2>> range;
+    if (q.has("range")) {
+        const auto v = cmd::parseDoubleList(q.text("range"), "range");
+        if (v.size() != 2 || !(v[1] > v[0])) UDVR_FAIL("range must be lo,hi with lo < hi");
+        range = std::array<double, 2>{v[0], v[1]};
+    }
+    const PresetOverValues p = transferFunctionPresetOver(name, data_.model.mean, range);
+    ApiResponse out;
+    out.body = transferFunctionToJson(p.tf, name);
+    return out;
+}
+
+}  // namespace udvr::serve

@@ -1,0 +1,106 @@
+#pragma once
+// The HTTP API of `udvr serve` (docs/serve.md), free of any HTTP library: a request in, a
+// response out, so tests can call it directly and http_server.cpp only translates. Every
+// handler parses, calls the library functions `udvr render` and `udvr probe` call, and answers;
+// bad input is a 4xx with a one-line message, never a crash. No request names a file.
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "udvr/classify/model_kind.h"
+#include "udvr/classify/transfer_function.h"
+#include "udvr/classify/transfer_function_2d.h"
+#include "udvr/io/image.h"
+#include "udvr/render/render.h"
+#include "udvr/serve/render_gate.h"
+#include "udvr/stats/model_volume.h"
+
+namespace udvr::serve {
+
+/// What `udvr serve` was started with (read once; the TF changes through POST /api/tf).
+struct ServeData {
+    ModelVolume model;
+    std::string modelFile;  // as given on the command line (for the page's `udvr render` line)
+    std::optional<ModelVolume> truth;  // --truth: the ground-truth field, rendered as `mean`
+    std::string truthFile;
+    std::optional<ModelVolume> second;  // --second: field 2 of a bivariate 2D TF
+    std::string secondFile;
+    TransferFunction1D tf;                  // the starting 1D TF
+    std::optional<TransferFunction2D> tf2;  // --tf2: renders use it instead of the 1D TF
+    std::string tf2File;
+};
+
+struct ApiRequest {
+    std::string method = "GET", path;
+    std::vector<std::pair<std::string, std::string>> params;  // query, in order (repeats kept)
+    std::string body;
+};
+
+struct ApiResponse {
+    int status = 200;
+    std::string type = "application/json";
+    std::string body;
+    std::vector<std::pair<std::string, std::string>> headers;
+};
+
+/// Limits on what a request may ask.
+inline constexpr int kMaxImageSide = 2048;             // pixels per side of /api/render
+inline constexpr int kMaxRealizations = 1000;          // gmm-mc
+inline constexpr std::size_t kMaxBodyBytes = 1 << 20;  // POST bodies (TF JSON)
+inline constexpr std::size_t kMaxValueChars = 256;     // one query value
+inline constexpr int kMaxHistogramBins = 4096;
+
+class Api {
+  public:
+    explicit Api(ServeData data);
+    ~Api();
+    Api(const Api&) = delete;
+    Api& operator=(const Api&) = delete;
+
+    /// Answer one request; never throws (errors are 4xx/5xx responses with {"error": …}).
+    ApiResponse handle(const ApiRequest& request);
+
+    /// The render gate's counts (GET /api/status).
+    RenderGate::Stats gateStats() const { return gate_.stats(); }
+
+  private:
+    struct Frame;
+    struct RenderRequest;
+
+    ApiResponse route(const ApiRequest& request);
+    ApiResponse getState();
+    ApiResponse getRender(const ApiRequest& request);
+    ApiResponse getProbe(const ApiRequest& request);
+    ApiResponse getHistogram(const ApiRequest& request);
+    ApiResponse getTf();
+    ApiResponse postTf(const ApiRequest& request);
+    ApiResponse getPreset(const ApiRequest& request);
+    ApiResponse getStatus();
+
+    /// The current 1D TF and its version (each POST /api/tf makes a new one).
+    std::pair<std::shared_ptr<const TransferFunction1D>, std::uint64_t> currentTf() const;
+    /// The image of `source` ("model" or "truth") for the request: from the cache, or rendered
+    /// (inside the gate; throws RenderCancelled when `cancel` turns true).
+    std::shared_ptr<const Frame> frame(const RenderRequest& r, const std::string& source,
+                                       const std::atomic<bool>& cancel);
+
+    ServeData data_;
+    RenderGate gate_;
+    mutable std::mutex tfMutex_;
+    std::shared_ptr<const TransferFunction1D> tf_;
+    std::uint64_t tfVersion_ = 1;
+    std::mutex cacheMutex_;
+    std::list<std::pair<std::string, std::shared_ptr<const Frame>>> frames_;  // newest first
+    // Skipping tables per (source, model kind); used only inside the gate (one render at once).
+    std::map<std::pair<std::string, ModelKind>, std::unique_ptr<RenderCache>> renderCaches_;
+};
+
+}  // namespace udvr::serve

@@ -1,0 +1,435 @@
+// udvr serve's page: the rendered views, the camera (SPEC §5's azimuth/elevation/zoom, so every
+// view is one `udvr render` command line), progressive frames, the model picker, the quartile
+// view, the ground truth with its difference and RMSE, the TF editor and the click probe.
+import {ApiError, getJson, getPng, getText, postJson} from './api.js';
+import {decodePng} from './png.js';
+import {PLOT_MODELS, drawProbePlot} from './probe_plot.js';
+import {TfEditor, parseParaViewTf, toParaViewJson} from './tf_editor.js';
+
+const $ = (id) => document.getElementById(id);
+const COARSE = 4;  // coarse frames: 1/4 of the width and height
+const QUARTILES = ['quartile-lower', 'quartile-middle', 'quartile-upper'];
+const HOME = {azimuth: 30, elevation: 20, zoom: 1};  // SPEC §5's default camera
+
+const state = {
+  info: null,
+  model: 'mean',
+  camera: {...HOME},
+  size: [512, 512],
+  quartiles: false,
+  seq: 0,                 // request counter: orders a channel's requests on the server
+  views: new Map(),       // channel -> view
+  probe: null,            // {pixel, point, models: {name: json}}
+  probing: 0,
+  tfBusy: false, tfPending: null,
+  timings: [],            // {kind, channel, latency (event -> pixels, ms), render (ms)}
+};
+
+// Numbers as sent to the server and shown in the command line (the same text).
+const fmt = {
+  angle: (v) => String(Math.round(v * 10) / 10),
+  zoom: (v) => String(Math.round(v * 1000) / 1000),
+};
+
+function cameraParams() {
+  return {azimuth: fmt.angle(state.camera.azimuth), elevation: fmt.angle(state.camera.elevation),
+          zoom: fmt.zoom(state.camera.zoom)};
+}
+
+function sizeText(coarse) {
+  const [w, h] = state.size;
+  return coarse ? `${Math.max(1, Math.round(w / COARSE))}x${Math.max(1, Math.round(h / COARSE))}`
+                : `${w}x${h}`;
+}
+
+function modelInfo(name) {
+  return state.info.models.find((m) => m.name === name);
+}
+
+// ---- status line --------------------------------------------------------------------------
+function showError(e) {
+  if (e instanceof ApiError && e.status === 409) return;  // superseded: a newer frame follows
+  const s = $('status');
+  s.textContent = e.message || String(e);
+  s.className = 'error';
+}
+function showInfo(text) {
+  const s = $('status');
+  s.textContent = text;
+  s.className = '';
+}
+
+// ---- views --------------------------------------------------------------------------------
+function wantedViews() {
+  const list = [{channel: 'main', title: modelInfo(state.model).label, params: {model: state.model}}];
+  if (state.quartiles)
+    for (const q of QUARTILES) list.push({channel: q, title: q, params: {model: q}});
+  if (state.info.truth) {
+    list.push({channel: 'truth', title: 'ground truth', params: {model: state.model, source: 'truth'}});
+    list.push({channel: 'diff', title: 'difference', params: {model: state.model, source: 'diff'}});
+  }
+  return list;
+}
+
+function buildViews() {
+  const container = $('views');
+  const wanted = wantedViews();
+  for (const [channel, v] of state.views)
+    if (!wanted.some((w) => w.channel === channel)) v.figure.remove(), state.views.delete(channel);
+  for (const w of wanted) {
+    let v = state.views.get(w.channel);
+    if (!v) {
+      const figure = document.createElement('figure');
+      figure.className = 'view';
+      figure.dataset.channel = w.channel;
+      const canvas = document.createElement('canvas');
+      const caption = document.createElement('figcaption');
+      figure.append(canvas, caption);
+      v = {channel: w.channel, figure, canvas, caption, inFlight: new Map(), pending: null,
+           shownSeq: 0, shown: null, png: null, alpha: null, info: ''};
+      state.views.set(w.channel, v);
+      attachCamera(canvas, w.channel === 'main');
+    }
+    v.title = w.title;
+    v.params = w.params;
+    container.append(v.figure);  // in the wanted order
+  }
+  layoutViews();
+}
+
+function layoutViews() {
+  const [w, h] = state.size;
+  const n = state.views.size;
+  const room = $('views').clientWidth || 1200;
+  const scale = Math.min(1, (room - 16 * n) / (n * w));
+  const shown = Math.max(160, Math.floor(w * (n > 1 ? scale : 1)));
+  for (const v of state.views.values()) {
+    v.canvas.style.width = shown + 'px';
+    v.canvas.style.height = Math.round(shown * h / w) + 'px';
+    v.caption.style.width = shown + 'px';
+  }
+}
+
+function captionOf(v) {
+  const rmse = v.channel === 'diff' && v.rmse !== undefined ? ` · RMSE ${v.rmse}` : '';
+  return `${v.title}${rmse} — ${v.info}`;
+}
+
+// Ask every view for a frame: coarse while dragging or editing, full on release.
+function schedule(coarse) {
+  const eventTime = performance.now();
+  for (const v of state.views.values()) {
+    v.pending = {kind: coarse ? 'coarse' : 'full', eventTime};
+    pump(v);
+  }
+  updateCommand();
+}
+
+// Send a view's pending request unless a coarse one is on its way (it is quick; the pending
+// one follows it). A request sent while a full frame renders cancels it on the server.
+function pump(v) {
+  if (!v.pending) return;
+  if ([...v.inFlight.values()].includes('coarse')) return;
+  const {kind, eventTime} = v.pending;
+  v.pending = null;
+  const seq = ++state.seq;
+  v.inFlight.set(seq, kind);
+  const params = {...v.params, size: sizeText(kind === 'coarse'), ...cameraParams(),
+                  channel: v.channel, seq};
+  const query = JSON.stringify({...params, channel: undefined, seq: undefined});
+  getPng(params)
+      .then(async ({bytes, headers}) => {
+        const image = await decodePng(bytes);
+        if (seq < v.shownSeq) return;  // a newer frame is already shown
+        v.shownSeq = seq;
+        const alpha = new Uint8Array(image.width * image.height);
+        for (let i = 0; i < alpha.length; ++i) alpha[i] = image.rgba[4 * i + 3], image.rgba[4 * i + 3] = 255;
+        // RGB is already composited over the background (SPEC §5): shown opaque.
+        v.canvas.width = image.width;
+        v.canvas.height = image.height;
+        v.canvas.getContext('2d').putImageData(new ImageData(image.rgba, image.width, image.height), 0, 0);
+        v.shown = {kind, query};
+        const renderMs = Number(headers.get('X-Udvr-Render-Ms'));
+        if (headers.get('X-Udvr-Rmse')) v.rmse = Number(headers.get('X-Udvr-Rmse')).toFixed(5);
+        if (kind === 'full') v.png = new Blob([bytes], {type: 'image/png'}), v.alpha = alpha;
+        await new Promise(requestAnimationFrame);
+        const latency = performance.now() - eventTime;
+        state.timings.push({kind, channel: v.channel, latency, render: renderMs});
+        v.info = `${kind} ${image.width}×${image.height}, render ${renderMs.toFixed(0)} ms, ` +
+                 `shown ${latency.toFixed(0)} ms after the input`;
+        v.caption.textContent = captionOf(v);
+        v.figure.classList.toggle('coarse', kind === 'coarse');
+      })
+      .catch(showError)
+      .finally(() => {
+        v.inFlight.delete(seq);
+        pump(v);
+      });
+}
+
+// ---- camera -------------------------------------------------------------------------------
+function attachCamera(canvas, probes) {
+  let drag = null;
+  canvas.addEventListener('pointerdown', (e) => {
+    if (e.button !== 0) return;
+    canvas.setPointerCapture(e.pointerId);
+    drag = {x: e.clientX, y: e.clientY, x0: e.clientX, y0: e.clientY, moved: false};
+  });
+  canvas.addEventListener('pointermove', (e) => {
+    if (!drag) return;
+    const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
+    drag.x = e.clientX, drag.y = e.clientY;
+    if (Math.hypot(e.clientX - drag.x0, e.clientY - drag.y0) > 3) drag.moved = true;
+    if (!drag.moved) return;
+    state.camera.azimuth -= 0.5 * dx;
+    state.camera.elevation = Math.max(-89, Math.min(89, state.camera.elevation + 0.5 * dy));
+    schedule(true);
+  });
+  const end = (e) => {
+    if (!drag) return;
+    const moved = drag.moved;
+    drag = null;
+    if (moved) schedule(false);
+    else if (probes && e.type === 'pointerup') probeAt(canvas, e);
+  };
+  canvas.addEventListener('pointerup', end);
+  canvas.addEventListener('pointercancel', end);
+  let wheelTimer = 0;
+  canvas.addEventListener('wheel', (e) => {
+    e.preventDefault();
+    state.camera.zoom = Math.max(0.1, Math.min(20, state.camera.zoom * Math.exp(-0.0015 * e.deltaY)));
+    schedule(true);
+    clearTimeout(wheelTimer);
+    wheelTimer = setTimeout(() => schedule(false), 150);
+  }, {passive: false});
+  canvas.addEventListener('dblclick', () => {
+    state.camera = {...HOME};
+    schedule(false);
+  });
+}
+
+// ---- command lines ------------------------------------------------------------------------
+function updateCommand() {
+  const c = cameraParams();
+  const common = `--tf tf.json --size ${sizeText(false)} --azimuth ${c.azimuth} ` +
+                 `--elevation ${c.elevation} --zoom ${c.zoom}`;
+  const lines = [`udvr render ${state.info.model.file} --model ${state.model} ${common} -o view.png`];
+  if (state.info.truth) {
+    lines.push(`udvr render ${state.info.truth} --model mean ${common} -o truth.png`);
+    lines.push('udvr compare view.png truth.png --diff diff.png');
+  }
+  if (state.probe) {
+    const p = state.probe.point.join(',');
+    lines.push(`udvr probe ${state.info.model.file} --point ${p} --model ${state.probe.model} ` +
+               '--tf tf.json --json');
+  }
+  $('command').textContent = lines.join('\n');
+}
+
+// ---- probe --------------------------------------------------------------------------------
+async function probeAt(canvas, e) {
+  const r = canvas.getBoundingClientRect();
+  const [w, h] = state.size;
+  const x = Math.min(w - 1, Math.floor((e.clientX - r.left) / r.width * w));
+  const y = Math.min(h - 1, Math.floor((e.clientY - r.top) / r.height * h));
+  const model = modelInfo(state.model).probe ? state.model : 'gmm-ordered';
+  state.probing++;
+  try {
+    const hit = await getJson('/api/probe', {model, size: sizeText(false), ...cameraParams(), x, y});
+    const models = {[model]: hit};
+    for (const m of PLOT_MODELS) {
+      if (models[m.name] || !modelInfo(m.name).available) continue;
+      models[m.name] = await getJson('/api/probe', {model: m.name, point: hit.point.join(',')});
+    }
+    state.probe = {pixel: [x, y], point: hit.point, model, models};
+    const marker = $('marker');
+    marker.style.left = `${canvas.offsetLeft + (x + 0.5) / w * r.width}px`;
+    marker.style.top = `${canvas.offsetTop + (y + 0.5) / h * r.height}px`;
+    marker.hidden = false;
+    showProbe();
+  } catch (err) {
+    showError(err);
+  } finally {
+    state.probing--;
+  }
+}
+
+function showProbe() {
+  const p = state.probe;
+  if (!p) return;
+  drawProbePlot($('probe-plot'), p.models, editor.tf);
+  const table = $('probe-table');
+  table.replaceChildren();
+  const keys = ['value', 'mean', 'stddev', 'low', 'high', 'boundaries', 'weights', 'means', 'sigmas',
+                'expected_rgba'];
+  for (const [name, j] of Object.entries(p.models)) {
+    const row = table.insertRow();
+    row.dataset.model = name;
+    row.dataset.json = JSON.stringify(j);
+    row.insertCell().textContent = name;
+    const cell = row.insertCell();
+    cell.textContent = keys.filter((k) => k in j)
+        .map((k) => `${k} ${Array.isArray(j[k]) ? j[k].map((v) => v.toPrecision(5)).join(' ') : j[k].toPrecision(6)}`)
+        .join('; ');
+  }
+  const w = p.models[p.model].world;
+  $('probe-where').textContent =
+      `pixel (${p.pixel}) → index (${p.point.map((v) => v.toFixed(3)).join(', ')})` +
+      (w ? `, world (${w.map((v) => v.toPrecision(5)).join(', ')})` : '');
+  updateCommand();
+}
+
+// ---- transfer function --------------------------------------------------------------------
+const editor = new TfEditor($('tf-canvas'), (phase) => tfChanged(phase));
+
+// Post the editor's TF (one POST at a time, the newest waiting), then render.
+async function tfChanged(phase) {
+  state.tfPending = state.tfPending === 'commit' || phase === 'commit' ? 'commit' : 'drag';
+  if (state.tfBusy) return;
+  state.tfBusy = true;
+  try {
+    while (state.tfPending) {
+      const p = state.tfPending;
+      state.tfPending = null;
+      await postJson('/api/tf', toParaViewJson(editor.tf));
+      schedule(p === 'drag');
+    }
+    if (state.probe) await refreshProbe();
+  } catch (e) {
+    showError(e);
+  } finally {
+    state.tfBusy = false;
+  }
+}
+
+// The probe's expected colours depend on the TF: ask again at the same point.
+async function refreshProbe() {
+  const p = state.probe;
+  for (const name of Object.keys(p.models))
+    p.models[name] = await getJson('/api/probe', {model: name, point: p.point.join(',')});
+  showProbe();
+}
+
+async function applyTfText(text) {
+  const tf = parseParaViewTf(text);  // a quick check; the server checks everything
+  await postJson('/api/tf', toParaViewJson(tf));
+  editor.setTf(tf);
+  schedule(false);
+  if (state.probe) await refreshProbe();
+}
+
+function download(blob, name) {
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  document.body.append(a);
+  a.click();
+  setTimeout(() => (URL.revokeObjectURL(a.href), a.remove()), 1000);
+}
+
+// ---- start --------------------------------------------------------------------------------
+async function start() {
+  state.info = await getJson('/api/state');
+  $('title').textContent = `udvr serve — ${state.info.model.file}`;
+  const picker = $('model');
+  for (const m of state.info.models) {
+    const o = new Option(m.label, m.name);
+    o.disabled = !m.available;
+    if (!m.available) o.title = m.reason;
+    picker.add(o);
+  }
+  const preferred = ['quantile-range', 'mean'].find((n) => modelInfo(n).available) || 'mean';
+  state.model = preferred;
+  picker.value = preferred;
+  picker.addEventListener('change', () => {
+    state.model = picker.value;
+    buildViews();
+    schedule(false);
+  });
+  const quartiles = $('quartiles');
+  quartiles.disabled = !modelInfo('quartile-lower').available;
+  quartiles.addEventListener('change', () => {
+    state.quartiles = quartiles.checked;
+    buildViews();
+    schedule(false);
+  });
+  $('size').addEventListener('change', () => {
+    const n = Number($('size').value);
+    state.size = [n, n];
+    buildViews();
+    schedule(false);
+  });
+  for (const name of state.info.presets) $('preset').add(new Option(name, name));
+  $('preset').addEventListener('change', async () => {
+    try {
+      const rgb = editor.tf.rgb;
+      const range = `${rgb[0][0]},${rgb[rgb.length - 1][0]}`;
+      const preset = parseParaViewTf(await getText(
+          `/api/preset?name=${encodeURIComponent($('preset').value)}&range=${range}`));
+      editor.setTf({rgb: preset.rgb, points: editor.tf.points});
+      await tfChanged('commit');
+    } catch (e) {
+      showError(e);
+    }
+  });
+  $('log').addEventListener('change', () => {
+    editor.log = $('log').checked;
+    editor.draw();
+  });
+  $('tf-load').addEventListener('change', async () => {
+    const file = $('tf-load').files[0];
+    if (!file) return;
+    try {
+      await applyTfText(await file.text());
+      showInfo(`loaded ${file.name}`);
+    } catch (e) {
+      showError(e);
+    }
+    $('tf-load').value = '';
+  });
+  $('tf-save').addEventListener('click', async () => {
+    download(new Blob([await getText('/api/tf')], {type: 'application/json'}), 'tf.json');
+  });
+  $('png-save').addEventListener('click', () => {
+    const v = state.views.get('main');
+    if (v.png) download(v.png, `udvr-${state.model}.png`);
+  });
+  $('reset').addEventListener('click', () => {
+    state.camera = {...HOME};
+    schedule(false);
+  });
+  window.addEventListener('resize', layoutViews);
+  if (state.info.tf2) {
+    $('tf-panel').classList.add('disabled');
+    showInfo(`renders use the 2D TF ${state.info.tf2}; the 1D editor is not used`);
+  }
+  editor.setTf(parseParaViewTf(await getText('/api/tf')));
+  editor.setHistogram(await getJson('/api/histogram', {bins: 128}));
+  buildViews();
+  schedule(false);
+}
+
+// For tests and the benchmark: whether every view shows the full frame of the current state.
+function idle() {
+  if (!state.info || !state.views.size || state.tfBusy || state.probing) return false;
+  const c = cameraParams();
+  for (const v of state.views.values()) {
+    if (v.pending || v.inFlight.size || !v.shown || v.shown.kind !== 'full') return false;
+    const q = JSON.parse(v.shown.query);
+    if (q.azimuth !== c.azimuth || q.elevation !== c.elevation || q.zoom !== c.zoom ||
+        q.size !== sizeText(false) || q.model !== v.params.model)
+      return false;
+  }
+  return true;
+}
+
+async function pngBase64(channel) {
+  const v = state.views.get(channel);
+  const bytes = new Uint8Array(await v.png.arrayBuffer());
+  let s = '';
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
+window.udvr = {state, idle, pngBase64, cameraParams, editor};
+start().catch(showError);
