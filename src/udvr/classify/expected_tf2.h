@@ -69,9 +69,15 @@ struct Tf2Cell {
                                      lanes::MaskOf<T> live) {
         const lanes::IntOf<T> p00 = (j * r.width + i) * 4, p01 = p00 + r.width * 4;
         const lanes::IntOf<T> base[4] = {p00, p00 + 4, p01, p01 + 4};
-        for (int k = 0; k < 4; ++k)
-            for (int ch = 0; ch < 4; ++ch)
-                v[k][ch] = detail::rasterLoad<T>(r.rgba, base[k] + ch, live);
+        for (int k = 0; k < 4; ++k) {
+            if constexpr (lanes::kIsVector<T>) {  // (r, g) and (b, α): one 64-bit load each
+                lanes::gatherPair(r.rgba, base[k], live, v[k][0], v[k][1]);
+                lanes::gatherPair(r.rgba, base[k] + 2, live, v[k][2], v[k][3]);
+            } else {
+                for (int ch = 0; ch < 4; ++ch)
+                    v[k][ch] = detail::rasterLoad<T>(r.rgba, base[k] + ch, live);
+            }
+        }
     }
     /// (c_r, c_g, c_b, α) at fractions (fx, fy) of the cell.
     UDVR_CPU_GPU UDVR_INLINE void at(T fx, T fy, T out[4]) const {
@@ -104,8 +110,26 @@ UDVR_CPU_GPU UDVR_INLINE void tf2At(const Tf2Raster<Real>& r, T x, T y, lanes::M
         detail::rasterCoordinate<T>(x, static_cast<S>(r.x0), static_cast<S>(r.invDx), r.width);
     const T t =
         detail::rasterCoordinate<T>(y, static_cast<S>(r.y0), static_cast<S>(r.invDy), r.height);
+    lanes::IntOf<T> i, j;
+    T fx, fy;
+    detail::rasterCell(s, r.width, i, fx);
+    detail::rasterCell(t, r.height, j, fy);
+    auto load = live;
+    if constexpr (lanes::kIsVector<T>) {
+        // Lanes in cells whose four corners have α = 0 are 0: one gather of the cells' empty
+        // distances instead of eight pair gathers where no lane sees α (the 1D tangle TF as a
+        // TF2, quantile-mean's midpoints, 64³ 512²: 204 → 192 ms).
+        if (r.cellEmptyDistance) {
+            load = live & (detail::rasterLoad<T>(r.cellEmptyDistance, j * (r.width - 1) + i,
+                                                 live) == 0.0f);
+            if (!lanes::anyOf(load)) {
+                for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
+                return;
+            }
+        }
+    }
     T v[4];
-    tf2ColorOpacityAtRaster<T>(r, s, t, live, v);
+    Tf2Cell<T>(r, i, j, load).at(fx, fy, v);  // lanes outside `load`: corners 0, α = 0
     for (int ch = 0; ch < 3; ++ch) out[ch] = v[3] * v[ch];
     out[3] = v[3];
 }
