@@ -92,7 +92,9 @@ AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&
         UDVR_FAIL("2D transfer functions handle at most "
                   << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
     const float* gradients =
-        s.gradients.of(m.grid, data, stride, lo, hi - lo + 1, GradientLayout::VoxelRows).data();
+        s.gradients
+            .of(m.grid, data, stride, lo, hi - lo + 1, GradientLayout::VoxelRows, m.mean.data())
+            .data();
     return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, levels, quantileMean, density,
                             kQuantileZeroWidth * span(m, o), s.exact, s.fast, s.meanGradient);
 }

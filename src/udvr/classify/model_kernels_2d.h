@@ -22,8 +22,8 @@ namespace udvr {
 
 /// Boundaries a 2D quantile kernel handles per sample (q ≤ 127).
 inline constexpr int kMaxBoundaries2D = 128;
-/// Gradient components (3 per boundary) a batch blends from its rows (Quantile2DKernel):
-/// q ≤ 20 on AVX-512, 9 on AVX2, 4 on SSE2/NEON; more take trilinear gathers.
+/// Gradient components (3 for the mean, 3 per boundary) a batch blends from its rows
+/// (Quantile2DKernel): q ≤ 19 on AVX-512, 8 on AVX2, 3 on SSE2/NEON; more take trilinear gathers.
 inline constexpr int kMaxGradientRows = 4 * lanes::kWidth;
 
 /// What every 2D kernel holds: the grid, the TF2 raster over double and float, and the grid
@@ -63,9 +63,14 @@ struct Kernel2DBase : GridKernel {
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE T meanDirectionAt(const Cell<T>& c, lanes::MaskOf<T> live,
                                                T n[3]) const {
-        using S = lanes::ScalarOf<T>;
         T y[3];
         meanGradientAt(c, live, y);
+        return directionOf(y, n);
+    }
+    /// n̂ and |μ_Y| of a given μ_Y = y (meanDirectionAt).
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE static T directionOf(const T y[3], T n[3]) {
+        using S = lanes::ScalarOf<T>;
         const T m = lanes::max(lanes::max(lanes::abs(y[0]), lanes::abs(y[1])), lanes::abs(y[2]));
         const auto zero = !(m > S(0));
         const T inv = S(1) / lanes::select(zero, lanes::splat<T>(S(1)), m);
@@ -159,7 +164,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     const float* boundaries;
     int stride;                      // floats per voxel of `boundaries`
     int j0, j1;                      // boundaries j0 … j1 (j1 − j0 + 1 ≤ kMaxBoundaries2D)
-    const float* boundaryGradients;  // of boundaries j0 … j1, GradientLayout::VoxelRows
+    const float* boundaryGradients;  // the mean's, then boundaries j0 … j1's: VoxelRows
     QuantileLevels levels;           // of boundaries j0 …
     bool quantileMean;               // Eq. 5 at midpoints (else Eq. 4 along segments)
     bool densityWeights;             // quantile-mean: 1/w_j weights (else equal)
@@ -182,21 +187,24 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
           zeroWidth(zero) {}
 
     /// The polyline's vertices X[0 … count−1], G[…] at a cell, X_j = boundary(j); returns count.
-    /// On lanes, the gradients of up to kMaxGradientRows / 3 boundaries come from the batch's
-    /// transposed rows (boundaryRows over the VoxelRows layout: 27 floats per corner for q = 8,
-    /// in two or four loads, against 27 trilinear blends of 4 pair gathers each).
+    /// The gradients (the mean's, for n̂, and the boundaries') are blended from one VoxelRows
+    /// array; on lanes, up to kMaxGradientRows components come from the batch's transposed rows
+    /// (boundaryRows: 30 floats per corner for q = 8 in two or four loads, against 30 trilinear
+    /// blends of 4 pair gathers each).
     template <class T, class Boundary>
     UDVR_CPU_GPU UDVR_INLINE int polylineAt(const Cell<T>& c, lanes::MaskOf<T> live,
                                             const Boundary& boundary, T* x, T* g) const {
-        const int count = j1 - j0 + 1;
-        T n[3];
-        meanDirectionAt(c, live, n);
-        const int rowLength = 3 * count;
+        const int count = j1 - j0 + 1, layers = count + 1;  // layer 0: the mean
+        const int rowLength = 3 * layers;
         const auto polyline = [&](const auto& component) {
+            T n[3];
+            const T y[3] = {component(0), component(layers), component(2 * layers)};
+            directionOf(y, n);
             for (int j = 0; j < count; ++j) {
                 x[j] = boundary(j);
                 T gj{};
-                for (int a = 0; a < 3; ++a) gj = lanes::fma(n[a], component(a * count + j), gj);
+                for (int a = 0; a < 3; ++a)
+                    gj = lanes::fma(n[a], component(a * layers + 1 + j), gj);
                 g[j] = gj;
             }
         };
@@ -247,7 +255,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         T x[kMaxBoundaries2D], g[kMaxBoundaries2D];
         const int count = j1 - j0 + 1;
         if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(stride) || !gathersFit(3 * count)) {
+            if (!gathersFit(stride) || !gathersFit(3 * (count + 1))) {
                 detail::exactLanes(*this, c, live, r.v);
                 return r;
             }
@@ -278,8 +286,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     }
     void prefetch(int v) const {
         prefetchRows(boundaries + j0, v, stride);
-        prefetchRows(boundaryGradients, v, 3 * (j1 - j0 + 1));
-        prefetchRows(meanGradient, v, 1);
+        prefetchRows(boundaryGradients, v, 3 * (j1 - j0 + 2));
     }
 };
 

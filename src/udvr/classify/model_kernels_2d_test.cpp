@@ -159,6 +159,17 @@ TEST(Gradient, CacheReusesArraysAndKeepsTheTwoLastUsed) {
         for (std::size_t axis = 0; axis < 3; ++axis)
             for (std::size_t l = 0; l < 3; ++l)
                 ASSERT_EQ(rows[(v * 3 + axis) * 3 + l], planes[(l * 3 + axis) * n + v]);
+    // With a leading array: its gradient is layer 0 of each row, the array's layers follow.
+    const std::vector<float> leadPlanes = gridGradients(grid, a.data(), 1, 0, 1);
+    const std::vector<float> led =
+        gridGradients(grid, b.data(), 3, 1, 2, GradientLayout::VoxelRows, a.data());
+    ASSERT_EQ(led.size(), 9 * n);
+    for (std::size_t v = 0; v < n; ++v)
+        for (std::size_t axis = 0; axis < 3; ++axis) {
+            ASSERT_EQ(led[(v * 3 + axis) * 3], leadPlanes[axis * n + v]);
+            for (std::size_t l = 1; l < 3; ++l)  // layers 1, 2 of b = planes' layers 1, 2
+                ASSERT_EQ(led[(v * 3 + axis) * 3 + l], planes[(l * 3 + axis) * n + v]);
+        }
     const float* rowsData = rows.data();
     EXPECT_NE(cache.of(grid, b.data(), 3, 0, 3).data(), rowsData);  // the layout is in the key
     // The mean asked for first in a kernel survives the boundaries asked for next.

@@ -14,26 +14,30 @@ enum class GradientLayout {
     /// One plane of N floats per layer and axis: out[(l·3 + axis)·N + v] (each plane blends like
     /// a one-float field, with 64-bit pair gathers on the lanes).
     Planes,
-    /// One row of 3·count floats per voxel, the layers' x components, then y, then z:
-    /// out[v·3·count + axis·count + l] (a batch reads a corner's row with one or two loads and
-    /// blends all of them at once, as the quantile boundaries, boundaryRows).
+    /// One row of 3·L floats per voxel for L layers, the layers' x components, then y, then z:
+    /// out[v·3·L + axis·L + l] (a batch reads a corner's row with a few loads and blends all of
+    /// them at once, as the quantile boundaries, boundaryRows).
     VoxelRows,
 };
 
 /// Grid gradients (world units) of layers first … first + count − 1 of a voxel-major array with
-/// perVoxel floats per voxel.
+/// perVoxel floats per voxel. With `leading` (a one-float-per-voxel array, VoxelRows only), its
+/// gradient is layer 0 and the array's layers follow (L = count + 1): the 2D quantile kernels
+/// blend the mean's gradient with the boundaries' from one row.
 std::vector<float> gridGradients(const Grid3& grid, const float* values, int perVoxel, int first,
-                                 int count, GradientLayout layout = GradientLayout::Planes);
+                                 int count, GradientLayout layout = GradientLayout::Planes,
+                                 const float* leading = nullptr);
 
 /// Grid gradients kept between frames (gridGradients of the same arrays are reused): keyed by
 /// the array's address, layout and grid, so a model edited in place needs clear(). Holds the
 /// last two arrays asked for (the mean and a model's boundaries).
 class GradientCache {
   public:
-    /// gridGradients(grid, values, perVoxel, first, count, layout), computed on first use. Its
-    /// data() stays valid until two other arrays have been asked for since, or clear().
+    /// gridGradients(grid, values, perVoxel, first, count, layout, leading), computed on first
+    /// use. Its data() stays valid until two other arrays have been asked for since, or clear().
     const std::vector<float>& of(const Grid3& grid, const float* values, int perVoxel, int first,
-                                 int count, GradientLayout layout = GradientLayout::Planes);
+                                 int count, GradientLayout layout = GradientLayout::Planes,
+                                 const float* leading = nullptr);
     void clear() { entries_.clear(); }
 
   private:
@@ -41,6 +45,7 @@ class GradientCache {
         const float* values;
         int perVoxel, first, count;
         GradientLayout layout;
+        const float* leading;
         std::array<int, 3> dims;
         std::array<double, 3> spacing;
         std::vector<float> gradients;
