@@ -339,4 +339,137 @@ UDVR_CPU_GPU inline void expectedTfUniformSum(const TfPieces<double>& tf, const 
     }
 }
 
+namespace detail {
+/// Beyond this many σ the remainder of BoxSplineFast is taken as entirely on one side (its
+/// Gaussian mass beyond 7σ, 1.3e−12, is dropped): the moments' closed form then replaces a
+/// divided difference that would lose digits (kBoxSplineCutoffSigmas, level 1 below).
+inline constexpr double kBoxSplineCutoffSigmas = 7.0;
+
+/// S_R(t, j) = E[(t + R)_+^j]/j!, j = 2, 3, 4, for R of BoxSplineFast: σ^j M_j(z), z = t/σ, with
+/// M_j the standard normal's (M_0 = Φ, M_1 = zΦ + φ, j·M_j = z·M_{j−1} + M_{j−2}), plus the
+/// Edgeworth term κ4/24 · S_N(t, j − 4) (d⁴/dt⁴ of S is S at order j − 4: Φ, then the density
+/// and its derivative). Absolute error ~ε·σ^j (for z ≪ 0 the recursion cancels, but its terms
+/// are then as small as φ(z)).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void remainderTail(const BoxSplineFast<T>& b, T invSigma, T t, T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    using lanes::fma;
+    const T z = t * invSigma;
+    const NormalAt<T> n = normalAt(z);
+    const T m1 = fma(z, n.cdf, n.pdf);
+    const T m2 = fma(z, m1, n.cdf) * S(0.5);
+    const T m3 = fma(z, m2, m1) * S(1.0 / 3.0);
+    const T m4 = fma(z, m3, m2) * S(0.25);
+    // Edgeworth terms, second order: k4·S_N(j−4) + k6·S_N(j−6) + (k4²/2)·S_N(j−8) (σ-scaled), with
+    // S_N(−k) = (−1)^{k−1} He_{k−1}(z)·φ(z).
+    const T z2 = z * z, k44 = b.k4 * b.k4 * S(0.5);
+    const T he2 = z2 - S(1), he3 = z * (z2 - S(3));
+    const T he4 = fma(z2, z2 - S(6), lanes::splat<T>(S(3))),
+            he5 = z * fma(z2, z2 - S(10), lanes::splat<T>(S(15)));
+    const T e2 = -fma(b.k4, z, fma(b.k6, he3, k44 * he5));
+    const T e3 = fma(b.k6, he2, fma(k44, he4, b.k4));
+    const T e4 = -fma(b.k6, z, k44 * he3);
+    const T s2 = b.sigma * b.sigma;
+    out[0] = s2 * fma(e2, n.pdf, m2);
+    out[1] = s2 * b.sigma * fma(e3, n.pdf, m3);
+    out[2] = s2 * s2 * fma(e4, n.pdf, fma(b.k4, n.cdf, m4));
+}
+
+/// S(t, j) = E[(t + h2·U2 + R)_+^j]/j!, j = 1, 2, 3 (level 1 of the tree): the divided difference
+/// (S_R(t + h2, j+1) − S_R(t, j+1))/h2, or right of the node's support (t ≥ 7σ) the closed form
+/// Σ_i t^{j−i}/(j−i)! · E[W^i]/i! of W = h2·U2 + R (no digits lost to t ≫ h2).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void levelOneTail(const BoxSplineFast<T>& b, T invSigma, T invH2, T t,
+                                           T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    using lanes::fma;
+    T a[3], c[3];
+    remainderTail(b, invSigma, t + b.h2, a);
+    remainderTail(b, invSigma, t, c);
+    // E[W^i]/i!: box moments h^i/(i+1)! convolved with R's (1, 0, σ²/2, 0).
+    const T h = b.h2, r2 = b.sigma * b.sigma * S(0.5);
+    const T w1 = h * S(0.5), w2 = fma(h * h, lanes::splat<T>(S(1.0 / 6.0)), r2);
+    const T w3 = fma(h * h * h, lanes::splat<T>(S(1.0 / 24.0)), w1 * r2);
+    const T t2 = t * t * S(0.5);
+    const T closed[3] = {t + w1, fma(t, w1, t2 + w2),
+                         fma(t2, fma(t, lanes::splat<T>(S(1.0 / 3.0)), w1), fma(t, w2, w3))};
+    const auto right = t >= b.sigma * S(kBoxSplineCutoffSigmas);
+    for (int j = 0; j < 3; ++j) out[j] = select(right, closed[j], (a[j] - c[j]) * invH2);
+}
+}  // namespace detail
+
+/// T(t, d) = E[(t + X − center)_+^d], d = 0, 1, 2, for BoxSplineFast: the divided difference over
+/// h1 of level one, (S₁(t + h1, d+1) − S₁(t, d+1))/h1 times d!. Every difference divides by the
+/// widest remaining box and differences values at most ~(h1 + h2 + 8σ)^{d+1} (σ ≤ 0.71·h2: the
+/// remainder's boxes are each ≤ h2), so float keeps ~1e−6 of T's scale (t ≤ 7σ at level one).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void boxSplineFastTail(const BoxSplineFast<T>& b, T invSigma, T invH1,
+                                                T invH2, T t, T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    T a[3], c[3];
+    detail::levelOneTail(b, invSigma, invH2, t + b.h1, a);
+    detail::levelOneTail(b, invSigma, invH2, t, c);
+    out[0] = (a[0] - c[0]) * invH1;
+    out[1] = (a[1] - c[1]) * invH1;
+    out[2] = (a[2] - c[2]) * (invH1 * S(2));
+}
+
+/// E[TF(X)] for the fast form of the box spline (issue 12), in the `live` lanes, against the
+/// exact TF pieces: as expectedTfUniformSum, TF = p_0 + Σ_{breaks u in the support}
+/// Σ_d Δ_d·(x − u)_+^d with p_0 the support's first piece, so E[TF(X)] = E[p_0(X)] (exact mean
+/// and variance) + Σ_u Δ_d·T(center − u, d) (boxSplineFastTail). Sums of total width ≤ `point`
+/// are the point mass TF(mean). The approximation's error is measured in docs/models.md.
+template <class T, class Tf>
+UDVR_CPU_GPU UDVR_INLINE void expectedTfUniformFast(const Tf& tf, const BoxSplineFast<T>& b,
+                                                    lanes::ScalarOf<T> point, lanes::MaskOf<T> live,
+                                                    T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    using detail::fma;
+    const T hi = b.lo + b.total;
+    const T mean = fma(b.total, lanes::splat<T>(S(0.5)), b.lo);
+    const auto kl = tf.pieceOf(b.lo);
+    const auto kh = tf.pieceOf(hi);
+    {
+        const T et = mean - tf.at(kTfOrigin, kl);
+        const T et2 = fma(et, et, b.variance);
+        for (int ch = 0; ch < 4; ++ch)
+            out[ch] =
+                fma(tf.at(kTfC + ch, kl), et2, fma(tf.at(kTfB + ch, kl), et, tf.at(kTfA + ch, kl)));
+    }
+    const auto pointMass = live & (b.total <= point);
+    if (lanes::anyOf(pointMass)) {
+        T v[4];
+        tfAt<T>(tf, mean, v);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = detail::select(pointMass, v[ch], out[ch]);
+    }
+    const auto spread = live & !pointMass & (kl != kh);
+    if (!lanes::anyOf(spread)) return;
+    const T invSigma = S(1) / b.sigma, invH1 = S(1) / b.h1, invH2 = S(1) / b.h2;
+    const int kFirst = detail::lowestOf(kl, spread), kLast = detail::highestOf(kh, spread);
+    for (int k = kFirst; k < kLast; ++k) {
+        // Break u_k between pieces k and k+1: piece k re-expanded about u_k, from piece k+1.
+        const S len = tf.at(kTfBound, k) - tf.at(kTfOrigin, k);
+        S da[4], db[4], dc[4];
+        bool any = false;
+        for (int ch = 0; ch < 4; ++ch) {
+            const S pa = tf.at(kTfA + ch, k), pb = tf.at(kTfB + ch, k), pc = tf.at(kTfC + ch, k);
+            da[ch] = tf.at(kTfA + ch, k + 1) - (pa + len * (pb + len * pc));
+            db[ch] = tf.at(kTfB + ch, k + 1) - (pb + S(2) * len * pc);
+            dc[ch] = tf.at(kTfC + ch, k + 1) - pc;
+            any = any || da[ch] != S(0) || db[ch] != S(0) || dc[ch] != S(0);
+        }
+        if (!any) continue;
+        const auto on = spread & (kl <= k) & (kh > k);
+        if (!lanes::anyOf(on)) continue;
+        T t[3];
+        boxSplineFastTail(b, invSigma, invH1, invH2, b.center - tf.at(kTfBound, k), t);
+        for (int ch = 0; ch < 4; ++ch)
+            out[ch] = detail::select(on,
+                                     fma(lanes::splat<T>(dc[ch]), t[2],
+                                         fma(lanes::splat<T>(db[ch]), t[1],
+                                             fma(lanes::splat<T>(da[ch]), t[0], out[ch]))),
+                                     out[ch]);
+    }
+}
+
 }  // namespace udvr
