@@ -12,8 +12,9 @@ import refcase
 udvr = pytest.importorskip("udvr")
 
 TOL = 1e-4
-MODELS = ["mean", "uniform", "gaussian", "gmm-ordered", "quantile-range", "quantile-mean",
-          "quantile-mean-mass", "iqr", "quartile-lower", "quartile-middle", "quartile-upper"]
+MODELS = ["mean", "uniform", "uniform-exact", "gaussian", "gmm-ordered", "quantile-range",
+          "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower", "quartile-middle",
+          "quartile-upper"]
 SEEDS = [11, 12, 13, 14]
 
 
@@ -41,7 +42,9 @@ def test_probe_matches_reference(case, kind):
     for p, got in zip(case["points"], answers):
         assert got["model"] == kind
         np.testing.assert_allclose(got["point"], p, rtol=0, atol=1e-12)
-        want = r.classify(kind, tf, p[None, :])[0]
+        # uniform-exact is the same distribution as uniform (the fast form's own error against it:
+        # test_reference_render.py, uniform_fast_test.cpp).
+        want = r.classify("uniform" if kind == "uniform-exact" else kind, tf, p[None, :])[0]
         diff = np.abs(np.asarray(got["expected_rgba"]) - want).max()
         assert diff <= TOL, "%s at %s: udvr %s, reference %s" % (
             kind, p, got["expected_rgba"], want.tolist())
@@ -55,7 +58,7 @@ def test_probe_matches_reference(case, kind):
         if kind.startswith("quantile") or kind.startswith("quartile") or kind == "iqr":
             b = r.boundaries_at(p[None, :], "iqr" if kind == "iqr" else "quantiles")[0]
             np.testing.assert_allclose(got["boundaries"], b, rtol=0, atol=1e-5 * scale)
-        if kind == "uniform":  # X = Σ w_c U[μ_c − √3σ_c, μ_c + √3σ_c]
+        if kind.startswith("uniform"):  # X = Σ w_c U[μ_c − √3σ_c, μ_c + √3σ_c]
             mu, sg = r.gaussian_at(p[None, :])  # same mean and variance as the Gaussian
             assert abs(got["mean"] - mu[0]) <= 1e-5 * scale
             assert abs(got["stddev"] - sg[0]) <= 1e-5 * scale

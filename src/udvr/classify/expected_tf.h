@@ -341,4 +341,152 @@ UDVR_CPU_GPU inline void expectedTfUniformSum(const TfPieces<double>& tf, const 
     }
 }
 
+namespace detail {
+/// Beyond this many σ the remainder of BoxSplineFast is taken as entirely on one side (its
+/// Gaussian mass beyond 7σ, 1.3e−12, is dropped): the moments' closed form then replaces a
+/// divided difference that would lose digits (level one below).
+inline constexpr double kBoxSplineCutoffSigmas = 7.0;
+
+/// What the tail of BoxSplineFast needs per sample, in units of the remainder's σ (z = t/σ).
+template <class T>
+struct BoxSplineFastScaled {
+    T invSigma, h1, h2, invH1, invH2;  // h/σ and σ/h
+    T k4;                              // κ4/(24σ⁴)
+    T c0, c1, c2, d0, d1, d2, f0, f1;  // the Edgeworth polynomials' coefficients (remainderTail)
+    T w1, w2, w3;                      // E[W^i]/i! of W = (h2·U2 + R)/σ, i = 1, 2, 3
+
+    UDVR_CPU_GPU explicit BoxSplineFastScaled(const BoxSplineFast<T>& b) {
+        using S = lanes::ScalarOf<T>;
+        invSigma = S(1) / b.sigma;
+        h1 = b.h1 * invSigma;
+        h2 = b.h2 * invSigma;
+        invH1 = b.sigma / b.h1;
+        invH2 = b.sigma / b.h2;
+        k4 = b.k4;
+        const T k6 = b.k6, k44 = b.k4 * b.k4 * S(0.5);  // κ4²/(1152σ⁸)
+        c0 = k4 - S(3) * k6 + S(15) * k44, c1 = k6 - S(10) * k44, c2 = k44;
+        d0 = k4 - k6 + S(3) * k44, d1 = k6 - S(6) * k44, d2 = k44;
+        f0 = k6 - S(3) * k44, f1 = k44;
+        w1 = h2 * S(0.5);
+        w2 = lanes::fma(h2 * h2, lanes::splat<T>(S(1.0 / 6.0)), lanes::splat<T>(S(0.5)));
+        w3 = lanes::fma(h2 * h2 * h2, lanes::splat<T>(S(1.0 / 24.0)), w1 * S(0.5));
+    }
+};
+
+/// E[(σz + R)_+^j]/(j!·σ^j), j = 2, 3, 4, for R of BoxSplineFast: M_j(z) of the standard normal
+/// (M_0 = Φ, M_1 = zΦ + φ, j·M_j = z·M_{j−1} + M_{j−2}) plus the Edgeworth terms to second order,
+/// k4·S(j−4) + k6·S(j−6) + (k4²/2)·S(j−8) with S(0) = Φ and S(−k) = (−1)^{k−1} He_{k−1}(z)·φ(z)
+/// (the k−1'th derivative of the density; k6 = κ6/(720σ⁶)), folded into polynomials in z.
+/// Absolute error ~ε (for z ≪ 0 the recursion cancels, but its terms are then as small as φ).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void remainderTail(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    using lanes::fma;
+    const NormalAt<T> n = normalAt(z);
+    const T m1 = fma(z, n.cdf, n.pdf);
+    const T m2 = fma(z, m1, n.cdf) * S(0.5);
+    const T m3 = fma(z, m2, m1) * S(1.0 / 3.0);
+    const T m4 = fma(z, m3, m2) * S(0.25);
+    const T z2 = z * z;
+    const T e2 = -z * fma(z2, fma(z2, b.c2, b.c1), b.c0);  // −(k4·He1 + k6·He3 + k44·He5)
+    const T e3 = fma(z2, fma(z2, b.d2, b.d1), b.d0);       // k4 + k6·He2 + k44·He4
+    const T e4 = -z * fma(z2, b.f1, b.f0);                 // −(k6·He1 + k44·He3)
+    out[0] = fma(e2, n.pdf, m2);
+    out[1] = fma(e3, n.pdf, m3);
+    out[2] = fma(e4, n.pdf, fma(b.k4, n.cdf, m4));
+}
+
+/// E[(σz + h2·U2 + R)_+^j]/(j!·σ^j), j = 1, 2, 3 (level one of the tree): the divided difference
+/// of remainderTail over h2/σ, or right of the node's support (z ≥ 7) the closed form
+/// Σ_i z^{j−i}/(j−i)! · w_i (no digits lost to z ≫ h2/σ).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void levelOneTail(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    using lanes::fma;
+    T a[3], c[3];
+    remainderTail(b, z + b.h2, a);
+    remainderTail(b, z, c);
+    const T z2 = z * z * S(0.5);
+    const T closed[3] = {z + b.w1, fma(z, b.w1, z2 + b.w2),
+                         fma(z2, fma(z, lanes::splat<T>(S(1.0 / 3.0)), b.w1), fma(z, b.w2, b.w3))};
+    const auto right = z >= lanes::splat<T>(S(kBoxSplineCutoffSigmas));
+    for (int j = 0; j < 3; ++j) out[j] = select(right, closed[j], (a[j] - c[j]) * b.invH2);
+}
+}  // namespace detail
+
+/// E[(t + X − center)_+^d]/σ^d, d = 0, 1, 2, at z = t/σ, for BoxSplineFast: the divided
+/// difference over h1 of level one times d!. Every difference divides by the widest remaining box
+/// and differences values at most ~(h1 + h2 + 8σ)^{d+1} (σ ≤ 0.71·h2: the remainder's boxes are
+/// each ≤ h2), so float keeps ~1e−6 of T's scale.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void boxSplineFastTail(const detail::BoxSplineFastScaled<T>& b, T z,
+                                                T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    T a[3], c[3];
+    detail::levelOneTail(b, z + b.h1, a);
+    detail::levelOneTail(b, z, c);
+    out[0] = (a[0] - c[0]) * b.invH1;
+    out[1] = (a[1] - c[1]) * b.invH1;
+    out[2] = (a[2] - c[2]) * (b.invH1 * S(2));
+}
+
+/// E[TF(X)] for the fast form of the box spline (issue 12), in the `live` lanes, against the
+/// exact TF pieces: as expectedTfUniformSum, TF = p_0 + Σ_{breaks u in the support}
+/// Σ_d Δ_d·(x − u)_+^d with p_0 the support's first piece, so E[TF(X)] = E[p_0(X)] (exact mean
+/// and variance) + Σ_u Δ_d·T(center − u, d) (boxSplineFastTail). Sums of total width ≤ `point`
+/// are the point mass TF(mean). The approximation's error is measured in docs/models.md.
+template <class T, class Tf>
+UDVR_CPU_GPU UDVR_INLINE void expectedTfUniformFast(const Tf& tf, const BoxSplineFast<T>& b,
+                                                    lanes::ScalarOf<T> point, lanes::MaskOf<T> live,
+                                                    T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    using detail::fma;
+    const T hi = b.lo + b.total;
+    const T mean = fma(b.total, lanes::splat<T>(S(0.5)), b.lo);
+    const auto kl = tf.pieceOf(b.lo);
+    const auto kh = tf.pieceOf(hi);
+    {
+        const T et = mean - tf.at(kTfOrigin, kl);
+        const T et2 = fma(et, et, b.variance);
+        for (int ch = 0; ch < 4; ++ch)
+            out[ch] =
+                fma(tf.at(kTfC + ch, kl), et2, fma(tf.at(kTfB + ch, kl), et, tf.at(kTfA + ch, kl)));
+    }
+    const auto pointMass = live & (b.total <= point);
+    if (lanes::anyOf(pointMass)) {
+        T v[4];
+        tfAt<T>(tf, mean, v);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = detail::select(pointMass, v[ch], out[ch]);
+    }
+    const auto spread = live & !pointMass & (kl != kh);
+    if (!lanes::anyOf(spread)) return;
+    const detail::BoxSplineFastScaled<T> scaled(b);
+    const T s1 = b.sigma, s2 = b.sigma * b.sigma;
+    const int kFirst = detail::lowestOf(kl, spread), kLast = detail::highestOf(kh, spread);
+    for (int k = kFirst; k < kLast; ++k) {
+        // Break u_k between pieces k and k+1: piece k re-expanded about u_k, from piece k+1.
+        const S len = tf.at(kTfBound, k) - tf.at(kTfOrigin, k);
+        S da[4], db[4], dc[4];
+        bool any = false;
+        for (int ch = 0; ch < 4; ++ch) {
+            const S pa = tf.at(kTfA + ch, k), pb = tf.at(kTfB + ch, k), pc = tf.at(kTfC + ch, k);
+            da[ch] = tf.at(kTfA + ch, k + 1) - (pa + len * (pb + len * pc));
+            db[ch] = tf.at(kTfB + ch, k + 1) - (pb + S(2) * len * pc);
+            dc[ch] = tf.at(kTfC + ch, k + 1) - pc;
+            any = any || da[ch] != S(0) || db[ch] != S(0) || dc[ch] != S(0);
+        }
+        if (!any) continue;
+        const auto on = spread & (kl <= k) & (kh > k);
+        if (!lanes::anyOf(on)) continue;
+        T t[3];
+        boxSplineFastTail(scaled, (b.center - tf.at(kTfBound, k)) * scaled.invSigma, t);
+        for (int ch = 0; ch < 4; ++ch) {
+            const T v = fma(lanes::splat<T>(dc[ch]) * s2, t[2],
+                            fma(lanes::splat<T>(db[ch]) * s1, t[1],
+                                fma(lanes::splat<T>(da[ch]), t[0], out[ch])));
+            out[ch] = detail::select(on, v, out[ch]);
+        }
+    }
+}
+
 }  // namespace udvr

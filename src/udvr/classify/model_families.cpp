@@ -40,10 +40,12 @@ AnyKernel makeMean(const ModelVolume& m, const TfPiecesStorage& tf, const Classi
     return MeanKernel(m.grid, m.mean.data(), tf);
 }
 AnyKernel makeUniform(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
-                      const ModelFamily&) {
+                      const ModelFamily& f) {
+    const double s = span(m, o);
     return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                          o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                         kUniformTinyWidth * span(m, o), tf);
+                         kUniformTinyWidth * s, tf, f.kind == ModelKind::UniformExact,
+                         kUniformPointWidth * s);
 }
 AnyKernel makeGaussian(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                        const ModelFamily&) {
@@ -118,7 +120,7 @@ AnyKernel2D makeQuantileMean2D(const ModelVolume& m, Tf2Setup& s, const Classify
 // 2D kernel.
 using K = ModelKind;
 // clang-format off
-constexpr std::array<ModelFamily, 13> kFamilies{{
+constexpr std::array<ModelFamily, 14> kFamilies{{
     {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D},
     {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
     {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
@@ -132,6 +134,7 @@ constexpr std::array<ModelFamily, 13> kFamilies{{
     {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr},
+    {K::UniformExact, "uniform-exact", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
 }};
 // clang-format on
 

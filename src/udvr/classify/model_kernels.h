@@ -44,8 +44,15 @@ namespace udvr {
 
 /// Gaussian supports for skipping are μ ± kSupportSigmas·σ (mass outside: 2·Φ(−6) ≈ 2e−9).
 inline constexpr double kSupportSigmas = 6.0;
-/// Uniform widths ≤ this × data range are folded into the shift (SPEC §3 uniform).
+/// Uniform widths ≤ this × data range are folded into the shift (SPEC §3 uniform, exact).
 inline constexpr double kUniformTinyWidth = 1e-9;
+/// The fast uniform's width floor and point-mass threshold, × data range: keeps every division
+/// away from 0 and z = t/σ ≤ 1e6 (its fourth power inside float's range).
+inline constexpr double kUniformPointWidth = 1e-6;
+/// Float lanes whose support is wider than this many times the TF's narrowest piece take the
+/// double body of the fast uniform: the sum over breaks adds terms up to ~(total/piece)² before
+/// they cancel. Measured float error (uniform_fast_test.cpp): 3e−6 at 128, 1.8e−5 at 512.
+inline constexpr float kMaxFloatTotalOverPiece = 256.f;
 /// Quantile widths ≤ this × data range are zero widths for quantile-mean (SPEC §4).
 inline constexpr double kQuantileZeroWidth = 1e-12;
 /// Largest GMM K the kernels handle (stack arrays).
@@ -236,18 +243,31 @@ struct MeanKernel : KernelBase {
     void prefetch(int v) const { prefetchRows(values, v, 1); }
 };
 
-/// Uniform (box spline, SPEC §3): X = Σ w_c U[lo_c, hi_c], exact expectation in double (every
-/// lane of a batch takes the double body). lo/hi = μ ∓ √3σ (`first` = mean, `second` = stddev)
-/// or [min, max] (`minMax`).
+/// Uniform (box spline, SPEC §3): X = Σ w_c U[lo_c, hi_c]. `uniform` takes the fast form
+/// (BoxSplineFast: the two widest boxes exact, the rest a Gaussian with its fourth cumulant; issue
+/// 12) over T; `uniform-exact` (`exact`) the exact box spline in double (every lane of a batch
+/// takes the double body). lo/hi = μ ∓ √3σ (`first` = mean, `second` = stddev) or [min, max]
+/// (`minMax`).
 struct UniformKernel : KernelBase, detail::ClassifyInLoad {
     const float* first;
     const float* second;
     bool minMax;
-    double tinyWidth;  // data units; widths at or below go into the shift
+    double tinyWidth;  // data units; exact: widths at or below go into the shift
+    bool exact;
+    double pointWidth;    // data units; fast: sums this narrow are point masses, widths ≥ it
+    float maxFloatTotal;  // data units; wider float lanes take the double body
+                          // (kMaxFloatTotalOverPiece)
 
     UniformKernel(const Grid3& grid, const float* a, const float* b, bool mm, double tiny,
-                  const TfPiecesStorage& tf)
-        : KernelBase(grid, tf), first(a), second(b), minMax(mm), tinyWidth(tiny) {}
+                  const TfPiecesStorage& tf, bool exactIn = false, double point = 0.0)
+        : KernelBase(grid, tf),
+          first(a),
+          second(b),
+          minMax(mm),
+          tinyWidth(tiny),
+          exact(exactIn),
+          pointWidth(point),
+          maxFloatTotal(kMaxFloatTotalOverPiece * tf.fast().narrowestPiece) {}
     UDVR_CPU_GPU void interval(std::int64_t voxel, double& lo, double& hi) const {
         if (minMax) {
             lo = first[voxel];
@@ -265,17 +285,55 @@ struct UniformKernel : KernelBase, detail::ClassifyInLoad {
         for (int k = 0; k < 8; ++k) interval(cornerVoxel(geometry, c.base, k), lo[k], hi[k]);
         return makeUniformSum(lo, hi, w, tinyWidth);
     }
+    /// The fast form at a cell (the 8 corners' intervals by x-edges, as the Gaussian's σ).
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE BoxSplineFast<T> fastAt(const Cell<T>& c,
+                                                     lanes::MaskOf<T> live) const {
+        using S = lanes::ScalarOf<T>;
+        T w[8], lo[8], hi[8];
+        trilinearWeights(c, w);
+        const std::int64_t offsets[4] = {0, geometry.next[1], geometry.next[2],
+                                         geometry.next[1] + geometry.next[2]};
+        for (int r = 0; r < 4; ++r) {  // corners 2r (x0) and 2r + 1 (x1) of row r = (y, z)
+            T a[2], b[2];
+            edgeOf<T>(geometry, first, 1, c.base, offsets[r], live, a[0], a[1]);
+            edgeOf<T>(geometry, second, 1, c.base, offsets[r], live, b[0], b[1]);
+            for (int x = 0; x < 2; ++x) {
+                const T h = b[x] * S(1.7320508075688772);
+                lo[2 * r + x] = minMax ? a[x] : a[x] - h;
+                hi[2 * r + x] = minMax ? b[x] : a[x] + h;
+            }
+        }
+        return makeBoxSplineFast<T>(lo, hi, w, static_cast<S>(pointWidth));
+    }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        using S = lanes::ScalarOf<T>;
         Classified<T> r{};
-        if constexpr (lanes::kIsVector<T>) {
-            detail::exactLanes(*this, c, live, r.v);
-        } else if constexpr (std::is_same_v<T, double>) {
-            expectedTfUniformSum(tfExact, sumAt(c), r.v);
-        } else {  // one float thread: the double body
-            const Classified<double> d = load<double>(Cell<double>{c.base, c.fx, c.fy, c.fz}, live);
-            for (int ch = 0; ch < 4; ++ch) r.v[ch] = static_cast<T>(d.v[ch]);
+        if (exact) {
+            if constexpr (lanes::kIsVector<T>) {
+                detail::exactLanes(*this, c, live, r.v);
+            } else if constexpr (std::is_same_v<T, double>) {
+                expectedTfUniformSum(tfExact, sumAt(c), r.v);
+            } else {
+                detail::exactWhere(*this, c, live, r.v);
+            }
+            return r;
         }
+        if constexpr (lanes::kIsVector<T>) {
+            if (!gathersFit(1)) {
+                detail::exactLanes(*this, c, live, r.v);
+                return r;
+            }
+        }
+        const BoxSplineFast<T> b = fastAt(c, live);
+        auto wide = lanes::MaskOf<T>{};
+        if constexpr (!std::is_same_v<T, double>) wide = live & (b.total > maxFloatTotal);
+        withTf<T>([&](const auto& t) {
+            expectedTfUniformFast<T>(t, b, static_cast<S>(pointWidth), live & !wide, r.v);
+        });
+        detail::exactWhere(*this, c, wide, r.v);
+        detail::keepLive<T>(live, r.v);
         return r;
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
@@ -284,7 +342,11 @@ struct UniformKernel : KernelBase, detail::ClassifyInLoad {
         lo = static_cast<float>(l);
         hi = static_cast<float>(h);
     }
-    void prefetch(int) const {}
+    void prefetch(int v) const {
+        if (exact) return;
+        prefetchRows(first, v, 1);
+        prefetchRows(second, v, 1);
+    }
 };
 
 /// Gaussian (SPEC §3–4): N(Σ w_c μ_c, Σ w_c² σ_c²), E[TF] in closed form per TF piece.

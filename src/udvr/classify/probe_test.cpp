@@ -62,8 +62,8 @@ TEST(Probe, PlainFieldNamesTheModelsItLacksArraysFor) {
     const TransferFunction1D tf = testing::randomTf(rng, 0, 11);
     for (ModelKind kind : allModelKinds()) {
         if (kind == ModelKind::GmmMc) continue;
-        const bool plain =
-            kind == ModelKind::Mean || kind == ModelKind::Gaussian || kind == ModelKind::Uniform;
+        const bool plain = kind == ModelKind::Mean || kind == ModelKind::Gaussian ||
+                           kind == ModelKind::Uniform || kind == ModelKind::UniformExact;
         if (plain) {
             EXPECT_NO_THROW(probeModel(m, kind, tf, {1, 0.5, 0.5})) << modelName(kind);
             continue;

@@ -17,6 +17,7 @@
 #include <cstddef>
 
 #include "udvr/util/check.h"
+#include "udvr/util/lanes.h"
 
 namespace udvr {
 
@@ -165,5 +166,61 @@ class BoxSplineTail {
     double invH_[kMaxUniformTerms];
     double moment_[kMaxUniformTerms + 1][kMaxUniformTerms + 3];  // E[Z_k^j]/j!
 };
+
+/// The box spline's fast form (issue 12): X = center + h1·U1 + h2·U2 + R with the two widest
+/// boxes h1 ≥ h2 kept exact and the other terms (≤ 6) as R, zero mean, taken as a Gaussian of
+/// their variance σ² with the first Edgeworth correction for their fourth cumulant
+/// κ4 = −Σ h⁴/120 (Sakhaee & Entezari's box spline for two directions, the central limit for the
+/// rest). Written over T (double, float, lanes::Vf). Data units.
+template <class T>
+struct BoxSplineFast {
+    T lo{};      // left end of the support [lo, lo + total]
+    T total{};   // Σ h
+    T center{};  // lo + mean of the remainder: X − center = h1·U1 + h2·U2 + R
+    T h1{}, h2{};
+    T sigma{};     // remainder's standard deviation (≥ the floor)
+    T k4{};        // κ4/(24σ⁴) of the remainder, in [−0.05, 0]
+    T k6{};        // κ6/(720σ⁶) of the remainder, ≥ 0
+    T variance{};  // of X, exact: Σ h²/12
+};
+
+/// The fast form of Σ_c w_c U[lo_c, hi_c]; widths are kept ≥ `floor` (> 0, data units) so that
+/// no division meets 0 (a zero-width sample is a box of width `floor`: callers treat sums with
+/// total ≤ floor as point masses).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE BoxSplineFast<T> makeBoxSplineFast(const T lo[8], const T hi[8],
+                                                            const T w[8],
+                                                            lanes::ScalarOf<T> floor) {
+    using lanes::max;
+    using lanes::min;
+    BoxSplineFast<T> b;
+    T h1{}, h2{}, r1{}, r2{}, r4{}, r6{}, all2{};
+    for (int c = 0; c < 8; ++c) {
+        const T h = max(w[c] * (hi[c] - lo[c]), T{});
+        b.lo = lanes::fma(w[c], lo[c], b.lo);
+        b.total += h;
+        all2 = lanes::fma(h, h, all2);
+        // Keep the two widest; the one pushed out joins the remainder (sums of its powers).
+        const T up = max(h1, h), down = min(h1, h);
+        const T out = min(h2, down);
+        h2 = max(h2, down);
+        h1 = up;
+        const T o2 = out * out;
+        r1 += out;
+        r2 += o2;
+        r4 = lanes::fma(o2, o2, r4);
+        r6 = lanes::fma(o2 * o2, o2, r6);
+    }
+    const T f = lanes::splat<T>(floor);
+    b.h1 = max(h1, f);
+    b.h2 = max(h2, f);
+    b.center = lanes::fma(r1, lanes::splat<T>(0.5), b.lo);
+    const T var = max(r2 * lanes::ScalarOf<T>(1.0 / 12.0), f * f);
+    b.sigma = lanes::sqrt(var);
+    b.k4 = -r4 / (var * var * lanes::ScalarOf<T>(2880.0));         // −(Σh⁴/120)/(24σ⁴)
+    b.k6 = r6 / (var * var * var * lanes::ScalarOf<T>(181440.0));  // (Σh⁶/252)/(720σ⁶)
+    b.variance = all2 * lanes::ScalarOf<T>(1.0 / 12.0);
+    return b;
+}
 
 }  // namespace udvr
