@@ -44,7 +44,7 @@ AnyKernel makeUniform(const ModelVolume& m, const TfPiecesStorage& tf, const Cla
     const double s = span(m, o);
     return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                          o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                         kUniformTinyWidth * s, tf, f.kind == ModelKind::UniformExact,
+                         kUniformTinyWidth * s, tf, f.kind == ModelKind::Uniform,
                          kUniformPointWidth * s);
 }
 AnyKernel makeGaussian(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
@@ -134,7 +134,7 @@ constexpr std::array<ModelFamily, 14> kFamilies{{
     {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr},
-    {K::UniformExact, "uniform-exact", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
+    {K::UniformFast, "uniform-fast", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
 }};
 // clang-format on
 

@@ -140,7 +140,7 @@ TEST(Bivariate, EveryModelReducesToIts1DKernelAlongEitherAxis) {
             double one[4], two[4], swapped[4];
             // The bivariate uniform is the exact box spline for both names (the fast 1D form is
             // tested against it in uniform_fast_test.cpp).
-            const ModelKind one1D = kind == ModelKind::Uniform ? ModelKind::UniformExact : kind;
+            const ModelKind one1D = kind == ModelKind::UniformFast ? ModelKind::Uniform : kind;
             withKernel(m, one1D, tf,
                        [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], one); });
             withKernelBivariate(m, c, kind, t, {}, [&](const auto& k) {

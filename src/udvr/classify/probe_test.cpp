@@ -63,7 +63,7 @@ TEST(Probe, PlainFieldNamesTheModelsItLacksArraysFor) {
     for (ModelKind kind : allModelKinds()) {
         if (kind == ModelKind::GmmMc) continue;
         const bool plain = kind == ModelKind::Mean || kind == ModelKind::Gaussian ||
-                           kind == ModelKind::Uniform || kind == ModelKind::UniformExact;
+                           kind == ModelKind::Uniform || kind == ModelKind::UniformFast;
         if (plain) {
             EXPECT_NO_THROW(probeModel(m, kind, tf, {1, 0.5, 0.5})) << modelName(kind);
             continue;

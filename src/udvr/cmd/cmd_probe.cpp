@@ -38,7 +38,7 @@ void addProbeCommand(CLI::App& app) {
                     "reduced grid)");
     sub->add_option("--world", o->world, "world coordinates x,y,z instead of --point");
     sub->add_option("--model", o->kind,
-                    "noise model (mean, uniform, uniform-exact, gaussian, gmm-ordered, "
+                    "noise model (mean, uniform, uniform-fast, gaussian, gmm-ordered, "
                     "quantile-range, ..., members; default mean)");
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);

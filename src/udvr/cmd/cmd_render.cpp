@@ -177,7 +177,7 @@ void addRenderCommand(CLI::App& app) {
         ->required();
     sub->add_option(
         "--model", o->model,
-        "mean | uniform | uniform-exact | gaussian | gmm-ordered | gmm-mc | quantile-range | "
+        "mean | uniform | uniform-fast | gaussian | gmm-ordered | gmm-mc | quantile-range | "
         "quantile-mean | quantile-mean-mass | iqr | quartile-lower|middle|upper | "
         "members (an ensemble's TF averaged over its members; default mean)");
     addTfOptions(sub, o->tf);
