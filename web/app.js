@@ -1,8 +1,7 @@
 // udvr serve's page: the rendered views, the camera (SPEC §5's azimuth/elevation/zoom, so every
 // view is one `udvr render` command line), progressive frames, the model picker, the quartile
 // view, the ground truth with its difference and RMSE, the TF editor and the click probe.
-import {ApiError, getJson, getPng, getText, postJson} from './api.js';
-import {decodePng} from './png.js';
+import {ApiError, getJson, getRender, getText, postJson} from './api.js';
 import {PLOT_MODELS, drawProbePlot} from './probe_plot.js';
 import {TfEditor, parseParaViewTf, toParaViewJson} from './tf_editor.js';
 import {Tf2Editor} from './tf2_editor.js';
@@ -87,7 +86,7 @@ function buildViews() {
       const caption = document.createElement('figcaption');
       figure.append(canvas, caption);
       v = {channel: w.channel, figure, canvas, caption, inFlight: new Map(), pending: null,
-           shownSeq: 0, shown: null, png: null, alpha: null, info: ''};
+           shownSeq: 0, shown: null, info: ''};
       state.views.set(w.channel, v);
       attachCamera(canvas, w.channel === 'main');
     }
@@ -126,11 +125,12 @@ function schedule(coarse) {
   updateCommand();
 }
 
-// Send a view's pending request unless a coarse one is on its way (it is quick; the pending
-// one follows it). A request sent while a full frame renders cancels it on the server.
+// Send a view's pending request. A coarse one waits while a coarse one is on its way (it is
+// quick; the pending one follows it, so dragging shows frames); a full one goes at once. A
+// request cancels the frame rendering on its channel on the server.
 function pump(v) {
   if (!v.pending) return;
-  if ([...v.inFlight.values()].includes('coarse')) return;
+  if (v.pending.kind === 'coarse' && [...v.inFlight.values()].includes('coarse')) return;
   const {kind, eventTime} = v.pending;
   v.pending = null;
   const seq = ++state.seq;
@@ -138,21 +138,22 @@ function pump(v) {
   const params = {...v.params, size: sizeText(kind === 'coarse'), ...cameraParams(),
                   channel: v.channel, seq};
   const query = JSON.stringify({...params, channel: undefined, seq: undefined});
-  getPng(params)
+  // The PNG's 8-bit RGBA values without the PNG (no encoding, no decoding): the PNG itself is
+  // asked for when saved (pngOf).
+  getRender({...params, format: 'rgba'})
       .then(async ({bytes, headers}) => {
-        const image = await decodePng(bytes);
+        const image = {width: Number(headers.get('X-Udvr-Width')),
+                       height: Number(headers.get('X-Udvr-Height')), rgba: new Uint8ClampedArray(bytes)};
         if (seq < v.shownSeq) return;  // a newer frame is already shown
         v.shownSeq = seq;
-        const alpha = new Uint8Array(image.width * image.height);
-        for (let i = 0; i < alpha.length; ++i) alpha[i] = image.rgba[4 * i + 3], image.rgba[4 * i + 3] = 255;
         // RGB is already composited over the background (SPEC §5): shown opaque.
+        for (let i = 3; i < image.rgba.length; i += 4) image.rgba[i] = 255;
         v.canvas.width = image.width;
         v.canvas.height = image.height;
         v.canvas.getContext('2d').putImageData(new ImageData(image.rgba, image.width, image.height), 0, 0);
         v.shown = {kind, query};
         const renderMs = Number(headers.get('X-Udvr-Render-Ms'));
         if (headers.get('X-Udvr-Rmse')) v.rmse = Number(headers.get('X-Udvr-Rmse')).toFixed(5);
-        if (kind === 'full') v.png = new Blob([bytes], {type: 'image/png'}), v.alpha = alpha;
         await new Promise(requestAnimationFrame);
         const latency = performance.now() - eventTime;
         state.timings.push({kind, channel: v.channel, latency, render: renderMs});
@@ -473,7 +474,7 @@ async function start() {
   loadAndSave('tf', '/api/tf', 'tf.json', applyTfText);
   $('png-save').addEventListener('click', () => {
     const v = state.views.get('main');
-    if (v.png) download(v.png, `udvr-${state.model}.png`);
+    if (v.shown && v.shown.kind === 'full') pngOf(v).then((png) => download(png, `udvr-${state.model}.png`));
   });
   $('reset').addEventListener('click', () => {
     state.camera = {...HOME};
@@ -502,9 +503,14 @@ function idle() {
   return true;
 }
 
+// The PNG `udvr render` writes of the view's shown full frame (the server keeps the frame).
+async function pngOf(v) {
+  const params = {...JSON.parse(v.shown.query), channel: `png-${v.channel}`.slice(0, 32)};
+  return new Blob([(await getRender(params)).bytes], {type: 'image/png'});
+}
+
 async function pngBase64(channel) {
-  const v = state.views.get(channel);
-  const bytes = new Uint8Array(await v.png.arrayBuffer());
+  const bytes = new Uint8Array(await (await pngOf(state.views.get(channel))).arrayBuffer());
   let s = '';
   for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
   return btoa(s);

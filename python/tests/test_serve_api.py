@@ -56,6 +56,17 @@ def test_render_is_the_cli_image(server, inputs, tmp_path, params):
     assert float(headers["X-Udvr-Render-Ms"]) >= 0
 
 
+def test_rgba_format_is_the_pngs_values(server):
+    """format=rgba (what the page asks for): the PNG's 8-bit RGBA values, rows from the top."""
+    params = {"model": "quantile-range", "size": "80x48", "azimuth": 70}
+    png, _ = render(server, **params)
+    status, headers, body = server.get("/api/render?" + urllib.parse.urlencode(
+        {**params, "format": "rgba"}))
+    assert status == 200 and headers["Content-Type"] == "application/octet-stream"
+    assert (int(headers["X-Udvr-Width"]), int(headers["X-Udvr-Height"])) == (80, 48)
+    assert np.array_equal(np.frombuffer(body, np.uint8).reshape(48, 80, 4), png)
+
+
 def test_truth_diff_and_rmse_are_compares(server, inputs, tmp_path):
     params = {"model": "quantile-range", "size": "64x64", "azimuth": 10}
     truth, _ = render(server, source="truth", **params)
@@ -138,6 +149,7 @@ BAD = [
     ("/api/render?size=8x8&size=9x9", "twice"),
     ("/api/render?channel=../x", "channel"),
     ("/api/render?view=up", "view"),
+    ("/api/render?format=jpeg", "format"),
     ("/api/render?position=1,1,1&view=+x", "view"),
     ("/api/probe?x=5", "x and y"),
     ("/api/probe?size=8x8&x=8&y=1", "x"),

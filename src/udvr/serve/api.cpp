@@ -37,7 +37,7 @@ const std::vector<std::string> kRenderKeys = {
     "step",        "unit-distance", "early-exit", "background",     "uniform-width", "realizations",
     "seed",        "jitter",        "no-skip"};
 // Parameters that steer the request, not the image.
-const std::vector<std::string> kControlKeys = {"channel", "seq", "source"};
+const std::vector<std::string> kControlKeys = {"channel", "seq", "source", "format"};
 
 ApiResponse jsonResponse(const json& body, int status = 200) {
     ApiResponse r;
@@ -400,6 +400,9 @@ ApiResponse Api::getRender(const ApiRequest& request) {
         UDVR_FAIL("channel must be 1-32 letters, digits, '-' or '_', got '"
                   << Query::clip(r.channel) << "'");
     r.seq = q.whole("seq", 0, UINT64_MAX);
+    const std::string format = q.text("format", "png");
+    if (format != "png" && format != "rgba")
+        UDVR_FAIL("format must be png or rgba, got '" << Query::clip(format) << "'");
     r.source = q.text("source", "model");
     if (r.source != "model" && r.source != "truth" && r.source != "diff")
         UDVR_FAIL("source must be model, truth or diff, got '" << Query::clip(r.source) << "'");
@@ -418,9 +421,21 @@ ApiResponse Api::getRender(const ApiRequest& request) {
     });
     if (!done) return errorResponse(409, "superseded by a newer request on channel " + r.channel);
     ApiResponse out;
-    out.type = "image/png";
-    const std::vector<unsigned char> png = encodePng(result->image, 1);
-    out.body.assign(png.begin(), png.end());
+    if (format == "rgba") {
+        // The PNG's 8-bit values without the PNG: the frame holds k/255 (asWrittenToPng), so
+        // rounding ×255 gives k back. Encoding and decoding a 512² PNG cost the page ~25 ms.
+        out.type = "application/octet-stream";
+        const std::vector<float>& v = result->image.rgba;
+        out.body.resize(v.size());
+        for (std::size_t k = 0; k < v.size(); ++k)
+            out.body[k] = static_cast<char>(static_cast<unsigned char>(std::lround(v[k] * 255.f)));
+        out.headers.emplace_back("X-Udvr-Width", std::to_string(result->image.width));
+        out.headers.emplace_back("X-Udvr-Height", std::to_string(result->image.height));
+    } else {
+        out.type = "image/png";
+        const std::vector<unsigned char> png = encodePng(result->image, 1);
+        out.body.assign(png.begin(), png.end());
+    }
     out.headers.emplace_back("X-Udvr-Render-Ms", pngHeaderSafe(result->milliseconds));
     out.headers.emplace_back("X-Udvr-Tf-Version",
                              std::to_string(r.tf2 ? tf2.version : r.tfVersion));
