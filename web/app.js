@@ -142,6 +142,7 @@ function pump(v) {
   // asked for when saved (pngOf).
   getRender({...params, format: 'rgba'})
       .then(async ({bytes, headers}) => {
+        const arrived = performance.now();
         const image = {width: Number(headers.get('X-Udvr-Width')),
                        height: Number(headers.get('X-Udvr-Height')), rgba: new Uint8ClampedArray(bytes)};
         if (seq < v.shownSeq) return;  // a newer frame is already shown
@@ -156,7 +157,10 @@ function pump(v) {
         if (headers.get('X-Udvr-Rmse')) v.rmse = Number(headers.get('X-Udvr-Rmse')).toFixed(5);
         await new Promise(requestAnimationFrame);
         const latency = performance.now() - eventTime;
-        state.timings.push({kind, channel: v.channel, latency, render: renderMs});
+        // ms after the input: the answer's bytes here, and within it the server's part.
+        state.timings.push({kind, channel: v.channel, latency, render: renderMs,
+                            server: Number(headers.get('X-Udvr-Server-Ms')),
+                            arrived: arrived - eventTime});
         v.info = `${kind} ${image.width}×${image.height}, render ${renderMs.toFixed(0)} ms, ` +
                  `shown ${latency.toFixed(0)} ms after the input`;
         v.caption.textContent = captionOf(v);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -391,6 +392,7 @@ std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::
 }
 
 ApiResponse Api::getRender(const ApiRequest& request) {
+    const auto started = std::chrono::steady_clock::now();
     const Query q(request.params, {kRenderKeys, kControlKeys});
     RenderRequest r;
     r.kind = parseModelKind(q.text("model", "mean"));
@@ -437,6 +439,10 @@ ApiResponse Api::getRender(const ApiRequest& request) {
         out.body.assign(png.begin(), png.end());
     }
     out.headers.emplace_back("X-Udvr-Render-Ms", pngHeaderSafe(result->milliseconds));
+    // From the request's parsing to the body ready: the render, a wait for the gate, encoding.
+    const std::chrono::duration<double, std::milli> serverMs =
+        std::chrono::steady_clock::now() - started;
+    out.headers.emplace_back("X-Udvr-Server-Ms", pngHeaderSafe(serverMs.count()));
     out.headers.emplace_back("X-Udvr-Tf-Version",
                              std::to_string(r.tf2 ? tf2.version : r.tfVersion));
     if (result->rmse >= 0.0) out.headers.emplace_back("X-Udvr-Rmse", pngHeaderSafe(result->rmse));
