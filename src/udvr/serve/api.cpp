@@ -263,6 +263,7 @@ ApiResponse Api::getState() {
         models.push_back(row);
     }
     const auto [tf, version] = currentTf();
+    const Tf2State tf2 = currentTf2();
     json presets = json::array();
     for (const auto& name : transferFunctionPresetNames()) presets.push_back(name);
     json state{
@@ -282,8 +283,8 @@ ApiResponse Api::getState() {
         {"truth", data_.truth ? json(data_.truthFile) : json(nullptr)},
         {"second", data_.second ? json(data_.secondFile) : json(nullptr)},
         {"tf2", data_.tf2 ? json(data_.tf2File) : json(nullptr)},
-        {"tf2_editable", !data_.tf2Widgets.empty()},
-        {"tf2_version", currentTf2().version},
+        {"tf2_editable", tf2.widgets != nullptr},  // widget JSON (a raster is view-only)
+        {"tf2_version", tf2.version},
         {"tf_version", version},
         {"presets", presets},
         {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
@@ -424,13 +425,11 @@ ApiResponse Api::getRender(const ApiRequest& request) {
     if (!done) return errorResponse(409, "superseded by a newer request on channel " + r.channel);
     ApiResponse out;
     if (format == "rgba") {
-        // The PNG's 8-bit values without the PNG: the frame holds k/255 (asWrittenToPng), so
-        // rounding ×255 gives k back. Encoding and decoding a 512² PNG cost the page ~25 ms.
+        // The PNG's 8-bit values without the PNG: encoding and decoding a 512² PNG cost the page
+        // ~25 ms.
         out.type = "application/octet-stream";
-        const std::vector<float>& v = result->image.rgba;
-        out.body.resize(v.size());
-        for (std::size_t k = 0; k < v.size(); ++k)
-            out.body[k] = static_cast<char>(static_cast<unsigned char>(std::lround(v[k] * 255.f)));
+        const std::vector<unsigned char> bytes = pngBytes8(result->image);
+        out.body.assign(bytes.begin(), bytes.end());
         out.headers.emplace_back("X-Udvr-Width", std::to_string(result->image.width));
         out.headers.emplace_back("X-Udvr-Height", std::to_string(result->image.height));
     } else {
