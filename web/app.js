@@ -363,6 +363,13 @@ function tf2Selected(w) {
 
 const tf2Changed = tfPoster('/api/tf2', () => JSON.stringify(editor2.doc));
 
+// A raster TF2 is view-only: no widgets to edit or save.
+function tf2Editable(on) {
+  editor2.editable = on;
+  for (const id of ['tf2-add-box', 'tf2-add-triangle', 'tf2-add-ellipse', 'tf2-save'])
+    $(id).disabled = !on;
+}
+
 async function startTf2() {
   $('tf-panel').hidden = true;
   $('tf2-panel').hidden = false;
@@ -372,9 +379,7 @@ async function startTf2() {
   if (state.info.tf2_editable) {
     editor2.setDoc(JSON.parse(await getText('/api/tf2')));
   } else {
-    editor2.editable = false;
-    for (const id of ['tf2-add-box', 'tf2-add-triangle', 'tf2-add-ellipse', 'tf2-save'])
-      $(id).disabled = true;
+    tf2Editable(false);
     $('tf2-hint').textContent = 'a raster 2D TF: shown over the histogram by its domain only';
   }
   const h = await getJson('/api/histogram2d', {bins: 128});
@@ -401,6 +406,7 @@ async function startTf2() {
   loadAndSave('tf2', '/api/tf2', 'tf2.json', async (text) => {
     await postJson('/api/tf2', text);  // the server checks everything
     editor2.setDoc(JSON.parse(await getText('/api/tf2')));
+    tf2Editable(true);  // a loaded widget file replaces a raster TF2
     editor2.select(-1);
     editor2.setHistogram(await getJson('/api/histogram2d', {bins: 128}));  // the domain may differ
     schedule(false);

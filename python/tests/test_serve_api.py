@@ -345,3 +345,20 @@ def test_bivariate_histogram_and_tf2(inputs, tmp_path):
         assert np.array_equal(page, cli) and page[..., 3].max() > 0
     finally:
         s.stop()
+
+
+def test_a_raster_tf2_renders_but_is_not_editable(inputs, tmp_path):
+    run_ok("tf2", TANGLE_TF2, "-o", tmp_path / "raster.vti")
+    s = Server(inputs.model, "--tf2", tmp_path / "raster.vti")
+    try:
+        state = s.json("/api/state")
+        assert state["tf2"].endswith("raster.vti") and not state["tf2_editable"]
+        status, _, body = s.get("/api/tf2")
+        assert status == 400 and "raster" in json.loads(body)["error"]
+        assert s.json("/api/histogram2d?bins=16")["domain"] == [-7, 35, 0, 60]
+        page, _ = render(s, model="mean", size="48x48")
+        cli = cli_render(inputs, tmp_path / "cli.png", "--tf2", tmp_path / "raster.vti",
+                         "--model", "mean", "--size", "48x48")
+        assert np.array_equal(page, cli)
+    finally:
+        s.stop()
