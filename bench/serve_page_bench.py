@@ -87,6 +87,13 @@ def main():
         print(f"{kind:6s} frames {len(lat):4d}: mouse event -> pixels median "
               f"{statistics.median(lat):6.1f} ms, p90 {p90:6.1f} ms; server render median "
               f"{statistics.median(ren):6.1f} ms")
+        # Where the time goes (medians of each part, ms): the server's answer beyond the render
+        # (gate, conversion), the way there and back (HTTP), the page (draw, next frame).
+        part = lambda f: statistics.median(f(x) for x in t if x["kind"] == kind)
+        if all("server" in x and "arrived" in x for x in t):
+            print(f"       parts: server past the render {part(lambda x: x['server'] - x['render']):5.1f},"
+                  f" HTTP and the page's fetch {part(lambda x: x['arrived'] - x['server']):5.1f},"
+                  f" draw to the next animation frame {part(lambda x: x['latency'] - x['arrived']):5.1f}")
 
 
 if __name__ == "__main__":

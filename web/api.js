@@ -38,8 +38,9 @@ export async function postJson(path, text) {
   return r.json();
 }
 
-// The PNG of /api/render as bytes, with the response headers.
-export async function getPng(params, options = {}) {
+// /api/render's answer as bytes (the PNG, or with format=rgba its 8-bit RGBA values), with the
+// response headers.
+export async function getRender(params, options = {}) {
   const r = await check(await fetch('/api/render?' + query(params), options));
   return {bytes: await r.arrayBuffer(), headers: r.headers};
 }

@@ -1,10 +1,10 @@
 // udvr serve's page: the rendered views, the camera (SPEC §5's azimuth/elevation/zoom, so every
 // view is one `udvr render` command line), progressive frames, the model picker, the quartile
 // view, the ground truth with its difference and RMSE, the TF editor and the click probe.
-import {ApiError, getJson, getPng, getText, postJson} from './api.js';
-import {decodePng} from './png.js';
+import {ApiError, getJson, getRender, getText, postJson} from './api.js';
 import {PLOT_MODELS, drawProbePlot} from './probe_plot.js';
 import {TfEditor, parseParaViewTf, toParaViewJson} from './tf_editor.js';
+import {Tf2Editor} from './tf2_editor.js';
 
 const $ = (id) => document.getElementById(id);
 const COARSE = 4;  // coarse frames: 1/4 of the width and height
@@ -21,7 +21,7 @@ const state = {
   views: new Map(),       // channel -> view
   probe: null,            // {pixel, point, models: {name: json}}
   probing: 0,
-  tfBusy: false, tfPending: null,
+  posters: [],            // the TF posters (tfPoster): busy while posting
   timings: [],            // {kind, channel, latency (event -> pixels, ms), render (ms)}
 };
 
@@ -86,7 +86,7 @@ function buildViews() {
       const caption = document.createElement('figcaption');
       figure.append(canvas, caption);
       v = {channel: w.channel, figure, canvas, caption, inFlight: new Map(), pending: null,
-           shownSeq: 0, shown: null, png: null, alpha: null, info: ''};
+           shownSeq: 0, shown: null, info: ''};
       state.views.set(w.channel, v);
       attachCamera(canvas, w.channel === 'main');
     }
@@ -125,11 +125,12 @@ function schedule(coarse) {
   updateCommand();
 }
 
-// Send a view's pending request unless a coarse one is on its way (it is quick; the pending
-// one follows it). A request sent while a full frame renders cancels it on the server.
+// Send a view's pending request. A coarse one waits while a coarse one is on its way (it is
+// quick; the pending one follows it, so dragging shows frames); a full one goes at once. A
+// request cancels the frame rendering on its channel on the server.
 function pump(v) {
   if (!v.pending) return;
-  if ([...v.inFlight.values()].includes('coarse')) return;
+  if (v.pending.kind === 'coarse' && [...v.inFlight.values()].includes('coarse')) return;
   const {kind, eventTime} = v.pending;
   v.pending = null;
   const seq = ++state.seq;
@@ -137,24 +138,29 @@ function pump(v) {
   const params = {...v.params, size: sizeText(kind === 'coarse'), ...cameraParams(),
                   channel: v.channel, seq};
   const query = JSON.stringify({...params, channel: undefined, seq: undefined});
-  getPng(params)
+  // The PNG's 8-bit RGBA values without the PNG (no encoding, no decoding): the PNG itself is
+  // asked for when saved (pngOf).
+  getRender({...params, format: 'rgba'})
       .then(async ({bytes, headers}) => {
-        const image = await decodePng(bytes);
+        const arrived = performance.now();
+        const image = {width: Number(headers.get('X-Udvr-Width')),
+                       height: Number(headers.get('X-Udvr-Height')), rgba: new Uint8ClampedArray(bytes)};
         if (seq < v.shownSeq) return;  // a newer frame is already shown
         v.shownSeq = seq;
-        const alpha = new Uint8Array(image.width * image.height);
-        for (let i = 0; i < alpha.length; ++i) alpha[i] = image.rgba[4 * i + 3], image.rgba[4 * i + 3] = 255;
         // RGB is already composited over the background (SPEC §5): shown opaque.
+        for (let i = 3; i < image.rgba.length; i += 4) image.rgba[i] = 255;
         v.canvas.width = image.width;
         v.canvas.height = image.height;
         v.canvas.getContext('2d').putImageData(new ImageData(image.rgba, image.width, image.height), 0, 0);
         v.shown = {kind, query};
         const renderMs = Number(headers.get('X-Udvr-Render-Ms'));
         if (headers.get('X-Udvr-Rmse')) v.rmse = Number(headers.get('X-Udvr-Rmse')).toFixed(5);
-        if (kind === 'full') v.png = new Blob([bytes], {type: 'image/png'}), v.alpha = alpha;
         await new Promise(requestAnimationFrame);
         const latency = performance.now() - eventTime;
-        state.timings.push({kind, channel: v.channel, latency, render: renderMs});
+        // ms after the input: the answer's bytes here, and within it the server's part.
+        state.timings.push({kind, channel: v.channel, latency, render: renderMs,
+                            server: Number(headers.get('X-Udvr-Server-Ms')),
+                            arrived: arrived - eventTime});
         v.info = `${kind} ${image.width}×${image.height}, render ${renderMs.toFixed(0)} ms, ` +
                  `shown ${latency.toFixed(0)} ms after the input`;
         v.caption.textContent = captionOf(v);
@@ -211,7 +217,11 @@ function attachCamera(canvas, probes) {
 // ---- command lines ------------------------------------------------------------------------
 function updateCommand() {
   const c = cameraParams();
-  const common = `--tf tf.json --size ${sizeText(false)} --azimuth ${c.azimuth} ` +
+  const tfFlags = state.info.tf2
+      ? `--tf2 ${state.info.tf2_editable ? 'tf2.json' : state.info.tf2}` +
+        (state.info.second ? ` --second ${state.info.second}` : '')
+      : '--tf tf.json';
+  const common = `${tfFlags} --size ${sizeText(false)} --azimuth ${c.azimuth} ` +
                  `--elevation ${c.elevation} --zoom ${c.zoom}`;
   const lines = [`udvr render ${state.info.model.file} --model ${state.model} ${common} -o view.png`];
   if (state.info.truth) {
@@ -221,7 +231,7 @@ function updateCommand() {
   if (state.probe) {
     const p = state.probe.point.join(',');
     lines.push(`udvr probe ${state.info.model.file} --point ${p} --model ${state.probe.model} ` +
-               '--tf tf.json --json');
+               `${tfFlags} --json`);
   }
   $('command').textContent = lines.join('\n');
 }
@@ -282,25 +292,33 @@ function showProbe() {
 // ---- transfer function --------------------------------------------------------------------
 const editor = new TfEditor($('tf-canvas'), (phase) => tfChanged(phase));
 
-// Post the editor's TF (one POST at a time, the newest waiting), then render.
-async function tfChanged(phase) {
-  state.tfPending = state.tfPending === 'commit' || phase === 'commit' ? 'commit' : 'drag';
-  if (state.tfBusy) return;
-  state.tfBusy = true;
-  try {
-    while (state.tfPending) {
-      const p = state.tfPending;
-      state.tfPending = null;
-      await postJson('/api/tf', toParaViewJson(editor.tf));
-      schedule(p === 'drag');
+// A TF's poster: posts `body()` to `path` (one POST at a time, the newest waiting), then renders:
+// coarse frames while dragging, the full frame on release ('commit').
+function tfPoster(path, body) {
+  const p = {busy: false, pending: null};
+  p.changed = async (phase) => {
+    p.pending = p.pending === 'commit' || phase === 'commit' ? 'commit' : 'drag';
+    if (p.busy) return;
+    p.busy = true;
+    try {
+      while (p.pending) {
+        const kind = p.pending;
+        p.pending = null;
+        await postJson(path, body());
+        schedule(kind === 'drag');
+      }
+      if (state.probe) await refreshProbe();
+    } catch (e) {
+      showError(e);
+    } finally {
+      p.busy = false;
     }
-    if (state.probe) await refreshProbe();
-  } catch (e) {
-    showError(e);
-  } finally {
-    state.tfBusy = false;
-  }
+  };
+  state.posters.push(p);
+  return p.changed;
 }
+
+const tfChanged = tfPoster('/api/tf', () => toParaViewJson(editor.tf));
 
 // The probe's expected colours depend on the TF: ask again at the same point.
 async function refreshProbe() {
@@ -325,6 +343,93 @@ function download(blob, name) {
   document.body.append(a);
   a.click();
   setTimeout(() => (URL.revokeObjectURL(a.href), a.remove()), 1000);
+}
+
+// ---- 2D transfer function ---------------------------------------------------------------
+const editor2 = new Tf2Editor($('tf2-canvas'), (phase) => tf2Changed(phase), (w) => tf2Selected(w));
+
+const hex = (rgb) => '#' + rgb.map((v) => Math.round(255 * v).toString(16).padStart(2, '0')).join('');
+
+function tf2Selected(w) {
+  for (const id of ['tf2-delete', 'tf2-colour', 'tf2-opacity']) $(id).disabled = !w;
+  if (!w) {
+    $('tf2-opacity-value').textContent = '';
+    return;
+  }
+  $('tf2-colour').value = hex(w.rgba.slice(0, 3));
+  $('tf2-opacity').value = w.rgba[3];
+  $('tf2-opacity-value').textContent = w.rgba[3].toFixed(2);
+}
+
+const tf2Changed = tfPoster('/api/tf2', () => JSON.stringify(editor2.doc));
+
+// A raster TF2 is view-only: no widgets to edit or save.
+function tf2Editable(on) {
+  editor2.editable = on;
+  for (const id of ['tf2-add-box', 'tf2-add-triangle', 'tf2-add-ellipse', 'tf2-save'])
+    $(id).disabled = !on;
+}
+
+async function startTf2() {
+  $('tf-panel').hidden = true;
+  $('tf2-panel').hidden = false;
+  const note = state.info.tf2_editable ? '' :
+      `: a raster, view-only (start with a widget .json to edit it)`;
+  showInfo(`renders use the 2D TF ${state.info.tf2}${note}`);
+  if (state.info.tf2_editable) {
+    editor2.setDoc(JSON.parse(await getText('/api/tf2')));
+  } else {
+    tf2Editable(false);
+    $('tf2-hint').textContent = 'a raster 2D TF: shown over the histogram by its domain only';
+  }
+  const h = await getJson('/api/histogram2d', {bins: 128});
+  if (!state.info.tf2_editable) editor2.setDoc({domain: h.domain, widgets: []});
+  editor2.setHistogram(h);
+  for (const type of ['box', 'triangle', 'ellipse'])
+    $(`tf2-add-${type}`).addEventListener('click', () => editor2.add(type));
+  $('tf2-delete').addEventListener('click', () => editor2.removeSelected());
+  window.addEventListener('keydown', (e) => {
+    if ((e.key === 'Delete' || e.key === 'Backspace') && e.target === document.body)
+      editor2.removeSelected();
+  });
+  $('tf2-log').addEventListener('change', () => editor2.setLog($('tf2-log').checked));
+  const rgb = () => [1, 3, 5].map((k) => parseInt($('tf2-colour').value.slice(k, k + 2), 16) / 255);
+  $('tf2-colour').addEventListener('input', () => editor2.setSelectedRgba(rgb(), undefined, 'drag'));
+  $('tf2-colour').addEventListener('change', () => editor2.setSelectedRgba(rgb(), undefined, 'commit'));
+  const opacity = (phase) => {
+    const a = Number($('tf2-opacity').value);
+    $('tf2-opacity-value').textContent = a.toFixed(2);
+    editor2.setSelectedRgba(null, a, phase);
+  };
+  $('tf2-opacity').addEventListener('input', () => opacity('drag'));
+  $('tf2-opacity').addEventListener('change', () => opacity('commit'));
+  loadAndSave('tf2', '/api/tf2', 'tf2.json', async (text) => {
+    await postJson('/api/tf2', text);  // the server checks everything
+    editor2.setDoc(JSON.parse(await getText('/api/tf2')));
+    tf2Editable(true);  // a loaded widget file replaces a raster TF2
+    editor2.select(-1);
+    editor2.setHistogram(await getJson('/api/histogram2d', {bins: 128}));  // the domain may differ
+    schedule(false);
+  });
+}
+
+// The load (file input `${prefix}-load`, its text to `apply`) and save buttons of a TF panel.
+function loadAndSave(prefix, path, name, apply) {
+  const input = $(`${prefix}-load`);
+  input.addEventListener('change', async () => {
+    const file = input.files[0];
+    if (!file) return;
+    try {
+      await apply(await file.text());
+      showInfo(`loaded ${file.name}`);
+    } catch (e) {
+      showError(e);
+    }
+    input.value = '';
+  });
+  $(`${prefix}-save`).addEventListener('click', async () => {
+    download(new Blob([await getText(path)], {type: 'application/json'}), name);
+  });
 }
 
 // ---- start --------------------------------------------------------------------------------
@@ -376,33 +481,17 @@ async function start() {
     editor.log = $('log').checked;
     editor.draw();
   });
-  $('tf-load').addEventListener('change', async () => {
-    const file = $('tf-load').files[0];
-    if (!file) return;
-    try {
-      await applyTfText(await file.text());
-      showInfo(`loaded ${file.name}`);
-    } catch (e) {
-      showError(e);
-    }
-    $('tf-load').value = '';
-  });
-  $('tf-save').addEventListener('click', async () => {
-    download(new Blob([await getText('/api/tf')], {type: 'application/json'}), 'tf.json');
-  });
+  loadAndSave('tf', '/api/tf', 'tf.json', applyTfText);
   $('png-save').addEventListener('click', () => {
     const v = state.views.get('main');
-    if (v.png) download(v.png, `udvr-${state.model}.png`);
+    if (v.shown && v.shown.kind === 'full') pngOf(v).then((png) => download(png, `udvr-${state.model}.png`));
   });
   $('reset').addEventListener('click', () => {
     state.camera = {...HOME};
     schedule(false);
   });
   window.addEventListener('resize', layoutViews);
-  if (state.info.tf2) {
-    $('tf-panel').classList.add('disabled');
-    showInfo(`renders use the 2D TF ${state.info.tf2}; the 1D editor is not used`);
-  }
+  if (state.info.tf2) await startTf2();
   editor.setTf(parseParaViewTf(await getText('/api/tf')));
   editor.setHistogram(await getJson('/api/histogram', {bins: 128}));
   buildViews();
@@ -411,7 +500,8 @@ async function start() {
 
 // For tests and the benchmark: whether every view shows the full frame of the current state.
 function idle() {
-  if (!state.info || !state.views.size || state.tfBusy || state.probing) return false;
+  if (!state.info || !state.views.size || state.posters.some((p) => p.busy) || state.probing)
+    return false;
   const c = cameraParams();
   for (const v of state.views.values()) {
     if (v.pending || v.inFlight.size || !v.shown || v.shown.kind !== 'full') return false;
@@ -423,13 +513,18 @@ function idle() {
   return true;
 }
 
+// The PNG `udvr render` writes of the view's shown full frame (the server keeps the frame).
+async function pngOf(v) {
+  const params = {...JSON.parse(v.shown.query), channel: `png-${v.channel}`.slice(0, 32)};
+  return new Blob([(await getRender(params)).bytes], {type: 'image/png'});
+}
+
 async function pngBase64(channel) {
-  const v = state.views.get(channel);
-  const bytes = new Uint8Array(await v.png.arrayBuffer());
+  const bytes = new Uint8Array(await (await pngOf(state.views.get(channel))).arrayBuffer());
   let s = '';
   for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
   return btoa(s);
 }
 
-window.udvr = {state, idle, pngBase64, cameraParams, editor};
+window.udvr = {state, idle, pngBase64, cameraParams, editor, editor2};
 start().catch(showError);

@@ -48,7 +48,9 @@ class Server:
 
     def get(self, path, data=None, method=None):
         """(status, headers, body bytes) of a request; 4xx/5xx do not raise."""
-        req = urllib.request.Request(self.url + path, data=data, method=method)
+        # JSON bodies as the page sends them (httplib caps form-encoded bodies at 8 KiB).
+        headers = {"Content-Type": "application/json"} if data is not None else {}
+        req = urllib.request.Request(self.url + path, data=data, method=method, headers=headers)
         try:
             with urllib.request.urlopen(req, timeout=60) as r:
                 return r.status, r.headers, r.read()

@@ -3,12 +3,13 @@
 get a 4xx with a message and the server keeps serving; a burst of requests leaves no backlog."""
 import concurrent.futures
 import json
+import re
 import urllib.parse
 
 import numpy as np
 import pytest
 
-from conftest import assert_one_line_error, run_ok, run_udvr
+from conftest import ROOT, assert_one_line_error, run_ok, run_udvr
 from serve_util import Server, cli_probe, cli_render, make_inputs, png_pixels
 
 
@@ -53,6 +54,17 @@ def test_render_is_the_cli_image(server, inputs, tmp_path, params):
     assert page.shape == cli.shape
     assert np.array_equal(page, cli)
     assert float(headers["X-Udvr-Render-Ms"]) >= 0
+
+
+def test_rgba_format_is_the_pngs_values(server):
+    """format=rgba (what the page asks for): the PNG's 8-bit RGBA values, rows from the top."""
+    params = {"model": "quantile-range", "size": "80x48", "azimuth": 70}
+    png, _ = render(server, **params)
+    status, headers, body = server.get("/api/render?" + urllib.parse.urlencode(
+        {**params, "format": "rgba"}))
+    assert status == 200 and headers["Content-Type"] == "application/octet-stream"
+    assert (int(headers["X-Udvr-Width"]), int(headers["X-Udvr-Height"])) == (80, 48)
+    assert np.array_equal(np.frombuffer(body, np.uint8).reshape(48, 80, 4), png)
 
 
 def test_truth_diff_and_rmse_are_compares(server, inputs, tmp_path):
@@ -137,12 +149,17 @@ BAD = [
     ("/api/render?size=8x8&size=9x9", "twice"),
     ("/api/render?channel=../x", "channel"),
     ("/api/render?view=up", "view"),
+    ("/api/render?format=jpeg", "format"),
     ("/api/render?position=1,1,1&view=+x", "view"),
     ("/api/probe?x=5", "x and y"),
     ("/api/probe?size=8x8&x=8&y=1", "x"),
     ("/api/probe?point=99,0,0", "outside"),
     ("/api/probe?model=gmm-mc&point=1,1,1", "gmm-mc"),
     ("/api/histogram?bins=0", "bins"),
+    ("/api/histogram2d?bins=5000", "bins"),
+    ("/api/histogram2d?bins=64&domain=1,0,0,1", "domain"),
+    ("/api/histogram2d?domain=nan,1,0,1", "domain"),
+    ("/api/tf2", "--tf2"),
     ("/api/preset?name=../../tf", "preset"),
     ("/api/nothing", "no such endpoint"),
 ]
@@ -211,5 +228,137 @@ def test_serve_cli_errors(inputs, tmp_path):
         port = s.url.rsplit(":", 1)[1]
         r = run_udvr("serve", inputs.model, "--port", port, timeout=20)
         assert_one_line_error(r, port)
+    finally:
+        s.stop()
+
+
+# ---- 2D transfer functions: the joint histogram, widget JSON in and out ------------------------
+TANGLE_TF2 = ROOT / "data" / "tf2" / "tangle.json"
+
+
+@pytest.fixture(scope="module")
+def server2(inputs):
+    s = Server(inputs.model, "--tf2", TANGLE_TF2)
+    yield s
+    s.stop()
+
+
+def test_histogram2d_is_udvr_tf2s(server2, inputs):
+    """The joint histogram of (mean value, gradient magnitude) over the TF2's domain: the counts
+    `udvr tf2 --volume` reports (total, outside, ranges)."""
+    h = server2.json("/api/histogram2d?bins=64x48")
+    assert h["bins"] == [64, 48] and len(h["counts"]) == 64 * 48
+    assert h["domain"] == json.loads(TANGLE_TF2.read_text())["domain"]
+    out = run_ok("tf2", TANGLE_TF2, "--volume", inputs.model, "--bins", "64x48").stdout
+    m = re.search(r"histogram: (\d+) grid points of .*, value \[(\S+), (\S+)\], gradient "
+                  r"magnitude \[(\S+), (\S+)\]; (\d+) outside", out)
+    assert m, out
+    assert h["total"] == int(m[1]) == 32 ** 3 and h["outside"] == int(m[6])
+    assert h["range"] == pytest.approx([float(m[k]) for k in (2, 3, 4, 5)], rel=1e-5, abs=1e-6)
+    assert sum(h["counts"]) == h["total"] - h["outside"]
+    full = server2.json("/api/histogram2d?bins=8&domain=-100,100,0,1000")
+    assert full["bins"] == [8, 8] and full["outside"] == 0 and sum(full["counts"]) == 32 ** 3
+
+
+def test_posted_tf2_renders_as_the_cli(server2, inputs, tmp_path):
+    """Widget JSON posted (a box moved, a flat triangle added, a colour changed) renders as
+    `udvr render --tf2` of the same text, and of the JSON GET /api/tf2 gives back."""
+    doc = json.loads(TANGLE_TF2.read_text())
+    del doc["resolution"]  # the default, 256x256, as the CLI's
+    doc["widgets"][2]["x"] = [3.5, 5.25]
+    doc["widgets"][1]["rgba"] = [0.1, 0.8, 0.3, 0.7]
+    doc["widgets"].append({"type": "triangle", "apex": [10.0, 0.0], "top": 30.0, "width": 4.0,
+                           "falloff": "flat", "rgba": [0.9, 0.9, 0.2, 0.4]})
+    text = json.dumps(doc)
+    v0 = server2.json("/api/state")["tf2_version"]
+    assert server2.json("/api/tf2", data=text.encode(), method="POST")["tf_version"] == v0 + 1
+    (tmp_path / "posted.json").write_text(text)
+    status, headers, saved = server2.get("/api/tf2")
+    assert status == 200 and headers["X-Udvr-Tf-Version"] == str(v0 + 1)
+    back = json.loads(saved)
+    assert back["widgets"] == doc["widgets"] and back["resolution"] == [256, 256]
+    (tmp_path / "saved.json").write_bytes(saved)
+    params = {"model": "quantile-mean", "size": "72x64", "azimuth": 40, "elevation": 10}
+    page, headers = render(server2, **params)
+    assert headers["X-Udvr-Tf-Version"] == str(v0 + 1)
+    for f in ("posted.json", "saved.json"):
+        cli = cli_render(inputs, tmp_path / "cli.png", "--tf2", tmp_path / f, *flags_of(params))
+        assert np.array_equal(page, cli), f
+    assert page[..., 3].max() > 0
+
+
+BAD_TF2 = [
+    (b'{"domain": [0, 1, 0, 1], "widgets": [', "JSON"),
+    (b'{"widgets": []}', "domain"),
+    (b'{"domain": [1, 0, 0, 1], "widgets": []}', "domain"),
+    (b'{"domain": [0, 1, 0, 1], "widgets": [{"type": "star", "rgba": [1, 1, 1, 1]}]}', "star"),
+    (b'{"domain": [0, 1, 0, 1], "widgets": [{"type": "box", "x": [0, 1], "y": [0, 1], '
+     b'"rgba": [1, 1, 1, 2]}]}', "rgba"),
+    (b'{"domain": [0, 1, 0, 1], "widgets": [{"type": "ellipse", "center": [0, 0], '
+     b'"sigma": [-1, 1], "rgba": [1, 1, 1, 1]}]}', "sigma"),
+    (b'{"domain": [0, 1, 0, 1], "resolution": [4096, 4096], "widgets": []}', "1024"),
+    (b'{"domain": [0, 1, 0, 1], "widgets": [' + b",".join(
+        [b'{"type": "box", "x": [0, 1], "y": [0, 1], "rgba": [1, 1, 1, 0.1]}'] * 300) + b"]}",
+     "256"),
+    (b"\xff\xfe", "JSON"),
+]
+
+
+@pytest.mark.parametrize("body,mention", BAD_TF2, ids=[f"{k}-{m}" for k, (_, m) in
+                                                        enumerate(BAD_TF2)])
+def test_broken_tf2_json_is_refused_and_the_tf2_kept(server2, body, mention):
+    before = server2.get("/api/tf2")[2]
+    status, _, answer = server2.get("/api/tf2", data=body, method="POST")
+    assert status == 400, answer[:200]
+    message = json.loads(answer)["error"]
+    assert mention.lower() in message.lower() and "\n" not in message
+    assert server2.get("/api/tf2")[2] == before and server2.alive()
+
+
+def test_tf2_endpoints_need_a_tf2(server):
+    status, _, body = server.get("/api/tf2", data=b'{"domain": [0, 1, 0, 1], "widgets": []}',
+                                 method="POST")
+    assert status == 400 and "--tf2" in json.loads(body)["error"]
+    h = server.json("/api/histogram2d?bins=16")  # over the data's ranges
+    assert h["outside"] == 0 and sum(h["counts"]) == 32 ** 3
+
+
+def test_bivariate_histogram_and_tf2(inputs, tmp_path):
+    """--second: the histogram is field 1 x field 2, and posted widgets render as the CLI's."""
+    start = {"domain": [-7, 35, -7, 35], "widgets": [
+        {"type": "band", "points": [[-7, -7], [35, 35]], "half_width": [1.5, 1.5],
+         "rgba": [0.9, 0.5, 0.1, 0.5]}]}
+    (tmp_path / "start.json").write_text(json.dumps(start))
+    s = Server(inputs.model, "--tf2", tmp_path / "start.json", "--second", inputs.truth)
+    try:
+        h = s.json("/api/histogram2d?bins=32")
+        assert h["y"].startswith("field 2") and h["domain"] == [-7, 35, -7, 35]
+        assert h["total"] == 32 ** 3
+        start["widgets"].append({"type": "ellipse", "center": [0, 0], "sigma": [3, 3],
+                                 "rgba": [0.2, 0.3, 0.9, 0.8]})
+        s.json("/api/tf2", data=json.dumps(start).encode(), method="POST")
+        (tmp_path / "saved.json").write_bytes(s.get("/api/tf2")[2])
+        page, _ = render(s, model="gaussian", size="64x64", azimuth=20)
+        cli = cli_render(inputs, tmp_path / "cli.png", "--tf2", tmp_path / "saved.json",
+                         "--second", inputs.truth, "--model", "gaussian", "--size", "64x64",
+                         "--azimuth", "20")
+        assert np.array_equal(page, cli) and page[..., 3].max() > 0
+    finally:
+        s.stop()
+
+
+def test_a_raster_tf2_renders_but_is_not_editable(inputs, tmp_path):
+    run_ok("tf2", TANGLE_TF2, "-o", tmp_path / "raster.vti")
+    s = Server(inputs.model, "--tf2", tmp_path / "raster.vti")
+    try:
+        state = s.json("/api/state")
+        assert state["tf2"].endswith("raster.vti") and not state["tf2_editable"]
+        status, _, body = s.get("/api/tf2")
+        assert status == 400 and "raster" in json.loads(body)["error"]
+        assert s.json("/api/histogram2d?bins=16")["domain"] == [-7, 35, 0, 60]
+        page, _ = render(s, model="mean", size="48x48")
+        cli = cli_render(inputs, tmp_path / "cli.png", "--tf2", tmp_path / "raster.vti",
+                         "--model", "mean", "--size", "48x48")
+        assert np.array_equal(page, cli)
     finally:
         s.stop()

@@ -9,6 +9,7 @@ import time
 import numpy as np
 import pytest
 
+from conftest import ROOT
 from serve_util import Server, cli_probe, cli_render, make_inputs, png_pixels
 
 CHROMIUM = shutil.which("chromium")
@@ -39,8 +40,8 @@ def server(inputs):
     s.stop()
 
 
-@pytest.fixture(scope="module")
-def page(server):
+def open_page(url):
+    """Headless chromium on the page, settled at 256² frames (quick)."""
     options = Options()
     options.binary_location = CHROMIUM
     for a in ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
@@ -49,10 +50,20 @@ def page(server):
     driver = webdriver.Chrome(service=Service(DRIVER), options=options)
     driver.set_script_timeout(30)
     try:
-        driver.get(server.url + "/")
+        driver.get(url + "/")
         wait_idle(driver)
         Select(driver.find_element("id", "size")).select_by_value("256")  # quick frames
         wait_idle(driver)
+    except BaseException:
+        driver.quit()
+        raise
+    return driver
+
+
+@pytest.fixture(scope="module")
+def page(server):
+    driver = open_page(server.url)
+    try:
         yield driver
     finally:
         driver.quit()
@@ -74,13 +85,15 @@ def page_state(driver):
         "const s = window.udvr.state; return {model: s.model, camera: window.udvr.cameraParams()};")
 
 
-def assert_page_is_cli(driver, server, inputs, tmp_path):
-    """The main view's PNG and canvas pixels equal `udvr render` of the page's state."""
+def assert_page_is_cli(driver, server, inputs, tmp_path, tf2=False):
+    """The main view's PNG and canvas pixels equal `udvr render` of the page's state (its TF, or
+    with tf2 its 2D TF, as saved from the server)."""
     state = page_state(driver)
     tf = tmp_path / "page_tf.json"
-    tf.write_bytes(server.get("/api/tf")[2])
+    tf.write_bytes(server.get("/api/tf2" if tf2 else "/api/tf")[2])
     c = state["camera"]
-    cli = cli_render(inputs, tmp_path / "cli.png", "--model", state["model"], "--tf", tf,
+    cli = cli_render(inputs, tmp_path / "cli.png", "--model", state["model"],
+                     "--tf2" if tf2 else "--tf", tf,
                      "--size", "256x256", "--azimuth", c["azimuth"], "--elevation",
                      c["elevation"], "--zoom", c["zoom"])
     b64 = driver.execute_async_script(
@@ -220,3 +233,57 @@ def test_tf_file_load_and_a_broken_one(page, server, inputs, tmp_path):
     assert json.loads(server.get("/api/tf")[2])[0]["Points"] == [-5, 0, 0.5, 0, 8, 0, 0.5, 0,
                                                                   25, 0.7, 0.5, 0]
     assert_page_is_cli(page, server, inputs, tmp_path)
+
+
+def test_tf2_editor_add_move_resize_delete(inputs, tmp_path):
+    """--tf2 widgets.json: the 2D editor over the joint histogram; a box added, moved and resized
+    with the mouse, then deleted: after each, the page's image is `udvr render --tf2` of the
+    widget file the server saves."""
+    server = Server(inputs.model, "--tf2", ROOT / "data" / "tf2" / "tangle.json")
+    driver = None
+    try:
+        driver = open_page(server.url)
+        assert driver.find_element("id", "tf2-panel").is_displayed()
+        assert not driver.find_element("id", "tf-panel").is_displayed()
+        assert "--tf2 tf2.json --size 256x256" in driver.find_element("id", "command").text
+        dark = driver.execute_script(  # the histogram drawn: grey and black pixels
+            "const c = document.getElementById('tf2-canvas');"
+            "return c.getContext('2d').getImageData(0, 0, c.width, c.height).data"
+            ".filter((v, i) => i % 4 === 0 && v < 100).length;")
+        assert dark > 100
+        assert_page_is_cli(driver, server, inputs, tmp_path, tf2=True)
+        driver.find_element("id", "tf2-add-box").click()
+        wait_idle(driver)
+        added = json.loads(server.get("/api/tf2")[2])["widgets"]
+        assert len(added) == 4 and added[3]["type"] == "box"
+        canvas = driver.find_element("id", "tf2-canvas")
+        x, y = driver.execute_script("return window.udvr.editor2.centreOffset(3)")
+        ActionChains(driver).move_to_element_with_offset(canvas, int(x), int(y)).click_and_hold() \
+            .move_by_offset(20, -10).move_by_offset(20, -10).release().perform()
+        wait_idle(driver)
+        moved = json.loads(server.get("/api/tf2")[2])["widgets"][3]
+        assert moved["x"][0] > added[3]["x"][0] and moved["y"][0] > added[3]["y"][0]
+        assert driver.execute_script("return window.udvr.editor2.doc.widgets[3]") == moved
+        timings = driver.execute_script("return window.udvr.state.timings.map(t => t.kind)")
+        assert "coarse" in timings  # frames while dragging were coarse, the last one full
+        assert_page_is_cli(driver, server, inputs, tmp_path, tf2=True)
+        # The top-right corner handle, dragged right: the box widens.
+        px, py = driver.execute_script(
+            "const e = window.udvr.editor2, w = e.doc.widgets[3];"
+            "const [px, py] = e.toPixel(w.x[1], w.y[1]), r = e.canvas.getBoundingClientRect();"
+            "return [px * r.width / e.canvas.width - r.width / 2,"
+            "        py * r.height / e.canvas.height - r.height / 2];")
+        ActionChains(driver).move_to_element_with_offset(canvas, int(px), int(py)) \
+            .click_and_hold().move_by_offset(25, 0).release().perform()
+        wait_idle(driver)
+        resized = json.loads(server.get("/api/tf2")[2])["widgets"][3]
+        assert resized["x"][1] > moved["x"][1] and resized["x"][0] == moved["x"][0]
+        assert_page_is_cli(driver, server, inputs, tmp_path, tf2=True)
+        driver.find_element("id", "tf2-delete").click()
+        wait_idle(driver)
+        assert len(json.loads(server.get("/api/tf2")[2])["widgets"]) == 3
+        assert_page_is_cli(driver, server, inputs, tmp_path, tf2=True)
+    finally:
+        if driver:
+            driver.quit()
+        server.stop()

@@ -1,6 +1,8 @@
 // udvr serve MODEL [--tf TF|PRESET] [--truth FIELD] [--second MODEL2 --tf2 TF2] [--port 8080]
 //            [--host 127.0.0.1]   — the interactive viewer in a browser (SPEC §8, docs/serve.md)
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 
@@ -53,6 +55,11 @@ void addServeCommand(CLI::App& app) {
         TfChoice tfChoice;  // a TF file is read before the volume, so a bad one costs nothing
         if (!twoD && !tfIsPreset(o->tf)) tfChoice.tf = readTransferFunctionFile(o->tf);
         if (twoD) data.tf2 = readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2));
+        if (twoD && lowerExtension(o->tf2.file) == ".json") {  // the page edits the widgets
+            std::ifstream in(o->tf2.file, std::ios::binary);
+            data.tf2Widgets.assign(std::istreambuf_iterator<char>(in), {});
+            if (!in && !in.eof()) UDVR_FAIL("cannot read " << o->tf2.file);
+        }
         data.tf2File = o->tf2.file;
         data.model = readModelOrField(o->model, o->var, o->raw);
         data.modelFile = o->model;

@@ -23,6 +23,8 @@ void writePng(const std::filesystem::path& path, const ImageRgba& image);
 /// The PNG file writePng writes, in memory; zlib `level` 0–9 (-1: libpng's default; the pixels
 /// are the same at every level).
 std::vector<unsigned char> encodePng(const ImageRgba& image, int level = -1);
+/// The 8-bit RGBA values writePng stores: each value clamped to [0, 1], ×255, rounded (NaN → 0).
+std::vector<unsigned char> pngBytes8(const ImageRgba& image);
 /// The image as written to a PNG and read back (8-bit values / 255): what `udvr compare` reads.
 ImageRgba asWrittenToPng(const ImageRgba& image);
 /// Read an 8-bit or 16-bit PNG (gray, RGB or RGBA) into [0,1] floats.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,7 +17,10 @@
 #include "udvr/cmd/parse_util.h"
 #include "udvr/cmd/render_flags.h"
 #include "udvr/eval/image_metrics.h"
+#include "udvr/eval/tf2_plot.h"
+#include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/io/transfer_function_io.h"
+#include "udvr/reconstruct/gradient_field.h"
 #include "udvr/render/framing.h"
 #include "udvr/stats/value_summary.h"
 #include "udvr/util/build_info.h"
@@ -34,7 +38,7 @@ const std::vector<std::string> kRenderKeys = {
     "step",        "unit-distance", "early-exit", "background",     "uniform-width", "realizations",
     "seed",        "jitter",        "no-skip"};
 // Parameters that steer the request, not the image.
-const std::vector<std::string> kControlKeys = {"channel", "seq", "source"};
+const std::vector<std::string> kControlKeys = {"channel", "seq", "source", "format"};
 
 ApiResponse jsonResponse(const json& body, int status = 200) {
     ApiResponse r;
@@ -135,6 +139,21 @@ bool isToken(const std::string& s) {
     return true;
 }
 
+// Widget JSON as `udvr render --tf2` reads it, with the raster's domain and resolution written
+// in (they may have come from --tf2-domain or --tf2-resolution, or the default resolution).
+std::string completeWidgetJson(const std::string& text, const std::string& what,
+                               const TransferFunction2D& tf) {
+    json doc;
+    try {
+        doc = json::parse(text);
+    } catch (const json::exception&) {
+        UDVR_FAIL(what << ": not valid JSON");
+    }
+    doc["domain"] = {tf.x0, tf.x1, tf.y0, tf.y1};
+    doc["resolution"] = {tf.width, tf.height};
+    return doc.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+}
+
 }  // namespace
 
 // An image as `udvr render` writes it to PNG (8-bit values / 255), with how long it took.
@@ -152,13 +171,21 @@ struct Api::RenderRequest {
     std::optional<std::uint64_t> seq;
     std::shared_ptr<const TransferFunction1D> tf;
     std::uint64_t tfVersion = 0;
+    std::shared_ptr<const TransferFunction2D> tf2;  // with --tf2 (then tf is not used)
     std::string key;  // the image's identity: every image parameter, the TF version
 };
 
 Api::Api(ServeData data)
     : data_(std::move(data)), tf_(std::make_shared<TransferFunction1D>(data_.tf)) {
     tf_->validate();
-    if (data_.tf2) data_.tf2->validate();
+    if (data_.tf2) {
+        data_.tf2->validate();
+        tf2_.tf = std::make_shared<TransferFunction2D>(*data_.tf2);
+        tf2_.version = 1;
+        if (!data_.tf2Widgets.empty())
+            tf2_.widgets = std::make_shared<std::string>(
+                completeWidgetJson(data_.tf2Widgets, data_.tf2File, *data_.tf2));
+    }
 }
 
 Api::~Api() = default;
@@ -166,6 +193,11 @@ Api::~Api() = default;
 std::pair<std::shared_ptr<const TransferFunction1D>, std::uint64_t> Api::currentTf() const {
     std::lock_guard lock(tfMutex_);
     return {tf_, tfVersion_};
+}
+
+Api::Tf2State Api::currentTf2() const {
+    std::lock_guard lock(tfMutex_);
+    return tf2_;
 }
 
 ApiResponse Api::handle(const ApiRequest& request) {
@@ -195,8 +227,12 @@ ApiResponse Api::route(const ApiRequest& request) {
     if (p == "/api/tf" && post) return postTf(request);
     if (p == "/api/preset" && get) return getPreset(request);
     if (p == "/api/status" && get) return getStatus();
-    for (const char* known : {"/api/state", "/api/render", "/api/probe", "/api/histogram",
-                              "/api/tf", "/api/preset", "/api/status"})
+    if (p == "/api/histogram2d" && get) return getHistogram2D(request);
+    if (p == "/api/tf2" && get) return getTf2();
+    if (p == "/api/tf2" && post) return postTf2(request);
+    for (const char* known :
+         {"/api/state", "/api/render", "/api/probe", "/api/histogram", "/api/tf", "/api/preset",
+          "/api/status", "/api/histogram2d", "/api/tf2"})
         if (p == known) return errorResponse(405, "method " + request.method + " not allowed");
     return errorResponse(404, "no such endpoint: " + Query::clip(p));
 }
@@ -227,6 +263,7 @@ ApiResponse Api::getState() {
         models.push_back(row);
     }
     const auto [tf, version] = currentTf();
+    const Tf2State tf2 = currentTf2();
     json presets = json::array();
     for (const auto& name : transferFunctionPresetNames()) presets.push_back(name);
     json state{
@@ -246,6 +283,8 @@ ApiResponse Api::getState() {
         {"truth", data_.truth ? json(data_.truthFile) : json(nullptr)},
         {"second", data_.second ? json(data_.secondFile) : json(nullptr)},
         {"tf2", data_.tf2 ? json(data_.tf2File) : json(nullptr)},
+        {"tf2_editable", tf2.widgets != nullptr},  // widget JSON (a raster is view-only)
+        {"tf2_version", tf2.version},
         {"tf_version", version},
         {"presets", presets},
         {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
@@ -326,10 +365,10 @@ std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::
         const bool truth = source == "truth";
         const ModelVolume& volume = truth ? *data_.truth : data_.model;
         const ModelKind kind = truth ? ModelKind::Mean : r.kind;
-        const bool twoD = data_.tf2.has_value();
+        const bool twoD = r.tf2 != nullptr;
         bool anyVisible = true;
         const auto visibleBox = [&] {
-            return twoD ? visibleBounds(volume, *data_.tf2, &anyVisible)
+            return twoD ? visibleBounds(volume, *r.tf2, &anyVisible)
                         : visibleBounds(volume, *r.tf, &anyVisible);
         };
         std::string note;
@@ -340,8 +379,8 @@ std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::
         RenderStats stats;
         const ImageRgba image =
             data_.second && !truth
-                ? renderBivariate(volume, *data_.second, kind, *data_.tf2, s, &stats, cache.get())
-            : twoD ? renderVolume(volume, kind, *data_.tf2, s, &stats, cache.get())
+                ? renderBivariate(volume, *data_.second, kind, *r.tf2, s, &stats, cache.get())
+            : twoD ? renderVolume(volume, kind, *r.tf2, s, &stats, cache.get())
                    : renderVolume(volume, kind, *r.tf, s, &stats, cache.get());
         out->image = asWrittenToPng(image);
         out->milliseconds = stats.milliseconds;
@@ -354,6 +393,7 @@ std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::
 }
 
 ApiResponse Api::getRender(const ApiRequest& request) {
+    const auto started = std::chrono::steady_clock::now();
     const Query q(request.params, {kRenderKeys, kControlKeys});
     RenderRequest r;
     r.kind = parseModelKind(q.text("model", "mean"));
@@ -363,13 +403,19 @@ ApiResponse Api::getRender(const ApiRequest& request) {
         UDVR_FAIL("channel must be 1-32 letters, digits, '-' or '_', got '"
                   << Query::clip(r.channel) << "'");
     r.seq = q.whole("seq", 0, UINT64_MAX);
+    const std::string format = q.text("format", "png");
+    if (format != "png" && format != "rgba")
+        UDVR_FAIL("format must be png or rgba, got '" << Query::clip(format) << "'");
     r.source = q.text("source", "model");
     if (r.source != "model" && r.source != "truth" && r.source != "diff")
         UDVR_FAIL("source must be model, truth or diff, got '" << Query::clip(r.source) << "'");
     if (r.source != "model" && !data_.truth)
         UDVR_FAIL("source=" << r.source << " needs a ground truth: start udvr serve with --truth");
     std::tie(r.tf, r.tfVersion) = currentTf();
-    r.key = q.canonical(kRenderKeys) + "tf=" + std::to_string(data_.tf2 ? 0 : r.tfVersion);
+    const Tf2State tf2 = currentTf2();
+    r.tf2 = tf2.tf;
+    r.key = q.canonical(kRenderKeys) +
+            (r.tf2 ? "tf2=" + std::to_string(tf2.version) : "tf=" + std::to_string(r.tfVersion));
     // Errors that need no rendering come before the gate: the model's arrays.
     if (r.source != "truth") checkModelHasArrays(data_.model, r.kind, ClassifyOptions{});
     std::shared_ptr<const Frame> result;
@@ -378,11 +424,26 @@ ApiResponse Api::getRender(const ApiRequest& request) {
     });
     if (!done) return errorResponse(409, "superseded by a newer request on channel " + r.channel);
     ApiResponse out;
-    out.type = "image/png";
-    const std::vector<unsigned char> png = encodePng(result->image, 1);
-    out.body.assign(png.begin(), png.end());
+    if (format == "rgba") {
+        // The PNG's 8-bit values without the PNG: encoding and decoding a 512² PNG cost the page
+        // ~25 ms.
+        out.type = "application/octet-stream";
+        const std::vector<unsigned char> bytes = pngBytes8(result->image);
+        out.body.assign(bytes.begin(), bytes.end());
+        out.headers.emplace_back("X-Udvr-Width", std::to_string(result->image.width));
+        out.headers.emplace_back("X-Udvr-Height", std::to_string(result->image.height));
+    } else {
+        out.type = "image/png";
+        const std::vector<unsigned char> png = encodePng(result->image, 1);
+        out.body.assign(png.begin(), png.end());
+    }
     out.headers.emplace_back("X-Udvr-Render-Ms", pngHeaderSafe(result->milliseconds));
-    out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(r.tfVersion));
+    // From the request's parsing to the body ready: the render, a wait for the gate, encoding.
+    const std::chrono::duration<double, std::milli> serverMs =
+        std::chrono::steady_clock::now() - started;
+    out.headers.emplace_back("X-Udvr-Server-Ms", pngHeaderSafe(serverMs.count()));
+    out.headers.emplace_back("X-Udvr-Tf-Version",
+                             std::to_string(r.tf2 ? tf2.version : r.tfVersion));
     if (result->rmse >= 0.0) out.headers.emplace_back("X-Udvr-Rmse", pngHeaderSafe(result->rmse));
     return out;
 }
@@ -392,7 +453,9 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
     const ModelKind kind = parseModelKind(q.text("model", "mean"));
     ClassifyOptions options;
     options.uniformMinMax = cmd::parseUniformWidthMinMax(q.text("uniform-width", "variance"));
-    const auto [tf, version] = currentTf();
+    const auto [tf, version1D] = currentTf();
+    const Tf2State tf2 = currentTf2();
+    const std::uint64_t version = tf2.tf ? tf2.version : version1D;
     std::array<double, 3> point{};
     if (q.has("point")) {
         if (q.has("x") || q.has("y")) UDVR_FAIL("give either point=i,j,k or x and y, not both");
@@ -408,8 +471,8 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
         const cmd::RenderFlags flags = renderFlagsOf(q);
         bool anyVisible = true;
         const auto visibleBox = [&] {
-            return data_.tf2 ? visibleBounds(data_.model, *data_.tf2, &anyVisible)
-                             : visibleBounds(data_.model, *tf, &anyVisible);
+            return tf2.tf ? visibleBounds(data_.model, *tf2.tf, &anyVisible)
+                          : visibleBounds(data_.model, *tf, &anyVisible);
         };
         std::string note;
         const RenderSettings s =
@@ -417,8 +480,8 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
         const int x = static_cast<int>(*q.whole("x", 0, static_cast<std::uint64_t>(s.width - 1)));
         const int y = static_cast<int>(*q.whole("y", 0, static_cast<std::uint64_t>(s.height - 1)));
         const auto hit = data_.second ? firstVisibleSampleBivariate(data_.model, *data_.second,
-                                                                    kind, *data_.tf2, s, x, y)
-                         : data_.tf2  ? firstVisibleSample(data_.model, kind, *data_.tf2, s, x, y)
+                                                                    kind, *tf2.tf, s, x, y)
+                         : tf2.tf     ? firstVisibleSample(data_.model, kind, *tf2.tf, s, x, y)
                                       : firstVisibleSample(data_.model, kind, *tf, s, x, y);
         if (!hit)
             return errorResponse(404, "no visible sample under pixel (" + std::to_string(x) + ", " +
@@ -427,8 +490,8 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
         point = *hit;
     }
     const ProbeResult r =
-        data_.second ? probeBivariate(data_.model, *data_.second, kind, *data_.tf2, point, options)
-        : data_.tf2  ? probeModel(data_.model, kind, *data_.tf2, point, options)
+        data_.second ? probeBivariate(data_.model, *data_.second, kind, *tf2.tf, point, options)
+        : tf2.tf     ? probeModel(data_.model, kind, *tf2.tf, point, options)
                      : probeModel(data_.model, kind, *tf, point, options);
     ApiResponse out = jsonResponse(r.json);
     out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(version));
@@ -508,6 +571,96 @@ ApiResponse Api::getPreset(const ApiRequest& request) {
     ApiResponse out;
     out.body = transferFunctionToJson(p.tf, name);
     return out;
+}
+
+ApiResponse Api::getHistogram2D(const ApiRequest& request) {
+    const Query q(request.params, {{"bins", "domain"}});
+    std::array<int, 2> bins{128, 128};
+    if (q.has("bins")) {
+        const std::string text = q.text("bins");
+        bins = cmd::parseSize(text, "bins");  // N or NXxNY
+        if (bins[0] > kMaxHistogram2DBins || bins[1] > kMaxHistogram2DBins)
+            UDVR_FAIL("bins must be N or NXxNY with 1 <= N <= " << kMaxHistogram2DBins << ", got '"
+                                                                << Query::clip(text) << "'");
+    }
+    // x: the model's means; y: their gradient magnitudes (as `udvr tf2 --volume`), or the
+    // second field's means with --second.
+    const std::vector<float>& x = data_.model.mean;
+    const std::vector<float>* y = nullptr;
+    if (data_.second) {
+        y = &data_.second->mean;
+    } else {
+        std::lock_guard lock(gradientMutex_);
+        if (gradientMagnitudes_.empty())
+            gradientMagnitudes_ = gridGradientMagnitudes(data_.model.grid, x.data());
+        y = &gradientMagnitudes_;
+    }
+    if (x.empty() || x.size() != y->size()) UDVR_FAIL("the model has no values");
+    std::array<double, 4> domain{};
+    const Tf2State tf2 = currentTf2();
+    if (q.has("domain")) {
+        const auto v = cmd::parseDoubleList(q.text("domain"), "domain");
+        if (v.size() != 4 || !(v[1] > v[0]) || !(v[3] > v[2]))
+            UDVR_FAIL("domain must be x0,x1,y0,y1 with x0 < x1 and y0 < y1");
+        domain = {v[0], v[1], v[2], v[3]};
+    } else if (tf2.tf) {
+        domain = {tf2.tf->x0, tf2.tf->x1, tf2.tf->y0, tf2.tf->y1};
+    } else {  // the data's ranges
+        const auto [x0, x1] = std::minmax_element(x.begin(), x.end());
+        const auto [y0, y1] = std::minmax_element(y->begin(), y->end());
+        domain = {*x0, *x1 > *x0 ? *x1 : *x0 + 1.0, *y0, *y1 > *y0 ? *y1 : *y0 + 1.0};
+    }
+    const JointHistogram h = jointHistogram(x, *y, bins[0], bins[1], domain);
+    std::vector<std::uint64_t> counts(h.counts.size());
+    for (std::size_t k = 0; k < counts.size(); ++k)
+        counts[k] = static_cast<std::uint64_t>(h.counts[k]);
+    return jsonResponse(json{{"x", data_.second ? "field 1 (mean)" : "value (mean)"},
+                             {"y", data_.second ? "field 2 (mean)" : "gradient magnitude"},
+                             {"bins", {h.binsX, h.binsY}},
+                             {"domain", h.domain},
+                             {"counts", counts},
+                             {"total", h.total},
+                             {"outside", h.outside},
+                             {"range", {h.xMin, h.xMax, h.yMin, h.yMax}}});
+}
+
+ApiResponse Api::getTf2() {
+    const Tf2State tf2 = currentTf2();
+    if (!tf2.tf) UDVR_FAIL("no 2D transfer function: start udvr serve with --tf2 WIDGETS.json");
+    if (!tf2.widgets)
+        UDVR_FAIL("the 2D transfer function " << data_.tf2File
+                                              << " is a raster: it renders but is not editable "
+                                                 "(start with a widget .json to edit)");
+    ApiResponse out;
+    out.body = *tf2.widgets;
+    out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(tf2.version));
+    return out;
+}
+
+ApiResponse Api::postTf2(const ApiRequest& request) {
+    if (!currentTf2().tf)
+        UDVR_FAIL("no 2D transfer function to replace: start udvr serve with --tf2 WIDGETS.json");
+    if (request.body.size() > kMaxBodyBytes)
+        UDVR_FAIL("the 2D TF JSON is over " << kMaxBodyBytes << " bytes");
+    const std::string what = "the posted 2D transfer function";
+    // Check the sizes before rasterising: W·H points × widgets is the work.
+    const Tf2WidgetFile file = parseTf2Widgets(request.body, what);
+    if (file.widgets.size() > kMaxPostedTf2Widgets)
+        UDVR_FAIL(what << ": " << file.widgets.size() << " widgets, at most "
+                       << kMaxPostedTf2Widgets);
+    if (file.resolution && ((*file.resolution)[0] > kMaxPostedTf2Resolution ||
+                            (*file.resolution)[1] > kMaxPostedTf2Resolution))
+        UDVR_FAIL(what << ": resolution " << (*file.resolution)[0] << "x" << (*file.resolution)[1]
+                       << " is over " << kMaxPostedTf2Resolution << " points per axis");
+    // As `udvr render --tf2 FILE` reads the same text.
+    auto tf =
+        std::make_shared<TransferFunction2D>(transferFunction2DFromWidgets(request.body, what));
+    auto widgets = std::make_shared<std::string>(completeWidgetJson(request.body, what, *tf));
+    std::lock_guard lock(tfMutex_);
+    tf2_.tf = std::move(tf);
+    tf2_.widgets = std::move(widgets);
+    const std::uint64_t version = ++tf2_.version;
+    return jsonResponse(json{{"tf_version", version}});
 }
 
 }  // namespace udvr::serve

@@ -36,6 +36,8 @@ struct ServeData {
     TransferFunction1D tf;                  // the starting 1D TF
     std::optional<TransferFunction2D> tf2;  // --tf2: renders use it instead of the 1D TF
     std::string tf2File;
+    /// --tf2 as widget JSON: the file's text (editable on the page); empty for a raster TF2.
+    std::string tf2Widgets;
 };
 
 struct ApiRequest {
@@ -57,6 +59,9 @@ inline constexpr int kMaxRealizations = 1000;          // gmm-mc
 inline constexpr std::size_t kMaxBodyBytes = 1 << 20;  // POST bodies (TF JSON)
 inline constexpr std::size_t kMaxValueChars = 256;     // one query value
 inline constexpr int kMaxHistogramBins = 4096;
+inline constexpr int kMaxHistogram2DBins = 1024;      // per axis of /api/histogram2d
+inline constexpr int kMaxPostedTf2Resolution = 1024;  // raster points per axis of POST /api/tf2
+inline constexpr std::size_t kMaxPostedTf2Widgets = 256;
 
 class Api {
   public:
@@ -83,10 +88,20 @@ class Api {
     ApiResponse getTf();
     ApiResponse postTf(const ApiRequest& request);
     ApiResponse getPreset(const ApiRequest& request);
+    ApiResponse getHistogram2D(const ApiRequest& request);
+    ApiResponse getTf2();
+    ApiResponse postTf2(const ApiRequest& request);
     ApiResponse getStatus();
 
     /// The current 1D TF and its version (each POST /api/tf makes a new one).
     std::pair<std::shared_ptr<const TransferFunction1D>, std::uint64_t> currentTf() const;
+    /// The current 2D TF (null without --tf2), its widget JSON (empty for a raster) and version.
+    struct Tf2State {
+        std::shared_ptr<const TransferFunction2D> tf;
+        std::shared_ptr<const std::string> widgets;
+        std::uint64_t version = 0;
+    };
+    Tf2State currentTf2() const;
     /// The image of `source` ("model" or "truth") for the request: from the cache, or rendered
     /// (inside the gate; throws RenderCancelled when `cancel` turns true).
     std::shared_ptr<const Frame> frame(const RenderRequest& r, const std::string& source,
@@ -97,6 +112,9 @@ class Api {
     mutable std::mutex tfMutex_;
     std::shared_ptr<const TransferFunction1D> tf_;
     std::uint64_t tfVersion_ = 1;
+    Tf2State tf2_;  // under tfMutex_
+    std::mutex gradientMutex_;
+    std::vector<float> gradientMagnitudes_;  // of the model's means, computed on first use
     std::mutex cacheMutex_;
     std::list<std::pair<std::string, std::shared_ptr<const Frame>>> frames_;  // newest first
     // Skipping tables per (source, model kind); used only inside the gate (one render at once).
