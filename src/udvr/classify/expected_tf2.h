@@ -24,6 +24,11 @@ struct Tf2Raster {
     /// (TransferFunction2D::emptyCellDistances). Segment means skip those cells and jump over
     /// the block of them.
     const float* cellEmptyDistance = nullptr;
+    /// Optional, per cell (2 floats at 2·(j·(width − 1) + i)): the run [lo, hi) of point
+    /// columns containing it over which the band is bilinear
+    /// (TransferFunction2D::linearCellRuns). Segment means then take one piece per run, not
+    /// per cell; without it every cell is its own run.
+    const float* cellRun = nullptr;
 };
 
 namespace detail {
@@ -66,9 +71,16 @@ struct Tf2Cell {
 
     template <class Real>
     UDVR_CPU_GPU UDVR_INLINE Tf2Cell(const Tf2Raster<Real>& r, lanes::IntOf<T> i, lanes::IntOf<T> j,
-                                     lanes::MaskOf<T> live) {
-        const lanes::IntOf<T> p00 = (j * r.width + i) * 4, p01 = p00 + r.width * 4;
-        const lanes::IntOf<T> base[4] = {p00, p00 + 4, p01, p01 + 4};
+                                     lanes::MaskOf<T> live)
+        : Tf2Cell(r, i, i + 1, j, live) {}
+    /// The cell spanning point columns i0 < i1 (a run of cells, see Tf2Raster::cellRun) of
+    /// band j; `at` then takes fx as the fraction of [i0, i1].
+    template <class Real>
+    UDVR_CPU_GPU UDVR_INLINE Tf2Cell(const Tf2Raster<Real>& r, lanes::IntOf<T> i0,
+                                     lanes::IntOf<T> i1, lanes::IntOf<T> j, lanes::MaskOf<T> live) {
+        const lanes::IntOf<T> row = j * r.width, up = row + r.width;
+        const lanes::IntOf<T> base[4] = {(row + i0) * 4, (row + i1) * 4, (up + i0) * 4,
+                                         (up + i1) * 4};
         for (int k = 0; k < 4; ++k) {
             if constexpr (lanes::kIsVector<T>) {  // (r, g) and (b, α): one 64-bit load each
                 lanes::gatherPair(r.rgba, base[k], live, v[k][0], v[k][1]);
@@ -188,16 +200,77 @@ UDVR_CPU_GPU UDVR_INLINE T lineParameter(T s0, T ds, lanes::IntOf<T> line, lanes
     const T u = (l - s0) / lanes::select(step != 0, ds, lanes::splat<T>(S(1)));
     return lanes::select(step != 0, u, lanes::splat<T>(std::numeric_limits<S>::infinity()));
 }
+/// The band (row of cells, 0 … H − 2) a walk at raster coordinate t moves in, from its next y
+/// line and step (firstLine): the one below that line when rising, above it when falling, the
+/// one at t when no line lies ahead.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> bandAhead(T t, lanes::IntOf<T> lineY,
+                                                   lanes::IntOf<T> stepY, int height) {
+    using S = lanes::ScalarOf<T>;
+    using I = lanes::IntOf<T>;
+    I here;
+    T f;
+    rasterCell(rasterCoordinate<T>(t, S(0), S(1), height), height, here, f);
+    const I band = lanes::select(stepY > 0, lineY - 1, lanes::select(stepY < 0, lineY, here));
+    return lanes::max(lanes::min(band, I{} + (height - 2)), I{} + 0);
+}
+/// Cell `cell`'s run [lo, hi) of point columns in band `band` (Tf2Raster::cellRun, set).
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void runOf(const Tf2Raster<Real>& r, lanes::IntOf<T> cell,
+                                    lanes::IntOf<T> band, lanes::MaskOf<T> live,
+                                    lanes::IntOf<T>& lo, lanes::IntOf<T>& hi) {
+    const lanes::IntOf<T> idx = (band * (r.width - 1) + cell) * 2;
+    if constexpr (lanes::kIsVector<T>) {
+        T a, b;
+        lanes::gatherPair(r.cellRun, idx, live, a, b);
+        lo = lanes::truncToInt(a);
+        hi = lanes::truncToInt(b);
+    } else {
+        lo = static_cast<int>(r.cellRun[idx]);
+        hi = static_cast<int>(r.cellRun[idx + 1]);
+    }
+}
+/// With runs, the x line firstLine found ahead of a walk in band `band` replaced by the end of
+/// the run the walk is in (the domain's edge lines, reached from outside, stay).
+template <bool kRuns, class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> runLineAhead(const Tf2Raster<Real>& r,
+                                                      lanes::IntOf<T> lineX, lanes::IntOf<T> stepX,
+                                                      lanes::IntOf<T> band, lanes::MaskOf<T> live) {
+    using I = lanes::IntOf<T>;
+    if constexpr (!kRuns) return lineX;
+    const int cells = r.width - 1;
+    const auto right = (stepX > 0) & (lineX >= 1);         // in cell lineX − 1
+    const auto left = (stepX < 0) & (lineX <= cells - 1);  // in cell lineX
+    const I cell =
+        lanes::max(lanes::min(lanes::select(right, lineX - 1, lineX), I{} + (cells - 1)), I{} + 0);
+    I lo, hi;
+    runOf<T>(r, cell, band, live & (right | left), lo, hi);
+    return lanes::select(right, hi, lanes::select(left, lo, lineX));
+}
+/// The x line after `lineX` (just reached) in the walk's direction: the far end of the next
+/// run in band `band`, or one past the domain's last line (the caller stops there).
+template <bool kRuns, class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> nextLineX(const Tf2Raster<Real>& r, lanes::IntOf<T> lineX,
+                                                   lanes::IntOf<T> stepX, lanes::IntOf<T> band,
+                                                   lanes::MaskOf<T> live) {
+    using I = lanes::IntOf<T>;
+    if constexpr (!kRuns) return lineX + stepX;
+    const int cells = r.width - 1;
+    const auto right = (stepX > 0) & (lineX <= cells - 1);  // into cell lineX
+    const auto left = (stepX < 0) & (lineX >= 1);           // into cell lineX − 1
+    const I cell =
+        lanes::max(lanes::min(lanes::select(left, lineX - 1, lineX), I{} + (cells - 1)), I{} + 0);
+    I lo, hi;
+    runOf<T>(r, cell, band, live & (right | left), lo, hi);
+    return lanes::select(right, hi, lanes::select(left, lo, lineX + stepX));
+}
 }  // namespace detail
 
-/// Mean of TF2 (α·c and α) along the segment from (xa, ya) to (xb, yb) in data units:
-/// ∫₀¹ TF2(P_a + u·(P_b − P_a)) du, exactly. The segment is split where it crosses a raster
-/// line (including the domain's edges, where clamping starts); on each piece α and c are
-/// quadratic in u, α·c quartic, so 3-point Gauss–Legendre is exact. A zero-length segment gives
-/// TF2 at the point. Cost: 3 lookups per piece; lanes loop until their longest segment is done.
-template <class T, class Real>
-UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
-                                                  lanes::MaskOf<T> live, T out[4]) {
+namespace detail {
+/// tf2MeanAlongSegment's walk, by cells or (kRuns, r.cellRun set) by runs of cells.
+template <bool kRuns, class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
+                                          lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     using I = lanes::IntOf<T>;
     const S ox = static_cast<S>(r.x0), oy = static_cast<S>(r.y0);
@@ -208,6 +281,9 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
     I lineX, stepX, lineY, stepY;
     detail::firstLine<T>(sa, ds, r.width, lineX, stepX);
     detail::firstLine<T>(ta, dt, r.height, lineY, stepY);
+    if constexpr (kRuns)
+        lineX = detail::runLineAhead<kRuns, T>(
+            r, lineX, stepX, detail::bandAhead<T>(ta, lineY, stepY, r.height), live);
     T ux = detail::lineParameter<T>(sa, ds, lineX, stepX);
     T uy = detail::lineParameter<T>(ta, dt, lineY, stepY);
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
@@ -259,15 +335,19 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
             }
         }
         if (lanes::anyOf(use)) {
-            // One load of the cell's corners serves the three nodes.
-            const Tf2Cell<T> cell(r, i, j, use);
-            T ci, cj;
+            // One load of the cell's (or its run's) corners serves the three nodes.
+            I lo = i, hi = i + 1;
+            if constexpr (kRuns) detail::runOf<T>(r, i, j, use, lo, hi);
+            const Tf2Cell<T> cell(r, lo, hi, j, use);
+            T ci, cj, invWidth = lanes::splat<T>(S(1));
             if constexpr (lanes::kIsVector<T>) {
-                ci = lanes::toFloat(i);
+                ci = lanes::toFloat(lo);
                 cj = lanes::toFloat(j);
+                if constexpr (kRuns) invWidth = S(1) / lanes::toFloat(lanes::max(hi - lo, I{} + 1));
             } else {
-                ci = static_cast<T>(i);
+                ci = static_cast<T>(lo);
                 cj = static_cast<T>(j);
+                if constexpr (kRuns) invWidth = S(1) / static_cast<T>(hi - lo > 1 ? hi - lo : 1);
             }
             for (int n = 0; n < 3; ++n) {
                 const T s =
@@ -275,30 +355,43 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
                 const T t =
                     detail::rasterCoordinate<T>(lanes::fma(nodes[n], dt, ta), S(0), S(1), r.height);
                 T v[4];
-                cell.at(s - ci, t - cj, v);
+                cell.at(kRuns ? (s - ci) * invWidth : s - ci, t - cj, v);
                 const T wl = lanes::select(use, len * weights[n], T{});
                 for (int ch = 0; ch < 3; ++ch) out[ch] = lanes::fma(wl, v[3] * v[ch], out[ch]);
                 out[3] = lanes::fma(wl, v[3], out[3]);
             }
         }
-        // Step past the line(s) reached at u1; a lane is done at u = 1.
+        // Step past the line(s) reached at u1; a lane is done at u = 1. With runs, a lane that
+        // crossed a y line is in a new band whose runs differ: its x line is found again from
+        // its position (a line found an ulp behind gives one empty piece, then the step).
         const auto atX = ux <= u1, atY = uy <= u1;
         if constexpr (lanes::kIsVector<T>) {
-            lineX = lanes::select(atX, lineX + stepX, lineX);
             lineY = lanes::select(atY, lineY + stepY, lineY);
-            stepX = lanes::select(atX & ((lineX < 0) | (lineX > r.width - 1)), I{}, stepX);
             stepY = lanes::select(atY & ((lineY < 0) | (lineY > r.height - 1)), I{}, stepY);
-        } else {
-            if (atX) {
-                lineX += stepX;
-                if (lineX < 0 || lineX > r.width - 1) stepX = 0;
-            }
-            if (atY) {
-                lineY += stepY;
-                if (lineY < 0 || lineY > r.height - 1) stepY = 0;
+        } else if (atY) {
+            lineY += stepY;
+            if (lineY < 0 || lineY > r.height - 1) stepY = 0;
+        }
+        I band{};
+        if constexpr (kRuns)
+            band = detail::bandAhead<T>(lanes::fma(u1, dt, ta), lineY, stepY, r.height);
+        lineX = lanes::select(atX, detail::nextLineX<kRuns, T>(r, lineX, stepX, band, active & atX),
+                              lineX);
+        if constexpr (kRuns) {
+            if (lanes::anyOf(active & atY)) {
+                I lx, sx;
+                detail::firstLine<T>(lanes::fma(u1, ds, sa), ds, r.width, lx, sx);
+                lx = detail::runLineAhead<kRuns, T>(r, lx, sx, band, active & atY);
+                lineX = lanes::select(atY, lx, lineX);
+                stepX = lanes::select(atY, sx, stepX);
             }
         }
-        ux = lanes::select(atX, detail::lineParameter<T>(sa, ds, lineX, stepX), ux);
+        const auto movedX = kRuns ? atX | atY : atX;
+        if constexpr (lanes::kIsVector<T>)
+            stepX = lanes::select(movedX & ((lineX < 0) | (lineX > r.width - 1)), I{}, stepX);
+        else if (movedX && (lineX < 0 || lineX > r.width - 1))
+            stepX = 0;
+        ux = lanes::select(movedX, detail::lineParameter<T>(sa, ds, lineX, stepX), ux);
         uy = lanes::select(atY, detail::lineParameter<T>(ta, dt, lineY, stepY), uy);
         u0 = u1;
         // Only a jump past the piece's end: restarting at a line found an ulp behind would walk
@@ -309,6 +402,10 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
             I lx, sx, ly, sy;
             detail::firstLine<T>(lanes::fma(uj, ds, sa), ds, r.width, lx, sx);
             detail::firstLine<T>(lanes::fma(uj, dt, ta), dt, r.height, ly, sy);
+            if constexpr (kRuns)
+                lx = detail::runLineAhead<kRuns, T>(
+                    r, lx, sx, detail::bandAhead<T>(lanes::fma(uj, dt, ta), ly, sy, r.height),
+                    jump);
             lineX = lanes::select(jump, lx, lineX);
             stepX = lanes::select(jump, sx, stepX);
             lineY = lanes::select(jump, ly, lineY);
@@ -319,6 +416,23 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
         }
         active = active & (u0 < S(1));
     }
+}
+}  // namespace detail
+
+/// Mean of TF2 (α·c and α) along the segment from (xa, ya) to (xb, yb) in data units:
+/// ∫₀¹ TF2(P_a + u·(P_b − P_a)) du, exactly. The segment is split where it crosses a raster
+/// line (including the domain's edges, where clamping starts) — or, with r.cellRun, only where
+/// it leaves a run of cells over which the raster is bilinear (within the runs' tolerance); on
+/// each piece α and c are quadratic in u, α·c quartic, so 3-point Gauss–Legendre is exact. A
+/// zero-length segment gives TF2 at the point. Cost: 3 lookups per piece; lanes loop until
+/// their longest segment is done.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
+                                                  lanes::MaskOf<T> live, T out[4]) {
+    if (r.cellRun)
+        detail::segmentWalk<true, T>(r, xa, ya, xb, yb, live, out);
+    else
+        detail::segmentWalk<false, T>(r, xa, ya, xb, yb, live, out);
 }
 
 /// Quantile-range with a TF2 (SPEC §9): the rank-coupled polyline (X(t), G(t)) through the

@@ -187,6 +187,23 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
     fast.invDy = static_cast<float>(exact.invDy);
     cellEmptyDistance = tf.emptyCellDistances();
     exact.cellEmptyDistance = fast.cellEmptyDistance = cellEmptyDistance.data();
+    // Runs pay where they are long: each piece of a walk by runs costs two more gathers and a
+    // crossed y line a new run lookup (64³ tangle, quantile-range 512²: the 1D TF as a 1024×2
+    // TF2, 7.3 opaque cells per run, 3.7 → 1.0 s; data/tf2/tangle.json at 256², 1.9 per run,
+    // 4.2 → 6.8 s). Used where an opaque run averages ≥ kMinMeanRunCells cells.
+    constexpr std::size_t kMinMeanRunCells = 3;
+    cellRuns = tf.linearCellRuns(kTf2RunTolerance);
+    std::size_t opaqueCells = 0, opaqueRuns = 0;
+    const std::size_t cells = static_cast<std::size_t>(tf.width) - 1;
+    for (std::size_t c = 0; c < cellEmptyDistance.size(); ++c)
+        if (cellEmptyDistance[c] == 0.f) {
+            ++opaqueCells;
+            opaqueRuns += cellRuns[2 * c] == static_cast<float>(c % cells);  // a run's first cell
+        }
+    if (opaqueCells >= kMinMeanRunCells * opaqueRuns)
+        fast.cellRun = cellRuns.data();
+    else
+        cellRuns.clear();
     const int cw = tf.width - 1, rows = tf.height - 1;
     rowCells.assign(2 * static_cast<std::size_t>(rows), 0);
     for (int j = 0; j < rows; ++j) {

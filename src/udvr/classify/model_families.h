@@ -35,12 +35,20 @@ enum ModelArray : unsigned {
 /// Any model's kernel with a 2D TF (SPEC §9).
 using AnyKernel2D = std::variant<Mean2DKernel, Gaussian2DKernel, Quantile2DKernel>;
 
+/// Largest deviation from linear (per channel, α and colour in [0, 1]) that the float raster's
+/// cell runs allow (TransferFunction2D::linearCellRuns): segment means over runs then differ
+/// from the cell-by-cell walk by at most this (α) and twice it (α·c).
+inline constexpr double kTf2RunTolerance = 1e-6;
+
 /// Views of a validated TF2 for the kernels: the raster over double and float, with the
-/// distances of empty cells (TransferFunction2D::emptyCellDistances). `tf` must outlive them.
+/// distances of empty cells (TransferFunction2D::emptyCellDistances); the float view also
+/// walks segments by runs of linear cells (kTf2RunTolerance), the double one cell by cell.
+/// `tf` must outlive them.
 struct Tf2Rasters {
     Tf2Raster<double> exact;
     Tf2Raster<float> fast;
     std::vector<float> cellEmptyDistance;
+    std::vector<float> cellRuns;
     /// Per row of cells j: the first and last cell with α > 0 at a corner (first > last: none);
     /// and the first and last such row.
     std::vector<int> rowCells;

@@ -11,6 +11,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -231,6 +232,16 @@ TEST(Tf2, SegmentMeanIsExactAgainstDenseQuadrature) {
     EXPECT_LE(worst, 5e-8);
 }
 
+// Random segments (xa, ya, xb, yb) per lane in [−4, 6]², every fifth along a row and every
+// fifth along a column.
+void randomSegmentLanes(CounterRng& rng, lanes::Vf p[4]) {
+    for (int l = 0; l < lanes::kWidth; ++l) {
+        for (int a = 0; a < 4; ++a) p[a][l] = static_cast<float>(-4.0 + 10.0 * rng.uniform());
+        if (l % 5 == 1) p[3][l] = p[1][l];  // along a row
+        if (l % 5 == 2) p[2][l] = p[0][l];  // along a column
+    }
+}
+
 // A sparse TF2 (α > 0 in three small blobs of a 40×30 raster): the segment walk skips empty
 // cells and jumps over blocks of them. Against dense quadrature, against the walk without the
 // distance table, and the float lanes against the double body.
@@ -254,11 +265,7 @@ TEST(Tf2, SegmentMeanJumpsOverEmptyBlocksExactly) {
     double worstDense = 0, worstSkip = 0, worstLanes = 0;
     for (int trial = 0; trial < 40; ++trial) {
         lanes::Vf p[4];
-        for (int l = 0; l < lanes::kWidth; ++l) {
-            for (int a = 0; a < 4; ++a) p[a][l] = static_cast<float>(-4.0 + 10.0 * rng.uniform());
-            if (l % 5 == 1) p[3][l] = p[1][l];  // along a row
-            if (l % 5 == 2) p[2][l] = p[0][l];  // along a column
-        }
+        randomSegmentLanes(rng, p);
         lanes::Vf got[4];
         tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3],
                                        lanes::allTrue<lanes::Vf>(), got);
@@ -279,6 +286,99 @@ TEST(Tf2, SegmentMeanJumpsOverEmptyBlocksExactly) {
     EXPECT_LE(worstDense, 5e-8);
     EXPECT_LE(worstSkip, 1e-12);
     EXPECT_LE(worstLanes, 2e-5);
+}
+
+// A raster whose rows are piecewise linear in x (kinks per row at random columns, α = 0 on
+// columns 25…35): linearCellRuns finds exactly the union of the band's two rows' kinks, and the
+// walk by runs (float lanes, and the double body given the runs) equals the walk by cells and
+// dense quadrature.
+TEST(Tf2, SegmentMeanByLinearRunsMatchesTheWalkByCells) {
+    CounterRng rng(21, 0, 0);
+    const int w = 60, h = 6;
+    TransferFunction2D t;
+    t.width = w;
+    t.height = h;
+    t.x0 = -2.0;
+    t.x1 = 3.0;
+    t.y0 = 0.0;
+    t.y1 = 4.0;
+    t.rgba.assign(static_cast<std::size_t>(w) * h * 4, 0.f);
+    std::vector<std::set<int>> kinks(h);
+    for (int j = 0; j < h; ++j) {
+        std::set<int>& k = kinks[j];
+        k = {0, 25, 35, w - 1};
+        for (int n = 0; n < 3; ++n) {
+            const int c = 1 + static_cast<int>(rng.uniform() * 23);  // left of the gap …
+            k.insert(rng.uniform() < 0.5 ? c : c + 35);              // … or right of it
+        }
+        // Random values at the kinks, linear between them (α = 0 across the gap).
+        std::vector<int> at(k.begin(), k.end());
+        for (int ch = 0; ch < 4; ++ch) {
+            std::vector<double> v(at.size());
+            for (std::size_t n = 0; n < at.size(); ++n)  // α falls to 0 at the gap's ends
+                v[n] = ch == 3 && (at[n] == 25 || at[n] == 35) ? 0.0 : 0.1 + 0.9 * rng.uniform();
+            for (std::size_t n = 0; n + 1 < at.size(); ++n)
+                for (int i = at[n]; i <= at[n + 1]; ++i) {
+                    const double f = static_cast<double>(i - at[n]) / (at[n + 1] - at[n]);
+                    t.rgba[(static_cast<std::size_t>(j) * w + i) * 4 + ch] =
+                        static_cast<float>(v[n] + f * (v[n + 1] - v[n]));
+                }
+        }
+    }
+    t.validate();
+    const std::vector<float> runs = t.linearCellRuns(1e-6);
+    for (int j = 0; j + 1 < h; ++j) {
+        std::set<int> want = kinks[j];
+        want.insert(kinks[j + 1].begin(), kinks[j + 1].end());
+        std::set<int> got;
+        for (int i = 0; i < w - 1; ++i) {
+            const float* r = &runs[2 * (static_cast<std::size_t>(j) * (w - 1) + i)];
+            ASSERT_LE(r[0], i);
+            ASSERT_GT(r[1], i);
+            got.insert(static_cast<int>(r[0]));
+            got.insert(static_cast<int>(r[1]));
+        }
+        EXPECT_EQ(got, want) << "band " << j;
+    }
+    ModelVolume unit;
+    unit.grid.dims = {1, 1, 1};
+    unit.mean = {0.f};
+    GradientCache gradients;
+    const Tf2Setup setup(t, unit, gradients);
+    ASSERT_NE(setup.fast.cellRun, nullptr);  // long runs: the float view walks by them
+    Tf2Raster<double> byRuns = setup.exact;
+    byRuns.cellRun = setup.cellRuns.data();
+    double worstDense = 0, worstRuns = 0, worstLanes = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+        lanes::Vf p[4];
+        randomSegmentLanes(rng, p);
+        for (int l = 3; l < lanes::kWidth; l += 5) p[1][l] = p[3][l] = 1.6f;  // on row line 2
+        lanes::Vf got[4];
+        tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3],
+                                       lanes::allTrue<lanes::Vf>(), got);
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            double cells[4], byRun[4];
+            tf2MeanAlongSegment<double>(setup.exact, p[0][l], p[1][l], p[2][l], p[3][l], true,
+                                        cells);
+            tf2MeanAlongSegment<double>(byRuns, p[0][l], p[1][l], p[2][l], p[3][l], true, byRun);
+            if (l < 3) {
+                const auto want = denseSegmentMean(t, p[0][l], p[1][l], p[2][l], p[3][l], 200000);
+                for (int ch = 0; ch < 4; ++ch)
+                    worstDense = std::max(worstDense, std::abs(byRun[ch] - want[ch]));
+            }
+            for (int ch = 0; ch < 4; ++ch) {
+                worstRuns = std::max(worstRuns, std::abs(byRun[ch] - cells[ch]));
+                worstLanes = std::max(worstLanes, std::abs(got[ch][l] - cells[ch]));
+            }
+        }
+    }
+    EXPECT_LE(worstDense, 5e-8);
+    EXPECT_LE(worstRuns, 2e-6);  // the runs' tolerance (1e−6) on α·c: twice it
+    EXPECT_LE(worstLanes, 2e-5);
+    // Short runs (a random raster): the float view walks cell by cell.
+    const TransferFunction2D noisy = randomTf2(rng, 40, 30, -2.0, 3.0, 0.0, 4.0);
+    const Tf2Setup cellWise(noisy, unit, gradients);
+    EXPECT_EQ(cellWise.fast.cellRun, nullptr);
 }
 
 // Quantile-range and quantile-mean with a TF2, evaluated independently at a point: the rank

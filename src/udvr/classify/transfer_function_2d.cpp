@@ -83,9 +83,7 @@ std::vector<float> TransferFunction2D::emptyCellDistances() const {
     const auto at = [&](int i, int j) -> int& { return d[static_cast<std::size_t>(j) * cw + i]; };
     for (int j = 0; j < ch; ++j)
         for (int i = 0; i < cw; ++i) {
-            const bool opaque = point(i, j)[3] > 0.f || point(i + 1, j)[3] > 0.f ||
-                                point(i, j + 1)[3] > 0.f || point(i + 1, j + 1)[3] > 0.f;
-            at(i, j) = opaque ? 0 : far;
+            at(i, j) = cellOpaque(i, j) ? 0 : far;
         }
     // Chebyshev distance transform: two raster passes over the 8-neighbourhood (exact for the
     // max norm).
@@ -102,6 +100,56 @@ std::vector<float> TransferFunction2D::emptyCellDistances() const {
                 if (a >= 0 && a < cw && b < ch) at(i, j) = std::min(at(i, j), at(a, b) + 1);
             }
     return std::vector<float>(d.begin(), d.end());
+}
+
+bool TransferFunction2D::cellOpaque(int i, int j) const {
+    return point(i, j)[3] > 0.f || point(i + 1, j)[3] > 0.f || point(i, j + 1)[3] > 0.f ||
+           point(i + 1, j + 1)[3] > 0.f;
+}
+
+std::vector<float> TransferFunction2D::linearCellRuns(double tolerance) const {
+    const int cw = width - 1;
+    std::vector<float> runs(2 * static_cast<std::size_t>(cw) * (height - 1));
+    for (int j = 0; j + 1 < height; ++j) {
+        // The 8 sequences of the band: channels 0…3 of rows j and j + 1.
+        const auto value = [&](int k, int i) {
+            return static_cast<double>(point(i, j + k / 4)[k % 4]);
+        };
+        for (int lo = 0; lo < cw;) {
+            const bool opaque = cellOpaque(lo, j);
+            // A line from point lo's value with slope s passes within tolerance of every
+            // interior point k iff s ∈ [sMin, sMax] (intersected per point, O(1) per step).
+            double sMin[8], sMax[8];
+            for (int k = 0; k < 8; ++k) {
+                sMin[k] = -std::numeric_limits<double>::infinity();
+                sMax[k] = std::numeric_limits<double>::infinity();
+            }
+            int hi = lo + 1;
+            while (hi < cw && cellOpaque(hi, j) == opaque) {
+                if (opaque) {  // point hi becomes interior; the run's end moves to hi + 1
+                    bool linear = true;
+                    double nMin[8], nMax[8];
+                    for (int k = 0; k < 8 && linear; ++k) {
+                        const double v0 = value(k, lo), step = hi - lo;
+                        nMin[k] = std::max(sMin[k], (value(k, hi) - tolerance - v0) / step);
+                        nMax[k] = std::min(sMax[k], (value(k, hi) + tolerance - v0) / step);
+                        const double slope = (value(k, hi + 1) - v0) / (step + 1);
+                        linear = slope >= nMin[k] && slope <= nMax[k];
+                    }
+                    if (!linear) break;
+                    std::copy(nMin, nMin + 8, sMin);
+                    std::copy(nMax, nMax + 8, sMax);
+                }
+                ++hi;
+            }
+            for (int i = lo; i < hi; ++i) {
+                runs[2 * (static_cast<std::size_t>(j) * cw + i)] = static_cast<float>(lo);
+                runs[2 * (static_cast<std::size_t>(j) * cw + i) + 1] = static_cast<float>(hi);
+            }
+            lo = hi;
+        }
+    }
+    return runs;
 }
 
 void TransferFunction2D::validate() const {

@@ -37,6 +37,15 @@ struct TransferFunction2D {
     /// has α > 0, else the Chebyshev distance in cells to the nearest such cell (W + H when
     /// there is none), so every cell closer than it has α = 0 on its whole area.
     std::vector<float> emptyCellDistances() const;
+    /// Whether a corner of cell (i, j) (points i, i + 1 × j, j + 1) has α > 0.
+    bool cellOpaque(int i, int j) const;
+    /// Per cell (j·(W − 1) + i): the run of cells [lo, hi) (point columns lo < hi, stored as two
+    /// floats) that contains it, over which both of its rows (j, j + 1) are linear in x within
+    /// `tolerance` in every channel, and whose cells are all opaque or all empty (cellOpaque).
+    /// Bilinear interpolation between the run's four corner points then differs from the
+    /// raster's by at most `tolerance` on the whole run (0 for empty runs). Greedy from the
+    /// left; O(W·H).
+    std::vector<float> linearCellRuns(double tolerance) const;
     /// Throws UdvrError unless 2 ≤ W, H ≤ kMaxTf2Resolution, rgba has W·H·4 values in [0, 1],
     /// the domain is finite with x0 < x1, y0 < y1, and its widths and raster steps are finite
     /// and non-zero in float (the kernels' coordinates).
