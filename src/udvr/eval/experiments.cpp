@@ -332,20 +332,7 @@ ExperimentResult runChest(const fs::path& dir, const ExperimentOptions& options)
     if (options.log)
         std::fprintf(stderr, "udvr experiment chest: read %s (%d×%d×%d)\n", path.string().c_str(),
                      field.grid.dims[0], field.grid.dims[1], field.grid.dims[2]);
-    // A frontal view: looking along +y (anterior to posterior in this scan) with the body
-    // axis (z, head up) vertical.
-    const auto b = field.grid.bounds();
-    Camera cam;
-    cam.focalPoint = {(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2};
-    const double radius =
-        0.5 * std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) +
-                        (b[5] - b[4]) * (b[5] - b[4]));
-    // The bounding sphere fits the view at `dist`; the body fills only part of the box, so
-    // come closer.
-    constexpr double kChestZoom = 1.5;
-    const double dist = radius / std::sin(cam.viewAngleDeg * std::numbers::pi / 360.0) / kChestZoom;
-    cam.position = {cam.focalPoint[0], cam.focalPoint[1] - dist, cam.focalPoint[2]};
-    cam.viewUp = {0, 0, 1};
+    const Camera cam = chestCamera(field.grid.bounds());
     const std::string title =
         "Chest CT reduced by 4³ bricks: bone (gray) and soft tissue (red) "
         "(Athawale et al. 2021, teaser b / Fig. 9)";
@@ -367,6 +354,7 @@ ExperimentResult runOne(const std::string& name, const fs::path& dir,
     if (name == "fiber") return runFiber(dir, options);
     if (name == "fiber-isabel") return runFiberIsabel(dir, options);
     if (name == "quantile-levels") return runQuantileLevels(dir, options);
+    if (name == "downsample-estimators") return runDownsampleEstimators(dir, options);
     std::string names;
     for (const std::string& n : experimentNames()) names += n + ", ";
     UDVR_FAIL("unknown experiment '" << name << "' (expected one of " << names << "all)");
@@ -381,9 +369,17 @@ fs::path executableDir() {
 }  // namespace
 
 const std::vector<std::string>& experimentNames() {
-    static const std::vector<std::string> names = {
-        "tangle", "tangle-sweep", "teardrop", "quartiles",    "spheres",
-        "chest",  "tooth2d",      "fiber",    "fiber-isabel", "quantile-levels"};
+    static const std::vector<std::string> names = {"tangle",
+                                                   "tangle-sweep",
+                                                   "teardrop",
+                                                   "quartiles",
+                                                   "spheres",
+                                                   "chest",
+                                                   "tooth2d",
+                                                   "fiber",
+                                                   "fiber-isabel",
+                                                   "quantile-levels",
+                                                   "downsample-estimators"};
     return names;
 }
 
