@@ -841,6 +841,9 @@ PYBIND11_MODULE(_udvr, m) {
         py::arg("progress"), py::arg("quantile_levels") = std::vector<double>{},
         py::arg("value_step") = 0.0, py::arg("value_type") = "");
 
+    m.def(
+        "_default_density", [](bool bricks) { return densityEstimateName(defaultDensity(bricks)); },
+        py::arg("bricks"), "build's density estimate when none is given");
     m.def("_probe", &probeAt<TransferFunction1D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
           py::arg("point"), py::arg("minmax"));
     m.def("_probe", &probeAt<TransferFunction2D>, py::arg("model"), py::arg("kind"), py::arg("tf"),

@@ -101,7 +101,7 @@ def _count(value, name):
     return int(value)
 
 
-def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
+def build(data, quantiles=8, gmm=4, density=None, downsample=None, *,
           bandwidth="silverman", tail_eps=None, origin=None, spacing=None, var=None,
           member_dim=None, progress="auto", quantile_levels=None):
     """Per-voxel distribution models, as `udvr build` (SPEC §2): from a NumPy array of shape
@@ -112,7 +112,8 @@ def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
     quantiles: q (0 skips), gmm: K (0 skips; lowered to the samples per voxel where fewer),
     density: "empirical" | "kde" (bandwidth "silverman" | "scott" | h, tail_eps) | "dequantized"
     (integer-typed data only: integer dtypes and integer files; each value spread uniformly over
-    [v - step/2, v + step/2] of its quantisation step before the quantiles). origin and
+    [v - step/2, v + step/2] of its quantisation step before the quantiles); None: the CLI's
+    default, "kde" with downsample and "empirical" for ensembles. origin and
     spacing (x, y, z; world units) for arrays: default 0 and 1. quantile_levels: t_0 = 0 < … <
     t_q = 1, uneven levels of the boundaries (q from their count), as --quantile-levels. The GIL is released while it
     runs; progress: a callable(done, total), True for a tqdm bar, "auto" (a bar in notebooks).
@@ -123,6 +124,8 @@ def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
         downsample = _count(downsample, "downsample")
         if downsample < 2:
             raise ValueError(f"downsample must be K >= 2 (K^3 bricks), got {downsample}")
+    if density is None:  # as `udvr build`: kde for K³ bricks, empirical for ensembles
+        density = _udvr._default_density(downsample is not None)
     if not isinstance(density, str) or not isinstance(bandwidth, (str, int, float)):
         raise TypeError("density must be a string, bandwidth a string or a number")
     source = "python"

@@ -52,7 +52,7 @@ void addBuildCommand(CLI::App& app) {
         "or from K^3 bricks of one field, written as a .vti model");
     struct Opts {
         std::vector<std::string> inputs;
-        std::string out, density = "empirical", bandwidth = "silverman", var, memberDim, levels;
+        std::string out, density, bandwidth = "silverman", var, memberDim, levels;
         int quantiles = 8, gmm = 4, downsample = 0;
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
@@ -79,7 +79,7 @@ void addBuildCommand(CLI::App& app) {
                                 "when there are fewer; 0 skips)");
     sub->add_option("--density", o->density,
                     "empirical | kde | dequantized (integer-typed input: each value spread over "
-                    "its quantisation step) (default empirical)");
+                    "its quantisation step) (default: kde with --downsample, else empirical)");
     sub->add_option("--bandwidth", o->bandwidth,
                     "kde bandwidth: silverman | scott | H in data units (default silverman)");
     o->tailEpsOpt = sub->add_option("--tail-eps", o->tailEps,
@@ -102,7 +102,9 @@ void addBuildCommand(CLI::App& app) {
             opt.quantiles = q;
         }
         opt.gmmComponents = o->gmm;
-        opt.density = parseDensityEstimate(o->density);
+        const bool bricks = o->downsampleOpt->count() > 0;
+        opt.density =
+            o->density.empty() ? defaultDensity(bricks) : parseDensityEstimate(o->density);
         opt.bandwidthText = o->bandwidth;
         if (opt.density == DensityEstimate::Kde) opt.bandwidth = parseBandwidth(o->bandwidth);
         if (o->tailEpsOpt->count() > 0) {
@@ -113,7 +115,6 @@ void addBuildCommand(CLI::App& app) {
         // What does not depend on the input is checked before it is read (the sample count
         // is then assumed large enough; fitOptionsToSamples checks against the real one).
         validateBuildOptions(opt, std::numeric_limits<int>::max());
-        const bool bricks = o->downsampleOpt->count() > 0;
         for (const std::string& in : o->inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
         if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
 

@@ -77,7 +77,7 @@ std::vector<Volume> volumes(const ExperimentOptions& options, int sphereDims) {
         const fs::path path = sharedDataPath(options, s.file);
         Volume vol{s.name,
                    s.tf,
-                   std::string(s.what) + " from `" + path.string() + "`",
+                   std::string(s.what) + " (`" + path.string() + "`)",
                    "",
                    [path] { return readField(path); },
                    nullptr};
@@ -317,6 +317,9 @@ ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOp
     setup.push_back(
         "quantile-range, quantile-mean and iqr are rendered for each estimator; mean, gaussian, "
         "uniform-fast and gmm-ordered (GMM K = 4) do not depend on it and are rendered once.");
+    setup.push_back(
+        "Each volume in its own view (spheres and neghip: the default camera) with its own TF; "
+        "the camera and TF lines below are the last volume's.");
     setup.push_back(
         "Figure: one row per volume — the truth, quantile-mean (QM) with each estimator, then "
         "quantile-range (QR) with each — and the difference images under it.");

@@ -409,17 +409,18 @@ class Run {
             std::to_string(ensemble.members) + " members in " + fmt("%.2f", rep.seconds) + " s");
         return m;
     }
-    ModelVolume buildBricks(const ScalarField& field, int k, int q, int gmm) {
+    ModelVolume buildBricks(const ScalarField& field, int k, int q, int gmm,
+                            DensityEstimate density = DensityEstimate::Empirical) {
         BuildOptions bo;
         bo.quantiles = q;
         bo.gmmComponents = gmm;
+        bo.density = density;  // kde: Silverman's bandwidth, tails at 1/(2n)
         bo.source = result_.name + " " + std::to_string(k) + "^3 bricks";
         BuildReport rep;
         ModelVolume m = buildModelDownsampled(field, k, bo, &rep);
-        log("built " + describeBuild(q, gmm, DensityEstimate::Empirical) + " from " +
-            std::to_string(k) + "³ bricks (" + std::to_string(m.grid.dims[0]) + "×" +
-            std::to_string(m.grid.dims[1]) + "×" + std::to_string(m.grid.dims[2]) + ") in " +
-            fmt("%.2f", rep.seconds) + " s");
+        log("built " + describeBuild(q, gmm, density) + " from " + std::to_string(k) +
+            "³ bricks (" + std::to_string(m.grid.dims[0]) + "×" + std::to_string(m.grid.dims[1]) +
+            "×" + std::to_string(m.grid.dims[2]) + ") in " + fmt("%.2f", rep.seconds) + " s");
         return m;
     }
 

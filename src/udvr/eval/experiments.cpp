@@ -264,7 +264,9 @@ ExperimentResult runDownsampled(const std::string& name, const fs::path& dir, Sc
     Run run(name, dir, options, resolveSizes(name, options));
     const Sizes& s = run.sizes();
     run.loadTf(tfFile);
-    ModelVolume reduced = run.buildBricks(field, kBrick, 8, 4);
+    // `build --downsample`'s default estimate (kde, Silverman), as a user's build gets.
+    const DensityEstimate density = defaultDensity(true);
+    ModelVolume reduced = run.buildBricks(field, kBrick, 8, 4, density);
     {
         // The full-resolution truth: a mean model of the field, without the arrays it does not
         // need for rendering (σ), to keep a 512³ run within a few GiB.
@@ -288,13 +290,14 @@ ExperimentResult runDownsampled(const std::string& name, const fs::path& dir, Sc
         "Difference images: per-pixel |Δ mean RGB| against the ground truth, blue (0) "
         "to yellow (" +
         fmt("%.3f", scale) + ", the largest difference of any model).");
-    setup.push_back("Reduced by " + std::to_string(kBrick) + "³ bricks to " +
-                    std::to_string(reduced.grid.dims[0]) + "×" +
-                    std::to_string(reduced.grid.dims[1]) + "×" +
-                    std::to_string(reduced.grid.dims[2]) +
-                    " voxels of 64 samples each (SPEC §2); empirical quantiles q = 8, GMM K = 4; "
-                    "gmm-mc averages " +
-                    std::to_string(s.realizations) + " realizations.");
+    setup.push_back(
+        "Reduced by " + std::to_string(kBrick) + "³ bricks to " +
+        std::to_string(reduced.grid.dims[0]) + "×" + std::to_string(reduced.grid.dims[1]) + "×" +
+        std::to_string(reduced.grid.dims[2]) + " voxels of 64 samples each (SPEC §2); " +
+        densityName(density) + " quantiles q = 8 (`build --downsample`'s default" +
+        (density == DensityEstimate::Kde ? ": Silverman's bandwidth, tails at ε = 1/128" : "") +
+        "; `downsample-estimators` compares the estimators), GMM K = 4; gmm-mc averages " +
+        std::to_string(s.realizations) + " realizations.");
     setup.push_back(
         "Ground-truth memory is the full-resolution field relative to the reduced mean "
         "field (64).");

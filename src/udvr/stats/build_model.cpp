@@ -277,6 +277,10 @@ void validateBuildOptions(const BuildOptions& o, int n) {
     }
 }
 
+DensityEstimate defaultDensity(bool bricks) {
+    return bricks ? DensityEstimate::Kde : DensityEstimate::Empirical;
+}
+
 void checkDensityForInput(DensityEstimate density, double valueStep, const std::string& valueType) {
     if (density != DensityEstimate::Dequantized || valueStep > 0.0) return;
     UDVR_FAIL(

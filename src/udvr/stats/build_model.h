@@ -45,6 +45,12 @@ struct BuildReport {
 /// large, ε out of range, bandwidth not positive).
 void validateBuildOptions(const BuildOptions& options, int samplesPerVoxel);
 
+/// The density estimate `build` uses when none is given: kde (Silverman's bandwidth) for K³
+/// bricks of one field, empirical for ensembles (BuildOptions' own default is empirical).
+/// Bricks: the minimax-regret choice of `udvr experiment downsample-estimators` over the
+/// spheres, chest, neghip and tooth volumes (docs/experiments.md); ensembles: `tangle-sweep`.
+DensityEstimate defaultDensity(bool bricks);
+
 /// Check the density estimate against the input (ScalarField::valueStep, valueType): dequantized
 /// needs a quantisation step > 0, i.e. integer-typed values; throws UdvrError naming the type.
 void checkDensityForInput(DensityEstimate density, double valueStep, const std::string& valueType);
