@@ -284,7 +284,8 @@ struct BuildResult {
 // returns (model, warnings, info, dropped planes in x, y, z).
 py::tuple buildFromArray(const FloatArray& values, std::array<double, 3> origin,
                          std::array<double, 3> spacing, int downsample, BuildOptions opt,
-                         bool gmmGiven, bool quantilesGiven, const py::object& progress) {
+                         bool gmmGiven, bool quantilesGiven, const py::object& progress,
+                         double valueStep, const std::string& valueType) {
     const bool bricks = downsample != 0;
     const Grid3 grid = [&] {
         Grid3 g = gridFromShape(values, bricks ? 0 : 1);
@@ -297,6 +298,7 @@ py::tuple buildFromArray(const FloatArray& values, std::array<double, 3> origin,
             throw UdvrError("spacing must be positive and origin finite");
     const Grid3 model = bricks ? downsampledGrid(grid, downsample) : grid;
     const long long n = bricks ? 1LL * downsample * downsample * downsample : values.shape(0);
+    checkDensityForInput(opt.density, valueStep, valueType);
     const BuildFitNotes notes = fitBuildOptionsToSamples(opt, n, gmmGiven, quantilesGiven);
     ProgressBar bar("build", model.pointCount(), 0.0, /*draw=*/false);
     opt.progress = &bar;
@@ -307,10 +309,14 @@ py::tuple buildFromArray(const FloatArray& values, std::array<double, 3> origin,
             BuildResult out;
             if (bricks) {
                 ScalarField f{grid, std::vector<float>(data, data + count), "value"};
+                f.valueStep = valueStep;
+                f.valueType = valueType;
                 out.model = buildModelDownsampled(f, downsample, opt, &out.report);
             } else {
                 Ensemble e{grid, static_cast<int>(n), std::vector<float>(data, data + count),
                            "value"};
+                e.valueStep = valueStep;
+                e.valueType = valueType;
                 out.model = buildModel(e, opt, &out.report);
             }
             return out;
@@ -394,7 +400,10 @@ PYBIND11_MODULE(_udvr, m) {
         .def_readwrite("name", &ScalarField::name)
         .def_property_readonly(
             "values", [](const ScalarField& f) { return voxelArray(f.grid, f.values, 1); },
-            "the values as a (Z, Y, X) float32 array (a copy)");
+            "the values as a (Z, Y, X) float32 array (a copy)")
+        .def_readonly("value_step", &ScalarField::valueStep,
+                      "the file type's quantisation step: 1 for integers, 0 for floats")
+        .def_readonly("value_type", &ScalarField::valueType, "the file's value type (uint8 …)");
 
     py::class_<Ensemble>(m, "Ensemble")
         .def(py::init([](const py::object& valuesIn, std::array<double, 3> origin,
@@ -420,7 +429,10 @@ PYBIND11_MODULE(_udvr, m) {
                 std::memcpy(a.mutable_data(), e.values.data(), e.values.size() * sizeof(float));
                 return a;
             },
-            "the members as a (members, Z, Y, X) float32 array (a copy)");
+            "the members as a (members, Z, Y, X) float32 array (a copy)")
+        .def_readonly("value_step", &Ensemble::valueStep,
+                      "the file type's quantisation step: 1 for integers, 0 for floats")
+        .def_readonly("value_type", &Ensemble::valueType, "the files' value type (uint8 …)");
 
     py::class_<ModelVolume> modelClass(m, "Model");
     modelClass
@@ -798,7 +810,7 @@ PYBIND11_MODULE(_udvr, m) {
            int downsample, int quantiles, int gmm, const std::string& density,
            const std::string& bandwidth, std::optional<double> tailEps, bool gmmGiven,
            bool quantilesGiven, const std::string& source, const py::object& progress,
-           const std::vector<double>& levels) {
+           const std::vector<double>& levels, double valueStep, const std::string& valueType) {
             BuildOptions opt;
             opt.quantiles = quantiles;
             if (!levels.empty()) {  // as build --quantile-levels: q from their count
@@ -821,13 +833,17 @@ PYBIND11_MODULE(_udvr, m) {
             }
             opt.source = source;
             return buildFromArray(values, origin, spacing, downsample, opt, gmmGiven,
-                                  quantilesGiven, progress);
+                                  quantilesGiven, progress, valueStep, valueType);
         },
         py::arg("values"), py::arg("origin"), py::arg("spacing"), py::arg("downsample"),
         py::arg("quantiles"), py::arg("gmm"), py::arg("density"), py::arg("bandwidth"),
         py::arg("tail_eps"), py::arg("gmm_given"), py::arg("quantiles_given"), py::arg("source"),
-        py::arg("progress"), py::arg("quantile_levels") = std::vector<double>{});
+        py::arg("progress"), py::arg("quantile_levels") = std::vector<double>{},
+        py::arg("value_step") = 0.0, py::arg("value_type") = "");
 
+    m.def(
+        "_default_density", [](bool bricks) { return densityEstimateName(defaultDensity(bricks)); },
+        py::arg("bricks"), "build's density estimate when none is given");
     m.def("_probe", &probeAt<TransferFunction1D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
           py::arg("point"), py::arg("minmax"));
     m.def("_probe", &probeAt<TransferFunction2D>, py::arg("model"), py::arg("kind"), py::arg("tf"),

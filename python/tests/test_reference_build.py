@@ -105,7 +105,9 @@ def test_downsample_bricks_and_geometry(tmp_path):
     p = tmp_path / "f.vti"
     udvr.write_field(str(p), udvr.Field(field, origin, spacing))
     out = tmp_path / "model.vti"
-    refcase.run_udvr("build", p, "--downsample", "2", "--gmm", "0", "-o", out)
+    # Empirical named: --downsample's default is kde (docs/experiments.md, downsample-estimators).
+    refcase.run_udvr("build", p, "--downsample", "2", "--gmm", "0", "--density", "empirical",
+                     "-o", out)
     m = udvr.read_model(str(out))
     k = 2
     assert m.grid.dims == [3, 3, 2]

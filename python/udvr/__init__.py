@@ -101,7 +101,7 @@ def _count(value, name):
     return int(value)
 
 
-def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
+def build(data, quantiles=8, gmm=4, density=None, downsample=None, *,
           bandwidth="silverman", tail_eps=None, origin=None, spacing=None, var=None,
           member_dim=None, progress="auto", quantile_levels=None):
     """Per-voxel distribution models, as `udvr build` (SPEC §2): from a NumPy array of shape
@@ -110,7 +110,10 @@ def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
     spacing), or a file path (or a list of member files) as the CLI reads them.
 
     quantiles: q (0 skips), gmm: K (0 skips; lowered to the samples per voxel where fewer),
-    density: "empirical" | "kde" (bandwidth "silverman" | "scott" | h, tail_eps). origin and
+    density: "empirical" | "kde" (bandwidth "silverman" | "scott" | h, tail_eps) | "dequantized"
+    (integer-typed data only: integer dtypes and integer files; each value spread uniformly over
+    [v - step/2, v + step/2] of its quantisation step before the quantiles); None: the CLI's
+    default, "kde" with downsample and "empirical" for ensembles. origin and
     spacing (x, y, z; world units) for arrays: default 0 and 1. quantile_levels: t_0 = 0 < … <
     t_q = 1, uneven levels of the boundaries (q from their count), as --quantile-levels. The GIL is released while it
     runs; progress: a callable(done, total), True for a tqdm bar, "auto" (a bar in notebooks).
@@ -121,9 +124,12 @@ def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
         downsample = _count(downsample, "downsample")
         if downsample < 2:
             raise ValueError(f"downsample must be K >= 2 (K^3 bricks), got {downsample}")
+    if density is None:  # as `udvr build`: kde for K³ bricks, empirical for ensembles
+        density = _udvr._default_density(downsample is not None)
     if not isinstance(density, str) or not isinstance(bandwidth, (str, int, float)):
         raise TypeError("density must be a string, bandwidth a string or a number")
     source = "python"
+    value_step, value_type = 0.0, ""  # the input's quantisation step (dequantized)
     if _arrays.is_path(data) or (isinstance(data, (list, tuple)) and data
                                  and all(_arrays.is_path(p) for p in data)):
         paths = [os.fspath(p) for p in ([data] if _arrays.is_path(data) else data)]
@@ -133,12 +139,15 @@ def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
                 raise ValueError(f"--downsample takes one field, got {len(paths)} inputs")
             f = read_field(paths[0], var or "")
             values, g = f.values, f.grid
+            value_step, value_type = f.value_step, f.value_type
         else:
             e = read_ensemble(paths, var or "", member_dim or "")
             values, g = e.values, e.grid
+            value_step, value_type = e.value_step, e.value_type
         origin = g.origin if origin is None else origin
         spacing = g.spacing if spacing is None else spacing
     elif _arrays.is_dataarray(data):
+        value_step, value_type = _arrays.value_step(data)
         values, o, s = _arrays.split_dataarray(data, member_dim, field=downsample is not None)
         origin = o if origin is None else origin
         spacing = s if spacing is None else spacing
@@ -146,6 +155,7 @@ def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
     elif _arrays.is_dataset(data):
         raise TypeError("build takes one variable: pass ds['name'] (a DataArray), not a Dataset")
     else:
+        value_step, value_type = _arrays.value_step(data)
         values = _arrays.real_array(data, "data", (3, 4))
         if values.ndim == 3 and downsample is None:
             raise ValueError(
@@ -161,7 +171,8 @@ def build(data, quantiles=8, gmm=4, density="empirical", downsample=None, *,
         model, warns, info, dropped = _udvr._build(
             values, origin, spacing, downsample or 0, quantiles, gmm, density, str(bandwidth),
             tail_eps, gmm != 4, quantiles != 8, source, bar.callback,
-            [] if quantile_levels is None else [float(t) for t in quantile_levels])
+            [] if quantile_levels is None else [float(t) for t in quantile_levels],
+            value_step, value_type)
     finally:
         bar.close()
     for w in warns:

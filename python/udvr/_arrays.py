@@ -45,6 +45,16 @@ def real_array(a, name, ndim=None):
     return np.ascontiguousarray(arr, dtype=np.float32)
 
 
+def value_step(a):
+    """(quantisation step, type name) of an array's values, as the C++ readers give them for
+    files: 1 for integer dtypes, 0 for the rest (floats; bool is not a quantised number)."""
+    dt = getattr(a, "dtype", None)
+    if dt is None:
+        dt = np.asarray(a).dtype
+    dt = np.dtype(dt)
+    return (1.0 if dt.kind in "iu" else 0.0), str(dt)
+
+
 def vec3(v, name, positive=False):
     """Three finite floats (x, y, z)."""
     try:

@@ -1,6 +1,6 @@
 // udvr build {ensemble.nc | member files… | 'glob*' | field --downsample K} [--quantiles 8]
-//   [--gmm 4] [--density empirical|kde] [--bandwidth silverman|scott|H] [--tail-eps E]
-//   [--var NAME] [--member-dim NAME] -o model.vti          (SPEC §2, §7, §8)
+//   [--gmm 4] [--density empirical|kde|dequantized] [--bandwidth silverman|scott|H]
+//   [--tail-eps E] [--var NAME] [--member-dim NAME] -o model.vti          (SPEC §2, §7, §8)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -26,6 +26,12 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
+std::string shortNumber(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
 /// Fit the options to n samples per voxel (the library's rule) and say what was fitted on
 /// stderr (after the check, so an error stays the one line).
 void fitOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven, bool quantilesGiven) {
@@ -46,7 +52,7 @@ void addBuildCommand(CLI::App& app) {
         "or from K^3 bricks of one field, written as a .vti model");
     struct Opts {
         std::vector<std::string> inputs;
-        std::string out, density = "empirical", bandwidth = "silverman", var, memberDim, levels;
+        std::string out, density, bandwidth = "silverman", var, memberDim, levels;
         int quantiles = 8, gmm = 4, downsample = 0;
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
@@ -71,7 +77,9 @@ void addBuildCommand(CLI::App& app) {
     o->gmmOpt = sub->add_option("--gmm", o->gmm,
                                 "GMM components K (default 4, lowered to the samples per voxel "
                                 "when there are fewer; 0 skips)");
-    sub->add_option("--density", o->density, "empirical | kde (default empirical)");
+    sub->add_option("--density", o->density,
+                    "empirical | kde | dequantized (integer-typed input: each value spread over "
+                    "its quantisation step) (default: kde with --downsample, else empirical)");
     sub->add_option("--bandwidth", o->bandwidth,
                     "kde bandwidth: silverman | scott | H in data units (default silverman)");
     o->tailEpsOpt = sub->add_option("--tail-eps", o->tailEps,
@@ -94,7 +102,9 @@ void addBuildCommand(CLI::App& app) {
             opt.quantiles = q;
         }
         opt.gmmComponents = o->gmm;
-        opt.density = parseDensityEstimate(o->density);
+        const bool bricks = o->downsampleOpt->count() > 0;
+        opt.density =
+            o->density.empty() ? defaultDensity(bricks) : parseDensityEstimate(o->density);
         opt.bandwidthText = o->bandwidth;
         if (opt.density == DensityEstimate::Kde) opt.bandwidth = parseBandwidth(o->bandwidth);
         if (o->tailEpsOpt->count() > 0) {
@@ -105,7 +115,6 @@ void addBuildCommand(CLI::App& app) {
         // What does not depend on the input is checked before it is read (the sample count
         // is then assumed large enough; fitOptionsToSamples checks against the real one).
         validateBuildOptions(opt, std::numeric_limits<int>::max());
-        const bool bricks = o->downsampleOpt->count() > 0;
         for (const std::string& in : o->inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
         if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
 
@@ -132,6 +141,7 @@ void addBuildCommand(CLI::App& app) {
                                  << e.members << " members");
             }
             readSeconds = secondsSince(t0);
+            checkDensityForInput(opt.density, f.valueStep, f.valueType);
             const Grid3 reduced = downsampledGrid(f.grid, o->downsample);
             const long long k = o->downsample;
             fitOptionsToSamples(opt, k * k * k, o->gmmOpt->count() > 0,
@@ -162,6 +172,7 @@ void addBuildCommand(CLI::App& app) {
             ro.raw = toRawLayout(o->raw);
             const Ensemble e = readEnsemble(o->inputs, ro);
             readSeconds = secondsSince(t0);
+            checkDensityForInput(opt.density, e.valueStep, e.valueType);
             // Checks the options before the bar is drawn.
             fitOptionsToSamples(opt, e.members, o->gmmOpt->count() > 0,
                                 o->quantilesOpt->count() > 0);
@@ -185,6 +196,8 @@ void addBuildCommand(CLI::App& app) {
             opt.density == DensityEstimate::Kde
                 ? (", h " + model.bandwidthRule + " median " + std::to_string(model.bandwidth))
                       .c_str()
+            : opt.density == DensityEstimate::Dequantized
+                ? (", step " + shortNumber(model.bandwidth)).c_str()
                 : "",
             opt.gmmComponents, threadCount());
         if (opt.gmmComponents > 0)

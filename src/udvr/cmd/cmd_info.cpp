@@ -155,6 +155,8 @@ Described describeFile(const std::string& path, const InfoOpts& o) {
             mj["bandwidth_rule"] = m.bandwidthRule;
             mj["bandwidth_median"] = m.bandwidth;
             mj["tail_eps"] = m.tailEps;
+        } else if (m.density == "dequantized") {
+            mj["value_step"] = m.bandwidth;
         }
         mj["full_resolution_bounds"] = m.bounds;
         mj["full_resolution_min_spacing"] = m.fullResMinSpacing;
@@ -246,6 +248,9 @@ void printText(const json& j) {
             std::printf("  kde       bandwidth %s (median h %.6g), tail eps %.3g\n",
                         m["bandwidth_rule"].get<std::string>().c_str(),
                         m["bandwidth_median"].get<double>(), m["tail_eps"].get<double>());
+        if (m.contains("value_step"))
+            std::printf("  dequant   each sample spread over its quantisation step %.6g\n",
+                        m["value_step"].get<double>());
         const auto fb = m["full_resolution_bounds"].get<std::array<double, 6>>();
         std::printf("  full res  bounds [%g, %g] x [%g, %g] x [%g, %g], smallest spacing %g\n",
                     fb[0], fb[1], fb[2], fb[3], fb[4], fb[5],

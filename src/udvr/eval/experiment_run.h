@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -82,6 +84,8 @@ inline Sizes resolveSizes(const std::string& name, const ExperimentOptions& o) {
         s.dims = q ? 64 : 128, s.image = q ? 96 : 384;
     } else if (name == "fiber-isabel") {
         s.image = q ? 96 : 384;
+    } else if (name == "downsample-estimators") {
+        s.dims = q ? 128 : 512, s.image = q ? 128 : 512;  // spheres at full resolution
     } else if (name == "quantile-levels") {
         s.dims = q ? 32 : 64, s.members = 50, s.image = q ? 96 : 512;
     }
@@ -112,9 +116,7 @@ inline std::string modelLabel(ModelKind kind, int q) {
     return s;
 }
 
-inline std::string densityName(DensityEstimate d) {
-    return d == DensityEstimate::Kde ? "kde" : "empirical";
-}
+inline std::string densityName(DensityEstimate d) { return densityEstimateName(d); }
 
 /// Whether a model's classification reads the quantile boundaries (the IQR's come from them too).
 inline bool usesQuantiles(ModelKind kind) {
@@ -225,6 +227,10 @@ class Run {
     }
     /// A claim checked by the experiment itself (added after the table's claims).
     void addClaim(ClaimCheck c) { extraClaims_.push_back(std::move(c)); }
+    /// A report section after the table (Markdown).
+    void addSection(std::string title, std::string markdown) {
+        sections_.push_back({std::move(title), std::move(markdown)});
+    }
 
     /// Camera and image settings for everything rendered in this run (from the truth's bounds).
     void setView(const std::array<double, 6>& bounds, double azimuth = kAzimuth,
@@ -385,7 +391,7 @@ class Run {
                             std::to_string(tf2_->width) + "×" + std::to_string(tf2_->height) +
                             " raster; widgets copied to `tf2.json`).");
         writeFileAtomically(result_.dir / "report.md",
-                            experimentReport(result_, title, setup, figures));
+                            experimentReport(result_, title, setup, figures, sections_));
         for (const ClaimCheck& cl : result_.claims) log(cl.verdict + ": " + cl.claim);
         log("done in " + fmt("%.1f", result_.seconds) + " s → " + result_.dir.string());
         return result_;
@@ -403,17 +409,18 @@ class Run {
             std::to_string(ensemble.members) + " members in " + fmt("%.2f", rep.seconds) + " s");
         return m;
     }
-    ModelVolume buildBricks(const ScalarField& field, int k, int q, int gmm) {
+    ModelVolume buildBricks(const ScalarField& field, int k, int q, int gmm,
+                            DensityEstimate density = DensityEstimate::Empirical) {
         BuildOptions bo;
         bo.quantiles = q;
         bo.gmmComponents = gmm;
+        bo.density = density;  // kde: Silverman's bandwidth, tails at 1/(2n)
         bo.source = result_.name + " " + std::to_string(k) + "^3 bricks";
         BuildReport rep;
         ModelVolume m = buildModelDownsampled(field, k, bo, &rep);
-        log("built " + describeBuild(q, gmm, DensityEstimate::Empirical) + " from " +
-            std::to_string(k) + "³ bricks (" + std::to_string(m.grid.dims[0]) + "×" +
-            std::to_string(m.grid.dims[1]) + "×" + std::to_string(m.grid.dims[2]) + ") in " +
-            fmt("%.2f", rep.seconds) + " s");
+        log("built " + describeBuild(q, gmm, density) + " from " + std::to_string(k) +
+            "³ bricks (" + std::to_string(m.grid.dims[0]) + "×" + std::to_string(m.grid.dims[1]) +
+            "×" + std::to_string(m.grid.dims[2]) + ") in " + fmt("%.2f", rep.seconds) + " s");
         return m;
     }
 
@@ -434,12 +441,37 @@ class Run {
     std::string tf2File_;
     std::map<const ModelVolume*, const ModelVolume*> second_;
     std::vector<ClaimCheck> extraClaims_;
+    std::vector<ReportSection> sections_;
     RenderSettings settings_;
     ImageRgba truth_;
     ImageRgba members_;  // the last members image (addMembers); empty before
     std::vector<PanelItem> items_;
     double diffScale_ = 0.0;
 };
+
+/// A side view of a volume with its long axis z vertical (up), from azimuth `az` degrees about z
+/// (0 = looking along +y) and elevation `el` above the xy plane, `zoom`× closer than the
+/// bounding-sphere fit.
+inline Camera sideCamera(const std::array<double, 6>& b, double az, double el, double zoom) {
+    Camera cam;
+    cam.focalPoint = {(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2};
+    const double radius =
+        0.5 * std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) +
+                        (b[5] - b[4]) * (b[5] - b[4]));
+    const double dist = radius / std::sin(cam.viewAngleDeg * std::numbers::pi / 360.0) / zoom;
+    const double a = az * std::numbers::pi / 180.0, e = el * std::numbers::pi / 180.0;
+    cam.position = {cam.focalPoint[0] + dist * std::cos(e) * std::sin(a),
+                    cam.focalPoint[1] - dist * std::cos(e) * std::cos(a),
+                    cam.focalPoint[2] + dist * std::sin(e)};
+    cam.viewUp = {0, 0, 1};
+    return cam;
+}
+
+/// The chest CT's view: from the front (camera on −y, the anterior side of this scan, head up),
+/// 1.5× closer than the bounding-sphere fit (the body fills only part of its box).
+inline Camera chestCamera(const std::array<double, 6>& bounds) {
+    return sideCamera(bounds, 0.0, 0.0, 1.5);
+}
 
 inline PanelItem tfItem(const TransferFunction1D& tf, int side) {
     PanelItem item;
@@ -470,5 +502,6 @@ ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& option
 ExperimentResult runFiber(const fs::path& dir, const ExperimentOptions& options);    // Fig. 11
 ExperimentResult runFiberIsabel(const fs::path& dir, const ExperimentOptions& options);
 ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions& options);
+ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOptions& options);
 
 }  // namespace udvr::experiment_detail

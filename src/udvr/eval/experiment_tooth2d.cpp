@@ -41,23 +41,6 @@ std::string readText(const fs::path& path) {
     return os.str();
 }
 
-/// A side view of the tooth, its long axis (z, crown up) vertical, from azimuth `az` about z
-/// (0 = looking along +y) and elevation `el` above the xy plane.
-Camera toothCamera(const std::array<double, 6>& b, double az, double el, double zoom) {
-    Camera cam;
-    cam.focalPoint = {(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2};
-    const double radius =
-        0.5 * std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) +
-                        (b[5] - b[4]) * (b[5] - b[4]));
-    const double dist = radius / std::sin(cam.viewAngleDeg * std::numbers::pi / 360.0) / zoom;
-    const double a = az * std::numbers::pi / 180.0, e = el * std::numbers::pi / 180.0;
-    cam.position = {cam.focalPoint[0] + dist * std::cos(e) * std::sin(a),
-                    cam.focalPoint[1] - dist * std::cos(e) * std::cos(a),
-                    cam.focalPoint[2] + dist * std::sin(e)};
-    cam.viewUp = {0, 0, 1};
-    return cam;
-}
-
 std::string brickLabel(int k) { return ", " + std::to_string(k) + "³"; }
 
 }  // namespace
@@ -105,7 +88,7 @@ ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& option
         ModelVolume truthModel = modelFromField(field);
         truthModel.stddev = {};
         run.setView(truthModel.bounds);
-        run.setCamera(toothCamera(bounds, 35.0, 10.0, 1.15));
+        run.setCamera(sideCamera(bounds, 35.0, 10.0, 1.15));
         run.renderTruth(truthModel, 1, kBricks[0] * kBricks[0] * kBricks[0]);
     }
 

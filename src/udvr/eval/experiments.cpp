@@ -264,7 +264,9 @@ ExperimentResult runDownsampled(const std::string& name, const fs::path& dir, Sc
     Run run(name, dir, options, resolveSizes(name, options));
     const Sizes& s = run.sizes();
     run.loadTf(tfFile);
-    ModelVolume reduced = run.buildBricks(field, kBrick, 8, 4);
+    // `build --downsample`'s default estimate (kde, Silverman), as a user's build gets.
+    const DensityEstimate density = defaultDensity(true);
+    ModelVolume reduced = run.buildBricks(field, kBrick, 8, 4, density);
     {
         // The full-resolution truth: a mean model of the field, without the arrays it does not
         // need for rendering (σ), to keep a 512³ run within a few GiB.
@@ -288,13 +290,14 @@ ExperimentResult runDownsampled(const std::string& name, const fs::path& dir, Sc
         "Difference images: per-pixel |Δ mean RGB| against the ground truth, blue (0) "
         "to yellow (" +
         fmt("%.3f", scale) + ", the largest difference of any model).");
-    setup.push_back("Reduced by " + std::to_string(kBrick) + "³ bricks to " +
-                    std::to_string(reduced.grid.dims[0]) + "×" +
-                    std::to_string(reduced.grid.dims[1]) + "×" +
-                    std::to_string(reduced.grid.dims[2]) +
-                    " voxels of 64 samples each (SPEC §2); empirical quantiles q = 8, GMM K = 4; "
-                    "gmm-mc averages " +
-                    std::to_string(s.realizations) + " realizations.");
+    setup.push_back(
+        "Reduced by " + std::to_string(kBrick) + "³ bricks to " +
+        std::to_string(reduced.grid.dims[0]) + "×" + std::to_string(reduced.grid.dims[1]) + "×" +
+        std::to_string(reduced.grid.dims[2]) + " voxels of 64 samples each (SPEC §2); " +
+        densityName(density) + " quantiles q = 8 (`build --downsample`'s default" +
+        (density == DensityEstimate::Kde ? ": Silverman's bandwidth, tails at ε = 1/128" : "") +
+        "; `downsample-estimators` compares the estimators), GMM K = 4; gmm-mc averages " +
+        std::to_string(s.realizations) + " realizations.");
     setup.push_back(
         "Ground-truth memory is the full-resolution field relative to the reduced mean "
         "field (64).");
@@ -332,20 +335,7 @@ ExperimentResult runChest(const fs::path& dir, const ExperimentOptions& options)
     if (options.log)
         std::fprintf(stderr, "udvr experiment chest: read %s (%d×%d×%d)\n", path.string().c_str(),
                      field.grid.dims[0], field.grid.dims[1], field.grid.dims[2]);
-    // A frontal view: looking along +y (anterior to posterior in this scan) with the body
-    // axis (z, head up) vertical.
-    const auto b = field.grid.bounds();
-    Camera cam;
-    cam.focalPoint = {(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2};
-    const double radius =
-        0.5 * std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) +
-                        (b[5] - b[4]) * (b[5] - b[4]));
-    // The bounding sphere fits the view at `dist`; the body fills only part of the box, so
-    // come closer.
-    constexpr double kChestZoom = 1.5;
-    const double dist = radius / std::sin(cam.viewAngleDeg * std::numbers::pi / 360.0) / kChestZoom;
-    cam.position = {cam.focalPoint[0], cam.focalPoint[1] - dist, cam.focalPoint[2]};
-    cam.viewUp = {0, 0, 1};
+    const Camera cam = chestCamera(field.grid.bounds());
     const std::string title =
         "Chest CT reduced by 4³ bricks: bone (gray) and soft tissue (red) "
         "(Athawale et al. 2021, teaser b / Fig. 9)";
@@ -367,6 +357,7 @@ ExperimentResult runOne(const std::string& name, const fs::path& dir,
     if (name == "fiber") return runFiber(dir, options);
     if (name == "fiber-isabel") return runFiberIsabel(dir, options);
     if (name == "quantile-levels") return runQuantileLevels(dir, options);
+    if (name == "downsample-estimators") return runDownsampleEstimators(dir, options);
     std::string names;
     for (const std::string& n : experimentNames()) names += n + ", ";
     UDVR_FAIL("unknown experiment '" << name << "' (expected one of " << names << "all)");
@@ -381,9 +372,17 @@ fs::path executableDir() {
 }  // namespace
 
 const std::vector<std::string>& experimentNames() {
-    static const std::vector<std::string> names = {
-        "tangle", "tangle-sweep", "teardrop", "quartiles",    "spheres",
-        "chest",  "tooth2d",      "fiber",    "fiber-isabel", "quantile-levels"};
+    static const std::vector<std::string> names = {"tangle",
+                                                   "tangle-sweep",
+                                                   "teardrop",
+                                                   "quartiles",
+                                                   "spheres",
+                                                   "chest",
+                                                   "tooth2d",
+                                                   "fiber",
+                                                   "fiber-isabel",
+                                                   "quantile-levels",
+                                                   "downsample-estimators"};
     return names;
 }
 

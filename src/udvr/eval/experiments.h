@@ -8,6 +8,7 @@
 //   quartiles     Fig. 6   — quartile view of the tangle
 //   spheres       Fig. 8   — nested spheres 512³ reduced by 4³ bricks
 //   chest         teaser b / Fig. 9 — chest CT reduced by 4³ bricks (plays OBELIX)
+//   downsample-estimators — issue 12.2: empirical, KDE and dequantised quantiles on bricks
 #include <filesystem>
 #include <string>
 #include <vector>

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "udvr/classify/model_kind.h"
@@ -154,6 +155,51 @@ TEST(Experiments, TinyAllRunsEndToEnd) {
     fs::remove_all(dir);
 }
 
+// downsample-estimators at a tiny size: the spheres always, and chest, neghip and tooth where the
+// shared data are present (skipped with a setup line otherwise). Per volume: the truth, the four
+// estimator-free references once, and quantile-range, quantile-mean and iqr per estimator —
+// dequantized only for the integer-typed (uint8) volumes; the table names the estimator; the
+// rule's section and a claim per (volume, estimator) are in the report.
+TEST(Experiments, DownsampleEstimatorsSmoke) {
+    const fs::path dir = freshDir("downsample-estimators");
+    ExperimentOptions o = tinyOptions(dir);
+    o.dataDir = locateDataDir();  // empty without shared data: the spheres alone
+    const auto results = runExperiments("downsample-estimators", dir, o);
+    ASSERT_EQ(results.size(), 1u);
+    const ExperimentResult& r = results.front();
+    expectPromisedFiles(r);
+    EXPECT_TRUE(fs::is_regular_file(dir / "estimators.md"));
+    std::vector<std::string> volumes;
+    std::map<std::string, int> quantileRows;  // volume → rows per estimator model
+    std::string volume;
+    for (const ResultRow& row : r.rows) {
+        if (row.model == "ground-truth") {
+            volume = row.label.substr(0, row.label.find(':'));
+            volumes.push_back(volume);
+            continue;
+        }
+        EXPECT_NE(row.label.find("(" + volume), std::string::npos) << row.label;
+        if (row.density.empty()) continue;  // an estimator-free reference
+        EXPECT_NE(row.label.find(", " + row.density + ")"), std::string::npos) << row.label;
+        ++quantileRows[volume + " " + row.density];
+    }
+    ASSERT_FALSE(volumes.empty());
+    EXPECT_EQ(volumes.front(), "spheres");
+    for (const std::string& v : volumes)
+        for (const char* est : {"empirical", "kde-silverman", "kde-scott", "dequantized"})
+            EXPECT_EQ(quantileRows[v + " " + est],
+                      std::string(est) == "dequantized" && v == "spheres" ? 0 : 3)
+                << v << " " << est;
+    const std::size_t perVolume = 1 + 4 + 3 * 3;
+    const std::size_t integerVolumes = volumes.size() - 1;
+    EXPECT_EQ(r.rows.size(), volumes.size() * perVolume + integerVolumes * 3);
+    EXPECT_EQ(r.claims.size(), 3 + integerVolumes * 4);  // one per (volume, estimator)
+    const std::string report = readText(dir / "report.md");
+    EXPECT_NE(report.find("## Estimators and the default rule"), std::string::npos);
+    EXPECT_NE(report.find("By this rule: **"), std::string::npos);
+    fs::remove_all(dir);
+}
+
 TEST(Experiments, ChestWithoutDataIsAClearError) {
     const fs::path dir = freshDir("chest");
     ExperimentOptions o = tinyOptions(dir);
@@ -207,7 +253,8 @@ TEST(Experiments, UnknownNameIsAnError) {
 
 TEST(Experiments, TransferFunctionsAreShipped) {
     const fs::path tf = locateTfDir();
-    for (const char* f : {"tangle.json", "teardrop.json", "spheres.json", "chest-ct.json"})
+    for (const char* f : {"tangle.json", "teardrop.json", "spheres.json", "chest-ct.json",
+                          "neghip.json", "tooth.json"})
         EXPECT_TRUE(fs::is_regular_file(tf / f)) << f;
 }
 

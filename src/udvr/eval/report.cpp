@@ -279,7 +279,8 @@ std::string resultsMarkdownTable(const std::vector<ResultRow>& rows) {
 
 std::string experimentReport(const ExperimentResult& result, const std::string& title,
                              const std::vector<std::string>& setup,
-                             const std::vector<std::string>& figures) {
+                             const std::vector<std::string>& figures,
+                             const std::vector<ReportSection>& sections) {
     std::ostringstream os;
     os << "# " << title << "\n\n";
     os << "`udvr experiment " << result.name << "`; wall time " << fmt("%.1f", result.seconds)
@@ -299,6 +300,8 @@ std::string experimentReport(const ExperimentResult& result, const std::string& 
               "the TF averaged over the members at each sample, no model), for the images "
               "rendered after it.";
     os << "\n\n" << resultsMarkdownTable(result.rows) << "\n";
+    for (const ReportSection& sec : sections)
+        os << "## " << sec.title << "\n\n" << sec.markdown << "\n";
     if (!result.claims.empty()) {
         os << "## The paper's claims in this run\n\n";
         for (const ClaimCheck& c : result.claims)

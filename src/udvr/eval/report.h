@@ -14,10 +14,17 @@ std::vector<ClaimCheck> checkClaims(const std::string& name, const std::vector<R
 /// A Markdown table of the rows (label, model, q, density, members, RMSE, ms, memory, image).
 std::string resultsMarkdownTable(const std::vector<ResultRow>& rows);
 
-/// The report of one experiment: title, setup lines, figures, table, claims, files.
+/// A section of a report after its table: a title and Markdown text.
+struct ReportSection {
+    std::string title;
+    std::string markdown;
+};
+
+/// The report of one experiment: title, setup lines, figures, table, sections, claims, files.
 std::string experimentReport(const ExperimentResult& result, const std::string& title,
                              const std::vector<std::string>& setup,
-                             const std::vector<std::string>& figures);
+                             const std::vector<std::string>& figures,
+                             const std::vector<ReportSection>& sections = {});
 
 /// The summary of an `all` run: each experiment's claims and a link to its report.
 std::string summaryReport(const std::vector<ExperimentResult>& results,

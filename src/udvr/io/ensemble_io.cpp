@@ -134,11 +134,16 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
         if (m == 0) {
             e.grid = f.grid;
             e.name = f.name;
+            e.valueType = f.valueType;
+            e.valueStep = f.valueStep;
             detail::allocateEnsemble(e, options);
         } else if (!sameGrid(f.grid, e.grid)) {
             UDVR_FAIL("ensemble members on different grids: "
                       << files[m] << " is " << gridText(f.grid) << ", " << files[0] << " is "
                       << gridText(e.grid));
+        } else if (f.valueType != e.valueType || f.valueStep != e.valueStep) {
+            e.valueType = "mixed";  // members of different types: no one quantisation step
+            e.valueStep = 0.0;
         }
         detail::storeMember(e, static_cast<int>(m), f.values);
     }

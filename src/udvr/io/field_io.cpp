@@ -89,6 +89,18 @@ std::size_t typeSize(ScalarType t) {
     return 0;
 }
 
+const char* typeName(ScalarType t) {
+    static const char* const kNames[] = {"uint8",  "int8",  "uint16",  "int16",
+                                         "uint32", "int32", "float32", "float64"};
+    return kNames[static_cast<int>(t)];
+}
+
+/// A field's value type and quantisation step (ScalarField::valueStep): 1 for integer types.
+void setValueType(ScalarField& f, ScalarType t) {
+    f.valueType = typeName(t);
+    f.valueStep = t == ScalarType::kFloat32 || t == ScalarType::kFloat64 ? 0.0 : 1.0;
+}
+
 std::string lower(std::string s) {
     std::transform(s.begin(), s.end(), s.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -293,6 +305,7 @@ ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
     f.values.resize(n);
     decode(*type, layout.bigEndian, reinterpret_cast<const unsigned char*>(bytes.data()), n,
            f.values.data());
+    setValueType(f, *type);
     return f;
 }
 
@@ -684,6 +697,7 @@ ScalarField readNrrd(const fs::path& path) {
         f.values.resize(n);
         decode(*h.type, big, reinterpret_cast<const unsigned char*>(data), n, f.values.data());
     }
+    setValueType(f, *h.type);
     return f;
 }
 
@@ -701,10 +715,8 @@ std::string nrrdTypeName(const fs::path& path) {
         if (line.empty() || line == "\r") break;
     }
     const NrrdHeader h = parseNrrdHeader(path, header);
-    static const char* const kNames[] = {"uint8",  "int8",  "uint16",  "int16",
-                                         "uint32", "int32", "float32", "float64"};
     if (!h.type) return h.typeName;
-    return kNames[static_cast<int>(*h.type)];
+    return typeName(*h.type);
 }
 
 void printNote(const std::string& note) {

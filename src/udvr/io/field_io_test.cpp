@@ -69,6 +69,8 @@ TEST(IoRaw, ReadsEveryTypeAndByteOrder) {
         ScalarField f = readField(dir / "f.raw", o);
         SCOPED_TRACE(type);
         expectRamp(f);
+        EXPECT_EQ(f.valueType, type);
+        EXPECT_EQ(f.valueStep, type.rfind("float", 0) == 0 ? 0.0 : 1.0);
         EXPECT_EQ(f.grid.spacing, layout.spacing);
         EXPECT_EQ(f.grid.origin, layout.origin);
     };
@@ -135,6 +137,8 @@ TEST(IoNrrd, DetachedRawWithGeometry) {
                                       "data file: f.raw\n"));
     ScalarField f = readField(dir / "f.nhdr");
     expectRamp(f);
+    EXPECT_EQ(f.valueType, "int16");  // any spelling of the type, by its canonical name
+    EXPECT_EQ(f.valueStep, 1.0);
     EXPECT_EQ(f.grid.spacing, (std::array<double, 3>{0.5, 2.0, 3.0}));
     EXPECT_EQ(f.grid.origin, (std::array<double, 3>{1.0, -2.0, 0.25}));
 }
@@ -149,6 +153,8 @@ TEST(IoNrrd, AttachedGzipBigEndianDouble) {
                                    gzip(data));
     ScalarField f = readField(dir / "f.nrrd");
     expectRamp(f);
+    EXPECT_EQ(f.valueType, "float64");
+    EXPECT_EQ(f.valueStep, 0.0);
     EXPECT_EQ(f.grid.spacing, (std::array<double, 3>{1.5, 1.0, 2.0}));
     EXPECT_EQ(f.grid.origin, (std::array<double, 3>{0.0, 0.0, 0.0}));
 }

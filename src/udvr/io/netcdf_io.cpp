@@ -372,6 +372,41 @@ Packing packingOf(int nc, int varid) {
     return p;
 }
 
+/// A numeric variable's type as int8 … float64 (ArrayInfo::type, ScalarField::valueType).
+std::string valueTypeOf(const fs::path& path, int nc, int varid) {
+    nc_type t;
+    ncCheck(nc_inq_vartype(nc, varid, &t), path, "variable type");
+    switch (t) {
+        case NC_BYTE:
+            return "int8";
+        case NC_UBYTE:
+            return "uint8";
+        case NC_SHORT:
+            return "int16";
+        case NC_USHORT:
+            return "uint16";
+        case NC_INT:
+            return "int32";
+        case NC_UINT:
+            return "uint32";
+        case NC_INT64:
+            return "int64";
+        case NC_UINT64:
+            return "uint64";
+        case NC_FLOAT:
+            return "float32";
+        default:
+            return "float64";
+    }
+}
+
+/// ScalarField::valueStep of a variable of type `type`: 1 for integers, |scale_factor| for
+/// CF-packed integers (the spacing of the unpacked values), 0 for floating-point types.
+double valueStepOf(int nc, int varid, const std::string& type) {
+    if (type == "float32" || type == "float64") return 0.0;
+    return std::abs(packingOf(nc, varid).scale);
+}
+
 /// Read `count` values of a hyperslab, rejecting fill values and applying CF packing.
 void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vector<size_t>& start,
               const std::vector<size_t>& count, std::span<float> out, const std::string& what) {
@@ -555,6 +590,8 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
     f.values.resize(f.grid.pointCount());
     std::vector<std::size_t> start(var->dims.size(), 0), count(var->lengths);
     readSlab(path, file.id, *var, start, count, f.values, "");
+    f.valueType = valueTypeOf(path, file.id, var->id);
+    f.valueStep = valueStepOf(file.id, var->id, f.valueType);
     return f;
 }
 
@@ -629,6 +666,8 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
     e.grid = gridFromCoordinates(path, file.id, gridView, 0, &geometryNote);
     e.members = static_cast<int>(members);
     e.name = var->name;
+    e.valueType = valueTypeOf(path, file.id, var->id);
+    e.valueStep = valueStepOf(file.id, var->id, e.valueType);
     std::size_t n = e.grid.pointCount();
     detail::allocateEnsemble(e, options);
     std::vector<float> scratch(e.voxelMajor ? n : 0);  // one member, stored voxel-major after
@@ -667,42 +706,9 @@ std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
     try {
         for (const VarInfo& v : allVars(path, nc)) {
             if (!isNumeric(nc, v.id) || isCoordinateVar(v)) continue;
-            nc_type t;
-            ncCheck(nc_inq_vartype(nc, v.id, &t), path, "variable type");
             ArrayInfo info;
             info.name = v.name;
-            switch (t) {
-                case NC_BYTE:
-                    info.type = "int8";
-                    break;
-                case NC_UBYTE:
-                    info.type = "uint8";
-                    break;
-                case NC_SHORT:
-                    info.type = "int16";
-                    break;
-                case NC_USHORT:
-                    info.type = "uint16";
-                    break;
-                case NC_INT:
-                    info.type = "int32";
-                    break;
-                case NC_UINT:
-                    info.type = "uint32";
-                    break;
-                case NC_INT64:
-                    info.type = "int64";
-                    break;
-                case NC_UINT64:
-                    info.type = "uint64";
-                    break;
-                case NC_FLOAT:
-                    info.type = "float32";
-                    break;
-                default:
-                    info.type = "float64";
-                    break;
-            }
+            info.type = valueTypeOf(path, nc, v.id);
             info.dimNames = v.dimNames;
             info.dimSizes = v.lengths;
             arrays.push_back(info);

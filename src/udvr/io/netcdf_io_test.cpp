@@ -96,6 +96,36 @@ TEST(IoNetcdf, ReadsFieldWithCoordinates) {
     EXPECT_NEAR(f.grid.spacing[2], 0.3, 1e-6);
 }
 
+// The quantisation step: 1 for integer variables, |scale_factor| for CF-packed ones, 0 for floats.
+TEST(IoNetcdf, ValueTypeAndStepFollowTypeAndPacking) {
+    TempDir dir;
+    NcSpec s;
+    s.type = NC_SHORT;
+    writeNc(dir / "i.nc", s);
+    ScalarField f = readField(dir / "i.nc");
+    EXPECT_EQ(f.valueType, "int16");
+    EXPECT_EQ(f.valueStep, 1.0);
+    s.type = NC_FLOAT;
+    writeNc(dir / "f.nc", s);
+    f = readField(dir / "f.nc");
+    EXPECT_EQ(f.valueType, "float32");
+    EXPECT_EQ(f.valueStep, 0.0);
+    int nc = -1, var = -1;
+    s.type = NC_SHORT;
+    writeNc(dir / "p.nc", s);
+    NC_OK(nc_open((dir / "p.nc").c_str(), NC_WRITE, &nc));
+    NC_OK(nc_inq_varid(nc, "temperature", &var));
+    NC_OK(nc_redef(nc));
+    const double scale = -0.25, offset = 3.0;
+    NC_OK(nc_put_att_double(nc, var, "scale_factor", NC_DOUBLE, 1, &scale));
+    NC_OK(nc_put_att_double(nc, var, "add_offset", NC_DOUBLE, 1, &offset));
+    NC_OK(nc_close(nc));
+    f = readField(dir / "p.nc");
+    EXPECT_EQ(f.valueType, "int16");
+    EXPECT_EQ(f.valueStep, 0.25);
+    EXPECT_EQ(f.values[f.grid.index(3, 2, 1)], 123.f * -0.25f + 3.f);
+}
+
 TEST(IoNetcdf, MissingCoordinatesGiveUnitGridWithANote) {
     TempDir dir;
     NcSpec s;

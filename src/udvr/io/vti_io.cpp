@@ -196,6 +196,31 @@ Grid3 gridOf(const fs::path& path, vtkImageData* image) {
     return g;
 }
 
+/// A VTK data type as uint8 … float64 (ArrayInfo::type, ScalarField::valueType).
+std::string vtkTypeName(int type) {
+    switch (type) {
+        case VTK_UNSIGNED_CHAR:
+            return "uint8";
+        case VTK_SIGNED_CHAR:
+        case VTK_CHAR:
+            return "int8";
+        case VTK_UNSIGNED_SHORT:
+            return "uint16";
+        case VTK_SHORT:
+            return "int16";
+        case VTK_UNSIGNED_INT:
+            return "uint32";
+        case VTK_INT:
+            return "int32";
+        case VTK_FLOAT:
+            return "float32";
+        case VTK_DOUBLE:
+            return "float64";
+        default:
+            return "VTK type " + std::to_string(type);
+    }
+}
+
 template <class T>
 void convertValues(const T* src, std::size_t n, float* dst) {
     for (std::size_t i = 0; i < n; ++i) dst[i] = static_cast<float>(src[i]);
@@ -363,6 +388,10 @@ ScalarField detail::readFieldVti(const fs::path& path, const std::string& var) {
     }
     f.values = toFloat(path, array);
     f.name = name;
+    f.valueType = vtkTypeName(array->GetDataType());
+    // Every numeric VTK type but these two holds integers.
+    const bool floating = array->GetDataType() == VTK_FLOAT || array->GetDataType() == VTK_DOUBLE;
+    f.valueStep = floating ? 0.0 : 1.0;
     return f;
 }
 
@@ -612,38 +641,8 @@ std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
                            ? info->Get(vtkDataObject::FIELD_NUMBER_OF_COMPONENTS())
                            : 1;
         const int type = info->Get(vtkDataObject::FIELD_ARRAY_TYPE());
-        switch (type) {
-            case VTK_UNSIGNED_CHAR:
-                a.type = "uint8";
-                break;
-            case VTK_SIGNED_CHAR:
-            case VTK_CHAR:
-                a.type = "int8";
-                break;
-            case VTK_UNSIGNED_SHORT:
-                a.type = "uint16";
-                break;
-            case VTK_SHORT:
-                a.type = "int16";
-                break;
-            case VTK_UNSIGNED_INT:
-                a.type = "uint32";
-                break;
-            case VTK_INT:
-                a.type = "int32";
-                break;
-            case VTK_FLOAT:
-                a.type = "float32";
-                break;
-            case VTK_DOUBLE:
-                a.type = "float64";
-                break;
-            case VTK_STRING:
-                continue;  // not a numeric array
-            default:
-                a.type = "VTK type " + std::to_string(type);
-                break;
-        }
+        if (type == VTK_STRING) continue;  // not a numeric array
+        a.type = vtkTypeName(type);
         arrays.push_back(a);
     }
     return arrays;

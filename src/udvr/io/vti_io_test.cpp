@@ -7,7 +7,9 @@
 #include <vtkImageData.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
+#include <vtkShortArray.h>
 #include <vtkStringArray.h>
+#include <vtkUnsignedCharArray.h>
 #include <vtkXMLImageDataReader.h>
 #include <vtkXMLImageDataWriter.h>
 
@@ -83,6 +85,39 @@ TEST(IoVti, ReadsFilesWrittenByVtk) {
     FieldReadOptions o;
     o.var = "value";
     EXPECT_EQ(readField(dir / "g.vti", o).values[1], 1.f);
+}
+
+// The array's type travels with the field: integers have quantisation step 1, floats none.
+TEST(IoVti, ValueTypeAndStepOfTheArray) {
+    TempDir dir;
+    writeWithVtk(dir / "f.vti", Mode::kAppendedRaw, "value");
+    const ScalarField f = readField(dir / "f.vti");
+    EXPECT_EQ(f.valueType, "float64");
+    EXPECT_EQ(f.valueStep, 0.0);
+    vtkNew<vtkImageData> image;
+    image->SetDimensions(2, 2, 2);
+    vtkNew<vtkUnsignedCharArray> bytes;
+    bytes->SetName("u8");
+    vtkNew<vtkShortArray> shorts;
+    shorts->SetName("s16");
+    for (int i = 0; i < 8; ++i) {
+        bytes->InsertNextValue(static_cast<unsigned char>(200 + i));
+        shorts->InsertNextValue(static_cast<short>(-i));
+    }
+    image->GetPointData()->AddArray(bytes);
+    image->GetPointData()->AddArray(shorts);
+    vtkNew<vtkXMLImageDataWriter> writer;
+    writer->SetFileName((dir / "i.vti").c_str());
+    writer->SetInputData(image);
+    ASSERT_EQ(writer->Write(), 1);
+    FieldReadOptions o;
+    o.var = "u8";
+    const ScalarField u = readField(dir / "i.vti", o);
+    EXPECT_EQ(u.valueType, "uint8");
+    EXPECT_EQ(u.valueStep, 1.0);
+    EXPECT_EQ(u.values[7], 207.f);
+    o.var = "s16";
+    EXPECT_EQ(readField(dir / "i.vti", o).valueType, "int16");
 }
 
 TEST(IoVti, WriterRoundTripAndVtkCanReadIt) {

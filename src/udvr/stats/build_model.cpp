@@ -65,15 +65,18 @@ struct InputScan {
 
 /// The statistics of SPEC §2 for every voxel. gather(v0, v1, buf) writes voxel v's n samples to
 /// buf[(v − v0)·n …] for v in [v0, v1), v1 − v0 ≤ kChunkVoxels.
+/// valueStep: the input's quantisation step (ScalarField::valueStep), used by dequantized only.
 template <class Gather>
 ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const BuildOptions& opt,
-                      const InputScan& scan, BuildReport* report) {
+                      const InputScan& scan, double valueStep, BuildReport* report) {
     const auto start = std::chrono::steady_clock::now();
     const std::size_t voxels = grid.pointCount();
     const std::size_t un = static_cast<std::size_t>(n);
     const int q = opt.quantiles;
     const int K = opt.gmmComponents;
     const bool kde = opt.density == DensityEstimate::Kde;
+    const bool dequantized = opt.density == DensityEstimate::Dequantized;
+    UDVR_CHECK(!dequantized || valueStep > 0.0);
     const double eps = opt.tailEps > 0.0 ? opt.tailEps : 0.5 / static_cast<double>(n);
 
     ModelVolume m;
@@ -89,6 +92,9 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     // b(0.25), b(0.75) among the boundaries (kde: the IQR is then read off them).
     const int quarter = q > 0 ? m.boundaryAtLevel(0.25) : -1;
     const int threeQuarters = q > 0 ? m.boundaryAtLevel(0.75) : -1;
+    std::vector<double> boundaryLevels(static_cast<std::size_t>(q + 1));
+    for (int j = 0; j <= q; ++j) boundaryLevels[static_cast<std::size_t>(j)] = m.quantileLevel(j);
+    const std::array<double, 2> iqrLevels = {0.25, 0.75};
     m.gmmComponents = K;
     if (K > 0) m.gmm.resize(voxels * static_cast<std::size_t>(3 * K));
     std::vector<float> bandwidths;  // per voxel h (kde), NaN for constant voxels
@@ -106,6 +112,8 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
         std::vector<float> buf(kChunkVoxels * un);  // sorted samples of a chunk, voxel-major
         std::vector<GmmFitInfo> infos(kChunkVoxels);
         GmmWorkspace ws;
+        std::vector<double> dq(dequantized ? static_cast<std::size_t>(q + 1) : 0);
+        std::array<double, 2> dqIqr{};
         std::size_t lConstant = 0, lNotConverged = 0, lFewer = 0, lIterations = 0;
         for (std::size_t c0 = b; c0 < e; c0 += kChunkVoxels) {
             const std::size_t c1 = std::min(e, c0 + kChunkVoxels);
@@ -122,9 +130,21 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                 float* qv =
                     q > 0 ? m.quantiles.data() + v * static_cast<std::size_t>(q + 1) : nullptr;
                 float* iqr = m.iqr.data() + 2 * v;
-                if (s[0] == s[un - 1]) {
+                const bool constantVoxel = s[0] == s[un - 1];
+                if (constantVoxel) ++lConstant;
+                if (dequantized) {
+                    // Every sample spread over its quantisation step, constant voxels too (a
+                    // brick of v is U[v − s/2, v + s/2]); the mixture's exact quantiles.
+                    if (qv) {
+                        dequantizedQuantiles(sorted, valueStep, boundaryLevels, dq);
+                        for (int j = 0; j <= q; ++j)
+                            qv[j] = static_cast<float>(dq[static_cast<std::size_t>(j)]);
+                    }
+                    dequantizedQuantiles(sorted, valueStep, iqrLevels, dqIqr);
+                    iqr[0] = static_cast<float>(dqIqr[0]);
+                    iqr[1] = static_cast<float>(dqIqr[1]);
+                } else if (constantVoxel) {
                     // A point mass: every boundary is the common value (SPEC §2).
-                    ++lConstant;
                     if (qv) std::fill(qv, qv + q + 1, s[0]);
                     iqr[0] = iqr[1] = s[0];
                     if (kde) bandwidths[v] = std::numeric_limits<float>::quiet_NaN();
@@ -180,10 +200,10 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
         iterations += lIterations;
     });
 
-    m.density = kde ? "kde" : "empirical";
+    m.density = densityEstimateName(opt.density);
     m.bandwidthRule = kde ? opt.bandwidthText : "";
     m.tailEps = kde ? eps : 0.0;
-    m.bandwidth = 0.0;
+    m.bandwidth = dequantized ? valueStep : 0.0;  // dequantized: the uniform kernel's width s
     if (kde && opt.bandwidth.rule == BandwidthRule::Fixed) {
         m.bandwidth = opt.bandwidth.fixed;
     } else if (kde) {
@@ -257,6 +277,19 @@ void validateBuildOptions(const BuildOptions& o, int n) {
     }
 }
 
+DensityEstimate defaultDensity(bool bricks) {
+    return bricks ? DensityEstimate::Kde : DensityEstimate::Empirical;
+}
+
+void checkDensityForInput(DensityEstimate density, double valueStep, const std::string& valueType) {
+    if (density != DensityEstimate::Dequantized || valueStep > 0.0) return;
+    UDVR_FAIL(
+        "--density dequantized spreads each value over its quantisation step and needs an "
+        "integer-typed input; this input holds "
+        << (valueType.empty() ? std::string("floating-point") : valueType)
+        << " values: use --density empirical or kde");
+}
+
 BuildFitNotes fitBuildOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven,
                                        bool quantilesGiven) {
     const int n = static_cast<int>(std::min<long long>(samples, 1 << 30));
@@ -295,6 +328,7 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
     UDVR_CHECK(P > 0 && !e.voxelMajor &&
                e.values.size() == static_cast<std::size_t>(e.members) * P);
     validateBuildOptions(opt, e.members);
+    checkDensityForInput(opt.density, e.valueStep, e.valueType);
     const auto start = std::chrono::steady_clock::now();
 
     // Non-finite check and data range, member rows scanned in voxel chunks.
@@ -326,7 +360,7 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
                     row[v];
         }
     };
-    ModelVolume m = buildCore(e.grid, n, gather, opt, scan, report);
+    ModelVolume m = buildCore(e.grid, n, gather, opt, scan, e.valueStep, report);
     m.downsample = 0;
     m.bounds = e.grid.bounds();
     m.fullResMinSpacing = e.grid.minSpacing();
@@ -355,6 +389,7 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
     UDVR_CHECK(f.values.size() == f.grid.pointCount());
     const int n = k * k * k;
     validateBuildOptions(opt, n);
+    checkDensityForInput(opt.density, f.valueStep, f.valueType);
     const auto start = std::chrono::steady_clock::now();
 
     // Scan only the points inside whole bricks (the trailing planes are left out).
@@ -398,7 +433,7 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
                 }
         }
     };
-    ModelVolume m = buildCore(g, n, gather, opt, scan, report);
+    ModelVolume m = buildCore(g, n, gather, opt, scan, f.valueStep, report);
     m.downsample = k;
     m.bounds = f.grid.bounds();
     m.fullResMinSpacing = f.grid.minSpacing();

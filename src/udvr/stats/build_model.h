@@ -45,6 +45,16 @@ struct BuildReport {
 /// large, ε out of range, bandwidth not positive).
 void validateBuildOptions(const BuildOptions& options, int samplesPerVoxel);
 
+/// The density estimate `build` uses when none is given: kde (Silverman's bandwidth) for K³
+/// bricks of one field, empirical for ensembles (BuildOptions' own default is empirical).
+/// Bricks: the minimax-regret choice of `udvr experiment downsample-estimators` over the
+/// spheres, chest, neghip and tooth volumes (docs/experiments.md); ensembles: `tangle-sweep`.
+DensityEstimate defaultDensity(bool bricks);
+
+/// Check the density estimate against the input (ScalarField::valueStep, valueType): dequantized
+/// needs a quantisation step > 0, i.e. integer-typed values; throws UdvrError naming the type.
+void checkDensityForInput(DensityEstimate density, double valueStep, const std::string& valueType);
+
 /// What fitBuildOptionsToSamples changed or noticed, for the user: one warning per option given
 /// explicitly, and one info text for the defaults (empty when nothing).
 struct BuildFitNotes {
@@ -63,7 +73,8 @@ BuildFitNotes fitBuildOptionsToSamples(BuildOptions& options, long long samplesP
                                        bool gmmGiven, bool quantilesGiven);
 
 /// Model from an ensemble: the members' values at a voxel are its samples. Throws UdvrError for
-/// fewer than 2 members or non-finite samples (with their count and the first voxel).
+/// fewer than 2 members, non-finite samples (with their count and the first voxel) or
+/// dequantized on a float ensemble (checkDensityForInput).
 ModelVolume buildModel(const Ensemble& ensemble, const BuildOptions& options,
                        BuildReport* report = nullptr);
 

@@ -226,6 +226,58 @@ TEST(BuildModel, DownsampledGeometryAndValues) {
             }
 }
 
+// dequantized on an integer-typed field: each brick's boundaries are the dequantised quantiles of
+// its samples (constant bricks included), the IQR at .25/.75 of the same estimate, the moments
+// and GMM those of the samples as for empirical; the model records the step.
+TEST(BuildModel, DequantizedBricksOfAnIntegerField) {
+    ScalarField f;
+    f.grid.dims = {4, 4, 2};
+    f.valueType = "uint8";
+    f.valueStep = 1.0;
+    for (std::size_t p = 0; p < f.grid.pointCount(); ++p) {
+        CounterRng rng(4, p, 0);
+        const bool leftBrick = p % 4 < 2;  // x < 2: the bricks i = 0, all 7
+        f.values.push_back(leftBrick ? 7.f : static_cast<float>(std::floor(rng.uniform() * 3.0)));
+    }
+    BuildOptions opt;
+    opt.density = DensityEstimate::Dequantized;
+    opt.gmmComponents = 2;
+    BuildOptions empirical = opt;
+    empirical.density = DensityEstimate::Empirical;
+    const ModelVolume m = buildModelDownsampled(f, 2, opt);
+    const ModelVolume e = buildModelDownsampled(f, 2, empirical);
+    EXPECT_EQ(m.density, "dequantized");
+    EXPECT_EQ(m.bandwidth, 1.0);
+    EXPECT_EQ(m.mean, e.mean);
+    EXPECT_EQ(m.stddev, e.stddev);
+    EXPECT_EQ(m.gmm, e.gmm);
+    std::vector<double> levels;
+    for (int j = 0; j <= 8; ++j) levels.push_back(j / 8.0);
+    for (int k = 0; k < 1; ++k)
+        for (int j = 0; j < 2; ++j)
+            for (int i = 0; i < 2; ++i) {
+                std::vector<float> s;  // the brick's samples
+                for (int c = 0; c < 2; ++c)
+                    for (int b = 0; b < 2; ++b)
+                        for (int a = 0; a < 2; ++a)
+                            s.push_back(f.values[f.grid.index(2 * i + a, 2 * j + b, 2 * k + c)]);
+                std::sort(s.begin(), s.end());
+                std::vector<double> ref(9), iqr(2);
+                dequantizedQuantiles(s, 1.0, levels, ref);
+                dequantizedQuantiles(s, 1.0, std::vector<double>{0.25, 0.75}, iqr);
+                const std::size_t v = m.grid.index(i, j, k);
+                for (int q = 0; q <= 8; ++q)
+                    EXPECT_EQ(m.quantilesAt(v)[q], static_cast<float>(ref[std::size_t(q)]));
+                EXPECT_EQ(m.iqr[2 * v], static_cast<float>(iqr[0]));
+                EXPECT_EQ(m.iqr[2 * v + 1], static_cast<float>(iqr[1]));
+                if (i == 0) {  // the constant bricks of 7: U[6.5, 7.5]
+                    EXPECT_EQ(m.quantilesAt(v)[0], 6.5f);
+                    EXPECT_EQ(m.quantilesAt(v)[4], 7.0f);
+                    EXPECT_EQ(m.quantilesAt(v)[8], 7.5f);
+                }
+            }
+}
+
 TEST(BuildModel, BadInputIsAOneLineUserError) {
     auto expectError = [](auto&& fn, const std::string& needle) {
         try {
@@ -266,12 +318,23 @@ TEST(BuildModel, BadInputIsAOneLineUserError) {
     expectError([&] { buildModel(e, bad); }, "--tail-eps");
     bad.tailEps = 0.2;  // > 1/q = 0.125
     expectError([&] { buildModel(e, bad); }, "exceeds 1/q");
+    bad = opt;
+    bad.density = DensityEstimate::Dequantized;  // float samples: no quantisation step
+    expectError([&] { buildModel(e, bad); }, "needs an integer-typed input");
+    Ensemble ints = e;
+    ints.valueType = "int16";
+    ints.valueStep = 1.0;
+    EXPECT_EQ(buildModel(ints, bad).density, "dequantized");
 
     ScalarField f;
     f.grid.dims = {4, 5, 3};
     f.values.assign(60, 1.f);
     expectError([&] { buildModelDownsampled(f, 1, opt); }, "--downsample 1");
     expectError([&] { buildModelDownsampled(f, 4, opt); }, "larger than the grid");
+    BuildOptions dq = opt;
+    dq.density = DensityEstimate::Dequantized;
+    f.valueType = "float32";
+    expectError([&] { buildModelDownsampled(f, 2, dq); }, "holds float32 values");
     // A NaN in a left-out trailing plane (z = 2) is not a sample; one inside a brick is.
     f.values[f.grid.index(1, 0, 2)] = std::numeric_limits<float>::quiet_NaN();
     EXPECT_NO_THROW(buildModelDownsampled(f, 2, opt));

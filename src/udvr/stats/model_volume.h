@@ -34,10 +34,10 @@ struct ModelVolume {
     std::vector<float> members;  // n per voxel, voxel-major: members[v*n + i]
 
     // Field data (SPEC §7).
-    std::string density = "empirical";  // "empirical" or "kde"
-    double bandwidth = 0.0;             // kde: median h over voxels (rule may vary per voxel)
-    std::string bandwidthRule;          // "silverman", "scott", a number, or "" (empirical)
-    double tailEps = 0.0;               // kde tail ε; 0 for empirical
+    std::string density = "empirical";  // "empirical", "kde" or "dequantized"
+    double bandwidth = 0.0;     // kde: median h over voxels (rule may vary); dequantized: step s
+    std::string bandwidthRule;  // "silverman", "scott", a number, or "" (empirical)
+    double tailEps = 0.0;       // kde tail ε; 0 for empirical
     int samplesPerVoxel = 0;
     int downsample = 0;              // brick size K, 0 for an ensemble
     std::array<double, 6> bounds{};  // full-resolution world bounds

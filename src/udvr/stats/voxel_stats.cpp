@@ -14,7 +14,20 @@ namespace udvr {
 DensityEstimate parseDensityEstimate(const std::string& name) {
     if (name == "empirical") return DensityEstimate::Empirical;
     if (name == "kde") return DensityEstimate::Kde;
-    UDVR_FAIL("--density '" << name << "' is not known; expected empirical or kde");
+    if (name == "dequantized") return DensityEstimate::Dequantized;
+    UDVR_FAIL("--density '" << name << "' is not known; expected empirical, kde or dequantized");
+}
+
+std::string densityEstimateName(DensityEstimate d) {
+    switch (d) {
+        case DensityEstimate::Kde:
+            return "kde";
+        case DensityEstimate::Dequantized:
+            return "dequantized";
+        case DensityEstimate::Empirical:
+            break;
+    }
+    return "empirical";
 }
 
 KdeBandwidth parseBandwidth(const std::string& text) {
@@ -64,6 +77,44 @@ double empiricalQuantile(std::span<const float> sorted, double p) {
     const double frac = pos - static_cast<double>(lo);
     const double a = sorted[lo], b = sorted[lo + 1];
     return a + frac * (b - a);
+}
+
+void dequantizedQuantiles(std::span<const float> sorted, double step,
+                          std::span<const double> levels, std::span<double> out) {
+    UDVR_CHECK(!sorted.empty() && step > 0.0 && out.size() == levels.size());
+    const std::size_t n = sorted.size();
+    const double half = 0.5 * step;
+    const double slopePerActive = 1.0 / (static_cast<double>(n) * step);  // dF/dx of one uniform
+    // Walk the breakpoints: lower ends x_i − s/2 and upper ends x_i + s/2, each sorted as x is.
+    // Between two, F rises linearly with slope active·slopePerActive.
+    std::size_t lower = 0, upper = 0, k = 0;
+    int active = 0;
+    double x = sorted[0] - half, cdf = 0.0;
+    while (k < levels.size() && levels[k] <= 0.0) out[k++] = x;
+    while (k < levels.size() && upper < n) {
+        const double nextLower = lower < n ? sorted[lower] - half : 0.0;
+        const double nextUpper = sorted[upper] + half;
+        const bool opens = lower < n && nextLower <= nextUpper;
+        const double next = opens ? nextLower : nextUpper;
+        const double slope = active * slopePerActive;
+        const double cdfNext = cdf + slope * (next - x);
+        // Levels reached on (x, next]: where F crosses p on this linear piece.
+        while (k < levels.size() && levels[k] < 1.0 && levels[k] <= cdfNext && slope > 0.0) {
+            out[k] = std::min(next, x + std::max(0.0, levels[k] - cdf) / slope);
+            ++k;
+        }
+        x = next;
+        cdf = cdfNext;
+        if (opens) {
+            ++lower;
+            ++active;
+        } else {
+            ++upper;
+            --active;
+        }
+    }
+    // p = 1 (and any p that rounding left above the summed F): the support's upper end.
+    for (; k < levels.size(); ++k) out[k] = static_cast<double>(sorted[n - 1]) + half;
 }
 
 double kdeBandwidth(std::span<const float> sorted, double stddev, const KdeBandwidth& bw) {

@@ -7,8 +7,8 @@
 
 namespace udvr {
 
-/// Which density estimate the quantile boundaries come from (SPEC §2).
-enum class DensityEstimate { Empirical, Kde };
+/// Which density estimate the quantile boundaries come from (SPEC §2; Dequantized: issue 12).
+enum class DensityEstimate { Empirical, Kde, Dequantized };
 
 /// KDE bandwidth rule (SPEC §2).
 enum class BandwidthRule { Silverman, Scott, Fixed };
@@ -27,8 +27,10 @@ struct SampleMoments {
     double max = 0.0;
 };
 
-/// Parse "empirical" | "kde"; throws UdvrError otherwise.
+/// Parse "empirical" | "kde" | "dequantized"; throws UdvrError otherwise.
 DensityEstimate parseDensityEstimate(const std::string& name);
+/// The name parseDensityEstimate reads ("empirical" …), as the model's `density` field data.
+std::string densityEstimateName(DensityEstimate d);
 /// Parse "silverman" | "scott" | a positive finite number (h in data units); throws UdvrError.
 KdeBandwidth parseBandwidth(const std::string& text);
 
@@ -38,6 +40,14 @@ SampleMoments sampleMoments(std::span<const float> sorted);
 /// numpy's default ("linear", Hyndman–Fan type 7) quantile at p ∈ [0,1] of sorted samples:
 /// position (n−1)·p, linear interpolation between its neighbours. p=0 → min, p=1 → max.
 double empiricalQuantile(std::span<const float> sorted, double p);
+
+/// Quantiles of the dequantised sample: each sorted sample x_i spread uniformly over
+/// [x_i − s/2, x_i + s/2] (s > 0 the quantisation step, data units), so F(x) = (1/n)·Σ
+/// clamp((x − x_i)/s + ½, 0, 1), piecewise linear. out[k] = F⁻¹(levels[k]) exactly, with
+/// F⁻¹(p) = inf{x : F(x) ≥ p} (the left end where F is flat at p), F⁻¹(0) = min − s/2 and
+/// F⁻¹(1) = max + s/2; levels ascending in [0, 1]. One O(n + m) walk over the 2n breakpoints.
+void dequantizedQuantiles(std::span<const float> sorted, double step,
+                          std::span<const double> levels, std::span<double> out);
 
 /// KDE bandwidth h (data units) by the rule of SPEC §2 for sorted samples with ddof=1 std
 /// `stddev`: Silverman's robust 0.9·min(σ, IQR/1.34)·n^(−1/5) (σ alone where IQR = 0), Scott's

@@ -92,8 +92,79 @@ TEST(VoxelStats, BandwidthRulesFollowSpec) {
 TEST(VoxelStats, BadDensityAndBandwidthAreUserErrors) {
     EXPECT_THROW(parseDensityEstimate("histogram"), UdvrError);
     EXPECT_EQ(parseDensityEstimate("kde"), DensityEstimate::Kde);
+    EXPECT_EQ(parseDensityEstimate("dequantized"), DensityEstimate::Dequantized);
     for (const char* bad : {"", "silverman2", "-1", "0", "nan", "inf", "1e999", "0.5x"})
         EXPECT_THROW(parseBandwidth(bad), UdvrError) << bad;
+}
+
+namespace {
+// F of the dequantised sample, summed directly: (1/n)·Σ clamp((x − x_i)/s + ½, 0, 1).
+double dequantizedCdf(const std::vector<float>& s, double step, double x) {
+    long double sum = 0.0L;
+    for (float v : s) sum += std::clamp((x - v) / step + 0.5, 0.0, 1.0);
+    return static_cast<double>(sum / static_cast<long double>(s.size()));
+}
+std::vector<double> dequantized(const std::vector<float>& s, double step,
+                                const std::vector<double>& levels) {
+    std::vector<double> out(levels.size());
+    dequantizedQuantiles(s, step, levels, out);
+    return out;
+}
+}  // namespace
+
+TEST(VoxelStats, DequantizedQuantilesByHand) {
+    // {0, 0, 0, 1}, s = 1: mass 3/4 on [−½, ½], 1/4 on [½, 1½].
+    const std::vector<double> tie = dequantized({0, 0, 0, 1}, 1.0, {0, 0.375, 0.5, 0.75, 0.9, 1});
+    const double tieRef[] = {-0.5, 0.0, 1.0 / 6.0, 0.5, 1.1, 1.5};
+    for (std::size_t k = 0; k < tie.size(); ++k) EXPECT_NEAR(tie[k], tieRef[k], 1e-15) << k;
+    // A gap: F is flat at ½ on [½, 4½]; F⁻¹(½) is its left end, a hair above jumps across.
+    const std::vector<double> gap = dequantized({0, 0, 5, 5}, 1.0, {0.25, 0.5, 0.5 + 1e-9, 0.75});
+    EXPECT_EQ(gap[0], 0.0);
+    EXPECT_EQ(gap[1], 0.5);
+    EXPECT_NEAR(gap[2], 4.5, 1e-8);
+    EXPECT_EQ(gap[3], 5.0);
+    // A constant voxel is the uniform over its step, not a point mass.
+    EXPECT_EQ(dequantized({3, 3, 3}, 2.0, {0.0, 0.25, 0.5, 1.0}),
+              (std::vector<double>{2.0, 2.5, 3.0, 4.0}));
+    // Overlapping steps (centres 0.3 apart, s = 1): slopes ½, 1, ½ on [−½, −0.2, ½, 0.8].
+    const std::vector<double> ov = dequantized({0.0f, 0.3f}, 1.0, {0.15, 0.5, 0.9});
+    EXPECT_NEAR(ov[0], -0.2, 1e-7);
+    EXPECT_NEAR(ov[1], 0.15, 1e-7);
+    EXPECT_NEAR(ov[2], 0.6, 1e-7);
+}
+
+// Random integer samples with ties (step 1, ½, 4): every F⁻¹(p) has F = p by a direct sum, and
+// is the smallest such x (F(x − δ) < p), within the double rounding of the walk.
+TEST(VoxelStats, DequantizedQuantilesInvertTheDirectCdf) {
+    for (double step : {1.0, 0.5, 4.0})
+        for (int n : {2, 8, 64, 125}) {
+            CounterRng rng(31, static_cast<std::uint64_t>(n), static_cast<std::uint64_t>(step));
+            std::vector<float> s;
+            for (int i = 0; i < n; ++i)  // few distinct values: many ties, some gaps
+                s.push_back(static_cast<float>(step * std::floor(rng.uniform() * 6.0) *
+                                               (rng.uniform() < 0.3 ? 3.0 : 1.0)));
+            std::sort(s.begin(), s.end());
+            std::vector<double> levels;
+            for (int j = 0; j <= 16; ++j) levels.push_back(j / 16.0);
+            levels.push_back(0.3);
+            levels.push_back(1.0 / 3.0);
+            std::sort(levels.begin(), levels.end());
+            const std::vector<double> x = dequantized(s, step, levels);
+            for (std::size_t k = 0; k < levels.size(); ++k) {
+                const double p = levels[k];
+                SCOPED_TRACE("step " + std::to_string(step) + " n " + std::to_string(n) + " p " +
+                             std::to_string(p));
+                if (k > 0) {
+                    EXPECT_GE(x[k], x[k - 1]);
+                }
+                EXPECT_GE(x[k], s.front() - 0.5 * step);
+                EXPECT_LE(x[k], s.back() + 0.5 * step);
+                if (p > 0.0 && p < 1.0) {
+                    EXPECT_NEAR(dequantizedCdf(s, step, x[k]), p, 1e-12);
+                    EXPECT_LT(dequantizedCdf(s, step, x[k] - 1e-9 * step), p);
+                }
+            }
+        }
 }
 
 TEST(VoxelStats, KdeQuantilesMatchBisectionOnExactCdf) {
