@@ -333,6 +333,13 @@ def test_bivariate_histogram_and_tf2(inputs, tmp_path):
     try:
         h = s.json("/api/histogram2d?bins=32")
         assert h["y"].startswith("field 2") and h["domain"] == [-7, 35, -7, 35]
+        # The second is a plain field: the models that need more arrays are not offered.
+        models = {m["name"]: m for m in s.json("/api/state")["models"]}
+        assert models["gaussian"]["available"] and models["mean"]["available"]
+        assert not models["quantile-range"]["available"]
+        assert models["quantile-range"]["reason"].startswith("--second ")
+        status, _, body = s.get("/api/render?model=quantile-range&size=16x16")
+        assert status == 400 and "quantiles" in json.loads(body)["error"]
         assert h["total"] == 32 ** 3
         start["widgets"].append({"type": "ellipse", "center": [0, 0], "sigma": [3, 3],
                                  "rgba": [0.2, 0.3, 0.9, 0.8]})

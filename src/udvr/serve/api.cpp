@@ -257,6 +257,13 @@ ApiResponse Api::getState() {
         } catch (const UdvrError& e) {
             reason = e.what();
         }
+        if (reason.empty() && data_.second) {  // bivariate renders need its arrays too
+            try {
+                checkModelHasArrays(*data_.second, kind, ClassifyOptions{});
+            } catch (const UdvrError& e) {
+                reason = "--second " + data_.secondFile + ": " + e.what();
+            }
+        }
         row["available"] = reason.empty();
         if (!reason.empty()) row["reason"] = reason;
         row["probe"] = !family.realizations;
