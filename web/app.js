@@ -352,6 +352,8 @@ const hex = (rgb) => '#' + rgb.map((v) => Math.round(255 * v).toString(16).padSt
 
 function tf2Selected(w) {
   for (const id of ['tf2-delete', 'tf2-colour', 'tf2-opacity']) $(id).disabled = !w;
+  $('tf2-angle-field').hidden = !w || w.type !== 'ellipse';
+  $('tf2-half-field').hidden = !w || w.type !== 'band';
   if (!w) {
     $('tf2-opacity-value').textContent = '';
     return;
@@ -359,6 +361,8 @@ function tf2Selected(w) {
   $('tf2-colour').value = hex(w.rgba.slice(0, 3));
   $('tf2-opacity').value = w.rgba[3];
   $('tf2-opacity-value').textContent = w.rgba[3].toFixed(2);
+  if (w.type === 'ellipse') $('tf2-angle').value = w.angle || 0;
+  if (w.type === 'band') [$('tf2-hx').value, $('tf2-hy').value] = w.half_width;
 }
 
 const tf2Changed = tfPoster('/api/tf2', () => JSON.stringify(editor2.doc));
@@ -366,7 +370,7 @@ const tf2Changed = tfPoster('/api/tf2', () => JSON.stringify(editor2.doc));
 // A raster TF2 is view-only: no widgets to edit or save.
 function tf2Editable(on) {
   editor2.editable = on;
-  for (const id of ['tf2-add-box', 'tf2-add-triangle', 'tf2-add-ellipse', 'tf2-save'])
+  for (const id of ['tf2-add-box', 'tf2-add-triangle', 'tf2-add-ellipse', 'tf2-add-band', 'tf2-save'])
     $(id).disabled = !on;
 }
 
@@ -385,7 +389,7 @@ async function startTf2() {
   const h = await getJson('/api/histogram2d', {bins: 128});
   if (!state.info.tf2_editable) editor2.setDoc({domain: h.domain, widgets: []});
   editor2.setHistogram(h);
-  for (const type of ['box', 'triangle', 'ellipse'])
+  for (const type of ['box', 'triangle', 'ellipse', 'band'])
     $(`tf2-add-${type}`).addEventListener('click', () => editor2.add(type));
   $('tf2-delete').addEventListener('click', () => editor2.removeSelected());
   window.addEventListener('keydown', (e) => {
@@ -403,6 +407,18 @@ async function startTf2() {
   };
   $('tf2-opacity').addEventListener('input', () => opacity('drag'));
   $('tf2-opacity').addEventListener('change', () => opacity('commit'));
+  // Typing or the spinner: coarse frames; leaving the field or Enter: the full frame.
+  const angle = (phase) => editor2.setSelectedAngle($('tf2-angle').valueAsNumber, phase);
+  const half = (phase) => editor2.setSelectedHalfWidth(
+      [$('tf2-hx').valueAsNumber, $('tf2-hy').valueAsNumber], phase);
+  for (const [ids, set] of [[['tf2-angle'], angle], [['tf2-hx', 'tf2-hy'], half]])
+    for (const id of ids) {
+      $(id).addEventListener('input', () => set('drag'));
+      $(id).addEventListener('change', () => {
+        set('commit');
+        tf2Selected(editor2.doc.widgets[editor2.selected]);  // a refused value: the widget's again
+      });
+    }
   loadAndSave('tf2', '/api/tf2', 'tf2.json', async (text) => {
     await postJson('/api/tf2', text);  // the server checks everything
     editor2.setDoc(JSON.parse(await getText('/api/tf2')));
