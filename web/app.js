@@ -2,8 +2,8 @@
 // view is one `udvr render` command line), progressive frames, the model picker, the quartile
 // view, the ground truth with its difference and RMSE, the TF editor and the click probe.
 import {ApiError, getJson, getRender, getText, postJson} from './api.js';
-import {PLOT_MODELS, drawProbePlot} from './probe_plot.js';
-import {TfEditor, parseParaViewTf, toParaViewJson} from './tf_editor.js';
+import {PLOT_MODELS, PLOT_STEPS, drawProbePlot, plotRange} from './probe_plot.js';
+import {TfEditor, colourAt, opacityAt, parseParaViewTf, toParaViewJson} from './tf_editor.js';
 import {Tf2Editor} from './tf2_editor.js';
 
 const $ = (id) => document.getElementById(id);
@@ -19,7 +19,7 @@ const state = {
   quartiles: false,
   seq: 0,                 // request counter: orders a channel's requests on the server
   views: new Map(),       // channel -> view
-  probe: null,            // {pixel, point, models: {name: json}}
+  probe: null,            // {pixel, point, model, models: {name: json}, tf2Row}
   probing: 0,
   posters: [],            // the TF posters (tfPoster): busy while posting
   timings: [],            // {kind, channel, latency (event -> pixels, ms), render (ms)}
@@ -251,7 +251,9 @@ async function probeAt(canvas, e) {
       if (models[m.name] || !modelInfo(m.name).available) continue;
       models[m.name] = await getJson('/api/probe', {model: m.name, point: hit.point.join(',')});
     }
-    state.probe = {pixel: [x, y], point: hit.point, model, models};
+    const probe = {pixel: [x, y], point: hit.point, model, models};
+    probe.tf2Row = await tf2RowOf(probe);
+    state.probe = probe;
     const marker = $('marker');
     marker.style.left = `${canvas.offsetLeft + (x + 0.5) / w * r.width}px`;
     marker.style.top = `${canvas.offsetTop + (y + 0.5) / h * r.height}px`;
@@ -264,10 +266,45 @@ async function probeAt(canvas, e) {
   }
 }
 
+// With --tf2: the TF2 along the plot's x at y = the probed model's mean gradient magnitude E[G]
+// at the point (with --second: field 2's mean there), GET /api/tf2/row; else null.
+async function tf2RowOf(p) {
+  const range = plotRange(p.models);
+  if (!state.info.tf2 || !range) return null;
+  const g = p.models[p.model].gradient_magnitude;
+  const row = await getJson('/api/tf2/row', {y: g.mean, lo: range[0], hi: range[1], n: PLOT_STEPS + 1});
+  const sd = g.stddev > 0 ? `, σ ${g.stddev.toPrecision(3)}` : '';
+  row.label = `2D TF α at ${state.info.second ? 'field 2' : '|∇|'} = ${g.mean.toPrecision(4)} (mean${sd})`;
+  row.note = `dashed: the 2D TF's opacity (the strip: its colour) along ` +
+      (state.info.second ? 'field 1 at field 2' : 'the value at gradient magnitude') +
+      ` ${g.mean}, ${p.model}'s mean at the point${sd}`;
+  return row;
+}
+
+// What the plot draws beneath the distributions: the 1D TF, or the TF2's row (linear between
+// its samples, which lie on the plot's steps). The TF2's colour is 0 where α is: its strip is
+// the colour over white with weight 0.85·α/α_max, as `udvr tf2 --png` draws a TF2.
+function beneathOf(p) {
+  const row = p.tf2Row;
+  if (!row) return {alpha: (x) => opacityAt(editor.tf.points, x), colour: (x) => colourAt(editor.tf.rgb, x)};
+  const n = row.x.length, lo = row.x[0], hi = row.x[n - 1];
+  const top = Math.max(...row.rgba.map((c) => c[3]));
+  const at = (x, ch) => {
+    const s = Math.max(0, Math.min(n - 1, (x - lo) / (hi - lo) * (n - 1))), k = Math.min(n - 2, Math.floor(s));
+    return row.rgba[k][ch] + (s - k) * (row.rgba[k + 1][ch] - row.rgba[k][ch]);
+  };
+  const colour = (x) => {
+    const w = top > 0 ? 0.85 * at(x, 3) / top : 0;
+    return [0, 1, 2].map((ch) => w * at(x, ch) + (1 - w));
+  };
+  return {alpha: (x) => at(x, 3), colour, label: row.label};
+}
+
 function showProbe() {
   const p = state.probe;
   if (!p) return;
-  drawProbePlot($('probe-plot'), p.models, editor.tf);
+  drawProbePlot($('probe-plot'), p.models, beneathOf(p));
+  $('probe-tf2').textContent = p.tf2Row ? p.tf2Row.note : '';
   const table = $('probe-table');
   table.replaceChildren();
   const keys = ['value', 'mean', 'stddev', 'low', 'high', 'boundaries', 'weights', 'means', 'sigmas',
@@ -306,8 +343,9 @@ function tfPoster(path, body) {
         p.pending = null;
         await postJson(path, body());
         schedule(kind === 'drag');
+        // An edit made while the probe refreshes is pending again: the loop goes on.
+        if (!p.pending && state.probe) await refreshProbe();
       }
-      if (state.probe) await refreshProbe();
     } catch (e) {
       showError(e);
     } finally {
@@ -325,6 +363,7 @@ async function refreshProbe() {
   const p = state.probe;
   for (const name of Object.keys(p.models))
     p.models[name] = await getJson('/api/probe', {model: name, point: p.point.join(',')});
+  p.tf2Row = await tf2RowOf(p);
   showProbe();
 }
 

@@ -91,11 +91,13 @@ def cli_render(inputs, out, *flags, model_file=None):
     return png_pixels(out)
 
 
-def cli_probe(model_file, tf, model, point):
-    """`udvr probe --json` at index point (floats, written so they read back exactly)."""
+def cli_probe(model_file, tf, model, point, tf_flag="--tf", *flags):
+    """`udvr probe --json` at index point (floats, written so they read back exactly); tf_flag
+    "--tf2" for a 2D TF; more `flags` (--second FILE)."""
     text = ",".join(repr(float(v)) for v in point)
-    return json.loads(run_ok("probe", model_file, "--point", text, "--model", model, "--tf", tf,
-                             "--json").stdout)
+    return json.loads(run_ok("probe", model_file, "--point", text, "--model", model, tf_flag, tf,
+                             *flags, "--json").stdout)
+
 
 def tf2_raster(widget_file, out):
     """The raster `udvr tf2 WIDGETS -o out.npy` writes: (H, W, 4) float64, row j from the

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from serve_util import Server, cli_probe, cli_render, make_inputs, png_pixels
+from serve_util import (Server, cli_probe, cli_render, make_inputs, png_pixels, tf2_at,
+                        tf2_raster)
 
 CHROMIUM = shutil.which("chromium")
 DRIVER = shutil.which("chromedriver")
@@ -295,7 +296,7 @@ def test_tf2_editor_add_move_resize_delete(inputs, tmp_path):
         server.stop()
 
 
-# ---- the 2D TF editor: rotating an ellipse, reshaping a band ------------------------------
+# ---- the 2D TF editor: rotating an ellipse, reshaping a band; the probe with a TF2 ------------
 TANGLE_TF2 = ROOT / "data" / "tf2" / "tangle.json"
 WIDGET_KEYS = {"box": {"type", "x", "y", "rgba"},
                "triangle": {"type", "apex", "top", "width", "rgba", "falloff"},
@@ -433,3 +434,69 @@ def test_tf2_editor_reshapes_a_band(tf2_page, inputs, tmp_path):
     assert driver.execute_script("return window.udvr.editor2.doc.widgets[3].half_width") == [2.5, 7]
     assert driver.find_element("id", "tf2-hy").get_attribute("value") == "7"
     assert_posted_renders_as_cli(driver, server, inputs, tmp_path, doc)
+
+
+BIVARIATE_TF2 = {"domain": [-7, 35, -7, 35], "widgets": [
+    {"type": "band", "points": [[-7, -7], [35, 35]], "half_width": [1.5, 1.5],
+     "rgba": [0.9, 0.5, 0.1, 0.5]}]}
+
+
+@pytest.mark.parametrize("second", [False, True], ids=["gradient", "second"])
+def test_tf2_probe_plot_is_the_cli_probe(inputs, tmp_path, second):
+    """With --tf2 the probe's table is `udvr probe --json --tf2`'s, and the plot's dashed opacity
+    is the TF2 along the value at the probed model's mean gradient magnitude there (with
+    --second: field 2's mean): the raster `udvr tf2 -o` writes, bilinear."""
+    if second:
+        (tmp_path / "start.json").write_text(json.dumps(BIVARIATE_TF2))
+        args = ["--tf2", tmp_path / "start.json", "--second", inputs.truth]
+    else:
+        args = ["--tf2", TANGLE_TF2]
+    server = Server(inputs.model, *args)
+    driver = None
+    try:
+        driver = open_page(server.url)
+        check_tf2_probe(server, driver, inputs, tmp_path, second)
+    finally:
+        if driver:
+            driver.quit()
+        server.stop()
+
+
+def check_tf2_probe(server, driver, inputs, tmp_path, second):
+    """A click probe on the main view, checked against `udvr probe --json --tf2` and the raster."""
+    ActionChains(driver).move_to_element(main_canvas(driver)).click().perform()
+    end = time.time() + 20
+    while time.time() < end and not driver.execute_script("return !!window.udvr.state.probe"):
+        time.sleep(0.05)
+    wait_idle(driver)
+    (tmp_path / "tf2.json").write_bytes(server.get("/api/tf2")[2])
+    rows = driver.find_elements("css selector", "#probe-table tr")
+    # The plotted models that classify with this 2D TF (gmm-ordered and uniform have no value x
+    # gradient kernel; a plain-field second has no quantiles).
+    available = {m["name"] for m in server.json("/api/state")["models"] if m["available"]}
+    plotted = {"quantile-range", "gaussian", "gmm-ordered", "uniform"} & available
+    assert plotted >= ({"gaussian"} if second else {"quantile-range", "gaussian"})
+    assert {r.get_attribute("data-model") for r in rows} >= plotted
+    cli = {}
+    for r in rows:
+        shown = json.loads(r.get_attribute("data-json"))
+        name = r.get_attribute("data-model")
+        cli[name] = cli_probe(inputs.model, tmp_path / "tf2.json", name, shown["point"], "--tf2",
+                              *(["--second", inputs.truth] if second else []))
+        assert shown == cli[name]
+    probe = driver.execute_script("return window.udvr.state.probe")
+    g = cli[probe["model"]]["gradient_magnitude"]
+    if second:  # field 2's mean at the point
+        assert g["mean"] == cli[probe["model"]]["second"]["mean"]
+    row = probe["tf2Row"]
+    assert row["y"] == g["mean"] and len(row["x"]) == 401
+    raster = tf2_raster(tmp_path / "tf2.json", tmp_path / "tf2.npy")
+    domain = json.loads((tmp_path / "tf2.json").read_text())["domain"]
+    want = [tf2_at(raster, domain, x, g["mean"]) for x in row["x"]]
+    assert np.allclose(row["rgba"], want, rtol=0, atol=1e-7)  # a float32 raster's precision
+    assert max(a for *_, a in row["rgba"]) > 0
+    note = driver.find_element("id", "probe-tf2").text
+    y_name = "field 1 at field 2" if second else "the value at gradient magnitude"
+    assert f"{y_name} {row['y']!r}" in note and probe["model"] in note
+    command = driver.find_element("id", "command").text
+    assert "udvr probe" in command and "--tf2 tf2.json" in command
