@@ -2,8 +2,8 @@
 // view is one `udvr render` command line), progressive frames, the model picker, the quartile
 // view, the ground truth with its difference and RMSE, the TF editor and the click probe.
 import {ApiError, getJson, getRender, getText, postJson} from './api.js';
-import {PLOT_MODELS, drawProbePlot} from './probe_plot.js';
-import {TfEditor, parseParaViewTf, toParaViewJson} from './tf_editor.js';
+import {PLOT_MODELS, PLOT_STEPS, drawProbePlot, plotRange} from './probe_plot.js';
+import {TfEditor, colourAt, opacityAt, parseParaViewTf, toParaViewJson} from './tf_editor.js';
 import {Tf2Editor} from './tf2_editor.js';
 
 const $ = (id) => document.getElementById(id);
@@ -19,7 +19,7 @@ const state = {
   quartiles: false,
   seq: 0,                 // request counter: orders a channel's requests on the server
   views: new Map(),       // channel -> view
-  probe: null,            // {pixel, point, models: {name: json}}
+  probe: null,            // {pixel, point, model, models: {name: json}, tf2Row}
   probing: 0,
   posters: [],            // the TF posters (tfPoster): busy while posting
   timings: [],            // {kind, channel, latency (event -> pixels, ms), render (ms)}
@@ -251,7 +251,9 @@ async function probeAt(canvas, e) {
       if (models[m.name] || !modelInfo(m.name).available) continue;
       models[m.name] = await getJson('/api/probe', {model: m.name, point: hit.point.join(',')});
     }
-    state.probe = {pixel: [x, y], point: hit.point, model, models};
+    const probe = {pixel: [x, y], point: hit.point, model, models};
+    probe.tf2Row = await tf2RowOf(probe);
+    state.probe = probe;
     const marker = $('marker');
     marker.style.left = `${canvas.offsetLeft + (x + 0.5) / w * r.width}px`;
     marker.style.top = `${canvas.offsetTop + (y + 0.5) / h * r.height}px`;
@@ -264,10 +266,45 @@ async function probeAt(canvas, e) {
   }
 }
 
+// With --tf2: the TF2 along the plot's x at y = the probed model's mean gradient magnitude E[G]
+// at the point (with --second: field 2's mean there), GET /api/tf2/row; else null.
+async function tf2RowOf(p) {
+  const range = plotRange(p.models);
+  if (!state.info.tf2 || !range) return null;
+  const g = p.models[p.model].gradient_magnitude;
+  const row = await getJson('/api/tf2/row', {y: g.mean, lo: range[0], hi: range[1], n: PLOT_STEPS + 1});
+  const sd = g.stddev > 0 ? `, σ ${g.stddev.toPrecision(3)}` : '';
+  row.label = `2D TF α at ${state.info.second ? 'field 2' : '|∇|'} = ${g.mean.toPrecision(4)} (mean${sd})`;
+  row.note = `dashed: the 2D TF's opacity (the strip: its colour) along ` +
+      (state.info.second ? 'field 1 at field 2' : 'the value at gradient magnitude') +
+      ` ${g.mean}, ${p.model}'s mean at the point${sd}`;
+  return row;
+}
+
+// What the plot draws beneath the distributions: the 1D TF, or the TF2's row (linear between
+// its samples, which lie on the plot's steps). The TF2's colour is 0 where α is: its strip is
+// the colour over white with weight 0.85·α/α_max, as `udvr tf2 --png` draws a TF2.
+function beneathOf(p) {
+  const row = p.tf2Row;
+  if (!row) return {alpha: (x) => opacityAt(editor.tf.points, x), colour: (x) => colourAt(editor.tf.rgb, x)};
+  const n = row.x.length, lo = row.x[0], hi = row.x[n - 1];
+  const top = Math.max(...row.rgba.map((c) => c[3]));
+  const at = (x, ch) => {
+    const s = Math.max(0, Math.min(n - 1, (x - lo) / (hi - lo) * (n - 1))), k = Math.min(n - 2, Math.floor(s));
+    return row.rgba[k][ch] + (s - k) * (row.rgba[k + 1][ch] - row.rgba[k][ch]);
+  };
+  const colour = (x) => {
+    const w = top > 0 ? 0.85 * at(x, 3) / top : 0;
+    return [0, 1, 2].map((ch) => w * at(x, ch) + (1 - w));
+  };
+  return {alpha: (x) => at(x, 3), colour, label: row.label};
+}
+
 function showProbe() {
   const p = state.probe;
   if (!p) return;
-  drawProbePlot($('probe-plot'), p.models, editor.tf);
+  drawProbePlot($('probe-plot'), p.models, beneathOf(p));
+  $('probe-tf2').textContent = p.tf2Row ? p.tf2Row.note : '';
   const table = $('probe-table');
   table.replaceChildren();
   const keys = ['value', 'mean', 'stddev', 'low', 'high', 'boundaries', 'weights', 'means', 'sigmas',
@@ -306,8 +343,9 @@ function tfPoster(path, body) {
         p.pending = null;
         await postJson(path, body());
         schedule(kind === 'drag');
+        // An edit made while the probe refreshes is pending again: the loop goes on.
+        if (!p.pending && state.probe) await refreshProbe();
       }
-      if (state.probe) await refreshProbe();
     } catch (e) {
       showError(e);
     } finally {
@@ -325,6 +363,7 @@ async function refreshProbe() {
   const p = state.probe;
   for (const name of Object.keys(p.models))
     p.models[name] = await getJson('/api/probe', {model: name, point: p.point.join(',')});
+  p.tf2Row = await tf2RowOf(p);
   showProbe();
 }
 
@@ -352,6 +391,8 @@ const hex = (rgb) => '#' + rgb.map((v) => Math.round(255 * v).toString(16).padSt
 
 function tf2Selected(w) {
   for (const id of ['tf2-delete', 'tf2-colour', 'tf2-opacity']) $(id).disabled = !w;
+  $('tf2-angle-field').hidden = !w || w.type !== 'ellipse';
+  $('tf2-half-field').hidden = !w || w.type !== 'band';
   if (!w) {
     $('tf2-opacity-value').textContent = '';
     return;
@@ -359,6 +400,8 @@ function tf2Selected(w) {
   $('tf2-colour').value = hex(w.rgba.slice(0, 3));
   $('tf2-opacity').value = w.rgba[3];
   $('tf2-opacity-value').textContent = w.rgba[3].toFixed(2);
+  if (w.type === 'ellipse') $('tf2-angle').value = w.angle || 0;
+  if (w.type === 'band') [$('tf2-hx').value, $('tf2-hy').value] = w.half_width;
 }
 
 const tf2Changed = tfPoster('/api/tf2', () => JSON.stringify(editor2.doc));
@@ -366,7 +409,7 @@ const tf2Changed = tfPoster('/api/tf2', () => JSON.stringify(editor2.doc));
 // A raster TF2 is view-only: no widgets to edit or save.
 function tf2Editable(on) {
   editor2.editable = on;
-  for (const id of ['tf2-add-box', 'tf2-add-triangle', 'tf2-add-ellipse', 'tf2-save'])
+  for (const id of ['tf2-add-box', 'tf2-add-triangle', 'tf2-add-ellipse', 'tf2-add-band', 'tf2-save'])
     $(id).disabled = !on;
 }
 
@@ -385,7 +428,7 @@ async function startTf2() {
   const h = await getJson('/api/histogram2d', {bins: 128});
   if (!state.info.tf2_editable) editor2.setDoc({domain: h.domain, widgets: []});
   editor2.setHistogram(h);
-  for (const type of ['box', 'triangle', 'ellipse'])
+  for (const type of ['box', 'triangle', 'ellipse', 'band'])
     $(`tf2-add-${type}`).addEventListener('click', () => editor2.add(type));
   $('tf2-delete').addEventListener('click', () => editor2.removeSelected());
   window.addEventListener('keydown', (e) => {
@@ -403,6 +446,18 @@ async function startTf2() {
   };
   $('tf2-opacity').addEventListener('input', () => opacity('drag'));
   $('tf2-opacity').addEventListener('change', () => opacity('commit'));
+  // Typing or the spinner: coarse frames; leaving the field or Enter: the full frame.
+  const angle = (phase) => editor2.setSelectedAngle($('tf2-angle').valueAsNumber, phase);
+  const half = (phase) => editor2.setSelectedHalfWidth(
+      [$('tf2-hx').valueAsNumber, $('tf2-hy').valueAsNumber], phase);
+  for (const [ids, set] of [[['tf2-angle'], angle], [['tf2-hx', 'tf2-hy'], half]])
+    for (const id of ids) {
+      $(id).addEventListener('input', () => set('drag'));
+      $(id).addEventListener('change', () => {
+        set('commit');
+        tf2Selected(editor2.doc.widgets[editor2.selected]);  // a refused value: the widget's again
+      });
+    }
   loadAndSave('tf2', '/api/tf2', 'tf2.json', async (text) => {
     await postJson('/api/tf2', text);  // the server checks everything
     editor2.setDoc(JSON.parse(await getText('/api/tf2')));

@@ -1,7 +1,7 @@
 // The distribution at a probed point, as the paper's Fig. 2: the quantile boundaries as a
-// piecewise-constant PDF, the Gaussian, the GMM and the uniform, over the TF's opacity. Each
-// curve comes from the JSON of /api/probe (that of `udvr probe --json`) for its model.
-import {colourAt} from './tf_editor.js';
+// piecewise-constant PDF, the Gaussian, the GMM and the uniform, over the TF's opacity (with a
+// 2D TF: its opacity along x at one y, which the caller chooses and labels). Each curve comes
+// from the JSON of /api/probe (that of `udvr probe --json`) for its model.
 
 export const PLOT_MODELS = [
   {name: 'quantile-range', colour: '#1b7837', label: 'quantiles'},
@@ -46,14 +46,12 @@ function rangeOf(name, j) {
   return [j.value, j.value];
 }
 
-// Draw `probes` ({name: json}) with the TF `tf` ({rgb, points}) on the canvas.
-export function drawProbePlot(canvas, probes, tf) {
-  const ctx = canvas.getContext('2d');
-  const W = canvas.width, H = canvas.height;
-  const box = {x: 36, y: 10, w: W - 46, h: H - 58};
-  ctx.clearRect(0, 0, W, H);
+export const PLOT_STEPS = 400;  // the curves' x steps over the plot's range
+
+// The plot's x range [lo, hi] for `probes` ({name: json}): every model's, padded; null for none.
+export function plotRange(probes) {
   const names = PLOT_MODELS.filter((m) => probes[m.name]);
-  if (names.length === 0) return;
+  if (names.length === 0) return null;
   let lo = Infinity, hi = -Infinity;
   for (const m of names) {
     const [a, b] = rangeOf(m.name, probes[m.name]);
@@ -61,8 +59,20 @@ export function drawProbePlot(canvas, probes, tf) {
   }
   if (!(hi > lo)) lo -= 0.5, hi += 0.5;
   const pad = 0.05 * (hi - lo);
-  lo -= pad, hi += pad;
-  const N = 400;
+  return [lo - pad, hi + pad];
+}
+
+// Draw `probes` ({name: json}) over the TF `beneath`: {alpha(x), colour(x) → [r, g, b], label}
+// (label: what the dashed opacity is, or empty).
+export function drawProbePlot(canvas, probes, beneath) {
+  const ctx = canvas.getContext('2d');
+  const W = canvas.width, H = canvas.height;
+  const box = {x: 36, y: 10, w: W - 46, h: H - 58};
+  ctx.clearRect(0, 0, W, H);
+  const range = plotRange(probes);
+  if (!range) return;
+  const [lo, hi] = range, N = PLOT_STEPS;
+  const names = PLOT_MODELS.filter((m) => probes[m.name]);
   const xs = Array.from({length: N + 1}, (_, i) => lo + (hi - lo) * i / N);
   const curves = names.map((m) => {
     const f = densityOf(m.name, probes[m.name]);
@@ -78,23 +88,13 @@ export function drawProbePlot(canvas, probes, tf) {
   ctx.setLineDash([4, 3]);
   ctx.beginPath();
   xs.forEach((x, i) => {
-    const pts = tf.points;
-    let a = pts[0][1];
-    for (let k = 0; k < pts.length; ++k) {
-      if (x >= pts[k][0]) a = pts[k][1];
-      if (k + 1 < pts.length && x >= pts[k][0] && x < pts[k + 1][0]) {
-        const t = (x - pts[k][0]) / (pts[k + 1][0] - pts[k][0]);
-        a = pts[k][1] + t * (pts[k + 1][1] - pts[k][1]);
-        break;
-      }
-    }
-    const y = box.y + box.h - a * box.h;
+    const y = box.y + box.h - beneath.alpha(x) * box.h;
     i ? ctx.lineTo(px(x), y) : ctx.moveTo(px(x), y);
   });
   ctx.stroke();
   ctx.setLineDash([]);
   for (let i = 0; i < box.w; ++i) {
-    const c = colourAt(tf.rgb, lo + (i + 0.5) / box.w * (hi - lo));
+    const c = beneath.colour(lo + (i + 0.5) / box.w * (hi - lo));
     ctx.fillStyle = `rgb(${c.map((v) => Math.round(255 * v)).join(',')})`;
     ctx.fillRect(box.x + i, box.y + box.h + 4, 1, 8);
   }
@@ -119,6 +119,13 @@ export function drawProbePlot(canvas, probes, tf) {
   ctx.fillText(lo.toPrecision(4), box.x, box.y + box.h + 16);
   const hiText = hi.toPrecision(4);
   ctx.fillText(hiText, box.x + box.w - ctx.measureText(hiText).width, box.y + box.h + 16);
+  if (beneath.label) {  // top right, over a veil so that the curves do not hide it
+    const w = ctx.measureText(beneath.label).width, x = box.x + box.w - w - 4;
+    ctx.fillStyle = 'rgba(244, 244, 244, 0.85)';
+    ctx.fillRect(x - 3, box.y + 1, w + 6, 14);
+    ctx.fillStyle = '#555';
+    ctx.fillText(beneath.label, x, box.y + 2);
+  }
   ctx.save();
   ctx.translate(12, box.y + box.h / 2);
   ctx.rotate(-Math.PI / 2);

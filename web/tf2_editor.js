@@ -1,21 +1,40 @@
 // The 2D transfer-function editor (SPEC §9): the joint histogram of (value, gradient magnitude) —
 // or (field 1, field 2) with --second — as grey counts (white empty, black the fullest bin, log or
-// linear), and over it the widgets of docs/formats.md (box, triangle, ellipse; bands are shown and
-// can be moved). The editor edits the widget JSON only: the server rasterises it with the
-// library's parser (POST /api/tf2), exactly as `udvr render --tf2` reads the saved file.
+// linear), and over it the widgets of docs/formats.md (box, triangle, ellipse with its rotation,
+// band with its polyline points and half widths). The editor edits the widget JSON only: the
+// server rasterises it with the library's parser (POST /api/tf2), exactly as `udvr render --tf2`
+// reads the saved file.
 const PAD = {left: 46, right: 10, top: 10, bottom: 34};
 const HIT = 7;  // pixels: how near a handle a press grabs it
+const ROTATE = 16;  // pixels: the rotation handle's distance beyond the ellipse's cutoff
 const PALETTE = [[0.9, 0.3, 0.1], [0.15, 0.45, 0.95], [0.2, 0.7, 0.3], [0.95, 0.75, 0.1],
                  [0.6, 0.25, 0.75]];
 
 // Numbers as they go into the JSON: 6 significant digits (the page's precision is a pixel).
 const tidy = (v) => Number(v.toPrecision(6));
 
+// Distance from point p to segment a–b (all [x, y] in the same units).
+function segmentDistance([px, py], [ax, ay], [bx, by]) {
+  const ex = bx - ax, ey = by - ay, len2 = ex * ex + ey * ey;
+  const t = len2 > 0 ? Math.max(0, Math.min(1, ((px - ax) * ex + (py - ay) * ey) / len2)) : 0;
+  return Math.hypot(px - ax - t * ex, py - ay - t * ey);
+}
+
+// Distance from p to a polyline (a lone point: to it).
+function polylineDistance(p, pts) {
+  let d = Infinity;
+  for (let i = 0; i < pts.length; ++i)
+    d = Math.min(d, segmentDistance(p, pts[i], pts[Math.min(i + 1, pts.length - 1)]));
+  return d;
+}
+
+const cutoffOf = (w) => (w.cutoff === undefined ? 3 : w.cutoff);
+
 export class Tf2Editor {
   constructor(canvas, onChange, onSelect) {
     this.canvas = canvas;
     this.onChange = onChange;  // onChange('drag' | 'commit')
-    this.onSelect = onSelect;  // onSelect(widget or null)
+    this.onSelect = onSelect;  // onSelect(widget or null): selected, or its shape dragged
     this.doc = {domain: [0, 1, 0, 1], widgets: []};
     this.histogram = null;
     this.histogramImage = null;
@@ -70,12 +89,19 @@ export class Tf2Editor {
             (e.clientY - r.top) * this.canvas.height / r.height];
   }
 
-  // A widget's centre in CSS pixels from the canvas's centre (for tests: where to grab it).
-  centreOffset(index) {
-    const [px, py] = this.toPixel(...this.anchor(this.doc.widgets[index]));
+  // Data point (x, y) in CSS pixels from the canvas's centre (for tests: where to press).
+  cssOffset(x, y) {
+    const [px, py] = this.toPixel(x, y);
     const r = this.canvas.getBoundingClientRect();
     return [(px - this.canvas.width / 2) * r.width / this.canvas.width,
             (py - this.canvas.height / 2) * r.height / this.canvas.height];
+  }
+
+  // A widget's centre, and one of its handles (by name), as cssOffset.
+  centreOffset(index) { return this.cssOffset(...this.anchor(this.doc.widgets[index])); }
+  handleOffset(index, name) {
+    const [, x, y] = this.handles(this.doc.widgets[index]).find((h) => h[0] === name);
+    return this.cssOffset(x, y);
   }
 
   // A point inside the widget, in data units.
@@ -105,7 +131,7 @@ export class Tf2Editor {
         return [w.apex, [w.apex[0] - h, w.top], [w.apex[0] + h, w.top]];
       }
       case 'ellipse': {
-        const [u, v] = Tf2Editor.axes(w), k = w.cutoff === undefined ? 3 : w.cutoff;
+        const [u, v] = Tf2Editor.axes(w), k = cutoffOf(w);
         const pts = [];
         for (let i = 0; i < 72; ++i) {
           const a = i / 72 * 2 * Math.PI, cu = k * w.sigma[0] * Math.cos(a), cv = k * w.sigma[1] * Math.sin(a);
@@ -118,6 +144,17 @@ export class Tf2Editor {
     return [];
   }
 
+  // The ellipse's sx axis at its cutoff (pixels) and, ROTATE pixels further out along it, the
+  // rotation handle (data units): on the axis's ray, so dragging it turns the axis to the pointer.
+  rotationHandle(w) {
+    const [u] = Tf2Editor.axes(w), r = cutoffOf(w) * w.sigma[0];
+    const c = this.toPixel(...w.center);
+    const tip = this.toPixel(w.center[0] + r * u[0], w.center[1] + r * u[1]);
+    const dx = tip[0] - c[0], dy = tip[1] - c[1], len = Math.hypot(dx, dy) || 1;
+    return {tip, at: this.fromPixel(tip[0] + ROTATE * dx / len, tip[1] + ROTATE * dy / len)};
+  }
+
+  // [name, x, y] (data units) of the widget's handles.
   handles(w) {
     switch (w.type) {
       case 'box':
@@ -127,22 +164,22 @@ export class Tf2Editor {
       case 'ellipse': {
         const [u, v] = Tf2Editor.axes(w);
         return [['sx', w.center[0] + w.sigma[0] * u[0], w.center[1] + w.sigma[0] * u[1]],
-                ['sy', w.center[0] + w.sigma[1] * v[0], w.center[1] + w.sigma[1] * v[1]]];
+                ['sy', w.center[0] + w.sigma[1] * v[0], w.center[1] + w.sigma[1] * v[1]],
+                ['rotate', ...this.rotationHandle(w).at]];
       }
+      case 'band': return w.points.map((p, k) => [`p${k}`, ...p]);
     }
     return [];
   }
 
-  // Whether pixel (px, py) lies on the widget (inside its outline; near a band's polyline).
+  // Whether pixel (px, py) lies on the widget (inside its outline; a band: where d <= 1, or near
+  // its polyline).
   hits(w, px, py) {
     const poly = this.outline(w).map((p) => this.toPixel(...p));
     if (w.type === 'band') {
-      return poly.some(([ax, ay], i) => {
-        const [bx, by] = poly[Math.min(i + 1, poly.length - 1)];
-        const ex = bx - ax, ey = by - ay, len2 = ex * ex + ey * ey;
-        const t = len2 > 0 ? Math.max(0, Math.min(1, ((px - ax) * ex + (py - ay) * ey) / len2)) : 0;
-        return Math.hypot(px - ax - t * ex, py - ay - t * ey) <= HIT;
-      });
+      const [x, y] = this.fromPixel(px, py), [hx, hy] = w.half_width;
+      const scaled = w.points.map(([a, b]) => [a / hx, b / hy]);
+      return polylineDistance([x / hx, y / hy], scaled) <= 1 || polylineDistance([px, py], poly) <= HIT;
     }
     let inside = false;
     for (let i = 0, j = poly.length - 1; i < poly.length; j = i++) {
@@ -224,9 +261,20 @@ export class Tf2Editor {
             tidy(Math.max(this.drag.handle === 'sx' ? tinyX : tinyY, d));
         break;
       }
+      case 'rotate': {
+        // The sx axis points at the pointer (in data units, as the JSON's angle); 0.1° steps.
+        const dx = x - w.center[0], dy = y - w.center[1];
+        if (dx === 0 && dy === 0) break;
+        const deg = Math.round(Math.atan2(dy, dx) * 1800 / Math.PI) / 10;
+        w.angle = deg === -180 ? 180 : deg;
+        break;
+      }
+      default:  // a band's point p<k>
+        w.points[Number(this.drag.handle.slice(1))] = [tidy(x), tidy(y)];
     }
     this.drag.moved = true;
     this.draw();
+    this.onSelect(w);  // the fields follow the shape
     this.onChange('drag');
   }
 
@@ -246,6 +294,10 @@ export class Tf2Editor {
         ? {type, x: [tidy(cx - 0.05 * dx), tidy(cx + 0.05 * dx)], y: [tidy(y0 + 0.2 * dy), tidy(y0 + 0.5 * dy)], rgba}
         : type === 'triangle'
         ? {type, apex: [tidy(cx), tidy(y0)], top: tidy(y0 + 0.6 * dy), width: tidy(0.15 * dx), rgba}
+        : type === 'band'
+        ? {type, points: [[tidy(cx - 0.25 * dx), tidy(y0 + 0.2 * dy)], [tidy(cx), tidy(y0 + 0.5 * dy)],
+                          [tidy(cx + 0.25 * dx), tidy(y0 + 0.6 * dy)]],
+           half_width: [tidy(0.03 * dx), tidy(0.04 * dy)], rgba}
         : {type, center: [tidy(cx), tidy(y0 + 0.25 * dy)], sigma: [tidy(0.04 * dx), tidy(0.08 * dy)], rgba};
     this.doc.widgets.push(w);
     this.select(this.doc.widgets.length - 1);
@@ -266,6 +318,48 @@ export class Tf2Editor {
     w.rgba = [...(rgb || w.rgba.slice(0, 3)).map(tidy), tidy(a === undefined ? w.rgba[3] : a)];
     this.draw();
     this.onChange(phase);
+  }
+
+  // The selected ellipse's angle (degrees) or band's half widths [hx, hy] (> 0), from the fields;
+  // a value that is not a finite number (or not > 0) is not taken.
+  setSelectedAngle(deg, phase) {
+    const w = this.doc.widgets[this.selected];
+    if (!w || w.type !== 'ellipse') return;
+    if (Number.isFinite(deg)) w.angle = tidy(deg);
+    else if (phase !== 'commit') return;  // a refused value still ends the edit: the full frame
+    this.draw();
+    this.onChange(phase);
+  }
+
+  setSelectedHalfWidth(half, phase) {
+    const w = this.doc.widgets[this.selected];
+    if (!w || w.type !== 'band') return;
+    if (half.every((v) => Number.isFinite(v) && v > 0)) w.half_width = half.map(tidy);
+    else if (phase !== 'commit') return;
+    this.draw();
+    this.onChange(phase);
+  }
+
+  // A band's region d <= 1: its polyline stroked 2 wide with round caps and joins in (x/hx, y/hy)
+  // units, which is the set within distance 1 of the polyline there.
+  fillBand(ctx, w, style) {
+    const [hx, hy] = w.half_width, [x0, x1, y0, y1] = this.domain(), b = this.plotBox();
+    const [ox, oy] = this.toPixel(0, 0);
+    ctx.save();
+    ctx.transform(hx * b.w / (x1 - x0), 0, 0, -hy * b.h / (y1 - y0), ox, oy);
+    ctx.beginPath();
+    if (w.points.length === 1) {
+      ctx.arc(w.points[0][0] / hx, w.points[0][1] / hy, 1, 0, 2 * Math.PI);
+      ctx.fillStyle = style;
+      ctx.fill();
+    } else {
+      w.points.forEach(([x, y], k) => (k ? ctx.lineTo(x / hx, y / hy) : ctx.moveTo(x / hx, y / hy)));
+      ctx.lineWidth = 2;
+      ctx.lineCap = ctx.lineJoin = 'round';
+      ctx.strokeStyle = style;
+      ctx.stroke();
+    }
+    ctx.restore();
   }
 
   buildHistogramImage() {
@@ -306,11 +400,13 @@ export class Tf2Editor {
     this.doc.widgets.forEach((w, i) => {
       const pts = this.outline(w).map((p) => this.toPixel(...p));
       const [r, g, bl] = w.rgba.map((v) => Math.round(255 * v));
+      const fill = `rgba(${r},${g},${bl},${0.15 + 0.5 * w.rgba[3]})`;
+      if (w.type === 'band') this.fillBand(ctx, w, fill);
       ctx.beginPath();
       pts.forEach(([px, py], k) => (k ? ctx.lineTo(px, py) : ctx.moveTo(px, py)));
       if (w.type !== 'band') {
         ctx.closePath();
-        ctx.fillStyle = `rgba(${r},${g},${bl},${0.15 + 0.5 * w.rgba[3]})`;
+        ctx.fillStyle = fill;
         ctx.fill();
       }
       ctx.strokeStyle = i === this.selected ? '#000' : `rgb(${r},${g},${bl})`;
@@ -328,14 +424,27 @@ export class Tf2Editor {
       }
     });
     ctx.restore();
-    if (this.selected >= 0 && this.editable)
-      for (const [, x, y] of this.handles(this.doc.widgets[this.selected])) {
+    const sel = this.doc.widgets[this.selected];
+    if (sel && this.editable && sel.type === 'ellipse') {  // the rotation handle's arm
+      const {tip, at} = this.rotationHandle(sel), [px, py] = this.toPixel(...at);
+      ctx.strokeStyle = '#000';
+      ctx.lineWidth = 1;
+      ctx.beginPath();
+      ctx.moveTo(...tip);
+      ctx.lineTo(px, py);
+      ctx.stroke();
+    }
+    if (sel && this.editable)
+      for (const [name, x, y] of this.handles(sel)) {
         const [px, py] = this.toPixel(x, y);
         ctx.fillStyle = '#fff';
         ctx.strokeStyle = '#000';
         ctx.lineWidth = 1.5;
-        ctx.fillRect(px - 4, py - 4, 8, 8);
-        ctx.strokeRect(px - 4, py - 4, 8, 8);
+        ctx.beginPath();
+        if (name === 'rotate') ctx.arc(px, py, 5, 0, 2 * Math.PI);  // round: turns, not resizes
+        else ctx.rect(px - 4, py - 4, 8, 8);
+        ctx.fill();
+        ctx.stroke();
       }
     ctx.strokeStyle = '#888';
     ctx.lineWidth = 1;

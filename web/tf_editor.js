@@ -39,6 +39,11 @@ export function colourAt(rgb, x) {
   return rgb[rgb.length - 1].slice(1);
 }
 
+// Opacity of the TF at x (piecewise linear between its points, clamped).
+export function opacityAt(points, x) {
+  return colourAt(points.map(([px, a]) => [px, a]), x)[0];
+}
+
 export class TfEditor {
   constructor(canvas, onChange) {
     this.canvas = canvas;

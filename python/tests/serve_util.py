@@ -91,8 +91,37 @@ def cli_render(inputs, out, *flags, model_file=None):
     return png_pixels(out)
 
 
-def cli_probe(model_file, tf, model, point):
-    """`udvr probe --json` at index point (floats, written so they read back exactly)."""
+def cli_probe(model_file, tf, model, point, tf_flag="--tf", *flags):
+    """`udvr probe --json` at index point (floats, written so they read back exactly); tf_flag
+    "--tf2" for a 2D TF; more `flags` (--second FILE)."""
     text = ",".join(repr(float(v)) for v in point)
-    return json.loads(run_ok("probe", model_file, "--point", text, "--model", model, "--tf", tf,
-                             "--json").stdout)
+    return json.loads(run_ok("probe", model_file, "--point", text, "--model", model, tf_flag, tf,
+                             *flags, "--json").stdout)
+
+
+def tf2_raster(widget_file, out):
+    """The raster `udvr tf2 WIDGETS -o out.npy` writes: (H, W, 4) float64, row j from the
+    smallest y."""
+    run_ok("tf2", widget_file, "-o", out)
+    return np.load(out).astype(np.float64)
+
+
+def tf2_at(raster, domain, x, y):
+    """(r, g, b, a) of a TF2 raster at (x, y): bilinear between its points, clamped outside the
+    domain (docs/formats.md)."""
+    h, w, _ = raster.shape
+
+    def locate(v, lo, hi, n):
+        s = (v - lo) / (hi - lo) * (n - 1)
+        if not s > 0:
+            return 0, 0.0
+        if s >= n - 1:
+            return n - 2, 1.0
+        i = min(int(s), n - 2)
+        return i, s - i
+
+    i, fx = locate(x, domain[0], domain[1], w)
+    j, fy = locate(y, domain[2], domain[3], h)
+    below = raster[j, i] + fx * (raster[j, i + 1] - raster[j, i])
+    above = raster[j + 1, i] + fx * (raster[j + 1, i + 1] - raster[j + 1, i])
+    return below + fy * (above - below)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, assert_one_line_error, run_ok, run_udvr
-from serve_util import Server, cli_probe, cli_render, make_inputs, png_pixels
+from serve_util import (Server, cli_probe, cli_render, make_inputs, png_pixels, tf2_at,
+                        tf2_raster)
 
 
 @pytest.fixture(scope="module")
@@ -160,6 +161,7 @@ BAD = [
     ("/api/histogram2d?bins=64&domain=1,0,0,1", "domain"),
     ("/api/histogram2d?domain=nan,1,0,1", "domain"),
     ("/api/tf2", "--tf2"),
+    ("/api/tf2/row?y=1&lo=0&hi=1", "--tf2"),
     ("/api/preset?name=../../tf", "preset"),
     ("/api/nothing", "no such endpoint"),
 ]
@@ -315,6 +317,53 @@ def test_broken_tf2_json_is_refused_and_the_tf2_kept(server2, body, mention):
     assert server2.get("/api/tf2")[2] == before and server2.alive()
 
 
+def assert_row_is_the_raster(row, raster, domain, y, lo, hi, n):
+    """GET /api/tf2/row's answer: n values from lo to hi (ends exact) and the raster's bilinear,
+    clamped colour and opacity there."""
+    assert row["y"] == y and len(row["x"]) == len(row["rgba"]) == n
+    assert row["x"][0] == lo and row["x"][-1] == hi
+    assert np.allclose(row["x"], np.linspace(lo, hi, n), rtol=0, atol=1e-12)
+    want = [tf2_at(raster, domain, x, y) for x in row["x"]]
+    assert np.allclose(row["rgba"], want, rtol=0, atol=1e-7)  # a float32 raster's precision
+
+
+def test_tf2_row_is_the_cli_raster(server2, tmp_path):
+    """The TF2 along x at one y (the probe plot's curve): the raster `udvr tf2 -o` writes of the
+    current widgets, bilinear, clamped beyond the domain on both axes."""
+    (tmp_path / "now.json").write_bytes(server2.get("/api/tf2")[2])
+    doc = json.loads((tmp_path / "now.json").read_text())
+    raster = tf2_raster(tmp_path / "now.json", tmp_path / "now.npy")
+    for y, lo, hi, n in [(12.5, -10.0, 40.0, 101), (70.0, -3.25, 0.5, 2), (-1.0, -7.0, 35.0, 256)]:
+        status, headers, body = server2.get(f"/api/tf2/row?y={y}&lo={lo}&hi={hi}&n={n}")
+        assert status == 200, body[:200]
+        assert headers["X-Udvr-Tf-Version"] == str(server2.json("/api/state")["tf2_version"])
+        assert_row_is_the_raster(json.loads(body), raster, doc["domain"], y, lo, hi, n)
+    assert max(a for *_, a in server2.json("/api/tf2/row?y=12.5&lo=-7&hi=35")["rgba"]) > 0
+    assert len(server2.json("/api/tf2/row?y=0&lo=0&hi=1")["x"]) == 256  # the default n
+
+
+@pytest.mark.parametrize("query,mention", [
+    ("lo=0&hi=1", "give y"),
+    ("y=1&lo=0", "give y"),
+    ("y=nan&lo=0&hi=1", "y"),
+    ("y=1e400&lo=0&hi=1", "y"),
+    ("y=1&lo=1&hi=1", "above"),
+    ("y=1&lo=2&hi=1", "above"),
+    ("y=1&lo=0&hi=1&n=1", "n"),
+    ("y=1&lo=0&hi=1&n=5000", "n"),
+    ("y=1&lo=0&hi=1&n=-3", "n"),
+    ("y=1&lo=0&hi=1&x=2", "unknown parameter"),
+    ("y=1&y=2&lo=0&hi=1", "twice"),
+])
+def test_bad_tf2_row_requests(server2, query, mention):
+    status, _, body = server2.get("/api/tf2/row?" + query)
+    assert status == 400, body[:200]
+    message = json.loads(body)["error"]
+    assert mention.lower() in message.lower() and "\n" not in message
+    assert server2.get("/api/tf2/row", data=b"{}", method="POST")[0] == 405
+    assert server2.alive()
+
+
 def test_tf2_endpoints_need_a_tf2(server):
     status, _, body = server.get("/api/tf2", data=b'{"domain": [0, 1, 0, 1], "widgets": []}',
                                  method="POST")
@@ -333,6 +382,13 @@ def test_bivariate_histogram_and_tf2(inputs, tmp_path):
     try:
         h = s.json("/api/histogram2d?bins=32")
         assert h["y"].startswith("field 2") and h["domain"] == [-7, 35, -7, 35]
+        # The second is a plain field: the models that need more arrays are not offered.
+        models = {m["name"]: m for m in s.json("/api/state")["models"]}
+        assert models["gaussian"]["available"] and models["mean"]["available"]
+        assert not models["quantile-range"]["available"]
+        assert models["quantile-range"]["reason"].startswith("--second ")
+        status, _, body = s.get("/api/render?model=quantile-range&size=16x16")
+        assert status == 400 and "quantiles" in json.loads(body)["error"]
         assert h["total"] == 32 ** 3
         start["widgets"].append({"type": "ellipse", "center": [0, 0], "sigma": [3, 3],
                                  "rgba": [0.2, 0.3, 0.9, 0.8]})
@@ -360,5 +416,9 @@ def test_a_raster_tf2_renders_but_is_not_editable(inputs, tmp_path):
         cli = cli_render(inputs, tmp_path / "cli.png", "--tf2", tmp_path / "raster.vti",
                          "--model", "mean", "--size", "48x48")
         assert np.array_equal(page, cli)
+        # Its row (the probe plot's curve) too, from the same raster.
+        raster = tf2_raster(TANGLE_TF2, tmp_path / "raster.npy")
+        row = s.json("/api/tf2/row?y=20&lo=-8&hi=36&n=64")
+        assert_row_is_the_raster(row, raster, [-7, 35, 0, 60], 20.0, -8.0, 36.0, 64)
     finally:
         s.stop()

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from serve_util import Server, cli_probe, cli_render, make_inputs, png_pixels
+from serve_util import (Server, cli_probe, cli_render, make_inputs, png_pixels, tf2_at,
+                        tf2_raster)
 
 CHROMIUM = shutil.which("chromium")
 DRIVER = shutil.which("chromedriver")
@@ -19,6 +20,7 @@ try:
     from selenium.webdriver.chrome.options import Options
     from selenium.webdriver.chrome.service import Service
     from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
     from selenium.webdriver.support.ui import Select
 except ImportError:  # pragma: no cover - setup.sh installs python3-selenium
     webdriver = None
@@ -77,7 +79,11 @@ def wait_idle(driver, timeout=30):
             return
         time.sleep(0.05)
     status = driver.execute_script("return document.getElementById('status').textContent")
-    raise AssertionError(f"page not idle after {timeout} s; status: {status!r}")
+    views = driver.execute_script(
+        "const s = window.udvr.state; return {busy: s.posters.map(p => p.busy), probing: s.probing,"
+        " views: [...s.views.values()]"
+        "   .map(v => [v.channel, v.pending, v.inFlight.size, v.shown])};")
+    raise AssertionError(f"page not idle after {timeout} s; status: {status!r}; {views}")
 
 
 def page_state(driver):
@@ -85,12 +91,13 @@ def page_state(driver):
         "const s = window.udvr.state; return {model: s.model, camera: window.udvr.cameraParams()};")
 
 
-def assert_page_is_cli(driver, server, inputs, tmp_path, tf2=False):
+def assert_page_is_cli(driver, server, inputs, tmp_path, tf2=False, tf=None):
     """The main view's PNG and canvas pixels equal `udvr render` of the page's state (its TF, or
-    with tf2 its 2D TF, as saved from the server)."""
+    with tf2 its 2D TF: the file `tf`, else as saved from the server)."""
     state = page_state(driver)
-    tf = tmp_path / "page_tf.json"
-    tf.write_bytes(server.get("/api/tf2" if tf2 else "/api/tf")[2])
+    if tf is None:
+        tf = tmp_path / "page_tf.json"
+        tf.write_bytes(server.get("/api/tf2" if tf2 else "/api/tf")[2])
     c = state["camera"]
     cli = cli_render(inputs, tmp_path / "cli.png", "--model", state["model"],
                      "--tf2" if tf2 else "--tf", tf,
@@ -287,3 +294,209 @@ def test_tf2_editor_add_move_resize_delete(inputs, tmp_path):
         if driver:
             driver.quit()
         server.stop()
+
+
+# ---- the 2D TF editor: rotating an ellipse, reshaping a band; the probe with a TF2 ------------
+TANGLE_TF2 = ROOT / "data" / "tf2" / "tangle.json"
+WIDGET_KEYS = {"box": {"type", "x", "y", "rgba"},
+               "triangle": {"type", "apex", "top", "width", "rgba", "falloff"},
+               "ellipse": {"type", "center", "sigma", "angle", "cutoff", "rgba"},
+               "band": {"type", "points", "half_width", "profile", "rgba"}}
+
+
+@pytest.fixture
+def tf2_page(inputs):
+    """A server with --tf2 data/tf2/tangle.json and the page on it, recording what it POSTs."""
+    server = Server(inputs.model, "--tf2", TANGLE_TF2)
+    driver = None
+    try:
+        driver = open_page(server.url)
+        driver.execute_script(
+            "window.posted = []; const f = window.fetch;"
+            "window.fetch = (url, o) => { if (o && o.method === 'POST')"
+            " window.posted.push([String(url), o.body]); return f(url, o); };")
+        yield server, driver
+    finally:
+        if driver:
+            driver.quit()
+        server.stop()
+
+
+def last_posted(driver):
+    """The last widget JSON the page POSTed to /api/tf2, checked against docs/formats.md's keys:
+    the page's own document, and what the server gives back."""
+    url, body = driver.execute_script("return window.posted[window.posted.length - 1]")
+    assert url.endswith("/api/tf2")
+    doc = json.loads(body)
+    assert set(doc) <= {"domain", "resolution", "widgets", "name", "comment"}
+    for w in doc["widgets"]:
+        assert set(w) <= WIDGET_KEYS[w["type"]] | {"name", "comment"}, w
+    assert doc == driver.execute_script("return window.udvr.editor2.doc")
+    return doc
+
+
+def press_drag(driver, element, offset, *moves):
+    """Press at `offset` (CSS pixels from the element's centre), move by each of `moves`,
+    release."""
+    chain = ActionChains(driver).move_to_element_with_offset(element, int(offset[0]),
+                                                             int(offset[1])).click_and_hold()
+    for dx, dy in moves:
+        chain = chain.move_by_offset(dx, dy)
+    chain.release().perform()
+
+
+def type_into(driver, element_id, text):
+    """Replace a field's text as a user types it, then leave the field (its change event)."""
+    driver.find_element("id", element_id).send_keys(Keys.CONTROL, "a", Keys.NULL, text, Keys.TAB)
+
+
+def assert_posted_renders_as_cli(driver, server, inputs, tmp_path, doc):
+    """The page's image is `udvr render --tf2` of the widget file the page posted."""
+    wait_idle(driver)
+    (tmp_path / "posted.json").write_text(json.dumps(doc))
+    assert json.loads(server.get("/api/tf2")[2]) == doc
+    assert_page_is_cli(driver, server, inputs, tmp_path, tf2=True, tf=tmp_path / "posted.json")
+
+
+def data_point(driver, offset):
+    """The 2D editor's data point under `offset` (CSS pixels from its canvas's centre)."""
+    return driver.execute_script(
+        "const e = window.udvr.editor2, r = e.canvas.getBoundingClientRect();"
+        "return e.fromPixel((arguments[0] + r.width / 2) * e.canvas.width / r.width,"
+        "                   (arguments[1] + r.height / 2) * e.canvas.height / r.height);",
+        *offset)
+
+
+def test_tf2_editor_rotates_an_ellipse(tf2_page, inputs, tmp_path):
+    """The ellipse's round handle turns its sx axis to the pointer (angle in data units); the
+    angle field sets it; each time the posted JSON changes only `angle` and the page renders as
+    the CLI does with the posted file."""
+    server, driver = tf2_page
+    canvas = driver.find_element("id", "tf2-canvas")
+    before = json.loads(server.get("/api/tf2")[2])["widgets"]
+    assert before[1]["type"] == "ellipse" and "angle" not in before[1]
+    ActionChains(driver).move_to_element_with_offset(
+        canvas, *map(int, driver.execute_script("return window.udvr.editor2.centreOffset(1)"))) \
+        .click().perform()
+    assert driver.execute_script("return window.udvr.editor2.selected") == 1
+    assert driver.find_element("id", "tf2-angle").is_displayed()
+    assert not driver.find_element("id", "tf2-hx").is_displayed()
+    start = driver.execute_script("return window.udvr.editor2.handleOffset(1, 'rotate')")
+    press_drag(driver, canvas, start, (-30, -30), (-30, -30))
+    wait_idle(driver)
+    doc = last_posted(driver)
+    turned = doc["widgets"][1]
+    # Where the pointer was let go, in data units: the sx axis points there.
+    cx, cy = turned["center"]
+    x, y = data_point(driver, (int(start[0]) - 60, int(start[1]) - 60))
+    want = np.degrees(np.arctan2(y - cy, x - cx))
+    assert 90 < turned["angle"] < 180 and abs(turned["angle"] - want) < 1.5
+    assert {k: v for k, v in turned.items() if k != "angle"} == before[1]
+    assert [w for k, w in enumerate(doc["widgets"]) if k != 1] == before[:1] + before[2:]
+    assert float(driver.find_element("id", "tf2-angle").get_attribute("value")) == turned["angle"]
+    assert_posted_renders_as_cli(driver, server, inputs, tmp_path, doc)
+    type_into(driver, "tf2-angle", "-30")
+    wait_idle(driver)
+    doc = last_posted(driver)
+    assert doc["widgets"][1]["angle"] == -30 and doc["widgets"][1]["center"] == [cx, cy]
+    assert_posted_renders_as_cli(driver, server, inputs, tmp_path, doc)
+
+
+def test_tf2_editor_reshapes_a_band(tf2_page, inputs, tmp_path):
+    """+ band adds a three-point band; dragging a point's handle moves that point only; the half
+    width fields set `half_width`; each posted file renders as the page shows."""
+    server, driver = tf2_page
+    canvas = driver.find_element("id", "tf2-canvas")
+    driver.find_element("id", "tf2-add-band").click()
+    wait_idle(driver)
+    added = last_posted(driver)["widgets"][3]
+    assert added["type"] == "band" and len(added["points"]) == 3
+    assert driver.find_element("id", "tf2-hx").is_displayed()
+    assert not driver.find_element("id", "tf2-angle").is_displayed()
+    start = driver.execute_script("return window.udvr.editor2.handleOffset(3, 'p1')")
+    press_drag(driver, canvas, start, (15, -10), (15, -10))
+    wait_idle(driver)
+    doc = last_posted(driver)
+    band = doc["widgets"][3]
+    x, y = data_point(driver, (int(start[0]) + 30, int(start[1]) - 20))
+    assert band["points"][1] == pytest.approx([x, y], abs=0.25)  # within a pixel
+    assert all(band["points"][1][k] > added["points"][1][k] for k in (0, 1))
+    assert band["points"][0] == added["points"][0] and band["points"][2] == added["points"][2]
+    assert band["half_width"] == added["half_width"] and band["rgba"] == added["rgba"]
+    assert_posted_renders_as_cli(driver, server, inputs, tmp_path, doc)
+    type_into(driver, "tf2-hx", "2.5")
+    type_into(driver, "tf2-hy", "7")
+    wait_idle(driver)
+    doc = last_posted(driver)
+    assert doc["widgets"][3]["half_width"] == [2.5, 7]
+    assert doc["widgets"][3]["points"] == band["points"]
+    type_into(driver, "tf2-hy", "0")  # not > 0: not taken; the field shows the widget's again
+    assert driver.execute_script("return window.udvr.editor2.doc.widgets[3].half_width") == [2.5, 7]
+    assert driver.find_element("id", "tf2-hy").get_attribute("value") == "7"
+    assert_posted_renders_as_cli(driver, server, inputs, tmp_path, doc)
+
+
+BIVARIATE_TF2 = {"domain": [-7, 35, -7, 35], "widgets": [
+    {"type": "band", "points": [[-7, -7], [35, 35]], "half_width": [1.5, 1.5],
+     "rgba": [0.9, 0.5, 0.1, 0.5]}]}
+
+
+@pytest.mark.parametrize("second", [False, True], ids=["gradient", "second"])
+def test_tf2_probe_plot_is_the_cli_probe(inputs, tmp_path, second):
+    """With --tf2 the probe's table is `udvr probe --json --tf2`'s, and the plot's dashed opacity
+    is the TF2 along the value at the probed model's mean gradient magnitude there (with
+    --second: field 2's mean): the raster `udvr tf2 -o` writes, bilinear."""
+    if second:
+        (tmp_path / "start.json").write_text(json.dumps(BIVARIATE_TF2))
+        args = ["--tf2", tmp_path / "start.json", "--second", inputs.truth]
+    else:
+        args = ["--tf2", TANGLE_TF2]
+    server = Server(inputs.model, *args)
+    driver = None
+    try:
+        driver = open_page(server.url)
+        check_tf2_probe(server, driver, inputs, tmp_path, second)
+    finally:
+        if driver:
+            driver.quit()
+        server.stop()
+
+
+def check_tf2_probe(server, driver, inputs, tmp_path, second):
+    """A click probe on the main view, checked against `udvr probe --json --tf2` and the raster."""
+    ActionChains(driver).move_to_element(main_canvas(driver)).click().perform()
+    end = time.time() + 20
+    while time.time() < end and not driver.execute_script("return !!window.udvr.state.probe"):
+        time.sleep(0.05)
+    wait_idle(driver)
+    (tmp_path / "tf2.json").write_bytes(server.get("/api/tf2")[2])
+    rows = driver.find_elements("css selector", "#probe-table tr")
+    # The plotted models that classify with this 2D TF (gmm-ordered and uniform have no value x
+    # gradient kernel; a plain-field second has no quantiles).
+    available = {m["name"] for m in server.json("/api/state")["models"] if m["available"]}
+    plotted = {"quantile-range", "gaussian", "gmm-ordered", "uniform"} & available
+    assert plotted >= ({"gaussian"} if second else {"quantile-range", "gaussian"})
+    assert {r.get_attribute("data-model") for r in rows} >= plotted
+    cli = {}
+    for r in rows:
+        shown = json.loads(r.get_attribute("data-json"))
+        name = r.get_attribute("data-model")
+        cli[name] = cli_probe(inputs.model, tmp_path / "tf2.json", name, shown["point"], "--tf2",
+                              *(["--second", inputs.truth] if second else []))
+        assert shown == cli[name]
+    probe = driver.execute_script("return window.udvr.state.probe")
+    g = cli[probe["model"]]["gradient_magnitude"]
+    if second:  # field 2's mean at the point
+        assert g["mean"] == cli[probe["model"]]["second"]["mean"]
+    row = probe["tf2Row"]
+    assert row["y"] == g["mean"] and len(row["x"]) == 401
+    raster = tf2_raster(tmp_path / "tf2.json", tmp_path / "tf2.npy")
+    domain = json.loads((tmp_path / "tf2.json").read_text())["domain"]
+    want = [tf2_at(raster, domain, x, g["mean"]) for x in row["x"]]
+    assert np.allclose(row["rgba"], want, rtol=0, atol=1e-7)  # a float32 raster's precision
+    assert max(a for *_, a in row["rgba"]) > 0
+    note = driver.find_element("id", "probe-tf2").text
+    y_name = "field 1 at field 2" if second else "the value at gradient magnitude"
+    assert f"{y_name} {row['y']!r}" in note and probe["model"] in note
+    command = driver.find_element("id", "command").text
+    assert "udvr probe" in command and "--tf2 tf2.json" in command

@@ -230,9 +230,10 @@ ApiResponse Api::route(const ApiRequest& request) {
     if (p == "/api/histogram2d" && get) return getHistogram2D(request);
     if (p == "/api/tf2" && get) return getTf2();
     if (p == "/api/tf2" && post) return postTf2(request);
+    if (p == "/api/tf2/row" && get) return getTf2Row(request);
     for (const char* known :
          {"/api/state", "/api/render", "/api/probe", "/api/histogram", "/api/tf", "/api/preset",
-          "/api/status", "/api/histogram2d", "/api/tf2"})
+          "/api/status", "/api/histogram2d", "/api/tf2", "/api/tf2/row"})
         if (p == known) return errorResponse(405, "method " + request.method + " not allowed");
     return errorResponse(404, "no such endpoint: " + Query::clip(p));
 }
@@ -256,6 +257,13 @@ ApiResponse Api::getState() {
                 reason = "no 2D transfer-function classification for this model";
         } catch (const UdvrError& e) {
             reason = e.what();
+        }
+        if (reason.empty() && data_.second) {  // bivariate renders need its arrays too
+            try {
+                checkModelHasArrays(*data_.second, kind, ClassifyOptions{});
+            } catch (const UdvrError& e) {
+                reason = "--second " + data_.secondFile + ": " + e.what();
+            }
         }
         row["available"] = reason.empty();
         if (!reason.empty()) row["reason"] = reason;
@@ -661,6 +669,27 @@ ApiResponse Api::postTf2(const ApiRequest& request) {
     tf2_.widgets = std::move(widgets);
     const std::uint64_t version = ++tf2_.version;
     return jsonResponse(json{{"tf_version", version}});
+}
+
+ApiResponse Api::getTf2Row(const ApiRequest& request) {
+    const Query q(request.params, {{"y", "lo", "hi", "n"}});
+    const Tf2State tf2 = currentTf2();
+    if (!tf2.tf) UDVR_FAIL("no 2D transfer function: start udvr serve with --tf2");
+    const auto y = q.number("y", -1e300, 1e300);
+    const auto lo = q.number("lo", -1e300, 1e300), hi = q.number("hi", -1e300, 1e300);
+    if (!y || !lo || !hi) UDVR_FAIL("give y, lo and hi: the 2D TF along x from lo to hi at y");
+    if (!(*hi > *lo)) UDVR_FAIL("hi must be above lo");
+    const int n = static_cast<int>(q.whole("n", 2, kMaxTf2RowPoints).value_or(256));
+    json xs = json::array(), rgba = json::array();
+    for (int k = 0; k < n; ++k) {
+        const double t = static_cast<double>(k) / (n - 1);
+        const double x = (1.0 - t) * *lo + t * *hi;  // no overflow for any finite lo, hi
+        xs.push_back(x);
+        rgba.push_back(tf2.tf->colorOpacityAt(x, *y));  // bilinear, clamped (SPEC §9)
+    }
+    ApiResponse out = jsonResponse(json{{"y", *y}, {"x", xs}, {"rgba", rgba}});
+    out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(tf2.version));
+    return out;
 }
 
 }  // namespace udvr::serve

@@ -62,6 +62,7 @@ inline constexpr int kMaxHistogramBins = 4096;
 inline constexpr int kMaxHistogram2DBins = 1024;      // per axis of /api/histogram2d
 inline constexpr int kMaxPostedTf2Resolution = 1024;  // raster points per axis of POST /api/tf2
 inline constexpr std::size_t kMaxPostedTf2Widgets = 256;
+inline constexpr int kMaxTf2RowPoints = 4096;  // points of GET /api/tf2/row
 
 class Api {
   public:
@@ -91,6 +92,7 @@ class Api {
     ApiResponse getHistogram2D(const ApiRequest& request);
     ApiResponse getTf2();
     ApiResponse postTf2(const ApiRequest& request);
+    ApiResponse getTf2Row(const ApiRequest& request);
     ApiResponse getStatus();
 
     /// The current 1D TF and its version (each POST /api/tf makes a new one).
