@@ -230,43 +230,43 @@ UDVR_CPU_GPU UDVR_INLINE void runOf(const Tf2Raster<Real>& r, lanes::IntOf<T> ce
         hi = static_cast<int>(r.cellRun[idx + 1]);
     }
 }
-/// With runs, the x line firstLine found ahead of a walk in band `band` replaced by the end of
-/// the run the walk is in (the domain's edge lines, reached from outside, stay).
-template <bool kRuns, class T, class Real>
+/// The end, in the walk's direction, of the run holding `cell` (right: its hi, left: its lo);
+/// `fallback` in lanes going neither way.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> runEnd(const Tf2Raster<Real>& r, lanes::IntOf<T> cell,
+                                                lanes::MaskOf<T> right, lanes::MaskOf<T> left,
+                                                lanes::IntOf<T> band, lanes::MaskOf<T> live,
+                                                lanes::IntOf<T> fallback) {
+    using I = lanes::IntOf<T>;
+    const I c = lanes::max(lanes::min(cell, I{} + (r.width - 2)), I{} + 0);
+    I lo, hi;
+    runOf<T>(r, c, band, live & (right | left), lo, hi);
+    return lanes::select(right, hi, lanes::select(left, lo, fallback));
+}
+/// The x line firstLine found ahead of a walk in band `band`, replaced by the end of the run
+/// the walk is in (the domain's edge lines, reached from outside, stay).
+template <class T, class Real>
 UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> runLineAhead(const Tf2Raster<Real>& r,
                                                       lanes::IntOf<T> lineX, lanes::IntOf<T> stepX,
                                                       lanes::IntOf<T> band, lanes::MaskOf<T> live) {
-    using I = lanes::IntOf<T>;
-    if constexpr (!kRuns) return lineX;
-    const int cells = r.width - 1;
-    const auto right = (stepX > 0) & (lineX >= 1);         // in cell lineX − 1
-    const auto left = (stepX < 0) & (lineX <= cells - 1);  // in cell lineX
-    const I cell =
-        lanes::max(lanes::min(lanes::select(right, lineX - 1, lineX), I{} + (cells - 1)), I{} + 0);
-    I lo, hi;
-    runOf<T>(r, cell, band, live & (right | left), lo, hi);
-    return lanes::select(right, hi, lanes::select(left, lo, lineX));
+    const auto right = (stepX > 0) & (lineX >= 1);           // in cell lineX − 1
+    const auto left = (stepX < 0) & (lineX <= r.width - 2);  // in cell lineX
+    return runEnd<T>(r, lanes::select(right, lineX - 1, lineX), right, left, band, live, lineX);
 }
-/// The x line after `lineX` (just reached) in the walk's direction: the far end of the next
-/// run in band `band`, or one past the domain's last line (the caller stops there).
+/// The x line after `lineX` (just reached) in the walk's direction: by cells the next line, by
+/// runs the far end of the next run in band `band`; one past the domain's last line at its end
+/// (the caller stops there).
 template <bool kRuns, class T, class Real>
 UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> nextLineX(const Tf2Raster<Real>& r, lanes::IntOf<T> lineX,
                                                    lanes::IntOf<T> stepX, lanes::IntOf<T> band,
                                                    lanes::MaskOf<T> live) {
-    using I = lanes::IntOf<T>;
     if constexpr (!kRuns) return lineX + stepX;
-    const int cells = r.width - 1;
-    const auto right = (stepX > 0) & (lineX <= cells - 1);  // into cell lineX
-    const auto left = (stepX < 0) & (lineX >= 1);           // into cell lineX − 1
-    const I cell =
-        lanes::max(lanes::min(lanes::select(left, lineX - 1, lineX), I{} + (cells - 1)), I{} + 0);
-    I lo, hi;
-    runOf<T>(r, cell, band, live & (right | left), lo, hi);
-    return lanes::select(right, hi, lanes::select(left, lo, lineX + stepX));
+    const auto right = (stepX > 0) & (lineX <= r.width - 2);  // into cell lineX
+    const auto left = (stepX < 0) & (lineX >= 1);             // into cell lineX − 1
+    return runEnd<T>(r, lanes::select(left, lineX - 1, lineX), right, left, band, live,
+                     lineX + stepX);
 }
-}  // namespace detail
 
-namespace detail {
 /// tf2MeanAlongSegment's walk, by cells or (kRuns, r.cellRun set) by runs of cells.
 template <bool kRuns, class T, class Real>
 UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
@@ -282,8 +282,8 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, 
     detail::firstLine<T>(sa, ds, r.width, lineX, stepX);
     detail::firstLine<T>(ta, dt, r.height, lineY, stepY);
     if constexpr (kRuns)
-        lineX = detail::runLineAhead<kRuns, T>(
-            r, lineX, stepX, detail::bandAhead<T>(ta, lineY, stepY, r.height), live);
+        lineX = detail::runLineAhead<T>(r, lineX, stepX,
+                                        detail::bandAhead<T>(ta, lineY, stepY, r.height), live);
     T ux = detail::lineParameter<T>(sa, ds, lineX, stepX);
     T uy = detail::lineParameter<T>(ta, dt, lineY, stepY);
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
@@ -381,7 +381,7 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, 
             if (lanes::anyOf(active & atY)) {
                 I lx, sx;
                 detail::firstLine<T>(lanes::fma(u1, ds, sa), ds, r.width, lx, sx);
-                lx = detail::runLineAhead<kRuns, T>(r, lx, sx, band, active & atY);
+                lx = detail::runLineAhead<T>(r, lx, sx, band, active & atY);
                 lineX = lanes::select(atY, lx, lineX);
                 stepX = lanes::select(atY, sx, stepX);
             }
@@ -403,7 +403,7 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, 
             detail::firstLine<T>(lanes::fma(uj, ds, sa), ds, r.width, lx, sx);
             detail::firstLine<T>(lanes::fma(uj, dt, ta), dt, r.height, ly, sy);
             if constexpr (kRuns)
-                lx = detail::runLineAhead<kRuns, T>(
+                lx = detail::runLineAhead<T>(
                     r, lx, sx, detail::bandAhead<T>(lanes::fma(uj, dt, ta), ly, sy, r.height),
                     jump);
             lineX = lanes::select(jump, lx, lineX);
