@@ -211,6 +211,19 @@ std::string readWholeFile(const fs::path& path) {
     return bytes;
 }
 
+/// Points × bytes per value of a grid, failing where that cannot be a file udvr can hold (it
+/// would not fit in memory, or the product overflows).
+std::size_t checkedDataBytes(const fs::path& path, const std::array<int, 3>& dims,
+                             std::size_t valueSize) {
+    long double bytes = static_cast<long double>(valueSize);
+    for (int d : dims) bytes *= static_cast<long double>(d);
+    if (bytes > static_cast<long double>(std::size_t{1} << 56))
+        UDVR_FAIL(path.string() << ": dims " << dims[0] << "x" << dims[1] << "x" << dims[2]
+                                << " are too large (" << static_cast<double>(bytes)
+                                << " bytes of data)");
+    return static_cast<std::size_t>(bytes);
+}
+
 /// `data` must hold exactly `expected` bytes (what the dims and type ask for).
 void requireByteCount(const fs::path& path, std::size_t expected, std::size_t actual,
                       const std::string& what) {
@@ -285,12 +298,15 @@ ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
         if (!(layout.spacing[a] > 0.0) || !std::isfinite(layout.spacing[a])) {
             UDVR_FAIL(path.string() << ": spacing must be positive, got " << layout.spacing[a]);
         }
+        if (!std::isfinite(layout.origin[a]))
+            UDVR_FAIL(path.string() << ": origin must be finite, got " << layout.origin[a]);
     }
     ScalarField f;
     f.grid.dims = layout.dims;
     f.grid.spacing = layout.spacing;
     f.grid.origin = layout.origin;
     f.name = path.stem().string();
+    checkedDataBytes(path, layout.dims, typeSize(*type));
     std::string bytes = readWholeFile(path);
     std::size_t n = f.grid.pointCount();
     if (bytes.size() != n * typeSize(*type)) {
@@ -506,8 +522,9 @@ NrrdHeader parseNrrdHeader(const fs::path& path, const std::string& text) {
 }
 
 /// Grid geometry from spacings or space directions/origin. A rotated or flipped frame cannot be
-/// held by Grid3; its axis lengths are kept and one line on stderr says the orientation is lost.
-Grid3 nrrdGrid(const fs::path& path, const NrrdHeader& h) {
+/// held by Grid3; its axis lengths are kept and *note (when given) says the orientation is lost,
+/// for the caller to print once the whole read succeeded.
+Grid3 nrrdGrid(const fs::path& path, const NrrdHeader& h, std::string* note) {
     Grid3 g;
     for (int a = 0; a < 3; ++a) g.dims[a] = static_cast<int>(h.sizes[a]);
     if (!h.directions.empty()) {
@@ -519,11 +536,10 @@ Grid3 nrrdGrid(const fs::path& path, const NrrdHeader& h) {
                 if ((b == a && !(d[b] > 0.0)) || (b != a && d[b] != 0.0)) aligned = false;
             }
         }
-        if (!aligned) {
-            std::fprintf(stderr,
-                         "udvr: note: %s: space directions are not the positive x,y,z axes; "
-                         "keeping their lengths as spacing and ignoring the orientation\n",
-                         path.string().c_str());
+        if (!aligned && note != nullptr) {
+            *note = "udvr: note: " + path.string() +
+                    ": space directions are not the positive x,y,z axes; keeping their lengths "
+                    "as spacing and ignoring the orientation";
         }
     } else if (!h.spacings.empty()) {
         for (int a = 0; a < 3; ++a) g.spacing[a] = std::isnan(h.spacings[a]) ? 1.0 : h.spacings[a];
@@ -559,7 +575,8 @@ std::string gunzip(const fs::path& path, const char* data, std::size_t size, std
     z_stream zs{};
     if (inflateInit2(&zs, 15 + 32) != Z_OK) UDVR_FAIL("zlib: inflateInit2 failed");
     std::string out;
-    out.reserve(limit);
+    // Deflate expands at most ~1032:1: a header cannot make a small file reserve gigabytes.
+    out.reserve(std::min(limit, size * 1032 + (1u << 16)));
     std::vector<unsigned char> buf(1 << 16);
     std::size_t consumed = 0;
     bool complete = false;
@@ -608,7 +625,7 @@ std::string gunzip(const fs::path& path, const char* data, std::size_t size, std
 
 std::vector<float> parseAscii(const fs::path& path, const std::string& text, std::size_t n) {
     std::vector<float> values;
-    values.reserve(n);
+    values.reserve(std::min(n, text.size() / 2 + 1));  // a value and a separator at least
     const char* p = text.c_str();
     const char* end = p + text.size();
     while (p < end) {
@@ -634,11 +651,11 @@ std::vector<float> parseAscii(const fs::path& path, const std::string& text, std
     return values;
 }
 
-ScalarField readNrrd(const fs::path& path) {
+ScalarField readNrrd(const fs::path& path, std::string* note) {
     std::string headerBytes = readWholeFile(path);
     NrrdHeader h = parseNrrdHeader(path, headerBytes);
     ScalarField f;
-    f.grid = nrrdGrid(path, h);
+    f.grid = nrrdGrid(path, h, note);
     f.name = h.content.empty() ? path.stem().string() : h.content;
 
     // The data: a detached file, or what follows the blank line.
@@ -664,7 +681,7 @@ ScalarField readNrrd(const fs::path& path) {
     offset = skipLines(dataPath, *bytes, offset, h.lineSkip);
 
     std::size_t n = f.grid.pointCount();
-    std::size_t expected = n * typeSize(*h.type);
+    std::size_t expected = checkedDataBytes(path, f.grid.dims, typeSize(*h.type));
     bool big = h.endian == "big";
     if (h.encoding == "ascii") {
         f.values = parseAscii(dataPath, bytes->substr(offset), n);
@@ -729,9 +746,9 @@ ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
     std::string ext = lowerExtension(path);
     ScalarField f;
     if (ext == ".nrrd" || ext == ".nhdr") {
-        f = readNrrd(path);
+        f = readNrrd(path, geometryNote);
     } else if (ext == ".vti") {
-        f = readFieldVti(path, options.var);
+        f = readFieldVti(path, options.var, geometryNote);
     } else if (ext == ".nc" || ext == ".nc4" || ext == ".cdf") {
         f = readFieldNetcdf(path, options.var, geometryNote);
     } else if (ext == ".raw" || options.raw.given()) {

@@ -248,6 +248,55 @@ TEST(IoNrrd, RejectsBadData) {
                     {"nan.nrrd", "2 NaN and 0 Inf", "(i,j,k) = (0,1,0)"});
 }
 
+// Found by fuzzing (fuzz/regressions/raw, nrrd): an infinite origin was accepted; dims whose
+// product overflows size_t matched a short file (the grid then claimed 2^64 points); a header
+// asking for 2^40 bytes made the reader reserve them.
+TEST(IoRaw, RejectsNonFiniteOriginAndOverflowingDims) {
+    TempDir dir;
+    writeBytes(dir / "f.raw", bytesOf(ramp<float>()));
+    FieldReadOptions o;
+    o.raw.dims = {4, 3, 2};
+    o.raw.origin[1] = -std::numeric_limits<double>::infinity();
+    expectUdvrError([&] { readField(dir / "f.raw", o); }, {"f.raw", "origin must be finite"});
+    o.raw.origin[1] = 0.0;
+    o.raw.dims = {1 << 22, 1 << 22, 1 << 20};  // 2^64 points: 0 after wrapping
+    writeBytes(dir / "empty.raw", "");
+    expectUdvrError([&] { readField(dir / "empty.raw", o); },
+                    {"empty.raw", "dims 4194304x4194304x1048576 are too large"});
+    writeBytes(dir / "big.nrrd",
+               "NRRD0004\ntype: float\ndimension: 3\nsizes: 1024 1024 1048576\nendian: "
+               "little\nencoding: gzip\n\n" +
+                   gzip("tiny"));
+    expectUdvrError([&] { readField(dir / "big.nrrd"); }, {"big.nrrd", "truncated gzip data"});
+}
+
+// Notes are printed only once a read succeeded (an error stays one line on stderr), and raw
+// bytes quoted from a file are escaped (UTF-8 output, one line).
+TEST(IoNrrd, ErrorsAreOnePrintableLine) {
+    TempDir dir;
+    const std::string rotated =
+        header("float",
+               "space directions: (0,1,0) (1,0,0) (0,0,1)\nendian: little\nencoding: "
+               "raw\n\n");
+    writeBytes(dir / "cut.nrrd", rotated + bytesOf(ramp<float>()).substr(0, 48));
+    ::testing::internal::CaptureStderr();
+    expectUdvrError([&] { readField(dir / "cut.nrrd"); }, {"cut.nrrd", "truncated"});
+    EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+    writeBytes(dir / "ok.nrrd", rotated + bytesOf(ramp<float>()));
+    ::testing::internal::CaptureStderr();
+    EXPECT_NO_THROW(readField(dir / "ok.nrrd"));
+    EXPECT_NE(::testing::internal::GetCapturedStderr().find("space directions"), std::string::npos);
+
+    writeBytes(dir / "bytes.nrrd", "NRRD0004\ntype: float\xff\xfe\x01\nsizes: 4 3 2\n\n");
+    try {
+        readField(dir / "bytes.nrrd");
+        ADD_FAILURE() << "expected an error";
+    } catch (const UdvrError& e) {
+        EXPECT_NE(std::string(e.what()).find("'float\\xff\\xfe\\x01'"), std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(IoField, UnknownExtensionAndMissingFile) {
     TempDir dir;
     writeBytes(dir / "f.xyz", "hello");

@@ -11,6 +11,7 @@
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field.h"
 #include "udvr/io/file_info.h"
+#include "udvr/stats/model_volume.h"
 
 namespace udvr::detail {
 
@@ -25,16 +26,20 @@ void requireFile(const std::filesystem::path& path);
 /// Lower-case extension with the dot (".nhdr").
 std::string lowerExtension(const std::filesystem::path& path);
 
-/// readField that hands back the one-line note about missing NetCDF coordinates in
-/// *geometryNote (left alone when there is none; nullptr: no note) instead of printing it, so
-/// that the caller prints it only after the whole read succeeded (an error is one stderr line).
+/// readField that hands back the one-line note about the geometry (missing NetCDF coordinates,
+/// an orientation that is ignored) in *geometryNote (left alone when there is none; nullptr: no
+/// note) instead of printing it, so that the caller prints it only after the whole read
+/// succeeded (an error is one stderr line).
 ScalarField readFieldImpl(const std::filesystem::path& path, const FieldReadOptions& options,
                           std::string* geometryNote);
 /// Print a note on its own stderr line; nothing for an empty one.
 void printNote(const std::string& note);
 
-/// .vti through VTK's XML reader (vti_io.cpp).
-ScalarField readFieldVti(const std::filesystem::path& path, const std::string& var);
+/// .vti through VTK's XML reader (vti_io.cpp); *geometryNote as readFieldImpl.
+ScalarField readFieldVti(const std::filesystem::path& path, const std::string& var,
+                         std::string* geometryNote);
+/// readModelVti with its note as readFieldImpl's.
+ModelVolume readModelVti(const std::filesystem::path& path, std::string* geometryNote);
 /// A 2D transfer-function raster from a .vti of W×H×1 points (vti_io.cpp).
 TransferFunction2D readTransferFunction2DVti(const std::filesystem::path& path);
 /// .nc with a 3D variable (netcdf_io.cpp).

@@ -1,17 +1,26 @@
 // NetCDF fields and ensembles (SPEC §7) through the netCDF-C library. Geometry travels as CF
 // coordinate variables x, y, z (grid point positions, evenly spaced).
+#include <fcntl.h>
 #include <netcdf.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -48,13 +57,14 @@ void ncCheck(int status, const fs::path& path, const std::string& what) {
 /// Superblock versions 0/1: base address after 24/28 bytes, then free-space, end-of-file;
 /// versions 2/3: base, superblock extension, end-of-file after 12 bytes (HDF5 File Format
 /// Specification, section II.A). Addresses are little-endian, 2..8 bytes wide.
-void checkHdf5Size(const fs::path& path) {
+/// Returns whether the file is HDF5.
+bool checkHdf5Size(const fs::path& path) {
     unsigned char b[64] = {};
     std::ifstream in(path, std::ios::binary);
     in.read(reinterpret_cast<char*>(b), sizeof b);
     const std::size_t got = static_cast<std::size_t>(in.gcount());
     static const unsigned char kSignature[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
-    if (got < 8 || std::memcmp(b, kSignature, 8) != 0) return;
+    if (got < 8 || std::memcmp(b, kSignature, 8) != 0) return false;
     const std::size_t fileSize = static_cast<std::size_t>(fs::file_size(path));
     const int version = got > 8 ? b[8] : -1;
     std::size_t offsets = 0, base = 0;
@@ -65,7 +75,7 @@ void checkHdf5Size(const fs::path& path) {
         offsets = got > 9 ? b[9] : 0;
         base = 12;
     } else if (got > 8) {
-        return;  // a superblock version this check does not know: netCDF-C decides
+        return true;  // a superblock version this check does not know: netCDF-C decides
     }
     const std::size_t eofAt = base + 2 * offsets;
     if (offsets < 2 || offsets > 8 || eofAt + offsets > got) {
@@ -80,11 +90,142 @@ void checkHdf5Size(const fs::path& path) {
     };
     const std::uint64_t undefined = offsets == 8 ? ~0ull : (1ull << (8 * offsets)) - 1;
     const std::uint64_t baseAddress = address(base), eof = address(eofAt);
-    if (baseAddress == undefined || eof == undefined) return;
+    if (baseAddress == undefined || eof == undefined) return true;
     if (baseAddress + eof > fileSize) {
         UDVR_FAIL(path.string() << ": truncated NetCDF-4/HDF5 file: expected " << baseAddress + eof
                                 << " bytes, found " << fileSize);
     }
+    return true;
+}
+
+/// The netCDF-C calls a read of the file makes, on every variable of the root group: its
+/// metadata (for NetCDF-4, HDF5 reads dimension scales and attributes lazily here), its
+/// attributes, and its data (whole when it has at most 2^24 values, else its first and last
+/// value). Returns when they are done, whatever they returned.
+void walkNetcdf(const char* path) {
+    int nc = -1;
+    if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR) return;
+    int nvars = 0;
+    nc_inq_nvars(nc, &nvars);
+    for (int v = 0; v < nvars; ++v) {
+        char name[NC_MAX_NAME + 1];
+        nc_type type = 0;
+        int ndims = 0, natts = 0;
+        int dims[NC_MAX_VAR_DIMS];
+        if (nc_inq_var(nc, v, name, &type, &ndims, dims, &natts) != NC_NOERR) continue;
+        std::vector<std::size_t> lengths(static_cast<std::size_t>(std::max(ndims, 0)));
+        double values = 1;
+        for (int d = 0; d < ndims; ++d) {
+            if (nc_inq_dim(nc, dims[d], name, &lengths[static_cast<std::size_t>(d)]) != NC_NOERR)
+                lengths[static_cast<std::size_t>(d)] = 0;
+            values *= static_cast<double>(lengths[static_cast<std::size_t>(d)]);
+        }
+        for (int a = 0; a < natts; ++a) {
+            std::size_t len = 0;
+            nc_type atype = 0;
+            if (nc_inq_attname(nc, v, a, name) != NC_NOERR ||
+                nc_inq_att(nc, v, name, &atype, &len) != NC_NOERR || len > (1u << 24))
+                continue;
+            if (atype == NC_STRING) {
+                std::vector<char*> strings(len);
+                if (nc_get_att_string(nc, v, name, strings.data()) == NC_NOERR)
+                    nc_free_string(len, strings.data());
+            } else if (atype == NC_CHAR) {
+                std::vector<char> text(len + 1);
+                nc_get_att_text(nc, v, name, text.data());
+            } else {
+                std::vector<double> buffer(len + 1);
+                nc_get_att_double(nc, v, name, buffer.data());
+            }
+        }
+        if (type == NC_CHAR || type == NC_STRING || type > NC_STRING || values < 1) continue;
+        if (values <= static_cast<double>(1u << 24)) {
+            std::vector<double> buffer(static_cast<std::size_t>(values));
+            nc_get_var_double(nc, v, buffer.data());
+        } else {
+            std::vector<std::size_t> at(lengths.size(), 0), one(lengths.size(), 1);
+            double value = 0;
+            nc_get_vara_double(nc, v, at.data(), one.data(), &value);
+            for (std::size_t d = 0; d < at.size(); ++d) at[d] = lengths[d] - 1;
+            nc_get_vara_double(nc, v, at.data(), one.data(), &value);
+        }
+    }
+    nc_close(nc);
+}
+
+/// NetCDF-4 files are HDF5 files, and HDF5 1.10.8 (Debian 12) crashes or loops forever on some
+/// damaged ones (found by fuzzing, docs/testing.md: a corrupt global heap read for a dimension
+/// list never ends). Before udvr reads one, a child process makes the calls of walkNetcdf; the
+/// read goes ahead once the child has finished them (netCDF errors included: the read reports
+/// those itself). A child killed by a signal, or not done within 10 s plus 1 s per 4 MB of file,
+/// becomes a one-line error.
+void probeHdf5(const fs::path& path) {
+    // A read opens a file more than once (`udvr info`, then the field): the last file probed,
+    // unchanged since, and its outcome are remembered.
+    struct Probed {
+        std::string path, error;
+        std::uintmax_t size = 0;
+        std::int64_t mtime = 0, inode = 0;
+    };
+    static Probed last;
+    static std::mutex lastMutex;
+    struct stat st {};
+    if (stat(path.c_str(), &st) != 0) return;
+    const Probed now{path.string(), "", static_cast<std::uintmax_t>(st.st_size),
+                     static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec,
+                     static_cast<std::int64_t>(st.st_ino)};
+    {
+        std::lock_guard<std::mutex> lock(lastMutex);
+        if (last.path == now.path && last.size == now.size && last.mtime == now.mtime &&
+            last.inode == now.inode) {
+            if (!last.error.empty()) UDVR_FAIL(last.error);
+            return;
+        }
+    }
+    const auto remember = [&](const std::string& error) {
+        std::lock_guard<std::mutex> lock(lastMutex);
+        last = now;
+        last.error = error;
+        if (!error.empty()) UDVR_FAIL(error);
+    };
+    const double limit = 10.0 + static_cast<double>(now.size) / (4 << 20);
+    std::fflush(nullptr);
+    const pid_t child = fork();
+    if (child < 0) return;  // no process to spare: read without the probe
+    if (child == 0) {
+        // The child: quiet (HDF5 may print its error stack) and gone without exit handlers.
+        const int devnull = open("/dev/null", O_WRONLY);
+        if (devnull >= 0) {
+            dup2(devnull, 1);
+            dup2(devnull, 2);
+        }
+        walkNetcdf(path.c_str());
+        _exit(0);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    int status = 0;
+    auto pause = std::chrono::microseconds(50);
+    for (;;) {
+        const pid_t done = waitpid(child, &status, WNOHANG);
+        if (done == child) break;
+        if (done < 0 && errno != EINTR) return;  // the child is not ours to wait for
+        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
+            limit) {
+            kill(child, SIGKILL);
+            waitpid(child, &status, 0);
+            std::ostringstream error;
+            error << path.string() << ": the HDF5 library did not finish reading this NetCDF-4 "
+                  << "file within " << std::lround(limit) << " s (a damaged file?)";
+            remember(error.str());
+        }
+        std::this_thread::sleep_for(pause);
+        pause = std::min(pause * 2, decltype(pause)(std::chrono::milliseconds(20)));
+    }
+    std::string error;
+    if (WIFSIGNALED(status))
+        error = path.string() + ": the HDF5 library crashed reading this NetCDF-4 file (signal " +
+                std::to_string(WTERMSIG(status)) + "; a damaged file?)";
+    remember(error);
 }
 
 /// Closes the file on scope exit (also when an error unwinds).
@@ -180,6 +321,8 @@ std::string describeAll(const std::vector<VarInfo>& vars) {
 
 /// netCDF-C reads the data of a cut classic-format file as zeros, without an error, so compare
 /// where the header says the data end with the file size (CDF-1, CDF-2 and CDF-5 layouts).
+/// Runs before nc_open: netCDF-C allocates what the header's counts ask for (a variable of 2^31
+/// dimensions, found by fuzzing), so every count must fit in what is left of the file.
 void checkClassicSize(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     std::size_t fileSize = static_cast<std::size_t>(fs::file_size(path));
@@ -196,13 +339,25 @@ void checkClassicSize(const fs::path& path) {
     char magic[4];
     if (!in.read(magic, 4) || magic[0] != 'C' || magic[1] != 'D' || magic[2] != 'F') return;
     int version = magic[3];
-    std::size_t countSize = version == 5 ? 8 : 4;   // nelems, dim lengths, vsize
-    std::size_t offsetSize = version == 1 ? 4 : 8;  // begin
+    if (version != 1 && version != 2 && version != 5) return;  // netCDF-C rejects it
+    std::size_t countSize = version == 5 ? 8 : 4;              // nelems, dim lengths, vsize
+    std::size_t offsetSize = version == 1 ? 4 : 8;             // begin
     auto skip = [&](std::uint64_t n) {
         if (n > fileSize) fail();
         in.seekg(static_cast<std::streamoff>(n), std::ios::cur);
     };
-    auto skipName = [&]() { skip((be(countSize) + 3) / 4 * 4); };
+    // `n` bytes padded to 4, after checking n against the file (no overflow of the padding).
+    auto skipPadded = [&](std::uint64_t n) {
+        if (n > fileSize) fail();
+        skip((n + 3) / 4 * 4);
+    };
+    auto skipName = [&]() { skipPadded(be(countSize)); };
+    // A count of entries of at least `entryBytes` bytes each, no more than the file can hold.
+    auto countOf = [&](std::uint64_t entryBytes) {
+        const std::uint64_t n = be(countSize);
+        if (n > fileSize / entryBytes) fail();
+        return n;
+    };
     auto typeSize = [](std::uint64_t t) -> std::uint64_t {
         switch (t) {
             case NC_BYTE:
@@ -222,24 +377,27 @@ void checkClassicSize(const fs::path& path) {
     };
     auto skipAttributes = [&]() {
         be(4);  // NC_ATTRIBUTE or ABSENT
-        std::uint64_t n = be(countSize);
+        std::uint64_t n = countOf(2 * countSize + 4);
         for (std::uint64_t a = 0; a < n; ++a) {
             skipName();
             std::uint64_t type = be(4);
-            skip((be(countSize) * typeSize(type) + 3) / 4 * 4);
+            const std::uint64_t values = be(countSize);
+            if (values > fileSize) fail();
+            skipPadded(values * typeSize(type));
         }
     };
     std::uint64_t numrecs = be(countSize);
-    if (numrecs == (version == 5 ? ~0ull : 0xffffffffull)) return;  // streaming: unknown
-    be(4);                                                          // NC_DIMENSION or ABSENT
-    std::vector<std::uint64_t> dimLengths(be(countSize));
+    // Streaming: the record count is unknown; the header is checked all the same.
+    const bool streaming = numrecs == (version == 5 ? ~0ull : 0xffffffffull);
+    be(4);  // NC_DIMENSION or ABSENT
+    std::vector<std::uint64_t> dimLengths(countOf(2 * countSize));
     for (auto& len : dimLengths) {
         skipName();
         len = be(countSize);
     }
     skipAttributes();
     be(4);  // NC_VARIABLE or ABSENT
-    std::uint64_t nvars = be(countSize);
+    std::uint64_t nvars = countOf(4 * countSize + 8);
     struct Var {
         bool record;
         std::uint64_t bytes, begin;
@@ -248,7 +406,7 @@ void checkClassicSize(const fs::path& path) {
     std::uint64_t recordSize = 0;
     for (std::uint64_t v = 0; v < nvars; ++v) {
         skipName();
-        std::uint64_t ndims = be(countSize);
+        std::uint64_t ndims = countOf(countSize);
         bool record = false;
         std::uint64_t count = 1;
         for (std::uint64_t d = 0; d < ndims; ++d) {
@@ -273,7 +431,7 @@ void checkClassicSize(const fs::path& path) {
     for (const Var& v : vars) {
         std::uint64_t end = v.begin + v.bytes;
         if (v.record) {
-            if (numrecs == 0) continue;
+            if (numrecs == 0 || streaming) continue;
             // A lone record variable is not padded per record.
             std::uint64_t stride = recordVars == 1 ? v.bytes : recordSize;
             end = v.begin + (numrecs - 1) * stride + v.bytes;
@@ -288,23 +446,13 @@ void checkClassicSize(const fs::path& path) {
 
 int openForRead(const fs::path& path) {
     detail::requireFile(path);
-    checkHdf5Size(path);
+    if (checkHdf5Size(path)) probeHdf5(path);
+    checkClassicSize(path);
     int nc = -1;
     int status = nc_open(path.c_str(), NC_NOWRITE, &nc);
     if (status != NC_NOERR) {
         if (status == NC_EHDFERR) UDVR_FAIL(path.string() << ": " << ncErrorText(status));
         UDVR_FAIL(path.string() << ": cannot open as NetCDF: " << nc_strerror(status));
-    }
-    int format = 0;
-    if (nc_inq_format(nc, &format) == NC_NOERR &&
-        (format == NC_FORMAT_CLASSIC || format == NC_FORMAT_64BIT_OFFSET ||
-         format == NC_FORMAT_CDF5)) {
-        try {
-            checkClassicSize(path);
-        } catch (...) {
-            nc_close(nc);
-            throw;
-        }
     }
     return nc;
 }

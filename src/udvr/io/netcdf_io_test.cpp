@@ -234,6 +234,39 @@ TEST(IoNetcdf, RejectsBadInput) {
                     {"damaged4.nc", "truncated or damaged"});
 }
 
+// netCDF-C allocates what a classic header's counts ask for (found by fuzzing: a name of 2^62
+// bytes, a variable of 2^31 dimensions); the counts are checked against the file first, for
+// streaming files (record count -1) too.
+TEST(IoNetcdf, ClassicHeaderCountsAreCheckedBeforeOpening) {
+    TempDir dir;
+    ScalarField f;
+    f.grid.dims = {4, 3, 2};
+    f.values.assign(24, 1.f);
+    writeFieldNetcdf(dir / "f.nc", f);
+    const std::string bytes = testing::readBytes(dir / "f.nc");
+    ASSERT_EQ(bytes.substr(0, 4), std::string("CDF\x02", 4));
+    // CDF-2: magic, numrecs (4 bytes), NC_DIMENSION (4 bytes), the number of dimensions.
+    for (const bool streaming : {false, true}) {
+        std::string bad = bytes;
+        if (streaming) bad.replace(4, 4, "\xff\xff\xff\xff");
+        bad.replace(12, 4, "\x7f\xff\xff\xff");
+        testing::writeBytes(dir / "count.nc", bad);
+        expectUdvrError([&] { readField(dir / "count.nc"); },
+                        {"count.nc", "truncated NetCDF header"});
+    }
+}
+
+// HDF5 1.10.8 loops forever on this damaged NetCDF-4 file (found by fuzzing); a child process
+// tries the library calls first and gives up after 10 s.
+TEST(IoNetcdf, Hdf5HangBecomesAnError) {
+    const std::filesystem::path file = std::filesystem::path(UDVR_FUZZ_REGRESSIONS_DIR) / "netcdf" /
+                                       "netcdf4-hdf5-global-heap-loop";
+    TempDir dir;
+    std::filesystem::copy_file(file, dir / "loop.nc");
+    expectUdvrError([&] { readField(dir / "loop.nc"); },
+                    {"loop.nc", "the HDF5 library did not finish reading this NetCDF-4 file"});
+}
+
 TEST(IoNetcdf, EnsembleFromMemberDimension) {
     TempDir dir;
     NcSpec s;

@@ -33,7 +33,7 @@ TransferFunction1D parseTransferFunction(const std::string& text, const std::str
     json doc;
     try {
         doc = json::parse(text);
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse_error, or out_of_range for a number like 1e999
         UDVR_FAIL(what << ": not valid JSON (" << e.what() << ")");
     }
     // A list of objects (ParaView's preset files) or one bare object; the first object with
@@ -59,6 +59,9 @@ TransferFunction1D parseTransferFunction(const std::string& text, const std::str
     }
 
     TransferFunction1D tf;
+    // Notes and warnings are printed once the whole function is valid: an error stays the one
+    // line on stderr.
+    std::vector<std::string> notes;
     const std::vector<double> rgb = numberArray(*obj, "RGBPoints", what);
     if (rgb.empty() || rgb.size() % 4 != 0)
         UDVR_FAIL(what << ": \"RGBPoints\" needs groups of 4 numbers (x,r,g,b), got "
@@ -80,29 +83,29 @@ TransferFunction1D parseTransferFunction(const std::string& text, const std::str
             if (pts[i + 2] != 0.5 || pts[i + 3] != 0.0) ignored = true;
         }
         if (ignored)
-            std::fprintf(
-                stderr,
-                "udvr: warning: %s: opacity midpoint/sharpness other than 0.5/0 are ignored "
-                "(opacity is piecewise linear between points)\n",
-                what.c_str());
+            notes.push_back("udvr: warning: " + what +
+                            ": opacity midpoint/sharpness other than 0.5/0 are ignored (opacity "
+                            "is piecewise linear between points)");
     } else {
         // ParaView's default opacity: a linear ramp 0 → 1 over the colour range.
         tf.opacityX = {tf.colorX.front(), tf.colorX.back()};
         tf.opacity = {0.0, 1.0};
-        std::fprintf(stderr,
-                     "udvr: note: %s: no \"Points\"; opacity is a linear ramp 0..1 over [%g, %g]\n",
-                     what.c_str(), tf.colorX.front(), tf.colorX.back());
+        std::ostringstream note;
+        note << "udvr: note: " << what << ": no \"Points\"; opacity is a linear ramp 0..1 over ["
+             << tf.colorX.front() << ", " << tf.colorX.back() << "]";
+        notes.push_back(note.str());
     }
     if (obj->contains("ColorSpace") && (*obj)["ColorSpace"].is_string() &&
         (*obj)["ColorSpace"].get<std::string>() != "RGB")
-        std::fprintf(stderr,
-                     "udvr: note: %s: colours are interpolated in RGB (ColorSpace '%s' ignored)\n",
-                     what.c_str(), (*obj)["ColorSpace"].get<std::string>().c_str());
+        notes.push_back("udvr: note: " + what + ": colours are interpolated in RGB (ColorSpace '" +
+                        (*obj)["ColorSpace"].get<std::string>() + "' ignored)");
     try {
         tf.validate();
     } catch (const UdvrError& e) {
         UDVR_FAIL(what << ": " << e.what());
     }
+    for (const std::string& note : notes)
+        std::fprintf(stderr, "%s\n", detail::printableLine(note).c_str());
     return tf;
 }
 

@@ -60,6 +60,19 @@ TEST(TransferFunctionIo, BadFilesGiveClearErrors) {
     fails("{\"RGBPoints\":[1,1,0,0,0,1,0,0],\"Points\":[0,0,0.5,0]}", "sorted");
     fails("{\"RGBPoints\":[0,1,0,0],\"Points\":[0,1.5,0.5,0]}", "[0,1]");
     EXPECT_THROW(readTransferFunction("/nonexistent/tf.json"), UdvrError);
+    // Found by fuzzing: a number beyond double escaped as nlohmann's out_of_range.
+    fails("{\"RGBPoints\":[0,1,0,7e777777]}", "not valid JSON");
+}
+
+// Notes and warnings come after the checks: an error stays the one line on stderr (fuzzing
+// found the "no Points" note printed before the "sorted" error).
+TEST(TransferFunctionIo, NoNoteBeforeAnError) {
+    ::testing::internal::CaptureStderr();
+    EXPECT_THROW(parseTransferFunction(R"({"RGBPoints":[1,1,0,0,0,1,0,0]})", "n.json"), UdvrError);
+    EXPECT_THROW(parseTransferFunction(
+                     R"({"RGBPoints":[0,1,0,0],"Points":[1,0,0.3,0,0,1,0.5,0.2]})", "m.json"),
+                 UdvrError);
+    EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
 }
 
 TEST(TransferFunctionIo, ReadsFile) {

@@ -1,5 +1,6 @@
-// VTK XML ImageData (.vti): scalar fields and model volumes (SPEC §7). All VTK includes of the io
-// module stay in this file; VTK headers are heavy to compile.
+// VTK XML ImageData (.vti): scalar fields and model volumes (SPEC §7). The VTK includes of the io
+// module stay in this file and vti_check.cpp (what VTK's reader trusts, checked); VTK headers
+// are heavy to compile.
 #include <vtkCommand.h>
 #include <vtkDataArray.h>
 #include <vtkDataObject.h>
@@ -18,7 +19,6 @@
 #include <vtkSmartPointer.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 #include <vtkStringArray.h>
-#include <vtkXMLImageDataReader.h>
 #include <vtkXMLImageDataWriter.h>
 
 #include <algorithm>
@@ -34,6 +34,7 @@
 #include "udvr/io/io_detail.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_2d_io.h"
+#include "udvr/io/vti_check.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
 
@@ -64,92 +65,52 @@ class ErrorCollector : public vtkCommand {
     std::string message;
 };
 
-/// VTK reads appended data past the end of a cut file without complaint, so check the sizes the
-/// block headers promise against the file size first (raw appended data, as VTK writes it).
-void checkAppendedSize(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::string head(1 << 20, '\0');
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    head.resize(static_cast<std::size_t>(in.gcount()));
-    std::size_t appended = head.find("<AppendedData");
-    if (appended == std::string::npos) return;
-    std::size_t tagEnd = head.find('>', appended);
-    if (tagEnd == std::string::npos) return;
-    if (head.substr(appended, tagEnd - appended).find("base64") != std::string::npos) return;
-    std::size_t underscore = head.find('_', tagEnd);
-    if (underscore == std::string::npos) return;
-    std::string xml = head.substr(0, appended);
-    bool big = xml.find("byte_order=\"BigEndian\"") != std::string::npos;
-    std::size_t headerSize = xml.find("header_type=\"UInt64\"") != std::string::npos ? 8 : 4;
-    bool compressed = xml.find("compressor=\"") != std::string::npos;
-    std::size_t dataStart = underscore + 1;
-    std::size_t fileSize = static_cast<std::size_t>(fs::file_size(path));
-
-    auto readUint = [&](std::size_t at, std::uint64_t& value) {
-        unsigned char b[8] = {};
-        if (at + headerSize > fileSize) return false;
-        in.clear();
-        in.seekg(static_cast<std::streamoff>(at));
-        in.read(reinterpret_cast<char*>(b), static_cast<std::streamsize>(headerSize));
-        if (!in) return false;
-        value = 0;  // headerSize bytes in the file's byte order (no std::reverse: GCC 12 misreads
-                    // its bounds here as an overflow)
-        for (std::size_t i = 0; i < headerSize; ++i)
-            value = big ? (value << 8) | b[i] : value | (std::uint64_t{b[i]} << (8 * i));
-        return true;
-    };
-    std::size_t needed = 0;
-    static const std::string kOffset = "offset=\"";
-    for (std::size_t p = xml.find(kOffset); p != std::string::npos; p = xml.find(kOffset, p + 1)) {
-        std::size_t offset = std::strtoull(xml.c_str() + p + kOffset.size(), nullptr, 10);
-        std::size_t at = dataStart + offset;
-        std::uint64_t blocks = 0, bytes = 0;
-        bool ok = readUint(at, blocks);
-        std::size_t end = at + headerSize;
-        if (ok && !compressed) {
-            end += blocks;
-        } else if (ok) {
-            // Compressed: nblocks, block size, last block size, then one size per block.
-            end += 2 * headerSize + blocks * headerSize;
-            for (std::uint64_t b = 0; ok && b < blocks; ++b) {
-                ok = readUint(at + (3 + b) * headerSize, bytes);
-                end += bytes;
-            }
-        }
-        needed = std::max(needed, ok ? end : at + headerSize);
-        if (!ok) break;
-    }
-    if (needed > fileSize) {
-        UDVR_FAIL(path.string() << ": truncated appended data: expected at least " << needed
-                                << " bytes, found " << fileSize);
-    }
-}
-
-/// Read a .vti; throws with VTK's first error message.
-// Read a VTK ImageData file; with maxPoints > 0, a whole extent of more points is refused from
-// the header, before any data is allocated.
-vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoints = 0) {
-    // VTK's XML parser and pipeline executive also report a bad file on the output window (a
-    // dozen log lines on stderr); the reader's error, collected below, is the one line to show.
+/// VTK's objects report errors on the output window (the XML parser, the pipeline executive,
+/// the compressors: a dozen log lines on stderr for one bad file) besides the observers of the
+/// reader; the reader's error, collected, is the one line to show. Called before any VTK use.
+void silenceVtk() {
     static const bool silenced = [] {
         vtkOutputWindow::GetInstance()->SetDisplayModeToNever();
         vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
         return true;
     }();
     (void)silenced;
+}
+
+/// A reader of `path` with its errors collected; fails unless VTK says it can read the file.
+vtkSmartPointer<detail::CheckedVtiReader> newReader(const fs::path& path, ErrorCollector* errors) {
+    silenceVtk();
     detail::requireFile(path);
-    checkAppendedSize(path);
-    vtkNew<vtkXMLImageDataReader> reader;
-    vtkNew<ErrorCollector> errors;
+    auto reader = vtkSmartPointer<detail::CheckedVtiReader>::New();
     reader->AddObserver(vtkCommand::ErrorEvent, errors);
     reader->AddObserver(vtkCommand::WarningEvent, errors);
-    std::string name = path.string();
-    if (!reader->CanReadFile(name.c_str())) {
+    const std::string name = path.string();
+    if (!reader->CanReadFile(name.c_str()))
         UDVR_FAIL(name << ": not a VTK XML ImageData file (expected <VTKFile type=\"ImageData\">)");
-    }
     reader->SetFileName(name.c_str());
+    return reader;
+}
+
+/// Throws for a read that went wrong: what the checks found (vti_check.h), else VTK's first
+/// error.
+void throwIfFailed(const fs::path& path, detail::CheckedVtiReader* reader,
+                   const ErrorCollector* errors, bool failed) {
+    if (!reader->problem().empty()) UDVR_FAIL(path.string() << ": " << reader->problem());
+    if (failed || errors->count > 0 || reader->GetErrorCode() != 0)
+        UDVR_FAIL(path.string() << ": cannot read VTK ImageData"
+                                << (errors->message.empty() ? "" : ": ") << errors->message
+                                << " (truncated or corrupt file?)");
+}
+
+/// Read a VTK ImageData file; with maxPoints > 0, a whole extent of more points is refused from
+/// the header, before any data is allocated.
+vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoints = 0) {
+    vtkNew<ErrorCollector> errors;
+    auto reader = newReader(path, errors);
+    const std::string name = path.string();
     if (maxPoints > 0) {
         reader->UpdateInformation();
+        throwIfFailed(path, reader, errors, false);
         const int* e =
             reader->GetOutputInformation(0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
         double points = 1;
@@ -161,15 +122,14 @@ vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoin
     }
     reader->Update();
     vtkImageData* image = reader->GetOutput();
-    if (errors->count > 0 || reader->GetErrorCode() != 0 || image == nullptr) {
-        UDVR_FAIL(name << ": cannot read VTK ImageData" << (errors->message.empty() ? "" : ": ")
-                       << errors->message << " (truncated or corrupt file?)");
-    }
+    throwIfFailed(path, reader, errors, image == nullptr);
     vtkSmartPointer<vtkImageData> out = image;
     return out;
 }
 
-Grid3 gridOf(const fs::path& path, vtkImageData* image) {
+/// The image's grid; a Direction other than the identity is ignored, which *note (when given)
+/// says, for the caller to print once the whole read succeeded.
+Grid3 gridOf(const fs::path& path, vtkImageData* image, std::string* note) {
     Grid3 g;
     int extent[6];
     double origin[3], spacing[3];
@@ -187,11 +147,10 @@ Grid3 gridOf(const fs::path& path, vtkImageData* image) {
         // The point at index 0 of our grid is the extent's first point.
         g.origin[a] = origin[a] + extent[2 * a] * spacing[a];
     }
-    if (vtkMatrix3x3* dir = image->GetDirectionMatrix(); dir != nullptr && !dir->IsIdentity()) {
-        std::fprintf(stderr,
-                     "udvr: note: %s: the ImageData Direction is not the identity; ignoring the "
-                     "orientation\n",
-                     path.string().c_str());
+    if (vtkMatrix3x3* dir = image->GetDirectionMatrix();
+        dir != nullptr && !dir->IsIdentity() && note != nullptr) {
+        *note = "udvr: note: " + path.string() +
+                ": the ImageData Direction is not the identity; ignoring the orientation";
     }
     return g;
 }
@@ -280,6 +239,7 @@ enum class Compression {
 /// Binary appended, block-compressed, 64-bit headers: ParaView's default kind of .vti.
 void writeImageData(const fs::path& path, vtkImageData* image,
                     Compression compression = Compression::Zlib) {
+    silenceVtk();
     writeAtomically(path, [&](const fs::path& tmp) {
         vtkNew<vtkXMLImageDataWriter> writer;
         vtkNew<ErrorCollector> errors;
@@ -358,10 +318,11 @@ std::string getString(vtkFieldData* fd, const char* name, const std::string& fal
 
 // ---- fields ------------------------------------------------------------------------------------
 
-ScalarField detail::readFieldVti(const fs::path& path, const std::string& var) {
+ScalarField detail::readFieldVti(const fs::path& path, const std::string& var,
+                                 std::string* geometryNote) {
     vtkSmartPointer<vtkImageData> image = readImageData(path);
     ScalarField f;
-    f.grid = gridOf(path, image);
+    f.grid = gridOf(path, image, geometryNote);
     vtkPointData* pd = image->GetPointData();
     vtkDataArray* array = nullptr;
     if (!var.empty()) {
@@ -446,9 +407,16 @@ void writeModelVti(const fs::path& path, const ModelVolume& model) {
 }
 
 ModelVolume readModelVti(const fs::path& path) {
+    std::string note;
+    ModelVolume m = detail::readModelVti(path, &note);
+    detail::printNote(note);
+    return m;
+}
+
+ModelVolume detail::readModelVti(const fs::path& path, std::string* geometryNote) {
     vtkSmartPointer<vtkImageData> image = readImageData(path);
     ModelVolume m;
-    m.grid = gridOf(path, image);
+    m.grid = gridOf(path, image, geometryNote);
     std::size_t n = m.voxelCount();
     vtkPointData* pd = image->GetPointData();
     vtkFieldData* fd = image->GetFieldData();
@@ -616,21 +584,12 @@ void writeTransferFunction2DVti(const fs::path& path, const TransferFunction2D& 
 std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
     // The header only: the reader's pipeline information names each point array, its type and
     // components without reading the data (a model's arrays can be gigabytes).
-    detail::requireFile(path);
-    checkAppendedSize(path);
-    vtkNew<vtkXMLImageDataReader> reader;
     vtkNew<ErrorCollector> errors;
-    reader->AddObserver(vtkCommand::ErrorEvent, errors);
-    const std::string name = path.string();
-    if (!reader->CanReadFile(name.c_str()))
-        UDVR_FAIL(name << ": not a VTK XML ImageData file (expected <VTKFile type=\"ImageData\">)");
-    reader->SetFileName(name.c_str());
+    auto reader = newReader(path, errors);
     reader->UpdateInformation();
+    throwIfFailed(path, reader, errors, false);
     vtkInformationVector* arraysInfo =
         reader->GetOutputInformation(0)->Get(vtkDataObject::POINT_DATA_VECTOR());
-    if (errors->count > 0 || reader->GetErrorCode() != 0)
-        UDVR_FAIL(name << ": cannot read VTK ImageData" << (errors->message.empty() ? "" : ": ")
-                       << errors->message << " (truncated or corrupt file?)");
     std::vector<ArrayInfo> arrays;
     for (int i = 0; arraysInfo != nullptr && i < arraysInfo->GetNumberOfInformationObjects(); ++i) {
         vtkInformation* info = arraysInfo->GetInformationObject(i);
@@ -652,8 +611,12 @@ ModelVolume readModelOrField(const fs::path& path, const FieldReadOptions& optio
     if (detail::lowerExtension(path) == ".vti" && options.var.empty()) {
         std::string modelError;
         try {
-            ModelVolume m = readModelVti(path);
-            if (!m.mean.empty()) return m;
+            std::string note;
+            ModelVolume m = detail::readModelVti(path, &note);
+            if (!m.mean.empty()) {
+                detail::printNote(note);
+                return m;
+            }
             modelError = path.string() + " has no 'mean' array";
         } catch (const UdvrError& e) {
             modelError = e.what();

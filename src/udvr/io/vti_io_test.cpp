@@ -14,9 +14,13 @@
 #include <vtkXMLImageDataWriter.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
+#include <regex>
 
 #include "udvr/io/field_io.h"
+#include "udvr/io/file_info.h"
 #include "udvr/io/io_test_util.h"
 #include "udvr/io/model_io.h"
 
@@ -304,5 +308,107 @@ TEST(IoModel, RejectsBadInput) {
     EXPECT_FALSE(std::filesystem::exists(dir.path() / "no_dir"));
 }
 
+// ---- files VTK's reader crashes on (issue 15, fuzz/regressions) ---------------------------------
+
+/// `bytes` with the type attribute of the `index`-th array (field data first) replaced.
+std::string retyped(std::string bytes, int index, const std::string& type) {
+    static const std::regex kType("<(Data)?Array type=\"([A-Za-z0-9]*)\"");
+    auto it = std::sregex_iterator(bytes.begin(), bytes.end(), kType);
+    for (int i = 0; i < index; ++i) ++it;
+    const std::smatch& m = *it;
+    return bytes.replace(static_cast<std::size_t>(m.position(2)),
+                         static_cast<std::size_t>(m.length(2)), type);
+}
+
+/// Every reader of a .vti must fail on `path` with one line holding each of `parts`.
+void expectEveryVtiReaderFails(const std::filesystem::path& path,
+                               std::initializer_list<std::string> parts) {
+    expectUdvrError([&] { readField(path); }, parts);
+    expectUdvrError([&] { readModelVti(path); }, parts);
+    expectUdvrError([&] { readModelOrField(path); }, parts);
+    expectUdvrError([&] { listArrays(path); }, parts);
+}
+
+/// Writes `bytes` as dir/name; every reader must fail on it, naming the file and `part`.
+void expectRejected(const TempDir& dir, const std::string& name, const std::string& bytes,
+                    const std::string& part) {
+    writeBytes(dir / name, bytes);
+    expectEveryVtiReaderFails(dir / name, {name, part});
+}
+
+// VTK 9.1 dereferences a null array (SIGSEGV in `udvr build` and `udvr render`) for a DataArray
+// type it does not know, in ParaView's files and udvr's own alike.
+TEST(IoVti, UnknownArrayTypesAreErrorsNotCrashes) {
+    TempDir dir;
+    writeModelVti(dir / "m.vti", sampleModel());
+    const std::string model = readBytes(dir / "m.vti");
+    for (const std::string type : {"Float-7", "Int999999999", "Float1e308"}) {
+        // Field data (quantile_count), point data (mean).
+        expectRejected(dir, "fd.vti", retyped(model, 0, type), "has type '" + type + "'");
+        expectRejected(dir, "pd.vti", retyped(model, 12, type), "'mean' has type '" + type + "'");
+    }
+    // VTK reads any element in a data group as an array, whatever its tag.
+    std::string misnamed = model;
+    const std::string first = "<DataArray type=\"Int32\"";
+    misnamed.replace(misnamed.find(first), first.size(), "<DapaArray type=\"Float43\"");
+    expectRejected(dir, "tag.vti", misnamed, "'Float43'");
+}
+
+/// A model file with the header of its first appended array's data block (compressed: block
+/// count, block size, last block size, UInt64 little-endian) overwritten.
+std::string withCompressionHeader(std::string bytes, std::uint64_t blocks, std::uint64_t size) {
+    const std::size_t at = bytes.find('_', bytes.find("<AppendedData")) + 1;
+    std::memcpy(bytes.data() + at, &blocks, 8);
+    std::memcpy(bytes.data() + at + 8, &size, 8);
+    return bytes;
+}
+
+// A block size of 0 divides by zero in VTK (SIGFPE); a block count or block size of 2^60 makes
+// it allocate that much.
+TEST(IoVti, CompressionHeadersAreChecked) {
+    TempDir dir;
+    writeModelVti(dir / "m.vti", sampleModel());
+    const std::string model = readBytes(dir / "m.vti");
+    expectRejected(dir, "zero.vti", withCompressionHeader(model, 1, 0), "block size 0");
+    expectRejected(dir, "many.vti", withCompressionHeader(model, std::uint64_t{1} << 60, 32768),
+                   "blocks, more than the file holds");
+    expectRejected(dir, "huge.vti", withCompressionHeader(model, 0, std::uint64_t{1} << 61),
+                   "block size 2305843009213693952");
+}
+
+// A Piece smaller than the WholeExtent leaves points undefined (and VTK leaks on that path); an
+// extent of 10^12 points in a small file would be allocated before any data is read.
+TEST(IoVti, ExtentsAreChecked) {
+    TempDir dir;
+    writeWithVtk(dir / "f.vti", Mode::kAppendedRaw, "value");
+    std::string bytes = readBytes(dir / "f.vti");
+    std::string piece = bytes;
+    piece.replace(piece.find("Extent=\"2 6 0 3 1 3\"", piece.find("<Piece")), 20,
+                  "Extent=\"2 5 0 3 1 3\"");
+    expectRejected(dir, "piece.vti", piece, "Piece extents hold 48 points");
+    std::string huge = bytes;
+    for (std::size_t p = 0; (p = huge.find("Extent=\"2 6 0 3 1 3\"", p)) != std::string::npos;)
+        huge.replace(p, 20, "Extent=\"0 9999 0 9999 0 9999\"");
+    expectRejected(dir, "huge.vti", huge, "would hold 1000000000000 values");
+}
+
+// Notes (here: a Direction that is ignored) are printed only once a read succeeded: an error
+// stays the one line on stderr.
+TEST(IoVti, NoNoteBeforeAnError) {
+    TempDir dir;
+    writeWithVtk(dir / "f.vti", Mode::kAppendedRaw, "value");
+    std::string bytes = readBytes(dir / "f.vti");
+    bytes.replace(bytes.find("Direction=\"1 0 0 0 1 0 0 0 1\""), 29,
+                  "Direction=\"0 1 0 1 0 0 0 0 1\"");
+    writeBytes(dir / "rotated.vti", bytes);
+    ::testing::internal::CaptureStderr();
+    EXPECT_NO_THROW(readField(dir / "rotated.vti"));
+    EXPECT_NE(::testing::internal::GetCapturedStderr().find("Direction"), std::string::npos);
+    FieldReadOptions o;
+    o.var = "nope";
+    ::testing::internal::CaptureStderr();
+    expectUdvrError([&] { readField(dir / "rotated.vti", o); }, {"no point array 'nope'"});
+    EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+}
 }  // namespace
 }  // namespace udvr
