@@ -4,6 +4,7 @@
 #include <vtkDataArray.h>
 #include <vtkDataObject.h>
 #include <vtkDoubleArray.h>
+#include <vtkErrorCode.h>
 #include <vtkFieldData.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -22,6 +23,7 @@
 #include <vtkXMLImageDataWriter.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -125,18 +127,23 @@ void checkAppendedSize(const fs::path& path) {
     }
 }
 
-/// Read a .vti; throws with VTK's first error message.
-// Read a VTK ImageData file; with maxPoints > 0, a whole extent of more points is refused from
-// the header, before any data is allocated.
-vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoints = 0) {
-    // VTK's XML parser and pipeline executive also report a bad file on the output window (a
-    // dozen log lines on stderr); the reader's error, collected below, is the one line to show.
+/// VTK's XML parser and pipeline executive report a bad file or a failed write on the output
+/// window too (a dozen log lines on stderr); the error collected from the reader or writer is
+/// the one line to show.
+void silenceVtkOutputWindow() {
     static const bool silenced = [] {
         vtkOutputWindow::GetInstance()->SetDisplayModeToNever();
         vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
         return true;
     }();
     (void)silenced;
+}
+
+/// Read a .vti; throws with VTK's first error message.
+// Read a VTK ImageData file; with maxPoints > 0, a whole extent of more points is refused from
+// the header, before any data is allocated.
+vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoints = 0) {
+    silenceVtkOutputWindow();
     detail::requireFile(path);
     checkAppendedSize(path);
     vtkNew<vtkXMLImageDataReader> reader;
@@ -280,6 +287,7 @@ enum class Compression {
 /// Binary appended, block-compressed, 64-bit headers: ParaView's default kind of .vti.
 void writeImageData(const fs::path& path, vtkImageData* image,
                     Compression compression = Compression::Zlib) {
+    silenceVtkOutputWindow();
     writeAtomically(path, [&](const fs::path& tmp) {
         vtkNew<vtkXMLImageDataWriter> writer;
         vtkNew<ErrorCollector> errors;
@@ -294,8 +302,17 @@ void writeImageData(const fs::path& path, vtkImageData* image,
         else
             writer->SetCompressorTypeToZLib();
         writer->SetHeaderTypeToUInt64();
-        if (writer->Write() != 1 || errors->count > 0 || writer->GetErrorCode() != 0) {
-            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << errors->message);
+        errno = 0;
+        const int ok = writer->Write();
+        const int err = errno;  // the failed open or write (VTK's message names the temporary)
+        if (ok != 1 || errors->count > 0 || writer->GetErrorCode() != 0) {
+            std::string why = writeErrorText(err);
+            if (why.empty()) why = errors->message;
+            if (why.empty())
+                why = writer->GetErrorCode() == vtkErrorCode::OutOfDiskSpaceError
+                          ? std::string("out of disk space")
+                          : "VTK error code " + std::to_string(writer->GetErrorCode());
+            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << why);
         }
     });
 }
