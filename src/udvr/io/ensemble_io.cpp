@@ -126,6 +126,7 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
     FieldReadOptions fieldOptions;
     fieldOptions.raw = options.raw;
     fieldOptions.var = options.var;
+    fieldOptions.allowMissing = options.allowMissing;
     Ensemble e;
     e.members = static_cast<int>(files.size());
     std::string note;  // about member 0's geometry; printed once all members have been read

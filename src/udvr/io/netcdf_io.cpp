@@ -416,9 +416,11 @@ double valueStepOf(int nc, int varid, const std::string& type) {
     return std::abs(packingOf(nc, varid).scale);
 }
 
-/// Read `count` values of a hyperslab, rejecting fill values and applying CF packing.
+/// Read `count` values of a hyperslab, rejecting fill values (or with fillsAsNaN reading them as
+/// NaN) and applying CF packing.
 void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vector<size_t>& start,
-              const std::vector<size_t>& count, std::span<float> out, const std::string& what) {
+              const std::vector<size_t>& count, std::span<float> out, const std::string& what,
+              bool fillsAsNaN = false) {
     Packing p = packingOf(nc, var.id);
     bool raw = p.scale == 1.0 && p.offset == 0.0 && p.fills.empty();
     if (raw) {
@@ -441,6 +443,7 @@ void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vecto
         }
         if (std::find(p.fills.begin(), p.fills.end(), v[i]) != p.fills.end()) {
             if (filled++ == 0) firstFilled = i;
+            if (fillsAsNaN) scaled = std::numeric_limits<double>::quiet_NaN();
         }
         out[i] = static_cast<float>(scaled);
     }
@@ -448,7 +451,7 @@ void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vecto
         UDVR_FAIL(path.string() << ": variable " << var.name << what << " has " << tooLarge
                                 << " values outside the float32 range");
     }
-    if (filled > 0) {
+    if (filled > 0 && !fillsAsNaN) {
         UDVR_FAIL(path.string() << ": variable " << var.name << what << " has " << filled
                                 << " missing (fill) values, the first at linear index "
                                 << firstFilled << "; expected a complete field");
@@ -555,7 +558,7 @@ void writeNetcdf(const fs::path& path, const Grid3& grid, const std::string& nam
 }  // namespace
 
 ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
-                                    std::string* geometryNote) {
+                                    std::string* geometryNote, bool allowMissing) {
     NcFile file;
     file.id = openForRead(path);
     std::vector<VarInfo> vars = allVars(path, file.id);
@@ -601,7 +604,7 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
     f.name = var->name;
     f.values.resize(f.grid.pointCount());
     std::vector<std::size_t> start(var->dims.size(), 0), count(var->lengths);
-    readSlab(path, file.id, *var, start, count, f.values, "");
+    readSlab(path, file.id, *var, start, count, f.values, "", allowMissing);
     f.valueType = valueTypeOf(path, file.id, var->id);
     f.valueStep = valueStepOf(file.id, var->id, f.valueType);
     return f;
@@ -690,8 +693,8 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
         std::string what = " (member " + std::to_string(m) + ")";
         std::span<float> out =
             e.voxelMajor ? std::span<float>(scratch) : std::span<float>(e.values.data() + m * n, n);
-        readSlab(path, file.id, *var, start, count, out, what);
-        checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
+        readSlab(path, file.id, *var, start, count, out, what, options.allowMissing);
+        if (!options.allowMissing) checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
         if (e.voxelMajor) detail::storeMember(e, static_cast<int>(m), out);
     }
     detail::printNote(geometryNote);  // only now: an error must stay the one line on stderr

@@ -355,7 +355,9 @@ void fitMany(std::size_t count, std::size_t n, const float* samples, const GmmOp
 
 void checkOptions(const GmmOptions& o, std::size_t n) {
     UDVR_CHECK(o.components >= 1 && o.components <= kMaxGmmComponents);
-    UDVR_CHECK(n >= static_cast<std::size_t>(o.components) && o.sigmaFloor > 0.0);
+    // n < K is allowed: at most n distinct values, so as a voxel with fewer distinct values
+    // than K (build --nan skip, a voxel with fewer finite members than K).
+    UDVR_CHECK(n >= 1 && o.sigmaFloor > 0.0);
 }
 
 }  // namespace
