@@ -220,8 +220,12 @@ void addBuildCommand(CLI::App& app) {
                          "fewest finite samples at a voxel: %d of %d)\n",
                          rep.nonFiniteSamples, rep.voxelsWithNonFinite, rep.fewestFiniteSamples,
                          rep.samplesPerVoxel);
-        std::fprintf(stderr, "build: read %.2f s, statistics %.2f s, write %.2f s -> %s\n",
-                     readSeconds, rep.seconds, writeSeconds, o->out.c_str());
+        // Wall times of the three phases; the statistics' stages as CPU time over all threads.
+        std::fprintf(stderr,
+                     "build: read %.2f s, statistics %.2f s (CPU: scan %.2f, gather %.2f, "
+                     "sort+moments+quantiles %.2f, GMM %.2f s), write %.2f s -> %s\n",
+                     readSeconds, rep.seconds, rep.scanCpu, rep.gatherCpu, rep.estimateCpu,
+                     rep.gmmCpu, writeSeconds, o->out.c_str());
     });
 }
 

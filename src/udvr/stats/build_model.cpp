@@ -1,5 +1,7 @@
 #include "udvr/stats/build_model.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -14,6 +16,20 @@
 
 namespace udvr {
 namespace {
+
+/// This thread's CPU time in seconds (for the per-stage times of BuildReport).
+double threadCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Adds to a double shared by the tasks of a parallel loop.
+void atomicAdd(std::atomic<double>& sum, double v) {
+    double old = sum.load();
+    while (!sum.compare_exchange_weak(old, old + v)) {
+    }
+}
 
 // Voxels per gather buffer: 1024 voxels × 50 members of float = 200 KiB, inside L2; EM keeps
 // its 16 lanes busy over a chunk, so larger chunks waste less at the end of one.
@@ -178,6 +194,7 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     gmmOpt.sigmaFloor = range > 0.0 ? 1e-3 * range : 1e-3;
 
     std::atomic<std::size_t> constant{0}, notConverged{0}, fewerDistinct{0}, iterations{0};
+    std::atomic<double> gatherCpu{0.0}, estimateCpu{0.0}, gmmCpu{0.0};
     parallelForChunks(voxels, kChunkVoxels, [&](std::size_t b, std::size_t e) {
         std::vector<float> buf(kChunkVoxels * un);  // sorted samples of a chunk, voxel-major
         std::vector<GmmFitInfo> infos(kChunkVoxels);
@@ -186,9 +203,13 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
         std::vector<double> dq(dequantized ? static_cast<std::size_t>(q + 1) : 0);
         std::array<double, 2> dqIqr{};
         std::size_t lConstant = 0, lNotConverged = 0, lFewer = 0, lIterations = 0;
+        double lGather = 0.0, lEstimate = 0.0, lGmm = 0.0;
         for (std::size_t c0 = b; c0 < e; c0 += kChunkVoxels) {
             const std::size_t c1 = std::min(e, c0 + kChunkVoxels);
+            const double t0 = threadCpuSeconds();
             gather(c0, c1, buf.data());
+            const double t1 = threadCpuSeconds();
+            lGather += t1 - t0;
             for (std::size_t v = c0; v < c1; ++v) {
                 float* s = buf.data() + (v - c0) * un;
                 std::size_t nv = un;  // this voxel's samples
@@ -254,6 +275,8 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     }
                 }
             }
+            const double t2 = threadCpuSeconds();
+            lEstimate += t2 - t1;
             if (K > 0) {
                 // EM for the whole chunk, 16 voxels at a time (one per vector lane).
                 const std::size_t cnt = c1 - c0;
@@ -289,9 +312,13 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     const std::size_t ni = skipNonFinite ? finite[i] : un;
                     if (fi.distinctComponents < K && s[0] != s[ni - 1]) ++lFewer;
                 }
+                lGmm += threadCpuSeconds() - t2;
             }
             if (opt.progress) opt.progress->advance(c1 - c0);
         }
+        atomicAdd(gatherCpu, lGather);
+        atomicAdd(estimateCpu, lEstimate);
+        atomicAdd(gmmCpu, lGmm);
         constant += lConstant;
         notConverged += lNotConverged;
         fewerDistinct += lFewer;
@@ -331,6 +358,9 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
             fitted > 0 ? static_cast<double>(iterations) / static_cast<double>(fitted) : 0.0;
         report->dataMin = scan.min;
         report->dataMax = scan.max;
+        report->gatherCpu = gatherCpu;
+        report->estimateCpu = estimateCpu;
+        report->gmmCpu = gmmCpu;
         report->seconds +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
@@ -438,7 +468,9 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
     // Non-finite check and data range, member rows scanned in voxel chunks.
     InputScan scan;
     std::mutex scanMutex;
+    double scanCpu = 0.0;
     parallelForChunks(P, 1 << 16, [&](std::size_t b, std::size_t end) {
+        const double t0 = threadCpuSeconds();
         InputScan local;
         for (int mIdx = 0; mIdx < e.members; ++mIdx) {
             const float* row = e.member(mIdx);
@@ -446,12 +478,14 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
         }
         std::lock_guard<std::mutex> lock(scanMutex);
         scan.merge(local);
+        scanCpu += threadCpuSeconds() - t0;
     });
     if (scan.nonFinite > 0 && opt.nan == NanPolicy::Error) failNonFinite(scan, e.grid, true);
     if (report) {
         *report = BuildReport{};
         report->seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report->scanCpu = scanCpu;
     }
 
     const int n = e.members;
@@ -500,7 +534,9 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
     const int usedX = g.dims[0] * k, usedY = g.dims[1] * k, usedZ = g.dims[2] * k;
     InputScan scan;
     std::mutex scanMutex;
+    double scanCpu = 0.0;
     parallelForChunks(static_cast<std::size_t>(usedZ), 1, [&](std::size_t z0, std::size_t z1) {
+        const double t0 = threadCpuSeconds();
         InputScan local;
         for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
             for (int y = 0; y < usedY; ++y) {
@@ -511,12 +547,14 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
             }
         std::lock_guard<std::mutex> lock(scanMutex);
         scan.merge(local);
+        scanCpu += threadCpuSeconds() - t0;
     });
     if (scan.nonFinite > 0 && opt.nan == NanPolicy::Error) failNonFinite(scan, f.grid, false);
     if (report) {
         *report = BuildReport{};
         report->seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report->scanCpu = scanCpu;
         for (int a = 0; a < 3; ++a) report->droppedPlanes[a] = f.grid.dims[a] % k;
     }
 

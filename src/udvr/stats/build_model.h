@@ -52,6 +52,10 @@ struct BuildReport {
     double dataMin = 0.0, dataMax = 0.0;        // over all samples
     std::array<int, 3> droppedPlanes{0, 0, 0};  // downsampling: trailing N mod K planes per axis
     double seconds = 0.0;                       // check + statistics
+    /// CPU seconds of each stage, summed over the threads (thread CPU clocks, so another
+    /// process on the same cores does not inflate them): the NaN/range scan, the gather of a
+    /// chunk's samples, sorting + moments + quantiles + IQR, and the GMM (seeding and EM).
+    double scanCpu = 0.0, gatherCpu = 0.0, estimateCpu = 0.0, gmmCpu = 0.0;
 };
 
 /// Check options against n samples per voxel; throws UdvrError (q < 0, K < 0 or K > n, K too
