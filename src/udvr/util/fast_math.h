@@ -44,6 +44,16 @@ inline V splat(S s) {
 inline V8f splat8(float v) { return splat<V8f>(v); }
 inline V8d splat8d(double v) { return splat<V8d>(v); }
 
+/// mask ? a : b lane by lane, for a mask from a comparison (lanes all ones or zero) as bit
+/// operations. For vectors wider than a register (16 doubles on AVX-512) GCC 12 lowers the ?:
+/// of vector extensions into one scalar branch per lane; the bit operations stay vector ones
+/// (the GMM's per-iteration parameter update ran ~2× faster with them). Same result bit for bit.
+template <class V, class M>
+inline V selectBits(M mask, V a, V b) {
+    static_assert(sizeof(V) == sizeof(M));
+    return std::bit_cast<V>((std::bit_cast<M>(a) & mask) | (std::bit_cast<M>(b) & ~mask));
+}
+
 /// expNonPositive clamps its argument here: e^−87 ≈ 1.6e−38 is nothing next to a row maximum
 /// of e^0 = 1 (and keeps a dead mixture component, log π = −∞, dead: its responsibilities sum to
 /// < n·2e−38, far below the 1e−6 at which EM declares a component empty).
@@ -123,9 +133,9 @@ inline VD logPositiveD(VD s) {
     const VL bits = std::bit_cast<VL>(s);
     VD e = __builtin_convertvector((bits >> 52) - 1023, VD);
     VD f = std::bit_cast<VD>((bits & 0x000FFFFFFFFFFFFFLL) | 0x3FF0000000000000LL);
-    const auto big = f > 1.4142135623730951;
-    f = big ? f * 0.5 : f;
-    e = big ? e + 1.0 : e;
+    const VL big = f > 1.4142135623730951;
+    f = selectBits(big, f * 0.5, f);
+    e = selectBits(big, e + 1.0, e);
     const VD t = (f - 1.0) / (f + 1.0);
     const VD t2 = t * t;
     VD p = splat<VD>(1.0 / 19);
