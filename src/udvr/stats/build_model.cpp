@@ -8,8 +8,10 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <utility>
 #include <vector>
 
+#include "udvr/stats/sort_runs.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/progress.h"
@@ -195,6 +197,9 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
 
     std::atomic<std::size_t> constant{0}, notConverged{0}, fewerDistinct{0}, iterations{0};
     std::atomic<double> gatherCpu{0.0}, estimateCpu{0.0}, gmmCpu{0.0};
+    // Finite samples are sorted a chunk at a time, one voxel per vector lane (a sorting
+    // network); with --nan skip each voxel's finite ones alone.
+    const std::vector<std::pair<int, int>> network = sortingNetwork(n);
     parallelForChunks(voxels, kChunkVoxels, [&](std::size_t b, std::size_t e) {
         std::vector<float> buf(kChunkVoxels * un);  // sorted samples of a chunk, voxel-major
         std::vector<GmmFitInfo> infos(kChunkVoxels);
@@ -210,6 +215,7 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
             gather(c0, c1, buf.data());
             const double t1 = threadCpuSeconds();
             lGather += t1 - t0;
+            if (!skipNonFinite) sortRuns(buf.data(), c1 - c0, un, network);
             for (std::size_t v = c0; v < c1; ++v) {
                 float* s = buf.data() + (v - c0) * un;
                 std::size_t nv = un;  // this voxel's samples
@@ -217,8 +223,8 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     nv = static_cast<std::size_t>(
                         std::remove_if(s, s + un, [](float x) { return !std::isfinite(x); }) - s);
                     finite[v - c0] = nv;
+                    std::sort(s, s + nv);
                 }
-                std::sort(s, s + nv);
                 const std::span<const float> sorted(s, nv);
                 const SampleMoments mom = sampleMoments(sorted);
                 m.mean[v] = static_cast<float>(mom.mean);
