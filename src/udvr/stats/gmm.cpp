@@ -21,6 +21,7 @@ using VF = detail::Lanes<kLanes>::F;
 using VI = detail::Lanes<kLanes>::I;
 using VD = detail::Lanes<kLanes>::D;
 using VL = detail::Lanes<kLanes>::L;
+using detail::lanesLess;
 using detail::selectBits;
 using detail::splat;
 constexpr double kHalfLog2Pi = 0.91893853320467274178;  // ½·log(2π)
@@ -245,7 +246,9 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
             const VD invVar = 1.0 / var[k];
             const VD ratio = pi[k] * pi[k] * invVar;
             a[k] = __builtin_convertvector(
-                0.5 * detail::logPositiveD(selectBits(ratio > 0.0, ratio, splat<VD>(1.0))), VF);
+                0.5 *
+                    detail::logPositiveD(selectBits(lanesLess(VD{}, ratio), ratio, splat<VD>(1.0))),
+                VF);
             a[k] = __builtin_convertvector(pi[k], VF) > 0.f ? a[k] : negInf;  // dead stays dead
             b[k] = __builtin_convertvector(-0.5 * invVar, VF);
             m[k] = __builtin_convertvector(mu[k], VF);
@@ -303,8 +306,9 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
         // evaluated at, then (after the M-step, which every lane takes: cheaper than selecting)
         // loaded with the next voxel.
         const VD delta = ll - prevLl;
-        const VL converged = (iterations > 0.0) & (delta < tolerance) & (delta > -tolerance);
-        const VL stop = active & (converged | (iterations >= maxIterations));
+        const VL converged = lanesLess(VD{}, iterations) & lanesLess(delta, tolerance) &
+                             lanesLess(-tolerance, delta);
+        const VL stop = active & (converged | ~lanesLess(iterations, maxIterations));
         const VL takeMask = active & ~stop;
         iterations = selectBits(takeMask, iterations + 1.0, iterations);
         prevLl = selectBits(takeMask, ll, prevLl);
@@ -327,11 +331,11 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
         // Idle lanes (zero samples, one component at 0 with variance 1) stay as they are.
         for (int k = 0; k < K; ++k) {
             const VD nkS = nkD[k];
-            const VL live = nkS > splat<VD>(1e-6);
+            const VL live = lanesLess(splat<VD>(1e-6), nkS);
             const VD inv = splat<VD>(1.0) / selectBits(live, nkS, splat<VD>(1.0));
             const VD shift = s1D[k] * inv;
             VD v = s2D[k] * inv - shift * shift;
-            v = selectBits(v > floorVar, v, floorVar);
+            v = selectBits(lanesLess(floorVar, v), v, floorVar);
             const VD muF = __builtin_convertvector(m[k], VD);  // the μ the pass used
             const VD nPi = selectBits(live, nkS * splat<VD>(invN), splat<VD>(0.0));
             const VD nMu = selectBits(live, muF + shift, mu[k]);

@@ -7,7 +7,10 @@
 // vectors give two independent dependency chains per operation on AVX2 (or one zmm on AVX-512),
 // which the latency-bound EM loop needs. Error bounds are tested in fast_math_test.cpp.
 #include <bit>
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <type_traits>
 
 #include "udvr/util/normal_cdf.h"
 
@@ -44,10 +47,41 @@ inline V splat(S s) {
 inline V8f splat8(float v) { return splat<V8f>(v); }
 inline V8d splat8d(double v) { return splat<V8d>(v); }
 
-/// mask ? a : b lane by lane, for a mask from a comparison (lanes all ones or zero) as bit
-/// operations. For vectors wider than a register (16 doubles on AVX-512) GCC 12 lowers the ?:
-/// of vector extensions into one scalar branch per lane; the bit operations stay vector ones
-/// (the GMM's per-iteration parameter update ran ~2× faster with them). Same result bit for bit.
+/// Bytes of the target's vector register.
+#if defined(__AVX512F__)
+inline constexpr std::size_t kRegisterBytes = 64;
+#elif defined(__AVX__)
+inline constexpr std::size_t kRegisterBytes = 32;
+#else
+inline constexpr std::size_t kRegisterBytes = 16;
+#endif
+
+/// a < b lane by lane (the mask of a vector comparison: all ones or 0; false for NaN),
+/// compared a register at a time. GCC 12 lowers comparisons of vectors wider than a register
+/// (16 doubles on AVX-512) into one scalar compare and branch per lane; on the GMM's
+/// 16-double parameters this made the per-iteration work cost as much as 10 samples' E-step.
+template <class V>
+inline auto lanesLess(V a, V b) {
+    using M = decltype(a < b);
+    if constexpr (sizeof(V) <= kRegisterBytes) {
+        return a < b;
+    } else {
+        using E = std::remove_cvref_t<decltype(a[0])>;
+        typedef E H __attribute__((vector_size(sizeof(V) / 2)));
+        H a2[2], b2[2];
+        std::memcpy(a2, &a, sizeof a);
+        std::memcpy(b2, &b, sizeof b);
+        const auto lo = lanesLess(a2[0], b2[0]);
+        const auto hi = lanesLess(a2[1], b2[1]);
+        M m;
+        std::memcpy(&m, &lo, sizeof lo);
+        std::memcpy(reinterpret_cast<char*>(&m) + sizeof lo, &hi, sizeof hi);
+        return m;
+    }
+}
+
+/// mask ? a : b lane by lane for a comparison mask, as bit operations (as lanesLess, GCC 12
+/// lowers ?: on vectors wider than a register lane by lane). Same result bit for bit.
 template <class V, class M>
 inline V selectBits(M mask, V a, V b) {
     static_assert(sizeof(V) == sizeof(M));
@@ -133,7 +167,7 @@ inline VD logPositiveD(VD s) {
     const VL bits = std::bit_cast<VL>(s);
     VD e = __builtin_convertvector((bits >> 52) - 1023, VD);
     VD f = std::bit_cast<VD>((bits & 0x000FFFFFFFFFFFFFLL) | 0x3FF0000000000000LL);
-    const VL big = f > 1.4142135623730951;
+    const VL big = lanesLess(splat<VD>(1.4142135623730951), f);
     f = selectBits(big, f * 0.5, f);
     e = selectBits(big, e + 1.0, e);
     const VD t = (f - 1.0) / (f + 1.0);
