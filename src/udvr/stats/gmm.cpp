@@ -257,17 +257,21 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
         VD maxSum{};
         VI expo{};
         VF prod = splat<VF>(1.f);
+        // A block of ≤ 8 samples in two passes: the responsibilities, then the sums. One pass
+        // needs more registers than there are (12 sums + the parameters + the exp's constants):
+        // GCC kept the sums in memory, a store and a load per sum and sample. Every sum adds
+        // the same terms in the same order either way.
+        std::array<std::array<VF, KA>, 8> resp;  // r_k of the block's samples
+        std::array<VF, 8> maxima;                // m of the block's samples
         for (std::size_t i0 = 0; i0 < n; i0 += 8) {
             const std::size_t i1 = std::min(n, i0 + 8);
-            std::array<VF, KA> nk{}, s1{}, s2{};
             for (std::size_t i = i0; i < i1; ++i) {
                 VF xv;
                 std::memcpy(&xv, X + kLanes * i, sizeof(VF));
-                std::array<VF, KA> dx, dx2, e;
+                std::array<VF, KA> e;
                 for (int k = 0; k < K; ++k) {
-                    dx[k] = xv - m[k];
-                    dx2[k] = dx[k] * dx[k];
-                    e[k] = a[k] + b[k] * dx2[k];
+                    const VF dx = xv - m[k];
+                    e[k] = a[k] + b[k] * (dx * dx);
                 }
                 VF mx = e[0];
                 for (int k = 1; k < K; ++k) mx = e[k] > mx ? e[k] : mx;
@@ -277,23 +281,31 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
                     sum += e[k];
                 }
                 const VF inv = 1.f / sum;  // sum ∈ [1, K]
-                for (int k = 0; k < K; ++k) {
-                    // Sums about the current μ_k: little cancellation in s2.
-                    const VF r = e[k] * inv;
-                    nk[k] += r;
-                    s1[k] += r * dx[k];
-                    s2[k] += r * dx2[k];
-                }
-                // m in double at once: |m| reaches ~100 (standardised units, far samples), where
-                // float sums of even 8 values would err by ~1e−5 per sample, above the tolerance.
-                maxSum += __builtin_convertvector(mx, VD);
+                for (int k = 0; k < K; ++k) resp[i - i0][k] = e[k] * inv;
+                maxima[i - i0] = mx;
                 prod *= sum;
             }
             for (int k = 0; k < K; ++k) {
-                nkD[k] += __builtin_convertvector(nk[k], VD);
-                s1D[k] += __builtin_convertvector(s1[k], VD);
-                s2D[k] += __builtin_convertvector(s2[k], VD);
+                // Sums about the current μ_k: little cancellation in s2.
+                VF nk{}, s1{}, s2{};
+                for (std::size_t i = i0; i < i1; ++i) {
+                    VF xv;
+                    std::memcpy(&xv, X + kLanes * i, sizeof(VF));
+                    const VF dx = xv - m[k];
+                    const VF dx2 = dx * dx;
+                    const VF r = resp[i - i0][k];
+                    nk += r;
+                    s1 += r * dx;
+                    s2 += r * dx2;
+                }
+                nkD[k] += __builtin_convertvector(nk, VD);
+                s1D[k] += __builtin_convertvector(s1, VD);
+                s2D[k] += __builtin_convertvector(s2, VD);
             }
+            // m in double at once: |m| reaches ~100 (standardised units, far samples), where
+            // float sums of even 8 values would err by ~1e−5 per sample, above the tolerance.
+            for (std::size_t i = i0; i < i1; ++i)
+                maxSum += __builtin_convertvector(maxima[i - i0], VD);
             prod = detail::splitExponent(prod, expo);  // ≤ 8 factors in [1, K]: no overflow
         }
         // Mean log-likelihood per sample (standardised units, without −½·log(2π)).
