@@ -13,6 +13,7 @@
 
 #include "udvr/stats/sort_runs.h"
 #include "udvr/util/check.h"
+#include "udvr/util/large_vector.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/progress.h"
 
@@ -169,13 +170,13 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
 
     ModelVolume m;
     m.grid = grid;
-    m.mean.resize(voxels);
-    m.stddev.resize(voxels);
-    m.min.resize(voxels);
-    m.max.resize(voxels);
-    m.iqr.resize(2 * voxels);
+    resizeLarge(m.mean, voxels);
+    resizeLarge(m.stddev, voxels);
+    resizeLarge(m.min, voxels);
+    resizeLarge(m.max, voxels);
+    resizeLarge(m.iqr, 2 * voxels);
     m.quantileCount = q;
-    if (q > 0) m.quantiles.resize(voxels * static_cast<std::size_t>(q + 1));
+    if (q > 0) resizeLarge(m.quantiles, voxels * static_cast<std::size_t>(q + 1));
     m.quantileLevels = normalizedQuantileLevels(opt.quantileLevels, q, "--quantile-levels");
     // b(0.25), b(0.75) among the boundaries (kde: the IQR is then read off them).
     const int quarter = q > 0 ? m.boundaryAtLevel(0.25) : -1;
@@ -184,7 +185,7 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     for (int j = 0; j <= q; ++j) boundaryLevels[static_cast<std::size_t>(j)] = m.quantileLevel(j);
     const std::array<double, 2> iqrLevels = {0.25, 0.75};
     m.gmmComponents = K;
-    if (K > 0) m.gmm.resize(voxels * static_cast<std::size_t>(3 * K));
+    if (K > 0) resizeLarge(m.gmm, voxels * static_cast<std::size_t>(3 * K));
     std::vector<float> bandwidths;  // per voxel h (kde), NaN for constant voxels
     if (kde) bandwidths.resize(voxels);
 
