@@ -249,7 +249,8 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
                 0.5 *
                     detail::logPositiveD(selectBits(lanesLess(VD{}, ratio), ratio, splat<VD>(1.0))),
                 VF);
-            a[k] = __builtin_convertvector(pi[k], VF) > 0.f ? a[k] : negInf;  // dead stays dead
+            a[k] = selectBits(lanesLess(VF{}, __builtin_convertvector(pi[k], VF)), a[k],
+                              negInf);  // dead stays dead
             b[k] = __builtin_convertvector(-0.5 * invVar, VF);
             m[k] = __builtin_convertvector(mu[k], VF);
         }
@@ -274,7 +275,7 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
                     e[k] = a[k] + b[k] * (dx * dx);
                 }
                 VF mx = e[0];
-                for (int k = 1; k < K; ++k) mx = e[k] > mx ? e[k] : mx;
+                for (int k = 1; k < K; ++k) mx = selectBits(lanesLess(mx, e[k]), e[k], mx);
                 VF sum{};
                 for (int k = 0; k < K; ++k) {
                     e[k] = detail::expNonPositive(e[k] - mx);
