@@ -59,7 +59,7 @@ inline constexpr std::size_t kRegisterBytes = 16;
 /// a < b lane by lane (the mask of a vector comparison: all ones or 0; false for NaN),
 /// compared a register at a time. GCC 12 lowers comparisons of vectors wider than a register
 /// (16 doubles on AVX-512) into one scalar compare and branch per lane; on the GMM's
-/// 16-double parameters this made the per-iteration work cost as much as 10 samples' E-step.
+/// 16-double parameters this made the per-iteration work cost more than a 20-sample E-step.
 template <class V>
 inline auto lanesLess(V a, V b) {
     using M = decltype(a < b);
