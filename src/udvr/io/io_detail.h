@@ -42,9 +42,9 @@ ScalarField readFieldVti(const std::filesystem::path& path, const std::string& v
 ModelVolume readModelVti(const std::filesystem::path& path, std::string* geometryNote);
 /// A 2D transfer-function raster from a .vti of W×H×1 points (vti_io.cpp).
 TransferFunction2D readTransferFunction2DVti(const std::filesystem::path& path);
-/// .nc with a 3D variable (netcdf_io.cpp).
+/// .nc with a 3D variable (netcdf_io.cpp); allowMissing: fill values become NaN.
 ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string& var,
-                            std::string* geometryNote);
+                            std::string* geometryNote, bool allowMissing = false);
 /// .nc with a member dimension (netcdf_io.cpp).
 Ensemble readEnsembleNetcdf(const std::filesystem::path& path, const EnsembleReadOptions& options);
 /// Size `e.values` for e.members × e.grid in options' layout, after options.checkSize
