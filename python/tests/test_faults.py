@@ -141,7 +141,10 @@ def _as_nobody():
     setpriv = shutil.which("setpriv")
     if setpriv is None:
         pytest.skip("running as root without setpriv: cannot test an unwritable directory")
-    return [setpriv, "--reuid=65534", "--regid=65534", "--clear-groups"]
+    prefix = [setpriv, "--reuid=65534", "--regid=65534", "--clear-groups"]
+    if subprocess.run([*prefix, str(UDVR_BINARY), "--version"], capture_output=True).returncode:
+        pytest.skip(f"user nobody cannot run {UDVR_BINARY} (a private home directory?)")
+    return prefix
 
 
 @pytest.fixture
