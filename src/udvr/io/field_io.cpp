@@ -65,6 +65,19 @@ std::string lowerExtension(const fs::path& path) {
     return ext;
 }
 
+/// Points × bytes per value of a grid, failing where that cannot be a file udvr can hold (it
+/// would not fit in memory, or the product overflows).
+std::size_t checkedDataBytes(const fs::path& path, const std::array<int, 3>& dims,
+                             std::size_t valueSize) {
+    long double bytes = static_cast<long double>(valueSize);
+    for (int d : dims) bytes *= static_cast<long double>(d);
+    if (bytes > static_cast<long double>(std::size_t{1} << 56))
+        UDVR_FAIL(path.string() << ": dims " << dims[0] << "x" << dims[1] << "x" << dims[2]
+                                << " are too large (" << static_cast<double>(bytes)
+                                << " bytes of data)");
+    return static_cast<std::size_t>(bytes);
+}
+
 }  // namespace detail
 
 namespace {
@@ -211,19 +224,6 @@ std::string readWholeFile(const fs::path& path) {
     return bytes;
 }
 
-/// Points × bytes per value of a grid, failing where that cannot be a file udvr can hold (it
-/// would not fit in memory, or the product overflows).
-std::size_t checkedDataBytes(const fs::path& path, const std::array<int, 3>& dims,
-                             std::size_t valueSize) {
-    long double bytes = static_cast<long double>(valueSize);
-    for (int d : dims) bytes *= static_cast<long double>(d);
-    if (bytes > static_cast<long double>(std::size_t{1} << 56))
-        UDVR_FAIL(path.string() << ": dims " << dims[0] << "x" << dims[1] << "x" << dims[2]
-                                << " are too large (" << static_cast<double>(bytes)
-                                << " bytes of data)");
-    return static_cast<std::size_t>(bytes);
-}
-
 /// `data` must hold exactly `expected` bytes (what the dims and type ask for).
 void requireByteCount(const fs::path& path, std::size_t expected, std::size_t actual,
                       const std::string& what) {
@@ -306,7 +306,7 @@ ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
     f.grid.spacing = layout.spacing;
     f.grid.origin = layout.origin;
     f.name = path.stem().string();
-    checkedDataBytes(path, layout.dims, typeSize(*type));
+    detail::checkedDataBytes(path, layout.dims, typeSize(*type));
     std::string bytes = readWholeFile(path);
     std::size_t n = f.grid.pointCount();
     if (bytes.size() != n * typeSize(*type)) {
@@ -681,7 +681,7 @@ ScalarField readNrrd(const fs::path& path, std::string* note) {
     offset = skipLines(dataPath, *bytes, offset, h.lineSkip);
 
     std::size_t n = f.grid.pointCount();
-    std::size_t expected = checkedDataBytes(path, f.grid.dims, typeSize(*h.type));
+    std::size_t expected = detail::checkedDataBytes(path, f.grid.dims, typeSize(*h.type));
     bool big = h.endian == "big";
     if (h.encoding == "ascii") {
         f.values = parseAscii(dataPath, bytes->substr(offset), n);

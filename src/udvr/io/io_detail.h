@@ -1,6 +1,7 @@
 #pragma once
 // Internals shared by the io translation units; not part of the public API. The VTK code lives
 // in vti_io.cpp and the NetCDF code in netcdf_io.cpp so their heavy headers stay there.
+#include <array>
 #include <cstddef>
 #include <filesystem>
 #include <span>
@@ -22,6 +23,11 @@ void checkFinite(const std::filesystem::path& path, const Grid3& grid,
 
 /// Throw a UdvrError unless `path` names an existing regular file.
 void requireFile(const std::filesystem::path& path);
+
+/// dims[0] × dims[1] × dims[2] × valueSize bytes; throws a UdvrError naming `path` where that
+/// is more than any file udvr reads can hold (2^56 bytes; the product cannot overflow then).
+std::size_t checkedDataBytes(const std::filesystem::path& path, const std::array<int, 3>& dims,
+                             std::size_t valueSize);
 
 /// Lower-case extension with the dot (".nhdr").
 std::string lowerExtension(const std::filesystem::path& path);

@@ -367,6 +367,10 @@ void checkClassicSize(const fs::path& path) {
         if (n > fileSize / entryBytes) fail();
         return n;
     };
+    // Products of dimension lengths that overflow are "more than any file": the check fails.
+    auto saturatingProduct = [](std::uint64_t a, std::uint64_t b) {
+        return b != 0 && a > ~0ull / b ? ~0ull : a * b;
+    };
     auto typeSize = [](std::uint64_t t) -> std::uint64_t {
         switch (t) {
             case NC_BYTE:
@@ -424,31 +428,38 @@ void checkClassicSize(const fs::path& path) {
             if (d == 0 && dimLengths[id] == 0) {
                 record = true;
             } else {
-                count *= dimLengths[id];
+                count = saturatingProduct(count, dimLengths[id]);
             }
         }
         skipAttributes();
-        std::uint64_t bytes = count * typeSize(be(4));
+        std::uint64_t bytes = saturatingProduct(count, typeSize(be(4)));
         std::uint64_t vsize = be(countSize);
         std::uint64_t begin = be(offsetSize);
-        if (record) recordSize += vsize;
+        if (record) recordSize = recordSize > ~0ull - vsize ? ~0ull : recordSize + vsize;
         vars.push_back({record, bytes, begin});
     }
-    std::uint64_t needed = 0;
+    // In long double: header values near 2^64 must not wrap around to a small end.
+    long double needed = 0;
     std::size_t recordVars = static_cast<std::size_t>(
         std::count_if(vars.begin(), vars.end(), [](const Var& v) { return v.record; }));
     for (const Var& v : vars) {
-        std::uint64_t end = v.begin + v.bytes;
+        long double end = static_cast<long double>(v.begin) + static_cast<long double>(v.bytes);
         if (v.record) {
             if (numrecs == 0 || streaming) continue;
             // A lone record variable is not padded per record.
-            std::uint64_t stride = recordVars == 1 ? v.bytes : recordSize;
-            end = v.begin + (numrecs - 1) * stride + v.bytes;
+            const long double stride =
+                static_cast<long double>(recordVars == 1 ? v.bytes : recordSize);
+            end += static_cast<long double>(numrecs - 1) * stride;
         }
         needed = std::max(needed, end);
     }
-    if (needed > fileSize) {
-        UDVR_FAIL(path.string() << ": truncated NetCDF data: expected " << needed
+    if (needed > static_cast<long double>(fileSize)) {
+        std::ostringstream expected;
+        if (needed < 9.2e18L)
+            expected << static_cast<std::uint64_t>(needed);
+        else
+            expected << static_cast<double>(needed);
+        UDVR_FAIL(path.string() << ": truncated NetCDF data: expected " << expected.str()
                                 << " bytes, found " << fileSize);
     }
 }
@@ -476,9 +487,12 @@ Grid3 gridFromCoordinates(const fs::path& path, int nc, const VarInfo& var, std:
     for (int a = 0; a < 3; ++a) {
         std::size_t d = first + static_cast<std::size_t>(2 - a);  // x is the fastest (last) dim
         std::size_t len = var.lengths[d];
-        if (len > static_cast<std::size_t>(INT32_MAX)) UDVR_FAIL(path.string() << ": dim too big");
-        g.dims[a] = static_cast<int>(len);
         const std::string& dimName = var.dimNames[d];
+        if (len == 0 || len > static_cast<std::size_t>(INT32_MAX))
+            UDVR_FAIL(path.string()
+                      << ": dimension " << dimName << " of variable " << var.name << " has length "
+                      << len << " (expected 1 to " << INT32_MAX << ")");
+        g.dims[a] = static_cast<int>(len);
         int cid = -1;
         int ndims = 0, cdim = -1;
         if (nc_inq_varid(nc, dimName.c_str(), &cid) != NC_NOERR ||
@@ -492,6 +506,7 @@ Grid3 gridFromCoordinates(const fs::path& path, int nc, const VarInfo& var, std:
         std::tie(g.origin[a], g.spacing[a]) =
             regularAxis(c, path.string() + ": coordinate variable " + dimName);
     }
+    detail::checkedDataBytes(path, g.dims, sizeof(float));
     if (!missing.empty() && note != nullptr) {
         *note = "udvr: note: " + path.string() + " has no coordinate variables for " + missing +
                 "; using origin 0 and spacing 1 there";
@@ -827,6 +842,9 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
     Ensemble e;
     std::string geometryNote;
     e.grid = gridFromCoordinates(path, file.id, gridView, 0, &geometryNote);
+    if (members > static_cast<std::size_t>(INT32_MAX))
+        UDVR_FAIL(path.string() << ": " << members << " members are too many");
+    detail::checkedDataBytes(path, e.grid.dims, sizeof(float) * members);
     e.members = static_cast<int>(members);
     e.name = var->name;
     e.valueType = valueTypeOf(path, file.id, var->id);

@@ -256,6 +256,31 @@ TEST(IoNetcdf, ClassicHeaderCountsAreCheckedBeforeOpening) {
     }
 }
 
+// A dimension of length 0 tripped an internal check (found by fuzzing); dims whose product
+// overflows size_t would size the buffer netCDF-C writes into with the wrapped product.
+TEST(IoNetcdf, EmptyAndHugeDimensionsAreErrors) {
+    TempDir dir;
+    int nc = -1, dims[3], var = -1;
+    NC_OK(nc_create((dir / "empty.nc").c_str(), NC_CLOBBER | NC_64BIT_OFFSET, &nc));
+    NC_OK(nc_def_dim(nc, "z", NC_UNLIMITED, &dims[0]));
+    NC_OK(nc_def_dim(nc, "y", 3, &dims[1]));
+    NC_OK(nc_def_dim(nc, "x", 4, &dims[2]));
+    NC_OK(nc_def_var(nc, "v", NC_FLOAT, 3, dims, &var));
+    NC_OK(nc_close(nc));
+    expectUdvrError([&] { readField(dir / "empty.nc"); },
+                    {"empty.nc", "dimension z of variable v has length 0"});
+
+    // 2^57 values, never written (NetCDF-4 stores no data for them).
+    NC_OK(nc_create((dir / "huge.nc").c_str(), NC_CLOBBER | NC_NETCDF4, &nc));
+    NC_OK(nc_def_dim(nc, "z", std::size_t{1} << 17, &dims[0]));
+    NC_OK(nc_def_dim(nc, "y", std::size_t{1} << 20, &dims[1]));
+    NC_OK(nc_def_dim(nc, "x", std::size_t{1} << 20, &dims[2]));
+    NC_OK(nc_def_var(nc, "v", NC_FLOAT, 3, dims, &var));
+    NC_OK(nc_close(nc));
+    expectUdvrError([&] { readField(dir / "huge.nc"); },
+                    {"huge.nc", "dims 1048576x1048576x131072 are too large"});
+}
+
 // HDF5 1.10.8 loops forever on this damaged NetCDF-4 file (found by fuzzing); a child process
 // tries the library calls first and gives up after 10 s.
 TEST(IoNetcdf, Hdf5HangBecomesAnError) {

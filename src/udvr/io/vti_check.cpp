@@ -10,6 +10,7 @@
 #include <vtkXMLDataElement.h>
 #include <vtkXMLDataParser.h>
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cstring>
@@ -103,8 +104,20 @@ struct Layout {
     long long appendedAt = -1;    // the file offset of appended data ('_' + 1); -1: none
 };
 
+/// A String array, whose decoded bytes are checked once VTK has set up its parser.
+struct StringArray {
+    vtkXMLDataElement* element;
+    std::string what;
+    long double strings;  // how many the array holds (tuples × components)
+    long long offset;     // in the appended data; < 0: inline
+    bool ascii;
+    long double bytes;  // decoded (ascii: at most)
+};
+
 class Checker {
   public:
+    std::vector<StringArray> strings;  // found by run()
+
     Checker(const std::string& path, vtkXMLDataParser* parser) : path_(path), parser_(parser) {}
 
     void run(vtkXMLDataElement* root) {
@@ -229,22 +242,32 @@ class Checker {
             if (whole * static_cast<long double>(std::max<std::size_t>(word, 1)) > bound)
                 fail(what + " would hold " + number(whole) + " values, more than a file of " +
                      std::to_string(layout_.fileSize) + " bytes can");
+            // As VTK decides (vtkXMLReader::ReadArrayValues): an `offset` means appended data
+            // whatever the format says; else "binary" is inline base64 and anything else ascii.
             const char* format = a->GetAttribute("format");
             const std::string f = format ? format : "";
-            if (f == "ascii") {
+            StringArray text{a, what, n, -1, false, 0};
+            if (a->GetAttribute("offset") != nullptr) {
+                if (layout_.appendedAt < 0)
+                    fail(what + " has an offset but there is no AppendedData");
+                text.offset = integerAttribute(a, "offset", 0, 1LL << 62, -1, what);
+                text.bytes =
+                    block(layout_.appendedAt + text.offset, layout_.appendedBase64, n, word, what);
+            } else if (f == "binary") {
+                text.bytes = block(inlineDataPosition(a), true, n, word, what);
+            } else if (f == "ascii") {
                 if (n > static_cast<long double>(layout_.fileSize))
                     fail(what + " would hold " + number(n) + " ascii values in " +
                          std::to_string(layout_.fileSize) + " bytes");
-            } else if (f == "appended") {
-                if (layout_.appendedAt < 0)
-                    fail(what + " is appended but there is no AppendedData");
-                const long long offset = integerAttribute(a, "offset", 0, 1LL << 62, -1, what);
-                if (offset < 0) fail(what + " is appended but has no offset");
-                block(layout_.appendedAt + offset, layout_.appendedBase64, n, word, what);
-            } else if (f == "binary") {
-                block(inlineDataPosition(a), true, n, word, what);
+                text.ascii = true;
+                text.bytes = static_cast<long double>(layout_.fileSize);  // at most
             } else {
-                fail(what + " has format '" + f + "' (expected ascii, binary or appended)");
+                fail(what + " has format '" + f +
+                     "' (expected ascii, binary, or appended with an offset)");
+            }
+            if (word == 0) {
+                if (n < 0) fail(what + " is a String array without NumberOfTuples");
+                strings.push_back(text);
             }
         }
     }
@@ -266,8 +289,8 @@ class Checker {
     /// The header of one data block at `at`: compressed, the block count, block size, last
     /// block size and each block's compressed size; else the byte count. `n` values of `word`
     /// bytes are expected (n < 0 or word 0: not known).
-    void block(long long at, bool base64, long double n, std::size_t word,
-               const std::string& what) {
+    long double block(long long at, bool base64, long double n, std::size_t word,
+                      const std::string& what) {
         if (at < 0 || static_cast<std::uintmax_t>(at) >= layout_.fileSize)
             fail(what + ": its data would start at byte " + std::to_string(at) + " of " +
                  std::to_string(layout_.fileSize));
@@ -338,6 +361,7 @@ class Checker {
         if (expected < 0 &&
             bytes > layout_.maxRatio * static_cast<long double>(layout_.fileSize) + (1 << 20))
             fail(what + ": its data block claims " + number(bytes) + " bytes");
+        return bytes;
     }
 
     std::string truncated(const std::string& what, long double needed) const {
@@ -360,17 +384,47 @@ class Checker {
     long double wholePoints_ = 0, wholeCells_ = 0;
 };
 
+/// VTK 9.1 stores every NUL-terminated string of a String array's data, past the end of the
+/// array when there are more than its tuples (a heap overflow found by fuzzing): the data, read
+/// through VTK's parser once it is set up (decompression included), must hold exactly as many.
+void checkStrings(vtkXMLDataParser* parser, const std::vector<StringArray>& arrays) {
+    for (const StringArray& a : arrays) {
+        std::vector<unsigned char> data(static_cast<std::size_t>(a.bytes));
+        const std::size_t read =
+            data.empty() ? 0
+            : a.offset >= 0
+                ? parser->ReadAppendedData(a.offset, data.data(), 0, data.size(), VTK_UNSIGNED_CHAR)
+                : parser->ReadInlineData(a.element, a.ascii ? 1 : 0, data.data(), 0, data.size(),
+                                         VTK_UNSIGNED_CHAR);
+        if (!a.ascii && read != data.size())
+            fail(a.what + ": cannot decode its data (" + std::to_string(read) + " of " +
+                 std::to_string(data.size()) + " bytes)");
+        data.resize(std::min(read, data.size()));
+        const auto terminated =
+            static_cast<long double>(std::count(data.begin(), data.end(), '\0'));
+        if (terminated != a.strings || (!data.empty() && data.back() != '\0'))
+            fail(a.what + ": its data holds " + std::to_string(static_cast<long long>(terminated)) +
+                 " NUL-terminated strings, the array " +
+                 std::to_string(static_cast<long long>(a.strings)));
+    }
+}
+
 }  // namespace
 
 int CheckedVtiReader::ReadVTKFile(vtkXMLDataElement* root) {
     problem_.clear();
     try {
-        Checker(GetFileName() ? GetFileName() : "", GetXMLParser()).run(root);
+        Checker checker(GetFileName() ? GetFileName() : "", GetXMLParser());
+        checker.run(root);
+        // VTK sets up the parser (byte order, header type, compressor) here, before it reads
+        // any data.
+        if (Superclass::ReadVTKFile(root) == 0) return 0;
+        checkStrings(GetXMLParser(), checker.strings);
     } catch (const Problem& p) {
         problem_ = p.message;
         return 0;
     }
-    return Superclass::ReadVTKFile(root);
+    return 1;
 }
 
 }  // namespace udvr::detail

@@ -374,6 +374,10 @@ TEST(IoVti, CompressionHeadersAreChecked) {
                    "blocks, more than the file holds");
     expectRejected(dir, "huge.vti", withCompressionHeader(model, 0, std::uint64_t{1} << 61),
                    "block size 2305843009213693952");
+    // VTK reads an array with an offset from the appended data whatever its format says.
+    std::string ascii = withCompressionHeader(model, std::uint64_t{1} << 60, 32768);
+    ascii.replace(ascii.find("format=\"appended\""), 17, "format=\"ascii\"   ");
+    expectRejected(dir, "ascii.vti", ascii, "blocks, more than the file holds");
 }
 
 // A Piece smaller than the WholeExtent leaves points undefined (and VTK leaks on that path); an
@@ -390,6 +394,49 @@ TEST(IoVti, ExtentsAreChecked) {
     for (std::size_t p = 0; (p = huge.find("Extent=\"2 6 0 3 1 3\"", p)) != std::string::npos;)
         huge.replace(p, 20, "Extent=\"0 9999 0 9999 0 9999\"");
     expectRejected(dir, "huge.vti", huge, "would hold 1000000000000 values");
+}
+
+// The checks accept every encoding VTK writes: a model (with String field data) rewritten by
+// VTK appended raw or base64, inline base64 and ascii, uncompressed, zlib and LZ4.
+TEST(IoVti, ChecksAcceptEveryVtkEncoding) {
+    TempDir dir;
+    writeModelVti(dir / "m.vti", sampleModel());
+    vtkNew<vtkXMLImageDataReader> reader;
+    reader->SetFileName((dir / "m.vti").c_str());
+    reader->Update();
+    int n = 0;
+    for (const int mode : {0, 1, 2, 3})
+        for (const int compressor : {0, 1, 2}) {
+            const auto path = dir / ("m" + std::to_string(n++) + ".vti");
+            vtkNew<vtkXMLImageDataWriter> writer;
+            writer->SetFileName(path.c_str());
+            writer->SetInputData(reader->GetOutput());
+            if (mode == 0) writer->SetDataModeToAscii();
+            if (mode == 1) writer->SetDataModeToBinary();
+            if (mode >= 2) writer->SetDataModeToAppended();
+            writer->SetEncodeAppendedData(mode == 3 ? 1 : 0);
+            if (compressor == 0) writer->SetCompressorTypeToNone();
+            if (compressor == 1) writer->SetCompressorTypeToZLib();
+            if (compressor == 2) writer->SetCompressorTypeToLZ4();
+            ASSERT_EQ(writer->Write(), 1);
+            const ModelVolume m = readModelVti(path);
+            EXPECT_EQ(m.source, "tooth.nhdr --downsample 2") << path;
+            EXPECT_EQ(m.quantiles, sampleModel().quantiles) << path;
+        }
+}
+
+// VTK 9.1 writes every NUL-terminated string of a String array's data into the array, past its
+// end when there are more than its tuples (a heap overflow found by fuzzing).
+TEST(IoVti, StringArraysHoldTheirTuples) {
+    TempDir dir;
+    ModelVolume m = sampleModel();
+    m.source = "fuzz seed";
+    writeModelVti(dir / "m.vti", m);
+    std::string bytes = readBytes(dir / "m.vti");
+    const std::size_t at = bytes.find("fuzz seed", bytes.find("<AppendedData"));
+    ASSERT_NE(at, std::string::npos);  // LZ4 keeps a short string as a literal
+    bytes[at + 4] = '\0';
+    expectRejected(dir, "two.vti", bytes, "'source': its data holds 2 NUL-terminated strings");
 }
 
 // Notes (here: a Direction that is ignored) are printed only once a read succeeded: an error
