@@ -90,14 +90,30 @@ def test_kill9_during_build_keeps_the_previous_file(inputs, tmp_path):
     assert out.read_bytes() == before
 
 
-def test_kill9_before_the_write_leaves_nothing(inputs, tmp_path):
-    out = tmp_path / "m.vti"
-    p = start("build", inputs / "e.nc", "--gmm", "4", "--quantiles", "64", "-o", out)
-    time.sleep(0.05)
+def cpu_seconds(pid):
+    """User + system CPU time of a running process, from /proc/PID/stat (fields 14 and 15)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def test_kill9_before_the_write_leaves_nothing(tmp_path):
+    # A 64³ ensemble with GMM K = 4 works for about 0.2 s before it writes: kill it once it has
+    # spent 20 ms of CPU, while it is still running and its temporary has not appeared.
+    run_ok("generate", "tangle", "--dims", "64", "-o", tmp_path / "f.vti")
+    run_ok("perturb", tmp_path / "f.vti", "--members", "10", "-o", tmp_path / "e.nc")
+    out = tmp_path / "out" / "m.vti"
+    out.parent.mkdir()
+    p = start("build", tmp_path / "e.nc", "--gmm", "4", "--quantiles", "64", "-o", out)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and p.poll() is None and cpu_seconds(p.pid) < 0.02:
+        time.sleep(0.001)
+    still_working = p.poll() is None and temporaries(out.parent) == []
     p.kill()
     p.wait(timeout=60)
     p.stderr.close()
-    assert not out.exists()
+    assert still_working, "the build wrote or ended before 20 ms of CPU: make its input larger"
+    assert list(out.parent.iterdir()) == []
 
 
 def test_kill9_during_render_write_leaves_no_output(inputs, tmp_path):
