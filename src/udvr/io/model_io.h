@@ -2,6 +2,7 @@
 // Model volumes as VTK XML ImageData (SPEC §7): point arrays mean, stddev, min, max,
 // quantiles (q+1 comps), iqr (2), gmm (3K) and the field data listed in SPEC §7.
 #include <filesystem>
+#include <memory>
 
 #include "udvr/io/field_io.h"
 #include "udvr/stats/model_volume.h"
@@ -17,5 +18,30 @@ ModelVolume readModelVti(const std::filesystem::path& path);
 /// What `render` and `probe` read.
 ModelVolume readModelOrField(const std::filesystem::path& path,
                              const FieldReadOptions& options = {});
+
+/// writeModelVti a slab of voxels at a time (the out-of-core `build`): the same file, byte for
+/// byte, holding one compression block per array in memory. Each array's compressed blocks wait
+/// in an unnamed temporary file beside `path` (gone when closed, also after kill -9) until
+/// finish() writes the file atomically, so the disk holds the compressed model twice for a
+/// moment.
+class ModelVtiStreamWriter {
+  public:
+    /// The arrays of a built model (mean, stddev, min, max, iqr; quantiles for q > 0, gmm for
+    /// K > 0) over `grid`'s voxels. Throws FileError where the directory is not writable.
+    ModelVtiStreamWriter(const std::filesystem::path& path, const Grid3& grid, int quantileCount,
+                         int gmmComponents);
+    ~ModelVtiStreamWriter();
+    ModelVtiStreamWriter(const ModelVtiStreamWriter&) = delete;
+    ModelVtiStreamWriter& operator=(const ModelVtiStreamWriter&) = delete;
+    /// The next voxels, in order: the slab's arrays, all for the same count of voxels.
+    void append(const ModelVolume& slab);
+    /// The field data from `model` (its arrays are not used); writes the file. Every voxel of
+    /// the grid must have been appended.
+    void finish(const ModelVolume& model);
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace udvr

@@ -84,23 +84,35 @@ struct InputScan {
                                   "(--nan skip: each brick's finite values only)");
 }
 
-/// --nan skip: every voxel needs at least 2 finite samples (as the whole input needs 2 samples
-/// per voxel: ddof = 1); otherwise the first voxel that has fewer is the error. Fills the
-/// report's counts. One extra gather pass, run only when the input has NaN/Inf.
+/// Finite samples per voxel (--nan skip), over one slab or the whole grid.
+struct FiniteCounts {
+    std::size_t voxelsWith = 0, tooFew = 0, nonFinite = 0;
+    std::size_t firstTooFew = std::numeric_limits<std::size_t>::max();
+    int firstTooFewCount = 0;
+    int fewest = std::numeric_limits<int>::max();
+
+    void merge(const FiniteCounts& o) {
+        voxelsWith += o.voxelsWith;
+        nonFinite += o.nonFinite;
+        tooFew += o.tooFew;
+        fewest = std::min(fewest, o.fewest);
+        if (o.firstTooFew < firstTooFew) {
+            firstTooFew = o.firstTooFew;
+            firstTooFewCount = o.firstTooFewCount;
+        }
+    }
+};
+
+/// The finite samples of voxels [first, first + count) (gather as buildSlab's).
 template <class Gather>
-void checkFiniteCounts(const Grid3& grid, int n, const Gather& gather, bool bricks,
-                       BuildReport* report) {
-    struct Counts {
-        std::size_t voxelsWith = 0, tooFew = 0, nonFinite = 0;
-        std::size_t firstTooFew = std::numeric_limits<std::size_t>::max();
-        int firstTooFewCount = 0;
-        int fewest = std::numeric_limits<int>::max();
-    } total;
+FiniteCounts countFinite(std::size_t first, std::size_t count, int n, const Gather& gather) {
+    FiniteCounts total;
     std::mutex mutex;
     const std::size_t un = static_cast<std::size_t>(n);
-    parallelForChunks(grid.pointCount(), kChunkVoxels, [&](std::size_t b, std::size_t e) {
+    parallelForChunks(count, kChunkVoxels, [&](std::size_t lb, std::size_t le) {
+        const std::size_t b = first + lb, e = first + le;
         std::vector<float> buf(kChunkVoxels * un);
-        Counts local;
+        FiniteCounts local;
         for (std::size_t c0 = b; c0 < e; c0 += kChunkVoxels) {
             const std::size_t c1 = std::min(e, c0 + kChunkVoxels);
             gather(c0, c1, buf.data());
@@ -120,15 +132,16 @@ void checkFiniteCounts(const Grid3& grid, int n, const Gather& gather, bool bric
             }
         }
         std::lock_guard<std::mutex> lock(mutex);
-        total.voxelsWith += local.voxelsWith;
-        total.nonFinite += local.nonFinite;
-        total.tooFew += local.tooFew;
-        total.fewest = std::min(total.fewest, local.fewest);
-        if (local.firstTooFew < total.firstTooFew) {
-            total.firstTooFew = local.firstTooFew;
-            total.firstTooFewCount = local.firstTooFewCount;
-        }
+        total.merge(local);
     });
+    return total;
+}
+
+/// --nan skip: every voxel needs at least 2 finite samples (as the whole input needs 2 samples
+/// per voxel: ddof = 1); otherwise the first voxel that has fewer is the error. Fills the
+/// report's counts.
+void checkFiniteCounts(const FiniteCounts& total, const Grid3& grid, int n, bool bricks,
+                       BuildReport* report) {
     if (total.tooFew > 0) {
         const auto X = static_cast<std::size_t>(grid.dims[0]);
         const auto Y = static_cast<std::size_t>(grid.dims[1]);
@@ -147,28 +160,39 @@ void checkFiniteCounts(const Grid3& grid, int n, const Gather& gather, bool bric
     }
 }
 
-/// The statistics of SPEC §2 for every voxel. gather(v0, v1, buf) writes voxel v's n samples to
-/// buf[(v − v0)·n …] for v in [v0, v1), v1 − v0 ≤ kChunkVoxels.
+/// What buildSlab adds up over the slabs of one build.
+struct CoreTotals {
+    std::size_t constant = 0, notConverged = 0, fewerDistinct = 0, iterations = 0;
+    double gatherCpu = 0.0, estimateCpu = 0.0, gmmCpu = 0.0;
+    std::vector<float> bandwidths;  // kde: h per voxel of the whole grid, NaN for constant voxels
+};
+
+/// The statistics of SPEC §2 for voxels [first, first + count) of `grid` (all of them, or a
+/// slab of whole z-planes in an out-of-core build), into m's arrays, which are sized for those
+/// voxels (m.mean[v − first] …). gather(v0, v1, buf) writes voxel v's n samples to
+/// buf[(v − v0)·n …] for v in [v0, v1), v1 − v0 ≤ kChunkVoxels, v the voxel's index in `grid`.
+/// Every voxel's result depends on its own samples, the whole input's range (scan: the GMM's
+/// σ floor) and its index (the GMM's random stream) only, so slabs give the whole build's
+/// values bit for bit.
 /// valueStep: the input's quantisation step (ScalarField::valueStep), used by dequantized only.
 /// NanPolicy::Skip with non-finite samples in the input (scan.nonFinite > 0): each voxel's
-/// samples are its finite ones (at least 2, checked first), its GMM fitted alone (fitGmm) unless
-/// all n are finite.
+/// samples are its finite ones (at least 2, checked before), its GMM fitted alone (fitGmm)
+/// unless all n are finite.
 template <class Gather>
-ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const BuildOptions& opt,
-                      const InputScan& scan, double valueStep, bool bricks, BuildReport* report) {
-    const auto start = std::chrono::steady_clock::now();
+void buildSlab(const Grid3& grid, std::size_t first, std::size_t count, int n, const Gather& gather,
+               const BuildOptions& opt, const InputScan& scan, double valueStep, ModelVolume& m,
+               CoreTotals& t) {
     const bool skipNonFinite = opt.nan == NanPolicy::Skip && scan.nonFinite > 0;
-    if (skipNonFinite) checkFiniteCounts(grid, n, gather, bricks, report);
-    const std::size_t voxels = grid.pointCount();
+    const std::size_t voxels = count;
     const std::size_t un = static_cast<std::size_t>(n);
     const int q = opt.quantiles;
     const int K = opt.gmmComponents;
     const bool kde = opt.density == DensityEstimate::Kde;
     const bool dequantized = opt.density == DensityEstimate::Dequantized;
     UDVR_CHECK(!dequantized || valueStep > 0.0);
+    UDVR_CHECK(!kde || t.bandwidths.size() == grid.pointCount());
     const double eps = opt.tailEps > 0.0 ? opt.tailEps : 0.5 / static_cast<double>(n);
 
-    ModelVolume m;
     m.grid = grid;
     resizeLarge(m.mean, voxels);
     resizeLarge(m.stddev, voxels);
@@ -186,8 +210,6 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     const std::array<double, 2> iqrLevels = {0.25, 0.75};
     m.gmmComponents = K;
     if (K > 0) resizeLarge(m.gmm, voxels * static_cast<std::size_t>(3 * K));
-    std::vector<float> bandwidths;  // per voxel h (kde), NaN for constant voxels
-    if (kde) bandwidths.resize(voxels);
 
     GmmOptions gmmOpt;
     gmmOpt.components = std::max(K, 1);
@@ -198,11 +220,13 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
 
     std::atomic<std::size_t> constant{0}, notConverged{0}, fewerDistinct{0}, iterations{0};
     std::atomic<double> gatherCpu{0.0}, estimateCpu{0.0}, gmmCpu{0.0};
+    const std::size_t base = first;
     // Finite samples are sorted a chunk at a time, one voxel per vector lane (a sorting
     // network); with --nan skip each voxel's finite ones alone.
     const std::vector<std::pair<int, int>> network = sortingNetwork(n);
-    parallelForChunks(voxels, kChunkVoxels, [&](std::size_t b, std::size_t e) {
-        std::vector<float> buf(kChunkVoxels * un);  // sorted samples of a chunk, voxel-major
+    parallelForChunks(count, kChunkVoxels, [&](std::size_t lb, std::size_t le) {
+        const std::size_t b = base + lb, e = base + le;  // global voxels
+        std::vector<float> buf(kChunkVoxels * un);       // sorted samples of a chunk, voxel-major
         std::vector<GmmFitInfo> infos(kChunkVoxels);
         std::vector<std::size_t> finite(skipNonFinite ? kChunkVoxels : 0);  // per voxel
         GmmWorkspace ws;
@@ -228,13 +252,14 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                 }
                 const std::span<const float> sorted(s, nv);
                 const SampleMoments mom = sampleMoments(sorted);
-                m.mean[v] = static_cast<float>(mom.mean);
-                m.stddev[v] = static_cast<float>(mom.stddev);
-                m.min[v] = s[0];
-                m.max[v] = s[nv - 1];
-                float* qv =
-                    q > 0 ? m.quantiles.data() + v * static_cast<std::size_t>(q + 1) : nullptr;
-                float* iqr = m.iqr.data() + 2 * v;
+                m.mean[v - base] = static_cast<float>(mom.mean);
+                m.stddev[v - base] = static_cast<float>(mom.stddev);
+                m.min[v - base] = s[0];
+                m.max[v - base] = s[nv - 1];
+                float* qv = q > 0
+                                ? m.quantiles.data() + (v - base) * static_cast<std::size_t>(q + 1)
+                                : nullptr;
+                float* iqr = m.iqr.data() + 2 * (v - base);
                 const bool constantVoxel = s[0] == s[nv - 1];
                 if (constantVoxel) ++lConstant;
                 if (dequantized) {
@@ -252,7 +277,7 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     // A point mass: every boundary is the common value (SPEC §2).
                     if (qv) std::fill(qv, qv + q + 1, s[0]);
                     iqr[0] = iqr[1] = s[0];
-                    if (kde) bandwidths[v] = std::numeric_limits<float>::quiet_NaN();
+                    if (kde) t.bandwidths[v] = std::numeric_limits<float>::quiet_NaN();
                 } else if (!kde) {
                     // numpy's linear quantile at t_j; b_0 = min and b_q = max exactly.
                     for (int j = 0; qv && j <= q; ++j)
@@ -262,7 +287,7 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                 } else {
                     // b_j = F⁻¹(t_j), tails at ε and 1 − ε; Newton from the sample quantile.
                     const double h = kdeBandwidth(sorted, mom.stddev, opt.bandwidth);
-                    bandwidths[v] = static_cast<float>(h);
+                    t.bandwidths[v] = static_cast<float>(h);
                     auto inv = [&](double p) {
                         return kdeQuantile(sorted, h, p, empiricalQuantile(sorted, p));
                     };
@@ -290,11 +315,11 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                 const std::size_t stride = static_cast<std::size_t>(3 * K);
                 // Voxels i0..i1 of the chunk, all with n samples.
                 auto fitRun = [&](std::size_t i0, std::size_t i1) {
-                    fitGmmMany(
-                        std::span<const float>(buf.data() + i0 * un, (i1 - i0) * un), un, gmmOpt,
-                        c0 + i0,
-                        std::span<float>(m.gmm.data() + (c0 + i0) * stride, (i1 - i0) * stride),
-                        std::span<GmmFitInfo>(infos.data() + i0, i1 - i0), ws);
+                    fitGmmMany(std::span<const float>(buf.data() + i0 * un, (i1 - i0) * un), un,
+                               gmmOpt, c0 + i0,
+                               std::span<float>(m.gmm.data() + (c0 - base + i0) * stride,
+                                                (i1 - i0) * stride),
+                               std::span<GmmFitInfo>(infos.data() + i0, i1 - i0), ws);
                 };
                 if (!skipNonFinite) fitRun(0, cnt);
                 for (std::size_t i = 0; skipNonFinite && i < cnt;) {
@@ -308,7 +333,7 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     // Fewer samples than n: alone, same stream (as in a batch, bit for bit).
                     infos[i] = fitGmm(
                         std::span<const float>(buf.data() + i * un, finite[i]), gmmOpt, c0 + i,
-                        std::span<float>(m.gmm.data() + (c0 + i) * stride, stride), ws);
+                        std::span<float>(m.gmm.data() + (c0 - base + i) * stride, stride), ws);
                     ++i;
                 }
                 for (std::size_t i = 0; i < cnt; ++i) {
@@ -331,7 +356,28 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
         fewerDistinct += lFewer;
         iterations += lIterations;
     });
+    t.constant += constant;
+    t.notConverged += notConverged;
+    t.fewerDistinct += fewerDistinct;
+    t.iterations += iterations;
+    t.gatherCpu += gatherCpu;
+    t.estimateCpu += estimateCpu;
+    t.gmmCpu += gmmCpu;
+}
 
+/// The field data of a model built from n samples per voxel over `voxels` voxels (the arrays
+/// are buildSlab's), and the report's totals.
+void finishModel(ModelVolume& m, int n, std::size_t voxels, const BuildOptions& opt,
+                 const InputScan& scan, double valueStep, CoreTotals& t, BuildReport* report,
+                 std::chrono::steady_clock::time_point start) {
+    const bool kde = opt.density == DensityEstimate::Kde;
+    const bool dequantized = opt.density == DensityEstimate::Dequantized;
+    const double eps = opt.tailEps > 0.0 ? opt.tailEps : 0.5 / static_cast<double>(n);
+    m.quantileCount = opt.quantiles;
+    m.quantileLevels =
+        normalizedQuantileLevels(opt.quantileLevels, opt.quantiles, "--quantile-levels");
+    m.gmmComponents = opt.gmmComponents;
+    std::vector<float>& bandwidths = t.bandwidths;
     m.density = densityEstimateName(opt.density);
     m.bandwidthRule = kde ? opt.bandwidthText : "";
     m.tailEps = kde ? eps : 0.0;
@@ -357,20 +403,36 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     if (report) {
         report->voxels = voxels;
         report->samplesPerVoxel = n;
-        report->constantVoxels = constant;
-        report->gmmNotConverged = notConverged;
-        report->gmmFewerDistinct = fewerDistinct;
-        const std::size_t fitted = voxels - constant;
+        report->constantVoxels = t.constant;
+        report->gmmNotConverged = t.notConverged;
+        report->gmmFewerDistinct = t.fewerDistinct;
+        const std::size_t fitted = voxels - t.constant;
         report->meanGmmIterations =
-            fitted > 0 ? static_cast<double>(iterations) / static_cast<double>(fitted) : 0.0;
+            fitted > 0 ? static_cast<double>(t.iterations) / static_cast<double>(fitted) : 0.0;
         report->dataMin = scan.min;
         report->dataMax = scan.max;
-        report->gatherCpu = gatherCpu;
-        report->estimateCpu = estimateCpu;
-        report->gmmCpu = gmmCpu;
+        report->gatherCpu = t.gatherCpu;
+        report->estimateCpu = t.estimateCpu;
+        report->gmmCpu = t.gmmCpu;
         report->seconds +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
+}
+
+/// The statistics of SPEC §2 for every voxel of `grid`, in memory (buildSlab over all voxels).
+template <class Gather>
+ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const BuildOptions& opt,
+                      const InputScan& scan, double valueStep, bool bricks, BuildReport* report) {
+    const auto start = std::chrono::steady_clock::now();
+    const bool skipNonFinite = opt.nan == NanPolicy::Skip && scan.nonFinite > 0;
+    const std::size_t voxels = grid.pointCount();
+    if (skipNonFinite)
+        checkFiniteCounts(countFinite(0, voxels, n, gather), grid, n, bricks, report);
+    CoreTotals totals;
+    if (opt.density == DensityEstimate::Kde) totals.bandwidths.resize(voxels);
+    ModelVolume m;
+    buildSlab(grid, 0, voxels, n, gather, opt, scan, valueStep, m, totals);
+    finishModel(m, n, voxels, opt, scan, valueStep, totals, report, start);
     return m;
 }
 
@@ -586,6 +648,231 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
     m.downsample = k;
     m.bounds = f.grid.bounds();
     m.fullResMinSpacing = f.grid.minSpacing();
+    return m;
+}
+
+// ---- out of core ---------------------------------------------------------------------------
+
+std::size_t modelBytesPerVoxel(const BuildOptions& o) {
+    const std::size_t q = o.quantiles > 0 ? static_cast<std::size_t>(o.quantiles) + 1 : 0;
+    return sizeof(float) * (4 + 2 + q + 3 * static_cast<std::size_t>(o.gmmComponents));
+}
+
+namespace {
+
+using GatherFn = std::function<void(std::size_t, std::size_t, float*)>;
+
+double secondsSince(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+/// The passes of an out-of-core build over slabs of `slabPlanes` model z-planes (k input planes
+/// each): the scan, the finite counts (--nan skip with NaN/Inf only), the statistics.
+/// scanSlab(buf, mz0, mz1, scan) scans the samples of model planes [mz0, mz1) held in buf (the
+/// input planes [k·mz0, k·mz1) as SlabRead fills them); gatherFor(buf, mz0, mz1) gives the
+/// gather of those voxels, by their index in the model grid.
+ModelVolume streamBuild(
+    const SlabInput& in, const Grid3& grid, int k, int slabPlanes, int n, bool bricks,
+    const BuildOptions& options, const SlabSink& sink, const SlabProgress& progress,
+    BuildReport* report,
+    const std::function<void(std::span<const float>, int, int, InputScan&)>& scanSlab,
+    const std::function<GatherFn(std::span<const float>, int, int)>& gatherFor) {
+    const auto start = std::chrono::steady_clock::now();
+    const int Z = grid.dims[2];
+    UDVR_CHECK(slabPlanes >= 1 && in.read);
+    slabPlanes = std::min(slabPlanes, Z);
+    const int slabs = (Z + slabPlanes - 1) / slabPlanes;
+    const std::size_t inPlane =
+        static_cast<std::size_t>(in.grid.dims[0]) * static_cast<std::size_t>(in.grid.dims[1]);
+    const std::size_t modelPlane =
+        static_cast<std::size_t>(grid.dims[0]) * static_cast<std::size_t>(grid.dims[1]);
+    const std::size_t voxels = grid.pointCount();
+    std::vector<float> buf;  // one slab of the input, member-major
+    double readSeconds = 0.0;
+    struct Slab {
+        int mz0, mz1;
+        std::size_t first, count;  // model voxels
+    };
+    auto slabAt = [&](int s) {
+        Slab sl;
+        sl.mz0 = s * slabPlanes;
+        sl.mz1 = std::min(Z, sl.mz0 + slabPlanes);
+        sl.first = static_cast<std::size_t>(sl.mz0) * modelPlane;
+        sl.count = static_cast<std::size_t>(sl.mz1 - sl.mz0) * modelPlane;
+        return sl;
+    };
+    auto read = [&](const Slab& sl) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const std::size_t size = static_cast<std::size_t>(in.members) *
+                                 static_cast<std::size_t>((sl.mz1 - sl.mz0) * k) * inPlane;
+        if (buf.empty()) resizeLarge(buf, size);  // the first slab is the largest
+        in.read(sl.mz0 * k, sl.mz1 * k, std::span<float>(buf.data(), size));
+        readSeconds += secondsSince(t0);
+        return std::span<const float>(buf.data(), size);
+    };
+    auto barFor = [&](const char* pass, int s, const Slab& sl) -> ProgressBar* {
+        return progress ? progress(pass, s, slabs, sl.count) : nullptr;
+    };
+
+    // Pass 1: non-finite samples and the range, over the whole input.
+    InputScan scan;
+    double scanCpu = 0.0;
+    for (int s = 0; s < slabs; ++s) {
+        const Slab sl = slabAt(s);
+        ProgressBar* bar = barFor("scan", s, sl);
+        const std::span<const float> data = read(sl);
+        const double t0 = threadCpuSeconds();
+        scanSlab(data, sl.mz0, sl.mz1, scan);
+        scanCpu += threadCpuSeconds() - t0;
+        if (bar) bar->advance(sl.count);
+    }
+    if (scan.nonFinite > 0 && options.nan == NanPolicy::Error)
+        failNonFinite(scan, in.grid, !bricks);
+    if (report) {
+        *report = BuildReport{};
+        report->scanCpu = scanCpu;
+        report->slabs = slabs;
+    }
+    if (options.nan == NanPolicy::Skip && scan.nonFinite > 0) {
+        FiniteCounts counts;
+        for (int s = 0; s < slabs; ++s) {
+            const Slab sl = slabAt(s);
+            ProgressBar* bar = barFor("count", s, sl);
+            const std::span<const float> data = read(sl);
+            counts.merge(countFinite(sl.first, sl.count, n, gatherFor(data, sl.mz0, sl.mz1)));
+            if (bar) bar->advance(sl.count);
+        }
+        checkFiniteCounts(counts, grid, n, bricks, report);
+    }
+
+    // Pass 2: the statistics, slab by slab, each handed to the sink.
+    CoreTotals totals;
+    if (options.density == DensityEstimate::Kde) totals.bandwidths.resize(voxels);
+    BuildOptions opt = options;
+    ModelVolume slabModel;
+    for (int s = 0; s < slabs; ++s) {
+        const Slab sl = slabAt(s);
+        opt.progress = barFor("build", s, sl);
+        const std::span<const float> data = read(sl);
+        buildSlab(grid, sl.first, sl.count, n, gatherFor(data, sl.mz0, sl.mz1), opt, scan,
+                  in.valueStep, slabModel, totals);
+        sink(slabModel, sl.first);
+    }
+    ModelVolume m;
+    m.grid = grid;
+    finishModel(m, n, voxels, options, scan, in.valueStep, totals, report, start);
+    if (report) {
+        report->readSeconds = readSeconds;
+        report->seconds -= readSeconds;
+    }
+    return m;
+}
+
+}  // namespace
+
+ModelVolume buildModelStreamed(const SlabInput& in, int slabPlanes, const BuildOptions& opt,
+                               const SlabSink& sink, const SlabProgress& progress,
+                               BuildReport* report) {
+    if (in.members < 2)
+        UDVR_FAIL("the ensemble has " << in.members << " member(s); build needs at least 2");
+    UDVR_CHECK(in.grid.pointCount() > 0);
+    validateBuildOptions(opt, in.members);
+    checkDensityForInput(opt.density, in.valueStep, in.valueType);
+    const int n = in.members;
+    const std::size_t plane =
+        static_cast<std::size_t>(in.grid.dims[0]) * static_cast<std::size_t>(in.grid.dims[1]);
+    auto scanSlab = [&](std::span<const float> data, int z0, int z1, InputScan& scan) {
+        const std::size_t first = static_cast<std::size_t>(z0) * plane;
+        const std::size_t count = static_cast<std::size_t>(z1 - z0) * plane;
+        std::mutex mutex;
+        parallelForChunks(count, 1 << 16, [&](std::size_t b, std::size_t end) {
+            InputScan local;
+            for (int mIdx = 0; mIdx < n; ++mIdx) {
+                const float* row = data.data() + static_cast<std::size_t>(mIdx) * count;
+                for (std::size_t v = b; v < end; ++v) local.add(row[v], first + v, mIdx);
+            }
+            std::lock_guard<std::mutex> lock(mutex);
+            scan.merge(local);
+        });
+    };
+    auto gatherFor = [&](std::span<const float> data, int z0, int z1) -> GatherFn {
+        const std::size_t first = static_cast<std::size_t>(z0) * plane;
+        const std::size_t count = static_cast<std::size_t>(z1 - z0) * plane;
+        const float* base = data.data();
+        return [=](std::size_t v0, std::size_t v1, float* buf) {
+            for (int mIdx = 0; mIdx < n; ++mIdx) {
+                const float* row = base + static_cast<std::size_t>(mIdx) * count - first;
+                for (std::size_t v = v0; v < v1; ++v)
+                    buf[(v - v0) * static_cast<std::size_t>(n) + static_cast<std::size_t>(mIdx)] =
+                        row[v];
+            }
+        };
+    };
+    ModelVolume m = streamBuild(in, in.grid, 1, slabPlanes, n, false, opt, sink, progress, report,
+                                scanSlab, gatherFor);
+    m.downsample = 0;
+    m.bounds = in.grid.bounds();
+    m.fullResMinSpacing = in.grid.minSpacing();
+    return m;
+}
+
+ModelVolume buildModelDownsampledStreamed(const SlabInput& in, int k, int slabBricks,
+                                          const BuildOptions& opt, const SlabSink& sink,
+                                          const SlabProgress& progress, BuildReport* report) {
+    const Grid3& f = in.grid;
+    const Grid3 g = downsampledGrid(f, k);
+    UDVR_CHECK(in.members == 1);
+    const int n = k * k * k;
+    validateBuildOptions(opt, n);
+    checkDensityForInput(opt.density, in.valueStep, in.valueType);
+    const int usedX = g.dims[0] * k, usedY = g.dims[1] * k;
+    const auto Xin = static_cast<std::size_t>(f.dims[0]);
+    const auto Yin = static_cast<std::size_t>(f.dims[1]);
+    const std::size_t inPlane = Xin * Yin;
+    auto scanSlab = [&](std::span<const float> data, int mz0, int mz1, InputScan& scan) {
+        const int z0 = mz0 * k, z1 = mz1 * k;
+        std::mutex mutex;
+        parallelForChunks(static_cast<std::size_t>(z1 - z0), 1, [&](std::size_t b, std::size_t e) {
+            InputScan local;
+            for (auto zl = static_cast<int>(b); zl < static_cast<int>(e); ++zl)
+                for (int y = 0; y < usedY; ++y) {
+                    const std::size_t row =
+                        static_cast<std::size_t>(zl) * inPlane + static_cast<std::size_t>(y) * Xin;
+                    const std::size_t global = f.index(0, y, z0 + zl);
+                    for (int x = 0; x < usedX; ++x)
+                        local.add(data[row + static_cast<std::size_t>(x)],
+                                  global + static_cast<std::size_t>(x), -1);
+                }
+            std::lock_guard<std::mutex> lock(mutex);
+            scan.merge(local);
+        });
+    };
+    const auto X = static_cast<std::size_t>(g.dims[0]);
+    const auto Y = static_cast<std::size_t>(g.dims[1]);
+    const auto uk = static_cast<std::size_t>(k);
+    auto gatherFor = [&](std::span<const float> data, int mz0, int) -> GatherFn {
+        const float* base = data.data();
+        return [=](std::size_t v0, std::size_t v1, float* buf) {
+            for (std::size_t v = v0; v < v1; ++v) {
+                const std::size_t i = v % X, j = (v / X) % Y, kz = v / (X * Y);
+                float* dst = buf + (v - v0) * static_cast<std::size_t>(n);
+                for (std::size_t c = 0; c < uk; ++c)
+                    for (std::size_t b = 0; b < uk; ++b) {
+                        const std::size_t zl = (kz - static_cast<std::size_t>(mz0)) * uk + c;
+                        const float* src = base + zl * inPlane + (j * uk + b) * Xin + i * uk;
+                        std::copy(src, src + uk, dst);
+                        dst += uk;
+                    }
+            }
+        };
+    };
+    ModelVolume m = streamBuild(in, g, k, slabBricks, n, true, opt, sink, progress, report,
+                                scanSlab, gatherFor);
+    if (report)
+        for (int a = 0; a < 3; ++a) report->droppedPlanes[a] = f.dims[a] % k;
+    m.downsample = k;
+    m.bounds = f.bounds();
+    m.fullResMinSpacing = f.minSpacing();
     return m;
 }
 

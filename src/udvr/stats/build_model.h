@@ -2,6 +2,8 @@
 // `udvr build`'s library half (SPEC §2): per-voxel samples from an ensemble or from K³ bricks of
 // one field → a ModelVolume with moments, quantile boundaries, IQR and a GMM.
 #include <cstdint>
+#include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -52,6 +54,8 @@ struct BuildReport {
     double dataMin = 0.0, dataMax = 0.0;        // over all samples
     std::array<int, 3> droppedPlanes{0, 0, 0};  // downsampling: trailing N mod K planes per axis
     double seconds = 0.0;                       // check + statistics
+    int slabs = 0;             // out-of-core builds: slabs of z-planes (0: in memory)
+    double readSeconds = 0.0;  // out-of-core builds: wall time reading the input (both passes)
     /// CPU seconds of each stage, summed over the threads (thread CPU clocks, so another
     /// process on the same cores does not inflate them): the NaN/range scan, the gather of a
     /// chunk's samples, sorting + moments + quantiles + IQR, and the GMM (seeding and EM).
@@ -104,5 +108,49 @@ Grid3 downsampledGrid(const Grid3& full, int k);
 /// as in buildModel: the first point, or with Skip the brick's finite values only).
 ModelVolume buildModelDownsampled(const ScalarField& field, int k, const BuildOptions& options,
                                   BuildReport* report = nullptr);
+
+// ---- out of core (issue 15) -------------------------------------------------------------------
+// An input read a slab of whole z-planes at a time, the model handed on a slab at a time: the
+// same model, bit for bit, in memory for one slab. Every voxel's statistics depend on its own
+// samples, the whole input's range (the GMM's σ floor) and its index (the GMM's random stream)
+// only; so the input is read twice: a scan of the range and NaN/Inf first, then the statistics.
+
+/// Fills planes [z0, z1) of every member (one for a field), member-major: member m's planes at
+/// out[m·(z1 − z0)·X·Y …], x fastest.
+using SlabRead = std::function<void(int z0, int z1, std::span<float> out)>;
+/// Receives the model's voxels [first, first + slab.mean.size()): whole z-planes of the model
+/// grid, in order.
+using SlabSink = std::function<void(const ModelVolume& slab, std::size_t first)>;
+/// Called before each slab of each pass ("scan", "count" (--nan skip), "build"; slab of slabs,
+/// voxels in it); returns the progress bar to advance by voxels (may be null).
+using SlabProgress =
+    std::function<ProgressBar*(const char* pass, int slab, int slabs, std::size_t voxels)>;
+
+/// An input to stream: its grid, members (1 for a field) and value type (as Ensemble's).
+struct SlabInput {
+    Grid3 grid;
+    int members = 0;
+    double valueStep = 0.0;
+    std::string valueType;
+    SlabRead read;
+};
+
+/// Bytes of the arrays of one model voxel with these options (mean, stddev, min, max, IQR,
+/// q + 1 boundaries, 3K GMM parameters).
+std::size_t modelBytesPerVoxel(const BuildOptions& options);
+
+/// buildModel reading `slabPlanes` z-planes at a time (the last slab may be thinner); the
+/// arrays go to `sink` slab by slab, the returned model holds the field data only. Same
+/// errors as buildModel.
+ModelVolume buildModelStreamed(const SlabInput& input, int slabPlanes, const BuildOptions& options,
+                               const SlabSink& sink, const SlabProgress& progress = {},
+                               BuildReport* report = nullptr);
+
+/// buildModelDownsampled reading `slabBricks`·K field z-planes (slabBricks reduced planes) at a
+/// time; input.members must be 1. As buildModelStreamed otherwise.
+ModelVolume buildModelDownsampledStreamed(const SlabInput& input, int k, int slabBricks,
+                                          const BuildOptions& options, const SlabSink& sink,
+                                          const SlabProgress& progress = {},
+                                          BuildReport* report = nullptr);
 
 }  // namespace udvr
