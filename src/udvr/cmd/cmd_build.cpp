@@ -1,7 +1,7 @@
 // udvr build {ensemble.nc | member files… | 'glob*' | field --downsample K} [--quantiles 8]
 //   [--gmm 4] [--density empirical|kde|dequantized] [--bandwidth silverman|scott|H]
-//   [--tail-eps E] [--var NAME] [--member-dim NAME] [--nan error|skip] -o model.vti
-//                                                                            (SPEC §2, §7, §8)
+//   [--tail-eps E] [--var NAME] [--member-dim NAME] [--nan error|skip]
+//   [--memory-limit BYTES|auto] [--slab-height N] -o model.vti          (SPEC §2, §7, §8; issue 15)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -17,6 +17,7 @@
 #include "udvr/io/model_io.h"
 #include "udvr/stats/build_model.h"
 #include "udvr/util/check.h"
+#include "udvr/util/memory.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/progress.h"
 
@@ -44,6 +45,57 @@ void fitOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven, bo
                      static_cast<int>(std::min<long long>(samples, 1 << 30)), notes.info.c_str());
 }
 
+/// How much an out-of-core build may hold (--memory-limit), and why, for the plan's line.
+struct MemoryLimit {
+    std::size_t bytes = 0;
+    std::string text;
+};
+
+MemoryLimit parseMemoryLimit(const std::string& value) {
+    MemoryLimit m;
+    if (value == "auto") {
+        const MemoryHeadroom h = memoryHeadroom();
+        // Half: room for the page cache the reads go through, and for other processes.
+        m.bytes = h.bytes > 0 ? h.bytes / 2 : std::numeric_limits<std::size_t>::max() / 4;
+        m.text = byteSizeText(m.bytes) + " (auto: half of " +
+                 (h.bytes > 0 ? byteSizeText(h.bytes) + " of " + h.source : "unknown memory") + ")";
+    } else {
+        m.bytes = parseByteSize(value, "--memory-limit");
+        m.text = value;
+    }
+    return m;
+}
+
+/// The slab height in model z-planes: --slab-height (input planes, a multiple of K), or the
+/// most that fit the limit; 0 where the whole volume fits (the in-memory build).
+int planSlabs(const BuildMemory& mem, const MemoryLimit& limit, int modelZ, int k, int forced,
+              const std::string& what) {
+    if (forced > 0) return std::max(forced / std::max(k, 1), 1);
+    const int planes = mem.planesWithin(limit.bytes);
+    if (planes >= modelZ) return 0;
+    if (planes == 0)
+        UDVR_FAIL("--memory-limit " << limit.text << " is too small for this build: a slab of "
+                                    << (k > 1 ? std::to_string(k) + " z-planes (one brick)"
+                                              : std::string("one z-plane"))
+                                    << " of " << what << " needs about "
+                                    << byteSizeText(mem.fixed + mem.perPlane)
+                                    << "; give at least that (more for fewer, thicker slabs)");
+    return planes;
+}
+
+/// One progress bar per slab and pass.
+struct SlabBars {
+    std::unique_ptr<ProgressBar> bar;
+    ProgressBar* next(const char* pass, int slab, int slabs, std::size_t voxels) {
+        bar.reset();
+        bar = std::make_unique<ProgressBar>(std::string("build ") + pass + " slab " +
+                                                std::to_string(slab + 1) + "/" +
+                                                std::to_string(slabs),
+                                            voxels);
+        return bar.get();
+    }
+};
+
 }  // namespace
 
 void addBuildCommand(CLI::App& app) {
@@ -60,6 +112,9 @@ void addBuildCommand(CLI::App& app) {
         CLI::Option* tailEpsOpt = nullptr;
         CLI::Option* gmmOpt = nullptr;
         CLI::Option* quantilesOpt = nullptr;
+        std::string memoryLimit = "auto";
+        int slabHeight = 0;
+        CLI::Option* slabHeightOpt = nullptr;
         RawLayoutFlags raw;  // headerless .raw inputs
     };
     auto o = std::make_shared<Opts>();
@@ -90,6 +145,14 @@ void addBuildCommand(CLI::App& app) {
     sub->add_option("--nan", o->nan,
                     "NaN/Inf samples (and NetCDF fill values): error (default; names the first "
                     "voxel and member) | skip (each voxel from its finite samples, at least 2)");
+    sub->add_option("--memory-limit", o->memoryLimit,
+                    "BYTES (512M, 4G, ...) or auto (default: half of the available memory): "
+                    "an input and model larger than this are built out of core, a slab of "
+                    "z-planes at a time (the same model, bit for bit)");
+    o->slabHeightOpt = sub->add_option(
+        "--slab-height", o->slabHeight,
+        "N: build out of core in slabs of N input z-planes (a multiple of K with --downsample) "
+        "whatever the memory (for tests)");
     sub->add_option("-o,--output", o->out, "output model .vti")->required();
     addRawLayoutOptions(sub, o->raw);
 
@@ -121,6 +184,16 @@ void addBuildCommand(CLI::App& app) {
         // What does not depend on the input is checked before it is read (the sample count
         // is then assumed large enough; fitOptionsToSamples checks against the real one).
         validateBuildOptions(opt, std::numeric_limits<int>::max());
+        const MemoryLimit limit = parseMemoryLimit(o->memoryLimit);
+        const int forcedSlab = o->slabHeightOpt->count() > 0 ? o->slabHeight : 0;
+        if (o->slabHeightOpt->count() > 0 && o->slabHeight < 1)
+            UDVR_FAIL("--slab-height " << o->slabHeight
+                                       << " is out of range; expected a number of z-planes >= 1");
+        if (forcedSlab > 0 && bricks && o->downsample >= 2 && forcedSlab % o->downsample != 0)
+            UDVR_FAIL("--slab-height " << forcedSlab << " is not a multiple of --downsample "
+                                       << o->downsample
+                                       << "; bricks need whole K-plane slabs, e.g. --slab-height "
+                                       << std::max(forcedSlab / o->downsample, 1) * o->downsample);
         for (const std::string& in : o->inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
         if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
 
@@ -129,7 +202,55 @@ void addBuildCommand(CLI::App& app) {
         ModelVolume model;
         BuildReport rep;
         std::string what;
-        double readSeconds = 0.0;
+        double readSeconds = 0.0, writeSeconds = 0.0;
+        bool written = false;  // by the out-of-core build, slab by slab
+        SlabBars bars;
+        auto progress = [&bars](const char* pass, int slab, int slabs, std::size_t voxels) {
+            return bars.next(pass, slab, slabs, voxels);
+        };
+        // Out of core: the model's slabs go to the writer as they are built.
+        auto streamTo =
+            [&](const Grid3& modelGrid, const SlabReader& r, int planes,
+                const std::function<ModelVolume(const SlabInput&, const SlabSink&)>& run) {
+                if (!r.note.empty()) std::fprintf(stderr, "%s\n", r.note.c_str());
+                const int slabPlanes = std::min(planes, modelGrid.dims[2]);
+                const int slabs = (modelGrid.dims[2] + slabPlanes - 1) / slabPlanes;
+                const int k = bricks ? o->downsample : 1;
+                const BuildMemory mem =
+                    buildMemory(r.grid, r.members, k, opt, r.scratchPerPlane, r.scratchFixed);
+                const int lastPlanes = modelGrid.dims[2] - (slabs - 1) * slabPlanes;
+                const std::string last = lastPlanes != slabPlanes
+                                             ? " (the last " + std::to_string(lastPlanes * k) + ")"
+                                             : std::string();
+                const std::size_t bytes = mem.fixed + residentBytes() +
+                                          static_cast<std::size_t>(slabPlanes) * mem.perPlane;
+                std::fprintf(
+                    stderr,
+                    "build: out of core: %d slab%s of %d z-plane%s%s, about %s in memory "
+                    "(limit %s)%s\n",
+                    slabs, slabs == 1 ? "" : "s", slabPlanes * k, slabPlanes * k == 1 ? "" : "s",
+                    last.c_str(), byteSizeText(bytes).c_str(), limit.text.c_str(),
+                    r.wholeMembers ? "; VTI/NRRD members are read whole for every slab" : "");
+                ModelVtiStreamWriter writer(o->out, modelGrid, opt.quantiles, opt.gmmComponents);
+                SlabInput in;
+                in.grid = r.grid;
+                in.members = r.members;
+                in.valueStep = r.valueStep;
+                in.valueType = r.valueType;
+                in.read = r.read;
+                auto sink = [&](const ModelVolume& slab, std::size_t) {
+                    const auto ts = std::chrono::steady_clock::now();
+                    writer.append(slab);
+                    writeSeconds += secondsSince(ts);
+                };
+                model = run(in, sink);
+                bars.bar.reset();
+                const auto tf = std::chrono::steady_clock::now();
+                writer.finish(model);
+                writeSeconds += secondsSince(tf);
+                readSeconds = rep.readSeconds;
+                written = true;
+            };
         if (bricks) {
             if (o->inputs.size() != 1)
                 UDVR_FAIL("--downsample takes one field, got " << o->inputs.size() << " inputs");
@@ -137,35 +258,60 @@ void addBuildCommand(CLI::App& app) {
             ro.var = o->var;
             ro.raw = toRawLayout(o->raw);
             ro.allowMissing = skipNan;  // build's own scan reports them by policy
-            ScalarField f;
-            try {
-                f = readField(o->inputs[0], ro);
-            } catch (const EnsembleNotFieldError& e) {
+            auto notAField = [&](const EnsembleNotFieldError& e) {
                 UDVR_FAIL(e.file << " holds a " << e.members << "-member ensemble (variable '"
                                  << e.var << "', dims " << e.dims
                                  << "): --downsample reduces one field; drop --downsample to "
                                     "build the model from the "
                                  << e.members << " members");
+            };
+            SlabReader r;
+            try {
+                r = openFieldSlabs(o->inputs[0], ro);
+            } catch (const EnsembleNotFieldError& e) {
+                notAField(e);
             }
-            readSeconds = secondsSince(t0);
-            checkDensityForInput(opt.density, f.valueStep, f.valueType);
-            const Grid3 reduced = downsampledGrid(f.grid, o->downsample);
+            checkDensityForInput(opt.density, r.valueStep, r.valueType);
+            const Grid3 reduced = downsampledGrid(r.grid, o->downsample);
             const long long k = o->downsample;
             fitOptionsToSamples(opt, k * k * k, o->gmmOpt->count() > 0,
                                 o->quantilesOpt->count() > 0);
-            ProgressBar bar("build", reduced.pointCount());
-            opt.progress = &bar;
-            model = buildModelDownsampled(f, o->downsample, opt, &rep);
-            bar.finish();
+            BuildMemory mem =
+                buildMemory(r.grid, 1, o->downsample, opt, r.scratchPerPlane, r.scratchFixed);
+            mem.fixed += residentBytes();
+            const Grid3 inputGrid = r.grid;
+            const std::string field = std::to_string(r.grid.dims[0]) + "x" +
+                                      std::to_string(r.grid.dims[1]) + " field values";
+            const int planes =
+                planSlabs(mem, limit, reduced.dims[2], o->downsample, forcedSlab, field);
+            if (planes > 0) {
+                streamTo(reduced, r, planes, [&](const SlabInput& in, const SlabSink& sink) {
+                    return buildModelDownsampledStreamed(in, o->downsample, planes, opt, sink,
+                                                         progress, &rep);
+                });
+            } else {
+                r = SlabReader{};  // what it read to open the field
+                ScalarField f;
+                try {
+                    f = readField(o->inputs[0], ro);
+                } catch (const EnsembleNotFieldError& e) {
+                    notAField(e);
+                }
+                readSeconds = secondsSince(t0);
+                ProgressBar bar("build", reduced.pointCount());
+                opt.progress = &bar;
+                model = buildModelDownsampled(f, o->downsample, opt, &rep);
+                bar.finish();
+            }
             if (rep.droppedPlanes != std::array<int, 3>{0, 0, 0})
                 std::fprintf(stderr,
                              "build: %dx%dx%d is not a multiple of %d; left out the trailing "
                              "%d,%d,%d planes in x,y,z\n",
-                             f.grid.dims[0], f.grid.dims[1], f.grid.dims[2], o->downsample,
+                             inputGrid.dims[0], inputGrid.dims[1], inputGrid.dims[2], o->downsample,
                              rep.droppedPlanes[0], rep.droppedPlanes[1], rep.droppedPlanes[2]);
-            what = std::to_string(f.grid.dims[0]) + "x" + std::to_string(f.grid.dims[1]) + "x" +
-                   std::to_string(f.grid.dims[2]) + " field in " + std::to_string(o->downsample) +
-                   "^3 bricks";
+            what = std::to_string(inputGrid.dims[0]) + "x" + std::to_string(inputGrid.dims[1]) +
+                   "x" + std::to_string(inputGrid.dims[2]) + " field in " +
+                   std::to_string(o->downsample) + "^3 bricks";
         } else {
             const std::string& first = o->inputs[0];
             if (o->inputs.size() == 1 && first.find_first_of("*?[") == std::string::npos &&
@@ -178,21 +324,38 @@ void addBuildCommand(CLI::App& app) {
             ro.memberDim = o->memberDim;
             ro.raw = toRawLayout(o->raw);
             ro.allowMissing = skipNan;
-            const Ensemble e = readEnsemble(o->inputs, ro);
-            readSeconds = secondsSince(t0);
-            checkDensityForInput(opt.density, e.valueStep, e.valueType);
+            SlabReader r = openEnsembleSlabs(o->inputs, ro);
+            checkDensityForInput(opt.density, r.valueStep, r.valueType);
             // Checks the options before the bar is drawn.
-            fitOptionsToSamples(opt, e.members, o->gmmOpt->count() > 0,
+            fitOptionsToSamples(opt, r.members, o->gmmOpt->count() > 0,
                                 o->quantilesOpt->count() > 0);
-            ProgressBar bar("build", e.grid.pointCount());
-            opt.progress = &bar;
-            model = buildModel(e, opt, &rep);
-            bar.finish();
-            what = std::to_string(e.members) + "-member ensemble";
+            BuildMemory mem =
+                buildMemory(r.grid, r.members, 1, opt, r.scratchPerPlane, r.scratchFixed);
+            mem.fixed += residentBytes();
+            const int planes = planSlabs(mem, limit, r.grid.dims[2], 1, forcedSlab,
+                                         std::to_string(r.members) + " members of " +
+                                             std::to_string(r.grid.dims[0]) + "x" +
+                                             std::to_string(r.grid.dims[1]) + " values");
+            if (planes > 0) {
+                streamTo(r.grid, r, planes, [&](const SlabInput& in, const SlabSink& sink) {
+                    return buildModelStreamed(in, planes, opt, sink, progress, &rep);
+                });
+            } else {
+                r = SlabReader{};
+                const Ensemble e = readEnsemble(o->inputs, ro);
+                readSeconds = secondsSince(t0);
+                ProgressBar bar("build", e.grid.pointCount());
+                opt.progress = &bar;
+                model = buildModel(e, opt, &rep);
+                bar.finish();
+            }
+            what = std::to_string(model.samplesPerVoxel) + "-member ensemble";
         }
-        auto t1 = std::chrono::steady_clock::now();
-        writeModelVti(o->out, model);
-        const double writeSeconds = secondsSince(t1);
+        if (!written) {
+            auto t1 = std::chrono::steady_clock::now();
+            writeModelVti(o->out, model);
+            writeSeconds = secondsSince(t1);
+        }
 
         const auto& d = model.grid.dims;
         std::fprintf(
@@ -226,6 +389,14 @@ void addBuildCommand(CLI::App& app) {
                      "sort+moments+quantiles %.2f, GMM %.2f s), write %.2f s -> %s\n",
                      readSeconds, rep.seconds, rep.scanCpu, rep.gatherCpu, rep.estimateCpu,
                      rep.gmmCpu, writeSeconds, o->out.c_str());
+        if (written) {
+            const double total = secondsSince(t0);
+            const double samples = static_cast<double>(rep.voxels) * rep.samplesPerVoxel;
+            std::fprintf(stderr,
+                         "build: out of core: %d slab(s), the input read twice (range scan, then "
+                         "statistics); %.3g samples/s over %.1f s\n",
+                         rep.slabs, total > 0.0 ? samples / total : 0.0, total);
+        }
     });
 }
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <memory>
 #include <string_view>
 
 #include "udvr/io/io_detail.h"
@@ -97,7 +98,11 @@ void detail::storeMember(Ensemble& e, int m, std::span<const float> values) {
     for (std::size_t p = 0; p < n; ++p) out[p * members] = values[p];
 }
 
-Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleReadOptions& options) {
+namespace {
+
+/// The member files of `inputs` (globs expanded, in natural order), or the one NetCDF file of
+/// a member-dimension ensemble (a list of one).
+std::vector<std::string> ensembleFiles(const std::vector<std::string>& inputs) {
     std::vector<std::string> files;
     for (const auto& in : inputs) {
         if (isGlobPattern(in) && !fs::exists(in)) {
@@ -110,9 +115,7 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
     if (files.empty()) UDVR_FAIL("no ensemble input given (one .nc file or at least 2 members)");
     if (files.size() == 1) {
         std::string ext = detail::lowerExtension(files[0]);
-        if (ext == ".nc" || ext == ".nc4" || ext == ".cdf") {
-            return detail::readEnsembleNetcdf(files[0], options);
-        }
+        if (ext == ".nc" || ext == ".nc4" || ext == ".cdf") return files;
         detail::requireFile(files[0]);
         UDVR_FAIL("an ensemble needs at least 2 member files, got 1 (" << files[0] << ")");
     }
@@ -123,6 +126,14 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
             UDVR_FAIL("member file " << files[i] << " is given twice");
         }
     }
+    return files;
+}
+
+}  // namespace
+
+Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleReadOptions& options) {
+    const std::vector<std::string> files = ensembleFiles(inputs);
+    if (files.size() == 1) return detail::readEnsembleNetcdf(files[0], options);
 
     FieldReadOptions fieldOptions;
     fieldOptions.raw = options.raw;
@@ -150,6 +161,70 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
         detail::storeMember(e, static_cast<int>(m), f.values);
     }
     detail::printNote(note);
+    return e;
+}
+
+SlabReader openEnsembleSlabs(const std::vector<std::string>& inputs,
+                             const EnsembleReadOptions& options) {
+    const std::vector<std::string> files = ensembleFiles(inputs);
+    if (files.size() == 1) return detail::openEnsembleNetcdfSlabs(files[0], options);
+    FieldReadOptions fieldOptions;
+    fieldOptions.raw = options.raw;
+    fieldOptions.var = options.var;
+    fieldOptions.allowMissing = options.allowMissing;
+    auto members = std::make_shared<std::vector<SlabReader>>();
+    SlabReader e;
+    e.members = static_cast<int>(files.size());
+    for (std::size_t m = 0; m < files.size(); ++m) {
+        const std::string ext = detail::lowerExtension(files[m]);
+        if (m > 0 && (ext == ".vti" || ext == ".nrrd" || ext == ".nhdr")) {
+            // Read whole for every slab anyway: opened (and its grid checked) at each read, so
+            // that opening the ensemble does not read every member once more.
+            detail::requireFile(files[m]);
+            SlabReader lazy;
+            lazy.wholeMembers = true;
+            const std::string file = files[m], first = files[0];
+            const Grid3 grid = e.grid;
+            lazy.read = [file, first, grid, fieldOptions](int z0, int z1, std::span<float> out) {
+                SlabReader f = openFieldSlabs(file, fieldOptions);
+                if (!sameGrid(f.grid, grid))
+                    UDVR_FAIL("ensemble members on different grids: "
+                              << file << " is " << gridText(f.grid) << ", " << first << " is "
+                              << gridText(grid));
+                f.read(z0, z1, out);
+            };
+            members->push_back(std::move(lazy));
+            continue;
+        }
+        SlabReader f = openFieldSlabs(files[m], fieldOptions);
+        if (m == 0) {
+            e.grid = f.grid;
+            e.name = f.name;
+            e.valueType = f.valueType;
+            e.valueStep = f.valueStep;
+            e.note = f.note;
+        } else if (!sameGrid(f.grid, e.grid)) {
+            UDVR_FAIL("ensemble members on different grids: "
+                      << files[m] << " is " << gridText(f.grid) << ", " << files[0] << " is "
+                      << gridText(e.grid));
+        } else if (f.valueType != e.valueType || f.valueStep != e.valueStep) {
+            e.valueType = "mixed";
+            e.valueStep = 0.0;
+        }
+        // Members are read one after another: the largest scratch counts.
+        e.scratchPerPlane = std::max(e.scratchPerPlane, f.scratchPerPlane);
+        e.scratchFixed = std::max(e.scratchFixed, f.scratchFixed);
+        e.wholeMembers = e.wholeMembers || f.wholeMembers;
+        members->push_back(std::move(f));
+    }
+    const std::size_t plane =
+        static_cast<std::size_t>(e.grid.dims[0]) * static_cast<std::size_t>(e.grid.dims[1]);
+    e.read = [members, plane](int z0, int z1, std::span<float> out) {
+        const std::size_t count = static_cast<std::size_t>(z1 - z0) * plane;
+        UDVR_CHECK(out.size() == count * members->size());
+        for (std::size_t m = 0; m < members->size(); ++m)
+            (*members)[m].read(z0, z1, out.subspan(m * count, count));
+    };
     return e;
 }
 

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <vector>
@@ -776,6 +777,116 @@ void writeField(const fs::path& path, const ScalarField& field) {
     if (ext == ".nc") return writeFieldNetcdf(path, field);
     UDVR_FAIL("cannot write " << path.string() << ": unknown field format '" << ext
                               << "' (expected .vti or .nc)");
+}
+
+// ---- slabs of z-planes (out-of-core build) -----------------------------------------------------
+
+namespace {
+
+/// A headerless raw file read at the slab's offset.
+SlabReader openRawSlabs(const fs::path& path, const RawLayout& layout) {
+    if (!layout.given()) {
+        UDVR_FAIL(path.string() << ": a raw file needs its dims (and type, endianness) given, e.g. "
+                                   "--dims 64,64,64 --type float32");
+    }
+    auto type = rawTypeFromName(layout.type);
+    if (!type) {
+        UDVR_FAIL(path.string() << ": unsupported raw type '" << layout.type
+                                << "' (expected uint8 int8 uint16 int16 uint32 int32 float32 "
+                                   "float64)");
+    }
+    for (int a = 0; a < 3; ++a) {
+        if (!(layout.spacing[a] > 0.0) || !std::isfinite(layout.spacing[a])) {
+            UDVR_FAIL(path.string() << ": spacing must be positive, got " << layout.spacing[a]);
+        }
+        if (!std::isfinite(layout.origin[a]))
+            UDVR_FAIL(path.string() << ": origin must be finite, got " << layout.origin[a]);
+    }
+    SlabReader r;
+    r.grid.dims = layout.dims;
+    r.grid.spacing = layout.spacing;
+    r.grid.origin = layout.origin;
+    r.members = 1;
+    r.name = path.stem().string();
+    const std::size_t ts = typeSize(*type);
+    detail::checkedDataBytes(path, layout.dims, ts);
+    const std::size_t n = r.grid.pointCount();
+    const std::size_t size = static_cast<std::size_t>(fs::file_size(path));
+    if (size != n * ts) {
+        const std::string hint = rawLayoutHint(layout, *type, size);
+        if (!hint.empty())
+            UDVR_FAIL(path.string() << ": size " << size << " bytes does not fit " << layout.dims[0]
+                                    << "x" << layout.dims[1] << "x" << layout.dims[2] << " "
+                                    << layout.type << " (" << n * ts << " bytes) but " << hint);
+    }
+    requireByteCount(path, n * ts, size, "raw data");
+    ScalarField typed;
+    setValueType(typed, *type);
+    r.valueType = typed.valueType;
+    r.valueStep = typed.valueStep;
+    const std::size_t plane =
+        static_cast<std::size_t>(r.grid.dims[0]) * static_cast<std::size_t>(r.grid.dims[1]);
+    r.scratchPerPlane = plane * ts;
+    const ScalarType t = *type;
+    const bool bigEndian = layout.bigEndian;
+    r.read = [path, plane, ts, t, bigEndian](int z0, int z1, std::span<float> out) {
+        const std::size_t count = static_cast<std::size_t>(z1 - z0) * plane;
+        UDVR_CHECK(out.size() == count);
+        std::ifstream in(path, std::ios::binary);
+        std::vector<unsigned char> bytes(count * ts);
+        in.seekg(static_cast<std::streamoff>(static_cast<std::size_t>(z0) * plane * ts));
+        in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+        if (!in || static_cast<std::size_t>(in.gcount()) != bytes.size())
+            UDVR_FAIL(path.string() << ": cannot read z-planes " << z0 << " to " << z1 - 1
+                                    << " (was the file changed while build ran?)");
+        decode(t, bigEndian, bytes.data(), count, out.data());
+    };
+    return r;
+}
+
+/// Any field format, read whole for every slab and the slab's planes kept (VTI, NRRD). The read
+/// that opens it serves the first slab.
+SlabReader openWholeSlabs(const fs::path& path, const FieldReadOptions& options) {
+    FieldReadOptions o = options;
+    o.allowMissing = true;  // build's scan reports NaN/Inf
+    SlabReader r;
+    auto opened = std::make_shared<ScalarField>(detail::readFieldImpl(path, o, &r.note));
+    r.grid = opened->grid;
+    r.name = opened->name;
+    r.valueType = opened->valueType;
+    r.valueStep = opened->valueStep;
+    r.members = 1;
+    r.wholeMembers = true;
+    // The values, and what the reader holds besides while reading: the file's bytes or VTK's
+    // array in the file's type (up to 8 bytes a value) and the compressed data.
+    r.scratchFixed = r.grid.pointCount() * (sizeof(float) + 2 * sizeof(double));
+    const std::size_t plane =
+        static_cast<std::size_t>(r.grid.dims[0]) * static_cast<std::size_t>(r.grid.dims[1]);
+    const Grid3 grid = r.grid;
+    r.read = [path, o, plane, grid, opened](int z0, int z1, std::span<float> out) mutable {
+        ScalarField f = opened && !opened->values.empty() ? std::move(*opened)
+                                                          : detail::readFieldImpl(path, o, nullptr);
+        opened.reset();
+        if (f.grid.dims != grid.dims) UDVR_FAIL(path.string() << " changed while build ran");
+        UDVR_CHECK(out.size() == static_cast<std::size_t>(z1 - z0) * plane);
+        std::copy_n(
+            f.values.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(z0) * plane),
+            out.size(), out.begin());
+    };
+    return r;
+}
+
+}  // namespace
+
+SlabReader openFieldSlabs(const fs::path& path, const FieldReadOptions& options) {
+    detail::requireFile(path);
+    const std::string ext = detail::lowerExtension(path);
+    if (ext == ".nc" || ext == ".nc4" || ext == ".cdf")
+        return detail::openFieldNetcdfSlabs(path, options.var, options.allowMissing);
+    if (ext == ".nrrd" || ext == ".nhdr" || ext == ".vti") return openWholeSlabs(path, options);
+    if (ext == ".raw" || options.raw.given()) return openRawSlabs(path, options.raw);
+    UDVR_FAIL("cannot read " << path.string() << ": unknown field format '" << ext
+                             << "' (expected .raw .nrrd .nhdr .vti .nc)");
 }
 
 }  // namespace udvr

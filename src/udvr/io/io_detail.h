@@ -53,6 +53,12 @@ ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string
                             std::string* geometryNote, bool allowMissing = false);
 /// .nc with a member dimension (netcdf_io.cpp).
 Ensemble readEnsembleNetcdf(const std::filesystem::path& path, const EnsembleReadOptions& options);
+/// A 3D NetCDF variable as readFieldNetcdf finds it / a member-dimension variable as
+/// readEnsembleNetcdf finds it, read as hyperslabs (netcdf_io.cpp).
+SlabReader openFieldNetcdfSlabs(const std::filesystem::path& path, const std::string& var,
+                                bool allowMissing);
+SlabReader openEnsembleNetcdfSlabs(const std::filesystem::path& path,
+                                   const EnsembleReadOptions& options);
 /// Size `e.values` for e.members × e.grid in options' layout, after options.checkSize
 /// (ensemble_io.cpp).
 void allocateEnsemble(Ensemble& e, const EnsembleReadOptions& options);

@@ -17,6 +17,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <string>
@@ -720,11 +721,11 @@ void writeNetcdf(const fs::path& path, const Grid3& grid, const std::string& nam
 
 }  // namespace
 
-ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
-                                    std::string* geometryNote, bool allowMissing) {
-    NcFile file;
-    file.id = openForRead(path);
-    std::vector<VarInfo> vars = allVars(path, file.id);
+namespace {
+
+/// The 3D variable readFieldNetcdf reads: `varName`, or the only gridded numeric one.
+VarInfo findFieldVar(const fs::path& path, int nc, const std::string& varName) {
+    std::vector<VarInfo> vars = allVars(path, nc);
     const VarInfo* var = nullptr;
     if (!varName.empty()) {
         for (const auto& v : vars) {
@@ -735,7 +736,7 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
                                     << "' (variables: " << describeAll(vars) << ")");
         }
         if (!isGridded(*var, 0)) {
-            failIfEnsemble(path, file.id, *var);
+            failIfEnsemble(path, nc, *var);
             UDVR_FAIL(path.string()
                       << ": variable " << describe(*var) << " is not a 3D field with dims z,y,x"
                       << " (an ensemble? read it with 'build')");
@@ -743,12 +744,12 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
     } else {
         std::vector<const VarInfo*> candidates;
         for (const auto& v : vars) {
-            if (isGridded(v, 0) && !isCoordinateVar(v) && isNumeric(file.id, v.id)) {
+            if (isGridded(v, 0) && !isCoordinateVar(v) && isNumeric(nc, v.id)) {
                 candidates.push_back(&v);
             }
         }
         if (candidates.empty()) {
-            for (const auto& v : vars) failIfEnsemble(path, file.id, v);
+            for (const auto& v : vars) failIfEnsemble(path, nc, v);
             UDVR_FAIL(path.string() << ": no 3D variable with dims z,y,x (variables: "
                                     << describeAll(vars) << ")");
         }
@@ -758,9 +759,20 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
         }
         var = candidates[0];
     }
-    if (!isNumeric(file.id, var->id)) {
+    if (!isNumeric(nc, var->id)) {
         UDVR_FAIL(path.string() << ": variable " << var->name << " is not numeric");
     }
+    return *var;
+}
+
+}  // namespace
+
+ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
+                                    std::string* geometryNote, bool allowMissing) {
+    NcFile file;
+    file.id = openForRead(path);
+    const VarInfo v = findFieldVar(path, file.id, varName);
+    const VarInfo* var = &v;
     std::size_t first = var->dims.size() - 3;
     ScalarField f;
     f.grid = gridFromCoordinates(path, file.id, *var, first, geometryNote);
@@ -773,10 +785,12 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
     return f;
 }
 
-Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOptions& options) {
-    NcFile file;
-    file.id = openForRead(path);
-    std::vector<VarInfo> vars = allVars(path, file.id);
+namespace {
+
+/// The ensemble variable readEnsembleNetcdf reads and the index of its member dimension.
+std::pair<VarInfo, std::size_t> findEnsembleVar(const fs::path& path, int nc,
+                                                const EnsembleReadOptions& options) {
+    std::vector<VarInfo> vars = allVars(path, nc);
     // Index of the member dimension of v, or -1.
     auto memberDimOf = [&](const VarInfo& v) -> int {
         for (std::size_t d = 0; d < v.dims.size(); ++d) {
@@ -790,7 +804,7 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
         return -1;
     };
     auto usable = [&](const VarInfo& v) {
-        return v.dims.size() == 4 && memberDimOf(v) >= 0 && isNumeric(file.id, v.id);
+        return v.dims.size() == 4 && memberDimOf(v) >= 0 && isNumeric(nc, v.id);
     };
     const VarInfo* var = nullptr;
     if (!options.var.empty()) {
@@ -828,8 +842,17 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
         var = candidates[0];
     }
 
+    return {*var, static_cast<std::size_t>(memberDimOf(*var))};
+}
+
+}  // namespace
+
+Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOptions& options) {
+    NcFile file;
+    file.id = openForRead(path);
+    const auto [found, md] = findEnsembleVar(path, file.id, options);
+    const VarInfo* var = &found;
     // The grid dims are the other three, in file order (z, y, x). View them as a 3D variable.
-    std::size_t md = static_cast<std::size_t>(memberDimOf(*var));
     VarInfo gridView = *var;
     gridView.dims.erase(gridView.dims.begin() + static_cast<std::ptrdiff_t>(md));
     gridView.lengths.erase(gridView.lengths.begin() + static_cast<std::ptrdiff_t>(md));
@@ -865,6 +888,83 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
     }
     detail::printNote(geometryNote);  // only now: an error must stay the one line on stderr
     return e;
+}
+
+SlabReader detail::openFieldNetcdfSlabs(const fs::path& path, const std::string& varName,
+                                        bool allowMissing) {
+    auto file = std::make_shared<NcFile>();
+    file->id = openForRead(path);
+    const VarInfo var = findFieldVar(path, file->id, varName);
+    if (!isNumeric(file->id, var.id)) {
+        UDVR_FAIL(path.string() << ": variable " << var.name << " is not numeric");
+    }
+    const std::size_t first = var.dims.size() - 3;
+    SlabReader r;
+    r.grid = gridFromCoordinates(path, file->id, var, first, &r.note);
+    r.members = 1;
+    r.name = var.name;
+    r.valueType = valueTypeOf(path, file->id, var.id);
+    r.valueStep = valueStepOf(file->id, var.id, r.valueType);
+    const std::size_t plane =
+        static_cast<std::size_t>(r.grid.dims[0]) * static_cast<std::size_t>(r.grid.dims[1]);
+    r.scratchPerPlane = plane * sizeof(double);  // packed or filled values are read as double
+    r.read = [file, var, path, first, plane, allowMissing](int z0, int z1, std::span<float> out) {
+        std::vector<std::size_t> start(var.dims.size(), 0), count(var.lengths);
+        start[first] = static_cast<std::size_t>(z0);
+        count[first] = static_cast<std::size_t>(z1 - z0);
+        UDVR_CHECK(out.size() == count[first] * plane);
+        readSlab(path, file->id, var, start, count, out,
+                 " (z-planes " + std::to_string(z0) + " to " + std::to_string(z1 - 1) + ")",
+                 allowMissing);
+    };
+    return r;
+}
+
+SlabReader detail::openEnsembleNetcdfSlabs(const fs::path& path,
+                                           const EnsembleReadOptions& options) {
+    auto file = std::make_shared<NcFile>();
+    file->id = openForRead(path);
+    const auto [var, md] = findEnsembleVar(path, file->id, options);
+    VarInfo gridView = var;
+    gridView.dims.erase(gridView.dims.begin() + static_cast<std::ptrdiff_t>(md));
+    gridView.lengths.erase(gridView.lengths.begin() + static_cast<std::ptrdiff_t>(md));
+    gridView.dimNames.erase(gridView.dimNames.begin() + static_cast<std::ptrdiff_t>(md));
+    const std::size_t members = var.lengths[md];
+    if (members < 2) {
+        UDVR_FAIL(path.string() << ": variable " << var.name << " has " << members
+                                << " member(s); an ensemble needs at least 2");
+    }
+    SlabReader r;
+    r.grid = gridFromCoordinates(path, file->id, gridView, 0, &r.note);
+    if (members > static_cast<std::size_t>(INT32_MAX))
+        UDVR_FAIL(path.string() << ": " << members << " members are too many");
+    detail::checkedDataBytes(path, r.grid.dims, sizeof(float) * members);
+    r.members = static_cast<int>(members);
+    r.name = var.name;
+    r.valueType = valueTypeOf(path, file->id, var.id);
+    r.valueStep = valueStepOf(file->id, var.id, r.valueType);
+    const std::size_t plane =
+        static_cast<std::size_t>(r.grid.dims[0]) * static_cast<std::size_t>(r.grid.dims[1]);
+    r.scratchPerPlane = plane * sizeof(double);  // one member's planes, packed: as double
+    const std::size_t zd = md == 0 ? 1 : 0;      // z: the first of the other three dims
+    const bool allowMissing = options.allowMissing;
+    r.read = [file, var, md, zd, path, members, plane, allowMissing](int z0, int z1,
+                                                                     std::span<float> out) {
+        const std::size_t count1 = static_cast<std::size_t>(z1 - z0) * plane;
+        UDVR_CHECK(out.size() == count1 * members);
+        for (std::size_t m = 0; m < members; ++m) {
+            std::vector<std::size_t> start(4, 0), count(var.lengths);
+            start[md] = m;
+            count[md] = 1;
+            start[zd] = static_cast<std::size_t>(z0);
+            count[zd] = static_cast<std::size_t>(z1 - z0);
+            readSlab(path, file->id, var, start, count, out.subspan(m * count1, count1),
+                     " (member " + std::to_string(m) + ", z-planes " + std::to_string(z0) + " to " +
+                         std::to_string(z1 - 1) + ")",
+                     allowMissing);
+        }
+    };
+    return r;
 }
 
 void writeFieldNetcdf(const fs::path& path, const ScalarField& field) {

@@ -658,6 +658,27 @@ std::size_t modelBytesPerVoxel(const BuildOptions& o) {
     return sizeof(float) * (4 + 2 + q + 3 * static_cast<std::size_t>(o.gmmComponents));
 }
 
+BuildMemory buildMemory(const Grid3& input, int members, int k, const BuildOptions& options,
+                        std::size_t readerScratchPerPlane, std::size_t readerScratchFixed) {
+    const std::size_t X = static_cast<std::size_t>(input.dims[0]);
+    const std::size_t Y = static_cast<std::size_t>(input.dims[1]);
+    const auto uk = static_cast<std::size_t>(std::max(k, 1));
+    const std::size_t modelPlane = k > 1 ? (X / uk) * (Y / uk) : X * Y;
+    const std::size_t modelVoxels =
+        modelPlane * (k > 1 ? static_cast<std::size_t>(input.dims[2]) / uk
+                            : static_cast<std::size_t>(input.dims[2]));
+    const std::size_t n = k > 1 ? uk * uk * uk : static_cast<std::size_t>(members);
+    BuildMemory b;
+    b.perPlane =
+        uk * (static_cast<std::size_t>(members) * X * Y * sizeof(float) + readerScratchPerPlane) +
+        modelPlane * modelBytesPerVoxel(options);
+    const std::size_t threads = static_cast<std::size_t>(std::max(threadCount(), 1));
+    b.fixed = (options.density == DensityEstimate::Kde ? modelVoxels * sizeof(float) : 0) +
+              threads * kChunkVoxels * n * sizeof(float) * 2 + readerScratchFixed +
+              (std::size_t{8} << 20);  // the writer: a block per array, a copy buffer
+    return b;
+}
+
 namespace {
 
 using GatherFn = std::function<void(std::size_t, std::size_t, float*)>;

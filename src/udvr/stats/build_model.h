@@ -139,6 +139,27 @@ struct SlabInput {
 /// q + 1 boundaries, 3K GMM parameters).
 std::size_t modelBytesPerVoxel(const BuildOptions& options);
 
+/// What an out-of-core build holds in memory, to choose its slab height.
+struct BuildMemory {
+    /// Bytes per model z-plane of a slab: its input planes (members × K planes × X × Y floats
+    /// and the reader's scratch for them) and the model arrays of its voxels.
+    std::size_t perPlane = 0;
+    /// Bytes whatever the slab: kde's bandwidth per model voxel, the threads' sample buffers,
+    /// the reader's fixed scratch (a member read whole) and the model writer's buffers.
+    std::size_t fixed = 0;
+    /// The most model z-planes a slab may have under `limit` bytes (0: not even one).
+    int planesWithin(std::size_t limit) const {
+        if (limit <= fixed || perPlane == 0) return 0;
+        const std::size_t planes = (limit - fixed) / perPlane;
+        return planes > (1u << 30) ? (1 << 30) : static_cast<int>(planes);
+    }
+};
+
+/// BuildMemory of a build from `input` (members × X × Y × Z; K = k for bricks, 1 for an
+/// ensemble) with these options; the reader's scratch per input plane and fixed.
+BuildMemory buildMemory(const Grid3& input, int members, int k, const BuildOptions& options,
+                        std::size_t readerScratchPerPlane, std::size_t readerScratchFixed);
+
 /// buildModel reading `slabPlanes` z-planes at a time (the last slab may be thinner); the
 /// arrays go to `sink` slab by slab, the returned model holds the field data only. Same
 /// errors as buildModel.
