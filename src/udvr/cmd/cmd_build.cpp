@@ -34,15 +34,15 @@ std::string shortNumber(double v) {
     return buf;
 }
 
-/// Fit the options to n samples per voxel (the library's rule) and say what was fitted on
-/// stderr (after the check, so an error stays the one line).
-void fitOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven, bool quantilesGiven) {
-    const BuildFitNotes notes = fitBuildOptionsToSamples(opt, samples, gmmGiven, quantilesGiven);
-    for (const std::string& w : notes.warnings)
-        std::fprintf(stderr, "udvr: warning: %s\n", w.c_str());
-    if (!notes.info.empty())
-        std::fprintf(stderr, "build: %d samples per voxel: %s\n",
-                     static_cast<int>(std::min<long long>(samples, 1 << 30)), notes.info.c_str());
+/// Fit the options to n samples per voxel (the library's rule); what was fitted is added to
+/// `notes` for stderr (said once the input has been checked, so that an error stays the one line).
+void fitOptionsToSamples(BuildOptions& opt, long long samples, bool gmmGiven, bool quantilesGiven,
+                         std::string& notes) {
+    const BuildFitNotes fit = fitBuildOptionsToSamples(opt, samples, gmmGiven, quantilesGiven);
+    for (const std::string& w : fit.warnings) notes += "udvr: warning: " + w + "\n";
+    if (!fit.info.empty())
+        notes += "build: " + std::to_string(std::min<long long>(samples, 1 << 30)) +
+                 " samples per voxel: " + fit.info + "\n";
 }
 
 /// How much an out-of-core build may hold (--memory-limit), and why, for the plan's line.
@@ -205,14 +205,20 @@ void addBuildCommand(CLI::App& app) {
         double readSeconds = 0.0, writeSeconds = 0.0;
         bool written = false;  // by the out-of-core build, slab by slab
         SlabBars bars;
-        auto progress = [&bars](const char* pass, int slab, int slabs, std::size_t voxels) {
+        std::string notes;  // for stderr once the input has been read (or scanned) without error
+        auto sayNotes = [&notes] {
+            std::fputs(notes.c_str(), stderr);
+            notes.clear();
+        };
+        auto progress = [&](const char* pass, int slab, int slabs, std::size_t voxels) {
+            if (std::string(pass) == "build" && slab == 0) sayNotes();  // the scan passed
             return bars.next(pass, slab, slabs, voxels);
         };
         // Out of core: the model's slabs go to the writer as they are built.
         auto streamTo =
             [&](const Grid3& modelGrid, const SlabReader& r, int planes,
                 const std::function<ModelVolume(const SlabInput&, const SlabSink&)>& run) {
-                if (!r.note.empty()) std::fprintf(stderr, "%s\n", r.note.c_str());
+                if (!r.note.empty()) notes = r.note + "\n" + notes;
                 const int slabPlanes = std::min(planes, modelGrid.dims[2]);
                 const int slabs = (modelGrid.dims[2] + slabPlanes - 1) / slabPlanes;
                 const int k = bricks ? o->downsample : 1;
@@ -224,13 +230,15 @@ void addBuildCommand(CLI::App& app) {
                                              : std::string();
                 const std::size_t bytes = mem.fixed + residentBytes() +
                                           static_cast<std::size_t>(slabPlanes) * mem.perPlane;
-                std::fprintf(
-                    stderr,
+                char plan[512];
+                std::snprintf(
+                    plan, sizeof plan,
                     "build: out of core: %d slab%s of %d z-plane%s%s, about %s in memory "
                     "(limit %s)%s\n",
                     slabs, slabs == 1 ? "" : "s", slabPlanes * k, slabPlanes * k == 1 ? "" : "s",
                     last.c_str(), byteSizeText(bytes).c_str(), limit.text.c_str(),
                     r.wholeMembers ? "; VTI/NRRD members are read whole for every slab" : "");
+                notes += plan;
                 ModelVtiStreamWriter writer(o->out, modelGrid, opt.quantiles, opt.gmmComponents);
                 SlabInput in;
                 in.grid = r.grid;
@@ -275,7 +283,7 @@ void addBuildCommand(CLI::App& app) {
             const Grid3 reduced = downsampledGrid(r.grid, o->downsample);
             const long long k = o->downsample;
             fitOptionsToSamples(opt, k * k * k, o->gmmOpt->count() > 0,
-                                o->quantilesOpt->count() > 0);
+                                o->quantilesOpt->count() > 0, notes);
             BuildMemory mem =
                 buildMemory(r.grid, 1, o->downsample, opt, r.scratchPerPlane, r.scratchFixed);
             mem.fixed += residentBytes();
@@ -298,6 +306,7 @@ void addBuildCommand(CLI::App& app) {
                     notAField(e);
                 }
                 readSeconds = secondsSince(t0);
+                sayNotes();
                 ProgressBar bar("build", reduced.pointCount());
                 opt.progress = &bar;
                 model = buildModelDownsampled(f, o->downsample, opt, &rep);
@@ -328,7 +337,7 @@ void addBuildCommand(CLI::App& app) {
             checkDensityForInput(opt.density, r.valueStep, r.valueType);
             // Checks the options before the bar is drawn.
             fitOptionsToSamples(opt, r.members, o->gmmOpt->count() > 0,
-                                o->quantilesOpt->count() > 0);
+                                o->quantilesOpt->count() > 0, notes);
             BuildMemory mem =
                 buildMemory(r.grid, r.members, 1, opt, r.scratchPerPlane, r.scratchFixed);
             mem.fixed += residentBytes();
@@ -344,6 +353,7 @@ void addBuildCommand(CLI::App& app) {
                 r = SlabReader{};
                 const Ensemble e = readEnsemble(o->inputs, ro);
                 readSeconds = secondsSince(t0);
+                sayNotes();
                 ProgressBar bar("build", e.grid.pointCount());
                 opt.progress = &bar;
                 model = buildModel(e, opt, &rep);
