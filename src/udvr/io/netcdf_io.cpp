@@ -924,7 +924,9 @@ SlabReader detail::openEnsembleNetcdfSlabs(const fs::path& path,
                                            const EnsembleReadOptions& options) {
     auto file = std::make_shared<NcFile>();
     file->id = openForRead(path);
-    const auto [var, md] = findEnsembleVar(path, file->id, options);
+    const std::pair<VarInfo, std::size_t> found = findEnsembleVar(path, file->id, options);
+    const VarInfo var = found.first;
+    const std::size_t md = found.second;  // (named copies: clang 14 cannot capture bindings)
     VarInfo gridView = var;
     gridView.dims.erase(gridView.dims.begin() + static_cast<std::ptrdiff_t>(md));
     gridView.lengths.erase(gridView.lengths.begin() + static_cast<std::ptrdiff_t>(md));
