@@ -1,10 +1,15 @@
 """Out-of-core `udvr build` (issue 15): slabs of z-planes give the in-memory model file byte for
 byte, for NetCDF ensembles, member files of each format and --downsample bricks; slab heights
 that do not divide the grid (1, 7), the whole grid, and a slab larger than the grid."""
+import os
+import signal
+import subprocess
+import time
+
 import numpy as np
 import pytest
 
-from conftest import assert_one_line_error, run_ok, run_udvr, write_nrrd
+from conftest import UDVR_BINARY, assert_one_line_error, run_ok, run_udvr, write_nrrd
 
 DIMS = (13, 11, 23)  # x, y, z: 23 planes, divided by neither 7 nor 2
 
@@ -220,3 +225,33 @@ def test_memory_limit_suffixes_are_accepted(nc_ensemble, tmp_path):
     for value in ("512M", "4g", "1.5GiB", "3000000000", "2T", "auto"):
         build(nc_ensemble, "--memory-limit", value, "--quantiles", "0", "--gmm", "0", "-o",
               tmp_path / "m.vti")
+
+
+def test_killed_out_of_core_build_leaves_nothing(tmp_path):
+    """The slabs' spill files are unnamed (O_TMPFILE): kill -9 in the middle of an out-of-core
+    build leaves nothing in the output directory."""
+    run_ok("generate", "tangle", "--dims", "48,48,30", "-o", tmp_path / "f.vti")
+    run_ok("perturb", tmp_path / "f.vti", "--members", "40", "-o", tmp_path / "e.nc")
+    out = tmp_path / "out"
+    out.mkdir()
+    env = dict(os.environ, UDVR_NO_PROGRESS="1")
+    p = subprocess.Popen([str(UDVR_BINARY), "build", str(tmp_path / "e.nc"), "--slab-height", "1",
+                          "-o", str(out / "m.vti")], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL, env=env)
+    # Wait until it holds its spill files (unnamed, so only /proc shows them), then kill it.
+    deadline = time.monotonic() + 60
+    spills = []
+    while time.monotonic() < deadline and p.poll() is None and not spills:
+        try:
+            fds = f"/proc/{p.pid}/fd"
+            spills = [os.readlink(f"{fds}/{fd}") for fd in os.listdir(fds)]
+        except OSError:
+            spills = []
+        spills = [s for s in spills if s.startswith(str(out))]
+        time.sleep(0.002)
+    running = p.poll() is None
+    p.send_signal(signal.SIGKILL)
+    p.wait(timeout=60)
+    assert running and spills, "the build ended before its spill files were seen"
+    assert all("(deleted)" in s for s in spills), spills
+    assert list(out.iterdir()) == []
