@@ -892,28 +892,33 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
 
 SlabReader detail::openFieldNetcdfSlabs(const fs::path& path, const std::string& varName,
                                         bool allowMissing) {
-    auto file = std::make_shared<NcFile>();
-    file->id = openForRead(path);
-    const VarInfo var = findFieldVar(path, file->id, varName);
-    if (!isNumeric(file->id, var.id)) {
+    // Opened for each read: an ensemble of many member files must not hold a descriptor each.
+    NcFile opened;
+    opened.id = openForRead(path);
+    const int nc = opened.id;
+    const VarInfo var = findFieldVar(path, nc, varName);
+    if (!isNumeric(nc, var.id)) {
         UDVR_FAIL(path.string() << ": variable " << var.name << " is not numeric");
     }
     const std::size_t first = var.dims.size() - 3;
     SlabReader r;
-    r.grid = gridFromCoordinates(path, file->id, var, first, &r.note);
+    r.grid = gridFromCoordinates(path, nc, var, first, &r.note);
     r.members = 1;
     r.name = var.name;
-    r.valueType = valueTypeOf(path, file->id, var.id);
-    r.valueStep = valueStepOf(file->id, var.id, r.valueType);
+    r.valueType = valueTypeOf(path, nc, var.id);
+    r.valueStep = valueStepOf(nc, var.id, r.valueType);
     const std::size_t plane =
         static_cast<std::size_t>(r.grid.dims[0]) * static_cast<std::size_t>(r.grid.dims[1]);
     r.scratchPerPlane = plane * sizeof(double);  // packed or filled values are read as double
-    r.read = [file, var, path, first, plane, allowMissing](int z0, int z1, std::span<float> out) {
+    r.read = [var, path, first, plane, allowMissing](int z0, int z1, std::span<float> out) {
+        // Checked (and an HDF5 file probed) when opened above; the plain open here.
+        NcFile file;
+        ncCheck(nc_open(path.c_str(), NC_NOWRITE, &file.id), path, "reopening");
         std::vector<std::size_t> start(var.dims.size(), 0), count(var.lengths);
         start[first] = static_cast<std::size_t>(z0);
         count[first] = static_cast<std::size_t>(z1 - z0);
         UDVR_CHECK(out.size() == count[first] * plane);
-        readSlab(path, file->id, var, start, count, out,
+        readSlab(path, file.id, var, start, count, out,
                  " (z-planes " + std::to_string(z0) + " to " + std::to_string(z1 - 1) + ")",
                  allowMissing);
     };
