@@ -255,3 +255,21 @@ def test_killed_out_of_core_build_leaves_nothing(tmp_path):
     assert running and spills, "the build ended before its spill files were seen"
     assert all("(deleted)" in s for s in spills), spills
     assert list(out.iterdir()) == []
+
+
+@pytest.mark.parametrize("extra", [("--density", "dequantized"),
+                                   ("--quantile-levels", "0,0.1,0.5,0.9,1", "--gmm", "2"),
+                                   ("--density", "kde", "--bandwidth", "scott", "--tail-eps",
+                                    "0.05")])
+def test_uint8_members_with_other_estimates(tmp_path, extra):
+    rng = np.random.default_rng(9)
+    files = []
+    for m in range(6):
+        p = tmp_path / f"u{m}.raw"
+        rng.integers(0, 40, size=DIMS[0] * DIMS[1] * DIMS[2], dtype=np.uint8).tofile(p)
+        files.append(p)
+    args = (*files, "--dims", ",".join(map(str, DIMS)), "--type", "uint8", *extra)
+    build(*args, "-o", tmp_path / "ref.vti")
+    for h in (1, 7):
+        build(*args, "--slab-height", h, "-o", tmp_path / f"s{h}.vti")
+        assert same_bytes(tmp_path / "ref.vti", tmp_path / f"s{h}.vti"), h
