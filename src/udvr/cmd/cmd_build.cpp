@@ -403,9 +403,14 @@ void addBuildCommand(CLI::App& app) {
             const double total = secondsSince(t0);
             const double samples = static_cast<double>(rep.voxels) * rep.samplesPerVoxel;
             std::fprintf(stderr,
-                         "build: out of core: %d slab(s), the input read twice (range scan, then "
-                         "statistics); %.3g samples/s over %.1f s\n",
-                         rep.slabs, total > 0.0 ? samples / total : 0.0, total);
+                         "build: out of core: %d slab(s), the input read %s; %.3g samples/s "
+                         "over %.1f s\n",
+                         rep.slabs,
+                         rep.inputPasses == 1   ? "once"
+                         : rep.inputPasses == 2 ? "twice (the range scan, then the statistics)"
+                                                : "three times (the range scan, finite counts, "
+                                                  "the statistics)",
+                         total > 0.0 ? samples / total : 0.0, total);
         }
     });
 }

@@ -735,16 +735,52 @@ ModelVolume streamBuild(
         return progress ? progress(pass, s, slabs, sl.count) : nullptr;
     };
 
-    // Pass 1: non-finite samples and the range, over the whole input.
     InputScan scan;
     double scanCpu = 0.0;
-    for (int s = 0; s < slabs; ++s) {
-        const Slab sl = slabAt(s);
-        ProgressBar* bar = barFor("scan", s, sl);
-        const std::span<const float> data = read(sl);
+    auto scanOne = [&](const Slab& sl, std::span<const float> data) {
         const double t0 = threadCpuSeconds();
         scanSlab(data, sl.mz0, sl.mz1, scan);
         scanCpu += threadCpuSeconds() - t0;
+    };
+    if (options.gmmComponents == 0 && options.nan == NanPolicy::Error) {
+        // One pass: without a GMM nothing needs the whole input's range, and NaN/Inf are an
+        // error (a slab that has any ends the build: the rest is only scanned, for the count).
+        if (report) *report = BuildReport{};
+        CoreTotals totals;
+        if (options.density == DensityEstimate::Kde) totals.bandwidths.resize(voxels);
+        BuildOptions opt = options;
+        ModelVolume slabModel;
+        for (int s = 0; s < slabs; ++s) {
+            const Slab sl = slabAt(s);
+            opt.progress = barFor("scan+build", s, sl);
+            const std::span<const float> data = read(sl);
+            scanOne(sl, data);
+            if (scan.nonFinite > 0) {
+                for (int r = s + 1; r < slabs; ++r) scanOne(slabAt(r), read(slabAt(r)));
+                failNonFinite(scan, in.grid, !bricks);
+            }
+            buildSlab(grid, sl.first, sl.count, n, gatherFor(data, sl.mz0, sl.mz1), opt, scan,
+                      in.valueStep, slabModel, totals);
+            sink(slabModel, sl.first);
+        }
+        ModelVolume m;
+        m.grid = grid;
+        finishModel(m, n, voxels, options, scan, in.valueStep, totals, report, start);
+        if (report) {
+            report->scanCpu = scanCpu;
+            report->slabs = slabs;
+            report->inputPasses = 1;
+            report->readSeconds = readSeconds;
+            report->seconds -= readSeconds;
+        }
+        return m;
+    }
+
+    // Pass 1: non-finite samples and the range, over the whole input.
+    for (int s = 0; s < slabs; ++s) {
+        const Slab sl = slabAt(s);
+        ProgressBar* bar = barFor("scan", s, sl);
+        scanOne(sl, read(sl));
         if (bar) bar->advance(sl.count);
     }
     if (scan.nonFinite > 0 && options.nan == NanPolicy::Error)
@@ -753,8 +789,10 @@ ModelVolume streamBuild(
         *report = BuildReport{};
         report->scanCpu = scanCpu;
         report->slabs = slabs;
+        report->inputPasses = 2;
     }
     if (options.nan == NanPolicy::Skip && scan.nonFinite > 0) {
+        if (report) report->inputPasses = 3;
         FiniteCounts counts;
         for (int s = 0; s < slabs; ++s) {
             const Slab sl = slabAt(s);

@@ -55,7 +55,8 @@ struct BuildReport {
     std::array<int, 3> droppedPlanes{0, 0, 0};  // downsampling: trailing N mod K planes per axis
     double seconds = 0.0;                       // check + statistics
     int slabs = 0;             // out-of-core builds: slabs of z-planes (0: in memory)
-    double readSeconds = 0.0;  // out-of-core builds: wall time reading the input (both passes)
+    int inputPasses = 0;       // out-of-core builds: reads of the whole input (1 to 3)
+    double readSeconds = 0.0;  // out-of-core builds: wall time reading the input (all passes)
     /// CPU seconds of each stage, summed over the threads (thread CPU clocks, so another
     /// process on the same cores does not inflate them): the NaN/range scan, the gather of a
     /// chunk's samples, sorting + moments + quantiles + IQR, and the GMM (seeding and EM).
@@ -113,7 +114,9 @@ ModelVolume buildModelDownsampled(const ScalarField& field, int k, const BuildOp
 // An input read a slab of whole z-planes at a time, the model handed on a slab at a time: the
 // same model, bit for bit, in memory for one slab. Every voxel's statistics depend on its own
 // samples, the whole input's range (the GMM's σ floor) and its index (the GMM's random stream)
-// only; so the input is read twice: a scan of the range and NaN/Inf first, then the statistics.
+// only; so the input is read twice: a scan of the range and NaN/Inf first, then the statistics
+// (once without a GMM under NanPolicy::Error: nothing else needs the range, and a slab with
+// NaN/Inf ends the build).
 
 /// Fills planes [z0, z1) of every member (one for a field), member-major: member m's planes at
 /// out[m·(z1 − z0)·X·Y …], x fastest.

@@ -142,20 +142,39 @@ TEST(BuildStream, NanSkipAndNanErrorAsInMemory) {
     EXPECT_EQ(rep.nonFiniteSamples, refReport.nonFiniteSamples);
     EXPECT_EQ(rep.fewestFiniteSamples, refReport.fewestFiniteSamples);
 
+    // --nan error: the same line, from two passes (GMM) or one (no GMM: the slab with the NaN
+    // ends the build, the rest is only scanned for the count).
     opt.nan = NanPolicy::Error;
-    std::string want, got;
-    try {
-        buildModel(e, opt);
-    } catch (const UdvrError& err) {
-        want = err.what();
+    for (int K : {4, 0}) {
+        opt.gmmComponents = K;
+        std::string want, got;
+        try {
+            buildModel(e, opt);
+        } catch (const UdvrError& err) {
+            want = err.what();
+        }
+        std::size_t sunk = 0;
+        try {
+            buildModelStreamed(slabsOf(e), 2, opt,
+                               [&sunk](const ModelVolume&, std::size_t) { ++sunk; });
+        } catch (const UdvrError& err) {
+            got = err.what();
+        }
+        EXPECT_FALSE(want.empty());
+        EXPECT_EQ(want, got);
+        EXPECT_EQ(sunk, 0u);  // the first NaN is in slab 0
     }
-    try {
-        buildModelStreamed(slabsOf(e), 2, opt, [](const ModelVolume&, std::size_t) {});
-    } catch (const UdvrError& err) {
-        got = err.what();
-    }
-    EXPECT_FALSE(want.empty());
-    EXPECT_EQ(want, got);
+    // No GMM and no NaN: one pass, the same model.
+    const Ensemble clean = randomEnsemble({5, 4, 9}, 6, 3);
+    opt.gmmComponents = 0;
+    const ModelVolume cleanRef = buildModel(clean, opt);
+    Collect c0;
+    BuildReport rep0;
+    const ModelVolume meta0 = buildModelStreamed(
+        slabsOf(clean), 4, opt, [&c0](const ModelVolume& s, std::size_t first) { c0(s, first); },
+        {}, &rep0);
+    expectSameModel(cleanRef, meta0, c0.all);
+    EXPECT_EQ(rep0.inputPasses, 1);
 }
 
 TEST(BuildStream, BrickSlabsGiveTheInMemoryModelBitForBit) {
