@@ -253,6 +253,7 @@ void addBuildCommand(CLI::App& app) {
                 };
                 model = run(in, sink);
                 bars.bar.reset();
+                sayNotes();  // one pass (no GMM): only now is the whole input known to be finite
                 const auto tf = std::chrono::steady_clock::now();
                 writer.finish(model);
                 writeSeconds += secondsSince(tf);
