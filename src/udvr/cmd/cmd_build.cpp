@@ -54,7 +54,7 @@ void addBuildCommand(CLI::App& app) {
     struct Opts {
         std::vector<std::string> inputs;
         std::string out, density, bandwidth = "silverman", var, memberDim, levels, nan = "error";
-        int quantiles = 8, gmm = 4, downsample = 0;
+        int quantiles = 8, gmm = 4, downsample = 0, pieces = 0;
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
         CLI::Option* tailEpsOpt = nullptr;
@@ -90,11 +90,23 @@ void addBuildCommand(CLI::App& app) {
     sub->add_option("--nan", o->nan,
                     "NaN/Inf samples (and NetCDF fill values): error (default; names the first "
                     "voxel and member) | skip (each voxel from its finite samples, at least 2)");
-    sub->add_option("-o,--output", o->out, "output model .vti")->required();
+    sub->add_option("-o,--output", o->out,
+                    "output model: .vti, or .pvti (VTK's parallel ImageData: the model in "
+                    "z-pieces <stem>/<stem>_<i>.vti, which ParaView opens in parallel)")
+        ->required();
+    sub->add_option("--pieces", o->pieces,
+                    "with -o .pvti: how many z-pieces (default: one per thread; at most one per "
+                    "cell layer)");
     addRawLayoutOptions(sub, o->raw);
 
     sub->callback([o] {
-        requireOutputExtension(o->out, "-o", {".vti"}, "build writes a model as VTK ImageData");
+        requireOutputExtension(o->out, "-o", {".vti", ".pvti"},
+                               "build writes a model as VTK ImageData");
+        const bool partitioned = lowerExtension(o->out) == ".pvti";
+        if (o->pieces != 0 && !partitioned)
+            UDVR_FAIL("--pieces " << o->pieces << " needs -o with a .pvti (partitioned) model");
+        if (o->pieces < 0 || o->pieces > 65536)
+            UDVR_FAIL("--pieces " << o->pieces << " is out of range; expected 1 to 65536");
         BuildOptions opt;
         opt.quantiles = o->quantiles;
         if (!o->levels.empty()) {
@@ -191,7 +203,16 @@ void addBuildCommand(CLI::App& app) {
             what = std::to_string(e.members) + "-member ensemble";
         }
         auto t1 = std::chrono::steady_clock::now();
-        writeModelVti(o->out, model);
+        std::string written = o->out;
+        if (partitioned) {
+            const int pieces = o->pieces > 0 ? o->pieces : threadCount();
+            writeModelPvti(o->out, model, pieces);
+            const int n =
+                static_cast<int>(pvtiPieceBoundaries(model.grid.dims[2], pieces).size()) - 1;
+            written += " (" + std::to_string(n) + (n == 1 ? " piece)" : " pieces)");
+        } else {
+            writeModelVti(o->out, model);
+        }
         const double writeSeconds = secondsSince(t1);
 
         const auto& d = model.grid.dims;
@@ -225,7 +246,7 @@ void addBuildCommand(CLI::App& app) {
                      "build: read %.2f s, statistics %.2f s (CPU: scan %.2f, gather %.2f, "
                      "sort+moments+quantiles %.2f, GMM %.2f s), write %.2f s -> %s\n",
                      readSeconds, rep.seconds, rep.scanCpu, rep.gatherCpu, rep.estimateCpu,
-                     rep.gmmCpu, writeSeconds, o->out.c_str());
+                     rep.gmmCpu, writeSeconds, written.c_str());
     });
 }
 
