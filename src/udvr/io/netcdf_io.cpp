@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -16,6 +17,8 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
+#include <iomanip>
 #include <limits>
 #include <mutex>
 #include <sstream>
@@ -153,31 +156,55 @@ void walkNetcdf(const char* path) {
     nc_close(nc);
 }
 
+/// The probe's time limit for a file of 0 bytes (setHdf5ProbeSeconds).
+std::atomic<double> gHdf5ProbeSeconds{10.0};
+
 /// NetCDF-4 files are HDF5 files, and HDF5 1.10.8 (Debian 12) crashes or loops forever on some
 /// damaged ones (found by fuzzing, docs/testing.md: a corrupt global heap read for a dimension
 /// list never ends). Before udvr reads one, a child process makes the calls of walkNetcdf; the
 /// read goes ahead once the child has finished them (netCDF errors included: the read reports
-/// those itself). A child killed by a signal, or not done within 10 s plus 1 s per 4 MB of file,
-/// becomes a one-line error.
+/// those itself). A child killed by a signal, or not done within 10 s (setHdf5ProbeSeconds) plus
+/// 1 s per 4 MB of file, becomes a one-line error.
 void probeHdf5(const fs::path& path) {
     // A read opens a file more than once (`udvr info`, then the field): the last file probed,
-    // unchanged since, and its outcome are remembered.
+    // unchanged since, and its outcome are remembered. File times are coarse (a few ms), so
+    // "unchanged" also compares a hash of the first and last 64 KB (all of a small file).
     struct Probed {
         std::string path, error;
         std::uintmax_t size = 0;
-        std::int64_t mtime = 0, inode = 0;
+        std::int64_t mtime = 0, ctime = 0, inode = 0;
+        std::size_t hash = 0;
+        bool operator==(const Probed& o) const {
+            return path == o.path && size == o.size && mtime == o.mtime && ctime == o.ctime &&
+                   inode == o.inode && hash == o.hash;
+        }
     };
     static Probed last;
     static std::mutex lastMutex;
     struct stat st {};
     if (stat(path.c_str(), &st) != 0) return;
-    const Probed now{path.string(), "", static_cast<std::uintmax_t>(st.st_size),
-                     static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec,
-                     static_cast<std::int64_t>(st.st_ino)};
+    const auto nanoseconds = [](const timespec& t) {
+        return static_cast<std::int64_t>(t.tv_sec) * 1000000000 + t.tv_nsec;
+    };
+    std::string ends(std::min<std::uintmax_t>(static_cast<std::uintmax_t>(st.st_size), 1 << 17),
+                     '\0');
+    {
+        std::ifstream in(path, std::ios::binary);
+        const std::size_t half = ends.size() / 2;
+        in.read(ends.data(), static_cast<std::streamsize>(half));
+        in.seekg(-static_cast<std::streamoff>(ends.size() - half), std::ios::end);
+        in.read(ends.data() + half, static_cast<std::streamsize>(ends.size() - half));
+    }
+    const Probed now{path.string(),
+                     "",
+                     static_cast<std::uintmax_t>(st.st_size),
+                     nanoseconds(st.st_mtim),
+                     nanoseconds(st.st_ctim),
+                     static_cast<std::int64_t>(st.st_ino),
+                     std::hash<std::string>{}(ends)};
     {
         std::lock_guard<std::mutex> lock(lastMutex);
-        if (last.path == now.path && last.size == now.size && last.mtime == now.mtime &&
-            last.inode == now.inode) {
+        if (last == now) {
             if (!last.error.empty()) UDVR_FAIL(last.error);
             return;
         }
@@ -188,7 +215,7 @@ void probeHdf5(const fs::path& path) {
         last.error = error;
         if (!error.empty()) UDVR_FAIL(error);
     };
-    const double limit = 10.0 + static_cast<double>(now.size) / (4 << 20);
+    const double limit = gHdf5ProbeSeconds.load() + static_cast<double>(now.size) / (4 << 20);
     std::fflush(nullptr);
     const pid_t child = fork();
     if (child < 0) return;  // no process to spare: read without the probe
@@ -215,7 +242,12 @@ void probeHdf5(const fs::path& path) {
             waitpid(child, &status, 0);
             std::ostringstream error;
             error << path.string() << ": the HDF5 library did not finish reading this NetCDF-4 "
-                  << "file within " << std::lround(limit) << " s (a damaged file?)";
+                  << "file within ";
+            if (limit >= 10)
+                error << std::lround(limit);
+            else
+                error << std::setprecision(2) << limit;
+            error << " s (a damaged file?)";
             remember(error.str());
         }
         std::this_thread::sleep_for(pause);
@@ -358,6 +390,15 @@ void checkClassicSize(const fs::path& path) {
         if (n > fileSize / entryBytes) fail();
         return n;
     };
+    // A type code netCDF-C knows (NC_BYTE … NC_DOUBLE; CDF-5 also NC_UBYTE … NC_UINT64): for
+    // another, netCDF-C 4.9.0 divides by its size of 0 (SIGFPE in NC_check_vlen, found by
+    // fuzzing).
+    auto ncType = [&](std::uint64_t t) {
+        if (t < NC_BYTE || t > static_cast<std::uint64_t>(version == 5 ? NC_UINT64 : NC_DOUBLE))
+            UDVR_FAIL(path.string()
+                      << ": NetCDF header: type code " << t << " is not a NetCDF type");
+        return t;
+    };
     // Products of dimension lengths that overflow are "more than any file": the check fails.
     auto saturatingProduct = [](std::uint64_t a, std::uint64_t b) {
         return b != 0 && a > ~0ull / b ? ~0ull : a * b;
@@ -384,7 +425,7 @@ void checkClassicSize(const fs::path& path) {
         std::uint64_t n = countOf(2 * countSize + 4);
         for (std::uint64_t a = 0; a < n; ++a) {
             skipName();
-            std::uint64_t type = be(4);
+            std::uint64_t type = ncType(be(4));
             const std::uint64_t values = be(countSize);
             if (values > fileSize) fail();
             skipPadded(values * typeSize(type));
@@ -423,7 +464,7 @@ void checkClassicSize(const fs::path& path) {
             }
         }
         skipAttributes();
-        std::uint64_t bytes = saturatingProduct(count, typeSize(be(4)));
+        std::uint64_t bytes = saturatingProduct(count, typeSize(ncType(be(4))));
         std::uint64_t vsize = be(countSize);
         std::uint64_t begin = be(offsetSize);
         if (record) recordSize = recordSize > ~0ull - vsize ? ~0ull : recordSize + vsize;
@@ -886,6 +927,8 @@ std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
     nc_close(nc);
     return arrays;
 }
+
+void detail::setHdf5ProbeSeconds(double seconds) { gHdf5ProbeSeconds = seconds; }
 
 std::pair<double, double> regularAxis(std::span<const double> c, const std::string& what) {
     UDVR_CHECK(!c.empty());
