@@ -651,23 +651,28 @@ PYBIND11_MODULE(_udvr, m) {
         py::arg("outlier_sigma") = 0.04, "an ensemble: the field plus i.i.d. noise per voxel");
     m.def(
         "read_field",
-        [](const std::filesystem::path& path, const std::string& var) {
+        [](const std::filesystem::path& path, const std::string& var, bool allowMissing) {
             FieldReadOptions o;
             o.var = var;
+            o.allowMissing = allowMissing;
             return readField(path, o);
         },
-        py::arg("path"), py::arg("var") = "");
+        py::arg("path"), py::arg("var") = "", py::arg("allow_missing") = false,
+        "allow_missing: NaN/Inf pass, NetCDF fill values read as NaN (build's nan='skip')");
     m.def("write_field", &writeField, py::arg("path"), py::arg("field"));
     m.def(
         "read_ensemble",
         [](const std::vector<std::string>& inputs, const std::string& var,
-           const std::string& memberDim) {
+           const std::string& memberDim, bool allowMissing) {
             EnsembleReadOptions o;
             o.var = var;
             o.memberDim = memberDim;
+            o.allowMissing = allowMissing;
             return readEnsemble(inputs, o);
         },
-        py::arg("inputs"), py::arg("var") = "", py::arg("member_dim") = "");
+        py::arg("inputs"), py::arg("var") = "", py::arg("member_dim") = "",
+        py::arg("allow_missing") = false,
+        "allow_missing: NaN/Inf pass, NetCDF fill values read as NaN (build's nan='skip')");
     m.def("write_ensemble", &writeEnsembleNetcdf, py::arg("path"), py::arg("ensemble"));
     m.def("read_model", &readModelVti, py::arg("path"));
     m.def(
@@ -810,8 +815,10 @@ PYBIND11_MODULE(_udvr, m) {
            int downsample, int quantiles, int gmm, const std::string& density,
            const std::string& bandwidth, std::optional<double> tailEps, bool gmmGiven,
            bool quantilesGiven, const std::string& source, const py::object& progress,
-           const std::vector<double>& levels, double valueStep, const std::string& valueType) {
+           const std::vector<double>& levels, double valueStep, const std::string& valueType,
+           const std::string& nan) {
             BuildOptions opt;
+            opt.nan = parseNanPolicy(nan);
             opt.quantiles = quantiles;
             if (!levels.empty()) {  // as build --quantile-levels: q from their count
                 const int q = static_cast<int>(levels.size()) - 1;
@@ -839,7 +846,7 @@ PYBIND11_MODULE(_udvr, m) {
         py::arg("quantiles"), py::arg("gmm"), py::arg("density"), py::arg("bandwidth"),
         py::arg("tail_eps"), py::arg("gmm_given"), py::arg("quantiles_given"), py::arg("source"),
         py::arg("progress"), py::arg("quantile_levels") = std::vector<double>{},
-        py::arg("value_step") = 0.0, py::arg("value_type") = "");
+        py::arg("value_step") = 0.0, py::arg("value_type") = "", py::arg("nan") = "error");
 
     m.def(
         "_default_density", [](bool bricks) { return densityEstimateName(defaultDensity(bricks)); },

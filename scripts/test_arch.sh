@@ -72,6 +72,10 @@ for arch in "${arches[@]}"; do
         targets+=(udvr_python)
         python_module=yes
     fi
+    # ctest replays the fuzz corpora with this driver (fuzz/CMakeLists.txt).
+    if grep -q '/udvr_fuzz_replay\.dir$' "$dir/CMakeFiles/TargetDirectories.txt"; then
+        targets+=(udvr_fuzz_replay)
+    fi
     cmake --build "$dir" -j "$jobs" --target "${targets[@]}" >&2
     built=$SECONDS
     echo "== arch $arch: $("$dir/udvr" --version); built in $((built - start)) s" >&2

@@ -123,7 +123,8 @@ def test_nan_samples_stop_the_build_before_statistics():
     with pytest.raises(ValueError) as err:
         udvr.build(e, progress=lambda d, t: calls.append(d))
     assert str(err.value) == ("the ensemble has 1 NaN/Inf samples (first at voxel (1,2,3), "
-                              "member 4); build needs finite values and never averages NaN")
+                              "member 4); build needs finite values and never averages NaN "
+                              "(--nan skip: each voxel's finite members only)")
     assert all(d == 0 for d in calls)  # no voxel was modelled
 
 

@@ -103,7 +103,7 @@ def _count(value, name):
 
 def build(data, quantiles=8, gmm=4, density=None, downsample=None, *,
           bandwidth="silverman", tail_eps=None, origin=None, spacing=None, var=None,
-          member_dim=None, progress="auto", quantile_levels=None):
+          member_dim=None, progress="auto", quantile_levels=None, nan="error"):
     """Per-voxel distribution models, as `udvr build` (SPEC §2): from a NumPy array of shape
     (members, z, y, x), a (z, y, x) field with downsample=K (its K³ bricks), an xarray
     DataArray (a member dim, or a field with downsample; its x, y, z coordinates give origin and
@@ -115,9 +115,14 @@ def build(data, quantiles=8, gmm=4, density=None, downsample=None, *,
     [v - step/2, v + step/2] of its quantisation step before the quantiles); None: the CLI's
     default, "kde" with downsample and "empirical" for ensembles. origin and
     spacing (x, y, z; world units) for arrays: default 0 and 1. quantile_levels: t_0 = 0 < … <
-    t_q = 1, uneven levels of the boundaries (q from their count), as --quantile-levels. The GIL is released while it
+    t_q = 1, uneven levels of the boundaries (q from their count), as --quantile-levels. nan:
+    "error" (NaN/Inf samples are a ValueError naming the first voxel and member) or "skip" (each
+    voxel's statistics over its finite samples, at least 2 per voxel; NetCDF fill values count as
+    NaN), as --nan. The GIL is released while it
     runs; progress: a callable(done, total), True for a tqdm bar, "auto" (a bar in notebooks).
     """
+    if nan not in ("error", "skip"):
+        raise ValueError(f"nan must be 'error' or 'skip', got {nan!r}")
     quantiles = _count(quantiles, "quantiles")
     gmm = _count(gmm, "gmm")
     if downsample is not None:
@@ -137,11 +142,11 @@ def build(data, quantiles=8, gmm=4, density=None, downsample=None, *,
         if downsample:
             if len(paths) != 1:
                 raise ValueError(f"--downsample takes one field, got {len(paths)} inputs")
-            f = read_field(paths[0], var or "")
+            f = read_field(paths[0], var or "", nan == "skip")
             values, g = f.values, f.grid
             value_step, value_type = f.value_step, f.value_type
         else:
-            e = read_ensemble(paths, var or "", member_dim or "")
+            e = read_ensemble(paths, var or "", member_dim or "", nan == "skip")
             values, g = e.values, e.grid
             value_step, value_type = e.value_step, e.value_type
         origin = g.origin if origin is None else origin
@@ -172,7 +177,7 @@ def build(data, quantiles=8, gmm=4, density=None, downsample=None, *,
             values, origin, spacing, downsample or 0, quantiles, gmm, density, str(bandwidth),
             tail_eps, gmm != 4, quantiles != 8, source, bar.callback,
             [] if quantile_levels is None else [float(t) for t in quantile_levels],
-            value_step, value_type)
+            value_step, value_type, nan)
     finally:
         bar.close()
     for w in warns:

@@ -101,29 +101,19 @@ inline void tf2NormalAlongB(const Tf2Axes& ax, double a, double m, double s, dou
     for (int ch = 0; ch < 3; ++ch) out[ch] += up0 * v0[3] * v0[ch];
     out[3] += up0 * v0[3];
 }
-}  // namespace detail
 
-/// E[(α·c, α)(X, Y)] for (X, Y) ~ N((mx, my), [[vxx, vxy], [vxy, vyy]]) over a raster TF2.
-inline void expectedTf2Gaussian(const Tf2Raster<double>& r, double mx, double my, double vxx,
-                                double vxy, double vyy, double out[4]) {
-    vxx = std::max(vxx, 0.0);
-    vyy = std::max(vyy, 0.0);
-    const double rx = std::sqrt(vxx) * r.invDx, ry = std::sqrt(vyy) * r.invDy;
-    if (!(vxx > 0) && !(vyy > 0)) {
-        tf2At<double>(r, mx, my, true, out);
-        return;
-    }
-    const bool swapped = !(rx >= ry && vxx > 0);
-    const detail::Tf2Axes ax{r, swapped};
-    const double ma = swapped ? my : mx, mb = swapped ? mx : my;
-    const double vaa = swapped ? vyy : vxx, vbb = swapped ? vxx : vyy;
-    const double sa = std::sqrt(vaa), beta = vxy / vaa;
-    const double s = std::sqrt(std::max(vbb - vxy * beta, 0.0));
-    constexpr double kL = 7.0;
-    const double lo = ma - kL * sa, hi = ma + kL * sa;
-    // Interval ends: every σ_A/2, the A-lines, and where m_B(a) crosses a B-line (± graded).
-    std::vector<double> cuts;
-    for (int k = 0; k <= 28; ++k) cuts.push_back(lo + k * (0.5 * sa));
+/// E[(α·c, α)(A, B)] for A with density `pdfA` on [lo, hi] (σ_A = sa) and B | A = a of mean
+/// mb + β(a − ma) and standard deviation s, A = x unless `swapped`: the outer integral over a of
+/// inner(a, m_B(a), out), E over B | A = a (tf2NormalAlongB for a normal; see the header comment).
+/// `cuts` comes in holding where pdfA has kinks or jumps; every σ_A/2, the A-lines and the
+/// crossings of m_B(a) with B-lines are added.
+template <class Pdf, class Inner>
+void tf2ConditionalOuter(const Tf2Raster<double>& r, bool swapped, double lo, double hi, double sa,
+                         double ma, double mb, double beta, double s, std::vector<double>& cuts,
+                         Pdf pdfA, Inner inner, double out[4]) {
+    const Tf2Axes ax{r, swapped};
+    const int steps = static_cast<int>(std::ceil((hi - lo) / (0.5 * sa)));
+    for (int k = 0; k <= steps; ++k) cuts.push_back(lo + k * (0.5 * sa));
     const double a0 = ax.a0(), da = ax.da();
     for (int k = std::max(0, static_cast<int>(std::floor((lo - a0) / da)));
          k <= std::min(ax.na() - 1, static_cast<int>(std::ceil((hi - a0) / da))); ++k)
@@ -164,19 +154,48 @@ inline void expectedTf2Gaussian(const Tf2Raster<double>& r, double mx, double my
             const int half = nodes / 2;
             const double x = narrow ? kX4[n % half] : kX8[n % half];
             const double a = c + (n < half ? -x : x) * h;
-            const double w = h * (narrow ? kW4[n % half] : kW8[n % half]) *
-                             std::exp(-0.5 * ((a - ma) / sa) * ((a - ma) / sa)) *
-                             0.3989422804014327 / sa;
+            const double w = h * (narrow ? kW4[n % half] : kW8[n % half]) * pdfA(a);
+            if (!(w != 0.0)) continue;
             const double m = mb + beta * (a - ma);
             double v[4];
+            inner(a, m, v);
+            for (int ch = 0; ch < 4; ++ch) out[ch] += w * v[ch];
+        }
+    }
+}
+}  // namespace detail
+
+/// E[(α·c, α)(X, Y)] for (X, Y) ~ N((mx, my), [[vxx, vxy], [vxy, vyy]]) over a raster TF2.
+inline void expectedTf2Gaussian(const Tf2Raster<double>& r, double mx, double my, double vxx,
+                                double vxy, double vyy, double out[4]) {
+    vxx = std::max(vxx, 0.0);
+    vyy = std::max(vyy, 0.0);
+    const double rx = std::sqrt(vxx) * r.invDx, ry = std::sqrt(vyy) * r.invDy;
+    if (!(vxx > 0) && !(vyy > 0)) {
+        tf2At<double>(r, mx, my, true, out);
+        return;
+    }
+    const bool swapped = !(rx >= ry && vxx > 0);
+    const double ma = swapped ? my : mx, mb = swapped ? mx : my;
+    const double vaa = swapped ? vyy : vxx, vbb = swapped ? vxx : vyy;
+    const double sa = std::sqrt(vaa), beta = vxy / vaa;
+    const double s = std::sqrt(std::max(vbb - vxy * beta, 0.0));
+    constexpr double kL = 7.0;  // A over m_A ± 7σ_A (mass outside 2.6e−12)
+    std::vector<double> cuts;
+    detail::tf2ConditionalOuter(
+        r, swapped, ma - kL * sa, ma + kL * sa, sa, ma, mb, beta, s, cuts,
+        [&](double a) {
+            const double z = (a - ma) / sa;
+            return std::exp(-0.5 * z * z) * 0.3989422804014327 / sa;
+        },
+        [&, ax = detail::Tf2Axes{r, swapped}](double a, double m, double v[4]) {
             if (s > 1e-13 * ax.db()) {
                 detail::tf2NormalAlongB(ax, a, m, s, v);
             } else {  // B is a function of A: the TF2 on the line
                 tf2At<double>(r, swapped ? m : a, swapped ? a : m, true, v);
             }
-            for (int ch = 0; ch < 4; ++ch) out[ch] += w * v[ch];
-        }
-    }
+        },
+        out);
 }
 
 }  // namespace udvr

@@ -86,6 +86,13 @@ AnyKernel2D makeGaussian2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOpti
     return Gaussian2DKernel(m.grid, m.mean.data(), m.stddev.data(), s.exact, s.fast,
                             s.meanGradient);
 }
+AnyKernel2D makeUniform2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
+                          const ModelFamily& f) {
+    return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
+                           o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
+                           f.kind == ModelKind::Uniform ? 1 : 0, kUniformTinyWidth * span(m, o),
+                           kUniformPointWidth * span(m, o), s.exact, s.fast, s.meanGradient);
+}
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                        const float* data, int stride, int lo, int hi, const double* levels,
@@ -122,7 +129,7 @@ using K = ModelKind;
 // clang-format off
 constexpr std::array<ModelFamily, 14> kFamilies{{
     {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D},
-    {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
+    {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
     {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
     {K::GmmOrdered, "gmm-ordered", gmmArrays, perComponent, {0, 0}, false, false, makeGmmOrdered, nullptr},
     {K::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr, nullptr},
@@ -134,7 +141,7 @@ constexpr std::array<ModelFamily, 14> kFamilies{{
     {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr},
-    {K::UniformFast, "uniform-fast", uniformArrays, two, {0, 0}, false, false, makeUniform, nullptr},
+    {K::UniformFast, "uniform-fast", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
 }};
 // clang-format on
 

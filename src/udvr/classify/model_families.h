@@ -33,7 +33,7 @@ enum ModelArray : unsigned {
 };
 
 /// Any model's kernel with a 2D TF (SPEC §9).
-using AnyKernel2D = std::variant<Mean2DKernel, Gaussian2DKernel, Quantile2DKernel>;
+using AnyKernel2D = std::variant<Mean2DKernel, Gaussian2DKernel, Uniform2DKernel, Quantile2DKernel>;
 
 /// Largest deviation from linear (per channel, α and colour in [0, 1]) that the float raster's
 /// cell runs allow (TransferFunction2D::linearCellRuns): segment means over runs then differ

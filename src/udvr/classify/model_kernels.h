@@ -243,32 +243,14 @@ struct MeanKernel : KernelBase {
     void prefetch(int v) const { prefetchRows(values, v, 1); }
 };
 
-/// Uniform (box spline, SPEC §3): X = Σ w_c U[lo_c, hi_c]. `uniform` (`exact`) takes the exact
-/// box spline in double (SPEC §4's 1e−4; every lane of a batch takes the double body);
-/// `uniform-fast` the fast form over T (BoxSplineFast: the two widest boxes exact, the rest a
-/// Gaussian with Edgeworth terms; issue 12), within 5e−4 of it. lo/hi = μ ∓ √3σ (`first` = mean,
-/// `second` = stddev) or [min, max]
-/// (`minMax`).
-struct UniformKernel : KernelBase, detail::ClassifyInLoad {
+/// The uniform voxels' intervals (SPEC §2), shared by the 1D and 2D uniform kernels:
+/// [first, second] = [min, max] with `--uniform-width minmax`, else μ ± √3σ from first = mean,
+/// second = stddev.
+struct UniformVoxels {
     const float* first;
     const float* second;
     bool minMax;
-    double tinyWidth;  // data units; exact: widths at or below go into the shift
-    bool exact;
-    double pointWidth;    // data units; fast: sums this narrow are point masses, widths ≥ it
-    float maxFloatTotal;  // data units; wider float lanes take the double body
-                          // (kMaxFloatTotalOverPiece)
 
-    UniformKernel(const Grid3& grid, const float* a, const float* b, bool mm, double tiny,
-                  const TfPiecesStorage& tf, bool exactIn = false, double point = 0.0)
-        : KernelBase(grid, tf),
-          first(a),
-          second(b),
-          minMax(mm),
-          tinyWidth(tiny),
-          exact(exactIn),
-          pointWidth(point),
-          maxFloatTotal(kMaxFloatTotalOverPiece * tf.fast().narrowestPiece) {}
     UDVR_CPU_GPU void interval(std::int64_t voxel, double& lo, double& hi) const {
         if (minMax) {
             lo = first[voxel];
@@ -279,6 +261,35 @@ struct UniformKernel : KernelBase, detail::ClassifyInLoad {
             hi = static_cast<double>(first[voxel]) + h;
         }
     }
+    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
+        double l, h;
+        interval(static_cast<std::int64_t>(voxel), l, h);
+        lo = static_cast<float>(l);
+        hi = static_cast<float>(h);
+    }
+};
+
+/// Uniform (box spline, SPEC §3): X = Σ w_c U[lo_c, hi_c]. `uniform` (`exact`) takes the exact
+/// box spline in double (SPEC §4's 1e−4; every lane of a batch takes the double body);
+/// `uniform-fast` the fast form over T (BoxSplineFast: the two widest boxes exact, the rest a
+/// Gaussian with Edgeworth terms; issue 12), within 5e−4 of it. lo/hi = μ ∓ √3σ (`first` = mean,
+/// `second` = stddev) or [min, max]
+/// (`minMax`).
+struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {
+    double tinyWidth;  // data units; exact: widths at or below go into the shift
+    bool exact;
+    double pointWidth;    // data units; fast: sums this narrow are point masses, widths ≥ it
+    float maxFloatTotal;  // data units; wider float lanes take the double body
+                          // (kMaxFloatTotalOverPiece)
+
+    UniformKernel(const Grid3& grid, const float* a, const float* b, bool mm, double tiny,
+                  const TfPiecesStorage& tf, bool exactIn = false, double point = 0.0)
+        : KernelBase(grid, tf),
+          UniformVoxels{a, b, mm},
+          tinyWidth(tiny),
+          exact(exactIn),
+          pointWidth(point),
+          maxFloatTotal(kMaxFloatTotalOverPiece * tf.fast().narrowestPiece) {}
     /// The box spline's terms at a cell.
     UDVR_CPU_GPU UniformSum sumAt(const Cell<double>& c) const {
         double w[8], lo[8], hi[8];
@@ -337,12 +348,7 @@ struct UniformKernel : KernelBase, detail::ClassifyInLoad {
         detail::keepLive<T>(live, r.v);
         return r;
     }
-    void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
-        double l, h;
-        interval(static_cast<std::int64_t>(voxel), l, h);
-        lo = static_cast<float>(l);
-        hi = static_cast<float>(h);
-    }
+    using UniformVoxels::voxelSupport;
     void prefetch(int v) const {
         if (exact) return;
         prefetchRows(first, v, 1);

@@ -13,6 +13,7 @@
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_gaussian.h"
+#include "udvr/classify/expected_tf2_uniform.h"
 #include "udvr/classify/model_kernels.h"
 #include "udvr/reconstruct/cell.h"
 #include "udvr/reconstruct/gradient.h"
@@ -153,6 +154,60 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         lo = static_cast<float>(mean[voxel] - s);
         hi = static_cast<float>(mean[voxel] + s);
     }
+    void prefetch(int) const {}
+};
+
+/// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
+/// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
+/// is the paper's bivariate box spline. E[TF2] by expectedTf2Uniform, in double: `uniform` with
+/// the widest direction integrated exactly, `uniform-fast` with the plain conditioning.
+struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
+    int exactTerms;
+    double tinyWidth;   // data units: directions this narrow in X count for G only
+    double pointWidth;  // data units: G residuals this narrow are point masses
+    GradientGeometry gradientGeometry;
+
+    Uniform2DKernel(const Grid3& grid, const float* a, const float* b, bool mm, int exact,
+                    double tiny, double point, const Tf2Raster<double>& tfD,
+                    const Tf2Raster<float>& tfF, const float* meanGrad)
+        : Kernel2DBase(grid, tfD, tfF, meanGrad),
+          UniformVoxels{a, b, mm},
+          exactTerms(exact),
+          tinyWidth(tiny),
+          pointWidth(point),
+          gradientGeometry(grid) {}
+    /// The centre (X, G at t = 0) and the directions at a scalar cell; returns their count.
+    UDVR_CPU_GPU int directionsAt(const Cell<double>& c, double& cx, double& cy,
+                                  BoxDirection2 d[32]) const {
+        double n[3];
+        meanDirectionAt(c, true, n);
+        const GradientForm f = gradientFormAt(geometry, gradientGeometry, c);
+        cx = cy = 0.0;
+        for (int i = 0; i < f.count; ++i) {
+            const double u = n[0] * f.coeff[i][0] + n[1] * f.coeff[i][1] + n[2] * f.coeff[i][2];
+            double lo, hi;
+            interval(f.voxel[i], lo, hi);
+            const double mid = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+            cx += f.w[i] * mid;
+            cy += u * mid;
+            d[i] = {f.w[i] * h, u * h};
+        }
+        return f.count;
+    }
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r{};
+        if constexpr (std::is_same_v<T, double>) {
+            double cx, cy;
+            BoxDirection2 d[32];
+            const int n = directionsAt(c, cx, cy, d);
+            expectedTf2Uniform(tfExact, cx, cy, d, n, exactTerms, tinyWidth, pointWidth, r.v);
+        } else {
+            detail::exactWhere(*this, c, live, r.v);
+        }
+        return r;
+    }
+    using UniformVoxels::voxelSupport;
     void prefetch(int) const {}
 };
 

@@ -278,6 +278,18 @@ struct DescribeGradient {
         j["gradient_magnitude"] = {{"mean", m[1]}, {"stddev", std::sqrt(std::max(0.0, m[4]))}};
         j["covariance"] = {{m[2], m[3]}, {m[3], m[4]}};
     }
+    void operator()(const Uniform2DKernel& k) const {
+        double cx, cy, vxx = 0, vxy = 0, vyy = 0;
+        BoxDirection2 d[32];
+        const int n = k.directionsAt(cell, cx, cy, d);
+        for (int i = 0; i < n; ++i) {  // var(t) = 1/3, t ~ U[−1, 1]
+            vxx += d[i].a * d[i].a / 3;
+            vxy += d[i].a * d[i].b / 3;
+            vyy += d[i].b * d[i].b / 3;
+        }
+        j["gradient_magnitude"] = {{"mean", cy}, {"stddev", std::sqrt(vyy)}};
+        j["covariance"] = {{vxx, vxy}, {vxy, vyy}};
+    }
     void operator()(const Quantile2DKernel& k) const {
         double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
         const int n = k.polylineAt<double>(cell, true, x, g);

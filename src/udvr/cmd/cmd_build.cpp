@@ -1,6 +1,7 @@
 // udvr build {ensemble.nc | member files… | 'glob*' | field --downsample K} [--quantiles 8]
 //   [--gmm 4] [--density empirical|kde|dequantized] [--bandwidth silverman|scott|H]
-//   [--tail-eps E] [--var NAME] [--member-dim NAME] -o model.vti          (SPEC §2, §7, §8)
+//   [--tail-eps E] [--var NAME] [--member-dim NAME] [--nan error|skip] -o model.vti
+//                                                                            (SPEC §2, §7, §8)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -52,7 +53,7 @@ void addBuildCommand(CLI::App& app) {
         "or from K^3 bricks of one field, written as a .vti model");
     struct Opts {
         std::vector<std::string> inputs;
-        std::string out, density, bandwidth = "silverman", var, memberDim, levels;
+        std::string out, density, bandwidth = "silverman", var, memberDim, levels, nan = "error";
         int quantiles = 8, gmm = 4, downsample = 0;
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
@@ -86,6 +87,9 @@ void addBuildCommand(CLI::App& app) {
                                     "kde tail probability of b_0 and b_q (default 1/(2n))");
     sub->add_option("--var", o->var, "variable/array to read");
     sub->add_option("--member-dim", o->memberDim, "NetCDF member dimension name");
+    sub->add_option("--nan", o->nan,
+                    "NaN/Inf samples (and NetCDF fill values): error (default; names the first "
+                    "voxel and member) | skip (each voxel from its finite samples, at least 2)");
     sub->add_option("-o,--output", o->out, "output model .vti")->required();
     addRawLayoutOptions(sub, o->raw);
 
@@ -102,6 +106,8 @@ void addBuildCommand(CLI::App& app) {
             opt.quantiles = q;
         }
         opt.gmmComponents = o->gmm;
+        opt.nan = parseNanPolicy(o->nan);
+        const bool skipNan = opt.nan == NanPolicy::Skip;
         const bool bricks = o->downsampleOpt->count() > 0;
         opt.density =
             o->density.empty() ? defaultDensity(bricks) : parseDensityEstimate(o->density);
@@ -130,6 +136,7 @@ void addBuildCommand(CLI::App& app) {
             FieldReadOptions ro;
             ro.var = o->var;
             ro.raw = toRawLayout(o->raw);
+            ro.allowMissing = skipNan;  // build's own scan reports them by policy
             ScalarField f;
             try {
                 f = readField(o->inputs[0], ro);
@@ -170,6 +177,7 @@ void addBuildCommand(CLI::App& app) {
             ro.var = o->var;
             ro.memberDim = o->memberDim;
             ro.raw = toRawLayout(o->raw);
+            ro.allowMissing = skipNan;
             const Ensemble e = readEnsemble(o->inputs, ro);
             readSeconds = secondsSince(t0);
             checkDensityForInput(opt.density, e.valueStep, e.valueType);
@@ -206,8 +214,18 @@ void addBuildCommand(CLI::App& app) {
                          "100; %zu constant voxels, %zu with fewer distinct values than K\n",
                          rep.meanGmmIterations, rep.gmmNotConverged, rep.constantVoxels,
                          rep.gmmFewerDistinct);
-        std::fprintf(stderr, "build: read %.2f s, statistics %.2f s, write %.2f s -> %s\n",
-                     readSeconds, rep.seconds, writeSeconds, o->out.c_str());
+        if (rep.nonFiniteSamples > 0)
+            std::fprintf(stderr,
+                         "build: --nan skip: left out %zu NaN/Inf samples at %zu voxels (the "
+                         "fewest finite samples at a voxel: %d of %d)\n",
+                         rep.nonFiniteSamples, rep.voxelsWithNonFinite, rep.fewestFiniteSamples,
+                         rep.samplesPerVoxel);
+        // Wall times of the three phases; the statistics' stages as CPU time over all threads.
+        std::fprintf(stderr,
+                     "build: read %.2f s, statistics %.2f s (CPU: scan %.2f, gather %.2f, "
+                     "sort+moments+quantiles %.2f, GMM %.2f s), write %.2f s -> %s\n",
+                     readSeconds, rep.seconds, rep.scanCpu, rep.gatherCpu, rep.estimateCpu,
+                     rep.gmmCpu, writeSeconds, o->out.c_str());
     });
 }
 

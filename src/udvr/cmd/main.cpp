@@ -5,6 +5,7 @@
 
 #include "udvr/cmd/commands.h"
 #include "udvr/cmd/parse_util.h"
+#include "udvr/util/atomic_file.h"
 #include "udvr/util/build_info.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
@@ -28,6 +29,9 @@ std::string firstCommandWord(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // Ctrl-C or a kill removes the temporary output being written; over the file size limit a
+    // write fails (EFBIG) with an error line instead of SIGXFSZ killing the process.
+    udvr::installInterruptCleanup();
     CLI::App app{"udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021)"};
     app.require_subcommand(1);
     // The version, the CPU target (UDVR_ARCH) and the vector registers in use.

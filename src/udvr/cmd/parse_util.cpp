@@ -143,10 +143,12 @@ bool parseUniformWidthMinMax(const std::string& text) {
 }
 
 void requireOutputDirectory(const std::string& path, const std::string& flag) {
-    const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-    if (!dir.empty() && !std::filesystem::is_directory(dir))
-        UDVR_FAIL(flag << ": cannot write " << path << ": directory " << dir.string()
-                       << " does not exist");
+    // Before any work: a build that would fail only at its write is told at once.
+    try {
+        requireWritableDirectory(path);
+    } catch (const FileError& e) {
+        UDVR_FAIL(flag << ": " << e.what());
+    }
 }
 
 void requireOutputExtension(const std::string& path, const std::string& flag,

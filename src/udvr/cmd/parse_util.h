@@ -27,8 +27,8 @@ RawLayout toRawLayout(const RawLayoutFlags& flags);
 /// --uniform-width: "variance" (alias "std"; μ ± √3σ, the default) → false, "minmax" → true.
 bool parseUniformWidthMinMax(const std::string& text);
 
-/// Fail unless the folder that will hold `path` exists (checked before long work starts, so a
-/// bad output path costs nothing and leaves nothing behind).
+/// Fail unless the folder that will hold `path` exists and is writable (checked before long work
+/// starts, so a bad output path costs nothing and leaves nothing behind).
 void requireOutputDirectory(const std::string& path, const std::string& flag);
 /// Fail unless `path` ends in one of `extensions` (lower case, with the dot; compared case-
 /// insensitively): "-o must name a .nc file (what), got 'p.vti'". Checked before any input is

@@ -24,7 +24,8 @@ constexpr int kTf2RasterX = 64, kTf2RasterY = 32;
 /// Brick sizes the volume is reduced by, and the quantile count of the reduced models.
 constexpr int kBricks[] = {4, 2};
 constexpr int kQuantiles = 8;
-/// The models with a 2D (value × gradient magnitude) kernel that the experiment renders.
+/// The models with a 2D (value × gradient magnitude) kernel that the experiment renders (not
+/// uniform: ~8× the gaussian's cost per sample).
 constexpr ModelKind kModels[] = {ModelKind::Mean, ModelKind::Gaussian, ModelKind::QuantileRange,
                                  ModelKind::QuantileMean, ModelKind::Iqr};
 
@@ -171,8 +172,9 @@ ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& option
     setup.push_back(
         "Models: mean (TF2 of the mean value and |mean gradient|), gaussian (bivariate normal "
         "of value and gradient along the mean gradient), quantile-range, quantile-mean and iqr "
-        "(every voxel at the same rank, SPEC §9). uniform, gmm-ordered and gmm-mc: not "
-        "available with a 2D TF yet (not rendered).");
+        "(every voxel at the same rank, SPEC §9). gmm-ordered and gmm-mc: not available with "
+        "a 2D TF yet; uniform has one but costs ~8x the gaussian per sample (docs/models.md), "
+        "so it is not rendered here.");
     setup.push_back(
         "Difference images: per-pixel |Δ mean RGB| against the ground truth, blue (0) to "
         "yellow (" +

@@ -10,6 +10,7 @@
 
 #include "udvr/io/io_detail.h"
 #include "udvr/util/check.h"
+#include "udvr/util/large_vector.h"
 
 namespace udvr {
 namespace fs = std::filesystem;
@@ -82,7 +83,7 @@ std::string gridText(const Grid3& g) {
 void detail::allocateEnsemble(Ensemble& e, const EnsembleReadOptions& options) {
     if (options.checkSize) options.checkSize(e.members, e.grid);
     e.voxelMajor = options.voxelMajor;
-    e.values.resize(e.grid.pointCount() * static_cast<std::size_t>(e.members));
+    resizeLarge(e.values, e.grid.pointCount() * static_cast<std::size_t>(e.members));
 }
 
 void detail::storeMember(Ensemble& e, int m, std::span<const float> values) {
@@ -126,6 +127,7 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
     FieldReadOptions fieldOptions;
     fieldOptions.raw = options.raw;
     fieldOptions.var = options.var;
+    fieldOptions.allowMissing = options.allowMissing;
     Ensemble e;
     e.members = static_cast<int>(files.size());
     std::string note;  // about member 0's geometry; printed once all members have been read

@@ -15,6 +15,8 @@ struct EnsembleReadOptions {
     std::string var;        // NetCDF variable; empty = the only variable with a member dimension
     std::string memberDim;  // empty = member/ensemble/realization/number (first found)
     RawLayout raw;          // for raw member files
+    /// Let NaN/Inf through, and read NetCDF fill values as NaN (`build --nan skip`).
+    bool allowMissing = false;
     /// Store the values voxel-major (Ensemble::voxelMajor: a voxel's members contiguous, the
     /// `members` kernel's layout) instead of member-major; costs one member of scratch.
     bool voxelMajor = false;

@@ -750,14 +750,14 @@ ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
     } else if (ext == ".vti") {
         f = readFieldVti(path, options.var, geometryNote);
     } else if (ext == ".nc" || ext == ".nc4" || ext == ".cdf") {
-        f = readFieldNetcdf(path, options.var, geometryNote);
+        f = readFieldNetcdf(path, options.var, geometryNote, options.allowMissing);
     } else if (ext == ".raw" || options.raw.given()) {
         f = readRaw(path, options.raw);
     } else {
         UDVR_FAIL("cannot read " << path.string() << ": unknown field format '" << ext
                                  << "' (expected .raw .nrrd .nhdr .vti .nc)");
     }
-    checkFinite(path, f.grid, f.values);
+    if (!options.allowMissing) checkFinite(path, f.grid, f.values);
     return f;
 }
 

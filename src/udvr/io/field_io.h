@@ -26,6 +26,9 @@ struct RawLayout {
 struct FieldReadOptions {
     RawLayout raw;    // required for .raw files
     std::string var;  // array (.vti) or variable (.nc) name; empty = the only/first scalar one
+    /// Let NaN/Inf through, and read NetCDF fill values as NaN, instead of refusing them
+    /// (`build --nan skip` leaves them out of each voxel's samples).
+    bool allowMissing = false;
 };
 
 /// readField's error for a NetCDF file that holds an ensemble (a variable with a member

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <bit>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <csetjmp>
 #include <cstdint>
@@ -405,14 +406,19 @@ std::vector<unsigned char> encodePng(const ImageRgba& image, int level) {
 void writePng(const fs::path& path, const ImageRgba& image) {
     const std::vector<unsigned char> bytes = pngBytes8(image);
     writeAtomically(path, [&](const fs::path& tmp) {
+        errno = 0;
         std::unique_ptr<FILE, FileCloser> fp(std::fopen(tmp.c_str(), "wb"));
-        if (!fp) UDVR_FILE_FAIL("cannot open " << tmp.string() << " for writing");
+        if (!fp) UDVR_FILE_FAIL("cannot write " << path.string() << ": " << writeErrorText(errno));
         PngErrorState err;
         if (!pngWriteRgba8(fp.get(), nullptr, -1, bytes.data(), image.width, image.height, &err)) {
-            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << err.message);
+            // libpng says "Write Error" for a failed fwrite; errno says why.
+            const std::string why = writeErrorText(errno);
+            UDVR_FILE_FAIL("cannot write " << path.string() << ": "
+                                           << (why.empty() ? err.message : why));
         }
+        // The last buffer is written by fclose: its error counts too.
         if (std::fclose(fp.release()) != 0) {
-            UDVR_FILE_FAIL("cannot write " << path.string() << " (disk full?)");
+            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << writeErrorText(errno));
         }
     });
 }

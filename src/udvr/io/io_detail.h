@@ -52,9 +52,9 @@ TransferFunction2D readTransferFunction2DVti(const std::filesystem::path& path);
 /// file of 0 bytes (plus 1 s per 4 MB): 10 s unless set (the fuzz targets and tests set less,
 /// so that a damaged file costs little).
 void setHdf5ProbeSeconds(double seconds);
-/// .nc with a 3D variable (netcdf_io.cpp).
+/// .nc with a 3D variable (netcdf_io.cpp); allowMissing: fill values become NaN.
 ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string& var,
-                            std::string* geometryNote);
+                            std::string* geometryNote, bool allowMissing = false);
 /// .nc with a member dimension (netcdf_io.cpp).
 Ensemble readEnsembleNetcdf(const std::filesystem::path& path, const EnsembleReadOptions& options);
 /// Size `e.values` for e.members × e.grid in options' layout, after options.checkSize

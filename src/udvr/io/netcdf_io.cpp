@@ -55,6 +55,15 @@ void ncCheck(int status, const fs::path& path, const std::string& what) {
     }
 }
 
+/// For the writer: a FileError "cannot write PATH: what: reason" (a positive status is errno).
+void ncWriteCheck(int status, const fs::path& path, const std::string& what) {
+    if (status != NC_NOERR) {
+        UDVR_FILE_FAIL("cannot write "
+                       << path.string() << ": " << what << ": "
+                       << (status > 0 ? writeErrorText(status) : std::string(nc_strerror(status))));
+    }
+}
+
 /// A NetCDF-4 file is HDF5, whose superblock (at offset 0, as netCDF-C writes it) records the
 /// end-of-file address; a file shorter than that was cut (HDF5 itself says only "HDF error").
 /// Superblock versions 0/1: base address after 24/28 bytes, then free-space, end-of-file;
@@ -611,9 +620,11 @@ double valueStepOf(int nc, int varid, const std::string& type) {
     return std::abs(packingOf(nc, varid).scale);
 }
 
-/// Read `count` values of a hyperslab, rejecting fill values and applying CF packing.
+/// Read `count` values of a hyperslab, rejecting fill values (or with fillsAsNaN reading them as
+/// NaN) and applying CF packing.
 void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vector<size_t>& start,
-              const std::vector<size_t>& count, std::span<float> out, const std::string& what) {
+              const std::vector<size_t>& count, std::span<float> out, const std::string& what,
+              bool fillsAsNaN = false) {
     Packing p = packingOf(nc, var.id);
     bool raw = p.scale == 1.0 && p.offset == 0.0 && p.fills.empty();
     if (raw) {
@@ -636,6 +647,7 @@ void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vecto
         }
         if (std::find(p.fills.begin(), p.fills.end(), v[i]) != p.fills.end()) {
             if (filled++ == 0) firstFilled = i;
+            if (fillsAsNaN) scaled = std::numeric_limits<double>::quiet_NaN();
         }
         out[i] = static_cast<float>(scaled);
     }
@@ -643,7 +655,7 @@ void readSlab(const fs::path& path, int nc, const VarInfo& var, const std::vecto
         UDVR_FAIL(path.string() << ": variable " << var.name << what << " has " << tooLarge
                                 << " values outside the float32 range");
     }
-    if (filled > 0) {
+    if (filled > 0 && !fillsAsNaN) {
         UDVR_FAIL(path.string() << ": variable " << var.name << what << " has " << filled
                                 << " missing (fill) values, the first at linear index "
                                 << firstFilled << "; expected a complete field");
@@ -675,7 +687,8 @@ int defineGrid(const fs::path& path, int nc, const Grid3& grid, const std::strin
     std::vector<int> dimIds;
     auto defDim = [&](const char* name, std::size_t len) {
         int id = -1;
-        ncCheck(nc_def_dim(nc, name, len, &id), path, std::string("defining dimension ") + name);
+        ncWriteCheck(nc_def_dim(nc, name, len, &id), path,
+                     std::string("defining dimension ") + name);
         return id;
     };
     if (members > 0) dimIds.push_back(defDim("member", static_cast<std::size_t>(members)));
@@ -688,30 +701,32 @@ int defineGrid(const fs::path& path, int nc, const Grid3& grid, const std::strin
     }
     int coordIds[3];
     for (int a = 0; a < 3; ++a) {
-        ncCheck(nc_def_var(nc, axisNames[a], NC_DOUBLE, 1, &axisDims[a], &coordIds[a]), path,
-                "defining coordinate variable");
-        ncCheck(nc_put_att_text(nc, coordIds[a], "axis", 1, axisAttr[a]), path, "attribute");
+        ncWriteCheck(nc_def_var(nc, axisNames[a], NC_DOUBLE, 1, &axisDims[a], &coordIds[a]), path,
+                     "defining coordinate variable");
+        ncWriteCheck(nc_put_att_text(nc, coordIds[a], "axis", 1, axisAttr[a]), path, "attribute");
         std::string longName = std::string(axisNames[a]) + " position of the grid points";
-        ncCheck(nc_put_att_text(nc, coordIds[a], "long_name", longName.size(), longName.c_str()),
-                path, "attribute");
+        ncWriteCheck(
+            nc_put_att_text(nc, coordIds[a], "long_name", longName.size(), longName.c_str()), path,
+            "attribute");
     }
     int varId = -1;
-    ncCheck(nc_def_var(nc, varName.c_str(), NC_FLOAT, static_cast<int>(dimIds.size()),
-                       dimIds.data(), &varId),
-            path, "defining variable " + varName);
+    ncWriteCheck(nc_def_var(nc, varName.c_str(), NC_FLOAT, static_cast<int>(dimIds.size()),
+                            dimIds.data(), &varId),
+                 path, "defining variable " + varName);
     const std::string conventions = "CF-1.8";
-    ncCheck(nc_put_att_text(nc, NC_GLOBAL, "Conventions", conventions.size(), conventions.c_str()),
-            path, "attribute");
+    ncWriteCheck(
+        nc_put_att_text(nc, NC_GLOBAL, "Conventions", conventions.size(), conventions.c_str()),
+        path, "attribute");
     const std::string source = "udvr";
-    ncCheck(nc_put_att_text(nc, NC_GLOBAL, "source", source.size(), source.c_str()), path,
-            "attribute");
-    ncCheck(nc_enddef(nc), path, "writing header");
+    ncWriteCheck(nc_put_att_text(nc, NC_GLOBAL, "source", source.size(), source.c_str()), path,
+                 "attribute");
+    ncWriteCheck(nc_enddef(nc), path, "writing header");
     for (int a = 0; a < 3; ++a) {
         std::vector<double> c(static_cast<std::size_t>(grid.dims[a]));
         for (std::size_t i = 0; i < c.size(); ++i) {
             c[i] = grid.world(a, static_cast<double>(i));
         }
-        ncCheck(nc_put_var_double(nc, coordIds[a], c.data()), path, "writing coordinates");
+        ncWriteCheck(nc_put_var_double(nc, coordIds[a], c.data()), path, "writing coordinates");
     }
     return varId;
 }
@@ -721,8 +736,8 @@ void writeNetcdf(const fs::path& path, const Grid3& grid, const std::string& nam
                  const std::vector<float>& values) {
     writeAtomically(path, [&](const fs::path& tmp) {
         NcFile file;
-        ncCheck(nc_create(tmp.c_str(), NC_CLOBBER | NC_64BIT_OFFSET, &file.id), path,
-                "cannot create");
+        ncWriteCheck(nc_create(tmp.c_str(), NC_CLOBBER | NC_64BIT_OFFSET, &file.id), path,
+                     "creating");
         int varId = defineGrid(path, file.id, grid, name, members);
         std::size_t n = grid.pointCount();
         int slabs = std::max(members, 1);
@@ -736,18 +751,18 @@ void writeNetcdf(const fs::path& path, const Grid3& grid, const std::string& nam
                 start.push_back(0);
                 count.push_back(static_cast<std::size_t>(grid.dims[a]));
             }
-            ncCheck(nc_put_vara_float(file.id, varId, start.data(), count.data(),
-                                      values.data() + static_cast<std::size_t>(m) * n),
-                    path, "writing data");
+            ncWriteCheck(nc_put_vara_float(file.id, varId, start.data(), count.data(),
+                                           values.data() + static_cast<std::size_t>(m) * n),
+                         path, "writing data");
         }
-        ncCheck(file.close(), path, "closing (disk full?)");
+        ncWriteCheck(file.close(), path, "closing");
     });
 }
 
 }  // namespace
 
 ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
-                                    std::string* geometryNote) {
+                                    std::string* geometryNote, bool allowMissing) {
     NcFile file;
     file.id = openForRead(path);
     std::vector<VarInfo> vars = allVars(path, file.id);
@@ -793,7 +808,7 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
     f.name = var->name;
     f.values.resize(f.grid.pointCount());
     std::vector<std::size_t> start(var->dims.size(), 0), count(var->lengths);
-    readSlab(path, file.id, *var, start, count, f.values, "");
+    readSlab(path, file.id, *var, start, count, f.values, "", allowMissing);
     f.valueType = valueTypeOf(path, file.id, var->id);
     f.valueStep = valueStepOf(file.id, var->id, f.valueType);
     return f;
@@ -885,8 +900,8 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
         std::string what = " (member " + std::to_string(m) + ")";
         std::span<float> out =
             e.voxelMajor ? std::span<float>(scratch) : std::span<float>(e.values.data() + m * n, n);
-        readSlab(path, file.id, *var, start, count, out, what);
-        checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
+        readSlab(path, file.id, *var, start, count, out, what, options.allowMissing);
+        if (!options.allowMissing) checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
         if (e.voxelMajor) detail::storeMember(e, static_cast<int>(m), out);
     }
     detail::printNote(geometryNote);  // only now: an error must stay the one line on stderr

@@ -5,6 +5,7 @@
 #include <vtkDataArray.h>
 #include <vtkDataObject.h>
 #include <vtkDoubleArray.h>
+#include <vtkErrorCode.h>
 #include <vtkFieldData.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -22,6 +23,7 @@
 #include <vtkXMLImageDataWriter.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -254,8 +256,17 @@ void writeImageData(const fs::path& path, vtkImageData* image,
         else
             writer->SetCompressorTypeToZLib();
         writer->SetHeaderTypeToUInt64();
-        if (writer->Write() != 1 || errors->count > 0 || writer->GetErrorCode() != 0) {
-            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << errors->message);
+        errno = 0;
+        const int ok = writer->Write();
+        const int err = errno;  // the failed open or write (VTK's message names the temporary)
+        if (ok != 1 || errors->count > 0 || writer->GetErrorCode() != 0) {
+            std::string why = writeErrorText(err);
+            if (why.empty()) why = errors->message;
+            if (why.empty())
+                why = writer->GetErrorCode() == vtkErrorCode::OutOfDiskSpaceError
+                          ? std::string("out of disk space")
+                          : "VTK error code " + std::to_string(writer->GetErrorCode());
+            UDVR_FILE_FAIL("cannot write " << path.string() << ": " << why);
         }
     });
 }

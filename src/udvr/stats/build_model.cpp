@@ -1,19 +1,38 @@
 #include "udvr/stats/build_model.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <utility>
 #include <vector>
 
+#include "udvr/stats/sort_runs.h"
 #include "udvr/util/check.h"
+#include "udvr/util/large_vector.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/progress.h"
 
 namespace udvr {
 namespace {
+
+/// This thread's CPU time in seconds (for the per-stage times of BuildReport).
+double threadCpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Adds to a double shared by the tasks of a parallel loop.
+void atomicAdd(std::atomic<double>& sum, double v) {
+    double old = sum.load();
+    while (!sum.compare_exchange_weak(old, old + v)) {
+    }
+}
 
 // Voxels per gather buffer: 1024 voxels × 50 members of float = 200 KiB, inside L2; EM keeps
 // its 16 lanes busy over a chunk, so larger chunks waste less at the end of one.
@@ -57,19 +76,89 @@ struct InputScan {
     if (ensemble)
         UDVR_FAIL("the ensemble has " << s.nonFinite << " NaN/Inf samples (first at voxel (" << i
                                       << "," << j << "," << k << "), member " << s.firstMember
-                                      << "); build needs finite values and never averages NaN");
+                                      << "); build needs finite values and never averages NaN "
+                                         "(--nan skip: each voxel's finite members only)");
     UDVR_FAIL("the field has " << s.nonFinite << " NaN/Inf values (first at point (" << i << ","
                                << j << "," << k
-                               << ")); build needs finite values and never averages NaN");
+                               << ")); build needs finite values and never averages NaN "
+                                  "(--nan skip: each brick's finite values only)");
+}
+
+/// --nan skip: every voxel needs at least 2 finite samples (as the whole input needs 2 samples
+/// per voxel: ddof = 1); otherwise the first voxel that has fewer is the error. Fills the
+/// report's counts. One extra gather pass, run only when the input has NaN/Inf.
+template <class Gather>
+void checkFiniteCounts(const Grid3& grid, int n, const Gather& gather, bool bricks,
+                       BuildReport* report) {
+    struct Counts {
+        std::size_t voxelsWith = 0, tooFew = 0, nonFinite = 0;
+        std::size_t firstTooFew = std::numeric_limits<std::size_t>::max();
+        int firstTooFewCount = 0;
+        int fewest = std::numeric_limits<int>::max();
+    } total;
+    std::mutex mutex;
+    const std::size_t un = static_cast<std::size_t>(n);
+    parallelForChunks(grid.pointCount(), kChunkVoxels, [&](std::size_t b, std::size_t e) {
+        std::vector<float> buf(kChunkVoxels * un);
+        Counts local;
+        for (std::size_t c0 = b; c0 < e; c0 += kChunkVoxels) {
+            const std::size_t c1 = std::min(e, c0 + kChunkVoxels);
+            gather(c0, c1, buf.data());
+            for (std::size_t v = c0; v < c1; ++v) {
+                const float* s = buf.data() + (v - c0) * un;
+                int finite = 0;
+                for (std::size_t i = 0; i < un; ++i) finite += std::isfinite(s[i]) ? 1 : 0;
+                local.fewest = std::min(local.fewest, finite);
+                if (finite == n) continue;
+                ++local.voxelsWith;
+                local.nonFinite += static_cast<std::size_t>(n - finite);
+                if (finite >= 2) continue;
+                if (local.tooFew++ == 0) {  // voxels ascend within a task
+                    local.firstTooFew = v;
+                    local.firstTooFewCount = finite;
+                }
+            }
+        }
+        std::lock_guard<std::mutex> lock(mutex);
+        total.voxelsWith += local.voxelsWith;
+        total.nonFinite += local.nonFinite;
+        total.tooFew += local.tooFew;
+        total.fewest = std::min(total.fewest, local.fewest);
+        if (local.firstTooFew < total.firstTooFew) {
+            total.firstTooFew = local.firstTooFew;
+            total.firstTooFewCount = local.firstTooFewCount;
+        }
+    });
+    if (total.tooFew > 0) {
+        const auto X = static_cast<std::size_t>(grid.dims[0]);
+        const auto Y = static_cast<std::size_t>(grid.dims[1]);
+        const std::size_t v = total.firstTooFew;
+        UDVR_FAIL("--nan skip needs at least 2 finite samples at every voxel: "
+                  << (bricks ? "the brick of reduced voxel (" : "voxel (") << v % X << ","
+                  << (v / X) % Y << "," << v / (X * Y) << ") has " << total.firstTooFewCount
+                  << " of " << n << " (" << total.tooFew << " voxel"
+                  << (total.tooFew == 1 ? " has" : "s have")
+                  << " fewer than 2; give them finite values, e.g. a mask value)");
+    }
+    if (report) {
+        report->nonFiniteSamples = total.nonFinite;
+        report->voxelsWithNonFinite = total.voxelsWith;
+        report->fewestFiniteSamples = total.fewest;
+    }
 }
 
 /// The statistics of SPEC §2 for every voxel. gather(v0, v1, buf) writes voxel v's n samples to
 /// buf[(v − v0)·n …] for v in [v0, v1), v1 − v0 ≤ kChunkVoxels.
 /// valueStep: the input's quantisation step (ScalarField::valueStep), used by dequantized only.
+/// NanPolicy::Skip with non-finite samples in the input (scan.nonFinite > 0): each voxel's
+/// samples are its finite ones (at least 2, checked first), its GMM fitted alone (fitGmm) unless
+/// all n are finite.
 template <class Gather>
 ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const BuildOptions& opt,
-                      const InputScan& scan, double valueStep, BuildReport* report) {
+                      const InputScan& scan, double valueStep, bool bricks, BuildReport* report) {
     const auto start = std::chrono::steady_clock::now();
+    const bool skipNonFinite = opt.nan == NanPolicy::Skip && scan.nonFinite > 0;
+    if (skipNonFinite) checkFiniteCounts(grid, n, gather, bricks, report);
     const std::size_t voxels = grid.pointCount();
     const std::size_t un = static_cast<std::size_t>(n);
     const int q = opt.quantiles;
@@ -81,13 +170,13 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
 
     ModelVolume m;
     m.grid = grid;
-    m.mean.resize(voxels);
-    m.stddev.resize(voxels);
-    m.min.resize(voxels);
-    m.max.resize(voxels);
-    m.iqr.resize(2 * voxels);
+    resizeLarge(m.mean, voxels);
+    resizeLarge(m.stddev, voxels);
+    resizeLarge(m.min, voxels);
+    resizeLarge(m.max, voxels);
+    resizeLarge(m.iqr, 2 * voxels);
     m.quantileCount = q;
-    if (q > 0) m.quantiles.resize(voxels * static_cast<std::size_t>(q + 1));
+    if (q > 0) resizeLarge(m.quantiles, voxels * static_cast<std::size_t>(q + 1));
     m.quantileLevels = normalizedQuantileLevels(opt.quantileLevels, q, "--quantile-levels");
     // b(0.25), b(0.75) among the boundaries (kde: the IQR is then read off them).
     const int quarter = q > 0 ? m.boundaryAtLevel(0.25) : -1;
@@ -96,7 +185,7 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     for (int j = 0; j <= q; ++j) boundaryLevels[static_cast<std::size_t>(j)] = m.quantileLevel(j);
     const std::array<double, 2> iqrLevels = {0.25, 0.75};
     m.gmmComponents = K;
-    if (K > 0) m.gmm.resize(voxels * static_cast<std::size_t>(3 * K));
+    if (K > 0) resizeLarge(m.gmm, voxels * static_cast<std::size_t>(3 * K));
     std::vector<float> bandwidths;  // per voxel h (kde), NaN for constant voxels
     if (kde) bandwidths.resize(voxels);
 
@@ -108,29 +197,45 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
     gmmOpt.sigmaFloor = range > 0.0 ? 1e-3 * range : 1e-3;
 
     std::atomic<std::size_t> constant{0}, notConverged{0}, fewerDistinct{0}, iterations{0};
+    std::atomic<double> gatherCpu{0.0}, estimateCpu{0.0}, gmmCpu{0.0};
+    // Finite samples are sorted a chunk at a time, one voxel per vector lane (a sorting
+    // network); with --nan skip each voxel's finite ones alone.
+    const std::vector<std::pair<int, int>> network = sortingNetwork(n);
     parallelForChunks(voxels, kChunkVoxels, [&](std::size_t b, std::size_t e) {
         std::vector<float> buf(kChunkVoxels * un);  // sorted samples of a chunk, voxel-major
         std::vector<GmmFitInfo> infos(kChunkVoxels);
+        std::vector<std::size_t> finite(skipNonFinite ? kChunkVoxels : 0);  // per voxel
         GmmWorkspace ws;
         std::vector<double> dq(dequantized ? static_cast<std::size_t>(q + 1) : 0);
         std::array<double, 2> dqIqr{};
         std::size_t lConstant = 0, lNotConverged = 0, lFewer = 0, lIterations = 0;
+        double lGather = 0.0, lEstimate = 0.0, lGmm = 0.0;
         for (std::size_t c0 = b; c0 < e; c0 += kChunkVoxels) {
             const std::size_t c1 = std::min(e, c0 + kChunkVoxels);
+            const double t0 = threadCpuSeconds();
             gather(c0, c1, buf.data());
+            const double t1 = threadCpuSeconds();
+            lGather += t1 - t0;
+            if (!skipNonFinite) sortRuns(buf.data(), c1 - c0, un, network);
             for (std::size_t v = c0; v < c1; ++v) {
                 float* s = buf.data() + (v - c0) * un;
-                std::sort(s, s + un);
-                const std::span<const float> sorted(s, un);
+                std::size_t nv = un;  // this voxel's samples
+                if (skipNonFinite) {
+                    nv = static_cast<std::size_t>(
+                        std::remove_if(s, s + un, [](float x) { return !std::isfinite(x); }) - s);
+                    finite[v - c0] = nv;
+                    std::sort(s, s + nv);
+                }
+                const std::span<const float> sorted(s, nv);
                 const SampleMoments mom = sampleMoments(sorted);
                 m.mean[v] = static_cast<float>(mom.mean);
                 m.stddev[v] = static_cast<float>(mom.stddev);
                 m.min[v] = s[0];
-                m.max[v] = s[un - 1];
+                m.max[v] = s[nv - 1];
                 float* qv =
                     q > 0 ? m.quantiles.data() + v * static_cast<std::size_t>(q + 1) : nullptr;
                 float* iqr = m.iqr.data() + 2 * v;
-                const bool constantVoxel = s[0] == s[un - 1];
+                const bool constantVoxel = s[0] == s[nv - 1];
                 if (constantVoxel) ++lConstant;
                 if (dequantized) {
                     // Every sample spread over its quantisation step, constant voxels too (a
@@ -177,23 +282,50 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
                     }
                 }
             }
+            const double t2 = threadCpuSeconds();
+            lEstimate += t2 - t1;
             if (K > 0) {
                 // EM for the whole chunk, 16 voxels at a time (one per vector lane).
                 const std::size_t cnt = c1 - c0;
                 const std::size_t stride = static_cast<std::size_t>(3 * K);
-                fitGmmMany(std::span<const float>(buf.data(), cnt * un), un, gmmOpt, c0,
-                           std::span<float>(m.gmm.data() + c0 * stride, cnt * stride),
-                           std::span<GmmFitInfo>(infos.data(), cnt), ws);
+                // Voxels i0..i1 of the chunk, all with n samples.
+                auto fitRun = [&](std::size_t i0, std::size_t i1) {
+                    fitGmmMany(
+                        std::span<const float>(buf.data() + i0 * un, (i1 - i0) * un), un, gmmOpt,
+                        c0 + i0,
+                        std::span<float>(m.gmm.data() + (c0 + i0) * stride, (i1 - i0) * stride),
+                        std::span<GmmFitInfo>(infos.data() + i0, i1 - i0), ws);
+                };
+                if (!skipNonFinite) fitRun(0, cnt);
+                for (std::size_t i = 0; skipNonFinite && i < cnt;) {
+                    std::size_t j = i;
+                    while (j < cnt && finite[j] == un) ++j;
+                    if (j > i) {
+                        fitRun(i, j);
+                        i = j;
+                        continue;
+                    }
+                    // Fewer samples than n: alone, same stream (as in a batch, bit for bit).
+                    infos[i] = fitGmm(
+                        std::span<const float>(buf.data() + i * un, finite[i]), gmmOpt, c0 + i,
+                        std::span<float>(m.gmm.data() + (c0 + i) * stride, stride), ws);
+                    ++i;
+                }
                 for (std::size_t i = 0; i < cnt; ++i) {
                     const GmmFitInfo& fi = infos[i];
                     lIterations += static_cast<std::size_t>(fi.iterations);
                     if (!fi.converged) ++lNotConverged;
                     const float* s = buf.data() + i * un;
-                    if (fi.distinctComponents < K && s[0] != s[un - 1]) ++lFewer;
+                    const std::size_t ni = skipNonFinite ? finite[i] : un;
+                    if (fi.distinctComponents < K && s[0] != s[ni - 1]) ++lFewer;
                 }
+                lGmm += threadCpuSeconds() - t2;
             }
             if (opt.progress) opt.progress->advance(c1 - c0);
         }
+        atomicAdd(gatherCpu, lGather);
+        atomicAdd(estimateCpu, lEstimate);
+        atomicAdd(gmmCpu, lGmm);
         constant += lConstant;
         notConverged += lNotConverged;
         fewerDistinct += lFewer;
@@ -233,6 +365,9 @@ ModelVolume buildCore(const Grid3& grid, int n, const Gather& gather, const Buil
             fitted > 0 ? static_cast<double>(iterations) / static_cast<double>(fitted) : 0.0;
         report->dataMin = scan.min;
         report->dataMax = scan.max;
+        report->gatherCpu = gatherCpu;
+        report->estimateCpu = estimateCpu;
+        report->gmmCpu = gmmCpu;
         report->seconds +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
@@ -275,6 +410,12 @@ void validateBuildOptions(const BuildOptions& o, int n) {
     } else if (o.tailEps != 0.0) {
         UDVR_FAIL("--tail-eps applies to --density kde only");
     }
+}
+
+NanPolicy parseNanPolicy(const std::string& name) {
+    if (name == "error") return NanPolicy::Error;
+    if (name == "skip") return NanPolicy::Skip;
+    UDVR_FAIL("--nan '" << name << "' is not a policy; expected error or skip");
 }
 
 DensityEstimate defaultDensity(bool bricks) {
@@ -334,7 +475,9 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
     // Non-finite check and data range, member rows scanned in voxel chunks.
     InputScan scan;
     std::mutex scanMutex;
+    double scanCpu = 0.0;
     parallelForChunks(P, 1 << 16, [&](std::size_t b, std::size_t end) {
+        const double t0 = threadCpuSeconds();
         InputScan local;
         for (int mIdx = 0; mIdx < e.members; ++mIdx) {
             const float* row = e.member(mIdx);
@@ -342,12 +485,14 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
         }
         std::lock_guard<std::mutex> lock(scanMutex);
         scan.merge(local);
+        scanCpu += threadCpuSeconds() - t0;
     });
-    if (scan.nonFinite > 0) failNonFinite(scan, e.grid, true);
+    if (scan.nonFinite > 0 && opt.nan == NanPolicy::Error) failNonFinite(scan, e.grid, true);
     if (report) {
         *report = BuildReport{};
         report->seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report->scanCpu = scanCpu;
     }
 
     const int n = e.members;
@@ -360,7 +505,7 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
                     row[v];
         }
     };
-    ModelVolume m = buildCore(e.grid, n, gather, opt, scan, e.valueStep, report);
+    ModelVolume m = buildCore(e.grid, n, gather, opt, scan, e.valueStep, false, report);
     m.downsample = 0;
     m.bounds = e.grid.bounds();
     m.fullResMinSpacing = e.grid.minSpacing();
@@ -396,7 +541,9 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
     const int usedX = g.dims[0] * k, usedY = g.dims[1] * k, usedZ = g.dims[2] * k;
     InputScan scan;
     std::mutex scanMutex;
+    double scanCpu = 0.0;
     parallelForChunks(static_cast<std::size_t>(usedZ), 1, [&](std::size_t z0, std::size_t z1) {
+        const double t0 = threadCpuSeconds();
         InputScan local;
         for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
             for (int y = 0; y < usedY; ++y) {
@@ -407,12 +554,14 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
             }
         std::lock_guard<std::mutex> lock(scanMutex);
         scan.merge(local);
+        scanCpu += threadCpuSeconds() - t0;
     });
-    if (scan.nonFinite > 0) failNonFinite(scan, f.grid, false);
+    if (scan.nonFinite > 0 && opt.nan == NanPolicy::Error) failNonFinite(scan, f.grid, false);
     if (report) {
         *report = BuildReport{};
         report->seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        report->scanCpu = scanCpu;
         for (int a = 0; a < 3; ++a) report->droppedPlanes[a] = f.grid.dims[a] % k;
     }
 
@@ -433,7 +582,7 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
                 }
         }
     };
-    ModelVolume m = buildCore(g, n, gather, opt, scan, f.valueStep, report);
+    ModelVolume m = buildCore(g, n, gather, opt, scan, f.valueStep, true, report);
     m.downsample = k;
     m.bounds = f.grid.bounds();
     m.fullResMinSpacing = f.grid.minSpacing();

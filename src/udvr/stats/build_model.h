@@ -14,6 +14,15 @@ namespace udvr {
 
 class ProgressBar;
 
+/// What build does with NaN/Inf samples (`--nan`).
+enum class NanPolicy {
+    Error,  // refuse the input, naming the first voxel (i,j,k) and member
+    Skip,   // each voxel's statistics over its finite samples only (≥ 2 at every voxel)
+};
+
+/// Parse "error" | "skip"; throws UdvrError otherwise.
+NanPolicy parseNanPolicy(const std::string& name);
+
 struct BuildOptions {
     int quantiles = 8;  // q ≥ 1; 0 skips the quantile array
     /// q + 1 levels t_0 = 0 < … < t_q = 1 of the boundaries (`--quantile-levels`); empty: j/q.
@@ -23,6 +32,7 @@ struct BuildOptions {
     KdeBandwidth bandwidth;                   // kde only
     std::string bandwidthText = "silverman";  // as given, for the field data
     double tailEps = 0.0;                     // kde tail ε in (0, 0.5) and ≤ 1/q; 0 = 1/(2n)
+    NanPolicy nan = NanPolicy::Error;         // NaN/Inf samples
     std::uint64_t gmmSeed = 1;                // k-means++ seed
     std::string source;                       // input description for the field data
     ProgressBar* progress = nullptr;          // advanced by voxels done (may be null)
@@ -36,9 +46,16 @@ struct BuildReport {
     std::size_t gmmNotConverged = 0;   // EM stopped at 100 iterations
     std::size_t gmmFewerDistinct = 0;  // voxels with fewer distinct values than K
     double meanGmmIterations = 0.0;
+    std::size_t nonFiniteSamples = 0;           // --nan skip: NaN/Inf samples left out
+    std::size_t voxelsWithNonFinite = 0;        // --nan skip: voxels that had any
+    int fewestFiniteSamples = 0;                // --nan skip: min over voxels of the finite samples
     double dataMin = 0.0, dataMax = 0.0;        // over all samples
     std::array<int, 3> droppedPlanes{0, 0, 0};  // downsampling: trailing N mod K planes per axis
     double seconds = 0.0;                       // check + statistics
+    /// CPU seconds of each stage, summed over the threads (thread CPU clocks, so another
+    /// process on the same cores does not inflate them): the NaN/range scan, the gather of a
+    /// chunk's samples, sorting + moments + quantiles + IQR, and the GMM (seeding and EM).
+    double scanCpu = 0.0, gatherCpu = 0.0, estimateCpu = 0.0, gmmCpu = 0.0;
 };
 
 /// Check options against n samples per voxel; throws UdvrError (q < 0, K < 0 or K > n, K too
@@ -73,8 +90,9 @@ BuildFitNotes fitBuildOptionsToSamples(BuildOptions& options, long long samplesP
                                        bool gmmGiven, bool quantilesGiven);
 
 /// Model from an ensemble: the members' values at a voxel are its samples. Throws UdvrError for
-/// fewer than 2 members, non-finite samples (with their count and the first voxel) or
-/// dequantized on a float ensemble (checkDensityForInput).
+/// fewer than 2 members, non-finite samples (NanPolicy::Error: their count, the first voxel and
+/// its member; Skip: a voxel with fewer than 2 finite samples) or dequantized on a float
+/// ensemble (checkDensityForInput).
 ModelVolume buildModel(const Ensemble& ensemble, const BuildOptions& options,
                        BuildReport* report = nullptr);
 
@@ -82,7 +100,8 @@ ModelVolume buildModel(const Ensemble& ensemble, const BuildOptions& options,
 /// + (K−1)/2·spacing. Throws UdvrError for K < 2 or K larger than a dimension.
 Grid3 downsampledGrid(const Grid3& full, int k);
 
-/// Model from one field, each K³ brick's values being the samples of its reduced voxel.
+/// Model from one field, each K³ brick's values being the samples of its reduced voxel (NaN/Inf
+/// as in buildModel: the first point, or with Skip the brick's finite values only).
 ModelVolume buildModelDownsampled(const ScalarField& field, int k, const BuildOptions& options,
                                   BuildReport* report = nullptr);
 

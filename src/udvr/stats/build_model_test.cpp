@@ -343,4 +343,137 @@ TEST(BuildModel, BadInputIsAOneLineUserError) {
                 "1 NaN/Inf values (first at point (1,0,1))");
 }
 
+// --nan skip with one member NaN at every voxel is the build without that member, bit for bit
+// (same samples per voxel, same global range for the σ floor, same GMM streams).
+TEST(BuildModel, NanSkipWithAWholeMemberMissingIsTheBuildWithoutIt) {
+    const Ensemble e = makeEnsemble({9, 8, 7}, 12, 6);
+    Ensemble withNan = e;
+    for (std::size_t v = 0; v < e.grid.pointCount(); ++v)
+        withNan.member(5)[v] = std::numeric_limits<float>::quiet_NaN();
+    Ensemble without = e;
+    without.members = 11;
+    without.values.clear();
+    for (int m = 0; m < e.members; ++m)
+        if (m != 5)
+            without.values.insert(without.values.end(), e.member(m),
+                                  e.member(m) + e.grid.pointCount());
+    BuildOptions opt;
+    opt.nan = NanPolicy::Skip;
+    BuildReport rep;
+    const ModelVolume a = buildModel(withNan, opt, &rep);
+    const ModelVolume b = buildModel(without, BuildOptions{});
+    EXPECT_EQ(a.mean, b.mean);
+    EXPECT_EQ(a.stddev, b.stddev);
+    EXPECT_EQ(a.min, b.min);
+    EXPECT_EQ(a.max, b.max);
+    EXPECT_EQ(a.quantiles, b.quantiles);
+    EXPECT_EQ(a.iqr, b.iqr);
+    EXPECT_EQ(a.gmm, b.gmm);
+    EXPECT_EQ(rep.nonFiniteSamples, e.grid.pointCount());
+    EXPECT_EQ(rep.voxelsWithNonFinite, e.grid.pointCount());
+    EXPECT_EQ(rep.fewestFiniteSamples, 11);
+    EXPECT_EQ(a.samplesPerVoxel, 12);  // the member count
+}
+
+// Scattered NaN/Inf: each voxel's statistics are those of its finite samples alone, the GMM
+// of a voxel with fewer finite samples than K has at most that many components, and voxels
+// without NaN are untouched.
+TEST(BuildModel, NanSkipUsesEachVoxelsFiniteSamples) {
+    const Ensemble e = makeEnsemble({6, 5, 4}, 6, 7);
+    Ensemble nan = e;
+    const float kNan = std::numeric_limits<float>::quiet_NaN();
+    const float kInf = std::numeric_limits<float>::infinity();
+    const std::size_t a = e.grid.index(1, 2, 3), b = e.grid.index(0, 0, 0),
+                      c = e.grid.index(5, 4, 1);
+    nan.member(2)[a] = kNan;
+    nan.member(0)[b] = -kInf;
+    for (int m = 0; m < 4; ++m) nan.member(m)[c] = m % 2 ? kNan : kInf;  // 2 finite of 6
+    BuildOptions opt;
+    opt.nan = NanPolicy::Skip;
+    const ModelVolume m = buildModel(nan, opt);
+    const ModelVolume ref = buildModel(e, BuildOptions{});
+    for (std::size_t v = 0; v < e.grid.pointCount(); ++v) {
+        std::vector<float> s;
+        for (float x : samplesOf(nan, v))
+            if (std::isfinite(x)) s.push_back(x);
+        std::sort(s.begin(), s.end());
+        const std::size_t n = s.size();
+        double mean = 0.0;
+        for (float x : s) mean += x;
+        mean /= static_cast<double>(n);
+        double ss = 0.0;
+        for (float x : s) ss += (x - mean) * (x - mean);
+        EXPECT_NEAR(m.mean[v], mean, 1e-5 * (1.0 + std::abs(mean))) << v;
+        EXPECT_NEAR(m.stddev[v], std::sqrt(ss / static_cast<double>(n - 1)), 1e-5) << v;
+        EXPECT_EQ(m.min[v], s.front());
+        EXPECT_EQ(m.max[v], s.back());
+        for (int j = 0; j <= 8; ++j)
+            EXPECT_NEAR(m.quantiles[v * 9 + static_cast<std::size_t>(j)],
+                        static_cast<double>(numpyQuantile(s, j / 8.0L)), 1e-5)
+                << v;
+        double piSum = 0.0, mixMean = 0.0;
+        int used = 0;
+        for (int k = 0; k < 4; ++k) {
+            const double pi = m.gmm[v * 12 + static_cast<std::size_t>(k)];
+            piSum += pi;
+            mixMean += pi * m.gmm[v * 12 + 4 + static_cast<std::size_t>(k)];
+            used += pi > 0.0 ? 1 : 0;
+        }
+        EXPECT_NEAR(piSum, 1.0, 1e-6);
+        EXPECT_LE(used, static_cast<int>(n));
+        EXPECT_NEAR(mixMean, mean, 1e-3 * (1.0 + std::abs(mean))) << v;  // EM keeps the mean
+        if (v != a && v != b && v != c) {
+            for (int k = 0; k < 12; ++k)
+                EXPECT_EQ(m.gmm[v * 12 + static_cast<std::size_t>(k)],
+                          ref.gmm[v * 12 + static_cast<std::size_t>(k)]);
+        }
+    }
+}
+
+TEST(BuildModel, NanSkipNeedsTwoFiniteSamplesAtEveryVoxel) {
+    Ensemble e = makeEnsemble({4, 4, 4}, 5, 8);
+    for (int m = 0; m < 5; ++m) {
+        e.member(m)[e.grid.index(3, 3, 3)] = std::numeric_limits<float>::quiet_NaN();
+        if (m > 0) e.member(m)[e.grid.index(1, 2, 3)] = std::numeric_limits<float>::quiet_NaN();
+    }
+    BuildOptions opt;
+    opt.nan = NanPolicy::Skip;
+    try {
+        buildModel(e, opt);
+        ADD_FAILURE() << "no error";
+    } catch (const UdvrError& err) {
+        EXPECT_NE(std::string(err.what()).find("voxel (1,2,3) has 1 of 5 (2 voxels have"),
+                  std::string::npos)
+            << err.what();
+    }
+    // Bricks: the finite values of each brick; a brick of NaN is the error.
+    ScalarField f;
+    f.grid.dims = {4, 4, 2};
+    for (int i = 0; i < 32; ++i) f.values.push_back(static_cast<float>(i % 5));
+    f.values[f.grid.index(0, 0, 0)] = std::numeric_limits<float>::quiet_NaN();
+    const ModelVolume m = buildModelDownsampled(f, 2, opt);
+    std::vector<float> brick;
+    for (int z = 0; z < 2; ++z)
+        for (int y = 0; y < 2; ++y)
+            for (int x = 0; x < 2; ++x)
+                if (x + y + z > 0) brick.push_back(f.values[f.grid.index(x, y, z)]);
+    std::sort(brick.begin(), brick.end());
+    EXPECT_EQ(m.min[0], brick.front());
+    EXPECT_EQ(m.max[0], brick.back());
+    for (int z = 0; z < 2; ++z)
+        for (int y = 2; y < 4; ++y)
+            for (int x = 2; x < 4; ++x)
+                f.values[f.grid.index(x, y, z)] = std::numeric_limits<float>::infinity();
+    try {
+        buildModelDownsampled(f, 2, opt);
+        ADD_FAILURE() << "no error";
+    } catch (const UdvrError& err) {
+        EXPECT_NE(std::string(err.what()).find("brick of reduced voxel (1,1,0) has 0 of 8"),
+                  std::string::npos)
+            << err.what();
+    }
+    EXPECT_EQ(parseNanPolicy("skip"), NanPolicy::Skip);
+    EXPECT_THROW(parseNanPolicy("ignore"), UdvrError);
+}
+
 }  // namespace udvr

@@ -21,6 +21,8 @@ using VF = detail::Lanes<kLanes>::F;
 using VI = detail::Lanes<kLanes>::I;
 using VD = detail::Lanes<kLanes>::D;
 using VL = detail::Lanes<kLanes>::L;
+using detail::lanesLess;
+using detail::selectBits;
 using detail::splat;
 constexpr double kHalfLog2Pi = 0.91893853320467274178;  // ½·log(2π)
 
@@ -108,9 +110,9 @@ int seedComponents(std::span<const float> x, const Standardise& st, int K, doubl
 
 /// Writes the 3K outputs of a fit (data units): spare components (k ≥ d) get weight 0 at the
 /// sample mean, then all are sorted by mean and the weights normalised.
-void finish(Component* comp, int d, int K, const Standardise& st, double floorSigma,
+void finish(const Component* comp, int d, int K, const Standardise& st, double floorSigma,
             std::span<float> out, GmmFitInfo& info) {
-    std::array<Component, kMaxGmmComponents> c{};  // data units, σ in .var
+    std::array<Component, kMaxGmmComponents> c;  // data units, σ in .var; K used
     for (int k = 0; k < K; ++k) {
         if (k < d)
             c[k] = {comp[k].pi, st.mean + comp[k].mu * st.scale,
@@ -168,19 +170,21 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
     ws.lanes.assign(kLanes * n, 0.f);
     float* X = ws.lanes.data();  // X[kLanes·i + l]: sample i of lane l, standardised
 
-    // Lane state. Parameters are SoA over lanes, standardised units.
+    // Lane state. Parameters, iteration counts, the previous log-likelihood and whether a lane
+    // holds a voxel are SoA over lanes (vectors: the per-iteration bookkeeping is a few vector
+    // operations, not a loop over lanes); what only loading and finishing a voxel need is per
+    // lane. Standardised units.
     struct Lane {
         std::size_t voxel = 0;
-        bool active = false;
         int d = 0;
-        int iterations = 0;
-        double prevLl = 0.0;
         Standardise st{};
-        double floorVar = 0.0;
     };
     std::array<Lane, kLanes> lane{};
     std::array<VD, KA> pi{}, mu{}, var{};
     VD floorVar = splat<VD>(1.0);
+    VD prevLl{};      // the previous iteration's mean log-likelihood
+    VD iterations{};  // EM iterations run (exact small integers in double)
+    VL active{};      // −1: the lane holds a voxel
     std::size_t nextVoxel = 0;
 
     auto setComponent = [&](int l, int k, const Component& c) {
@@ -201,24 +205,24 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
                 continue;
             }
             ln.voxel = v;
-            ln.active = true;
-            ln.iterations = 0;
-            ln.prevLl = 0.0;
+            active[l] = -1;
+            iterations[l] = 0.0;
+            prevLl[l] = 0.0;
             ln.st = standardise(s);
             const double f = floorSigma * ln.st.invScale;
-            ln.floorVar = f * f;
-            floorVar[l] = ln.floorVar;
-            std::array<Component, kMaxGmmComponents> c{};
-            ln.d = seedComponents(s, ln.st, K, ln.floorVar, opt.seed, firstStream + v, c.data(),
+            const double laneFloorVar = f * f;
+            floorVar[l] = laneFloorVar;
+            std::array<Component, KA> c;
+            ln.d = seedComponents(s, ln.st, K, laneFloorVar, opt.seed, firstStream + v, c.data(),
                                   ws.d2);
             for (int k = 0; k < K; ++k)
-                setComponent(l, k, k < ln.d ? c[k] : Component{0.0, 0.0, ln.floorVar});
+                setComponent(l, k, k < ln.d ? c[k] : Component{0.0, 0.0, laneFloorVar});
             for (std::size_t i = 0; i < n; ++i)
                 X[kLanes * i + static_cast<std::size_t>(l)] =
                     static_cast<float>((s[i] - ln.st.mean) * ln.st.invScale);
             return;
         }
-        ln.active = false;
+        active[l] = 0;
         for (int k = 0; k < K; ++k) setComponent(l, k, {k == 0 ? 1.0 : 0.0, 0.0, 1.0});
         floorVar[l] = 1.0;
         for (std::size_t i = 0; i < n; ++i) X[kLanes * i + static_cast<std::size_t>(l)] = 0.f;
@@ -226,9 +230,11 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
     for (int l = 0; l < kLanes; ++l) load(l);
 
     const VF negInf = splat<VF>(-std::numeric_limits<float>::infinity());
+    const VD tolerance = splat<VD>(opt.tolerance);
+    const VD maxIterations = splat<VD>(static_cast<double>(opt.maxIterations));
     for (;;) {
         bool any = false;
-        for (const Lane& ln : lane) any = any || ln.active;
+        for (int l = 0; l < kLanes; ++l) any = any || active[l] != 0;
         if (!any) break;
 
         // Per component: e_k = a_k + b_k·(x − μ_k)², a_k = log π_k − ½·log σ_k², b_k = −½/σ_k².
@@ -240,8 +246,11 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
             const VD invVar = 1.0 / var[k];
             const VD ratio = pi[k] * pi[k] * invVar;
             a[k] = __builtin_convertvector(
-                0.5 * detail::logPositiveD(ratio > 0.0 ? ratio : splat<VD>(1.0)), VF);
-            a[k] = __builtin_convertvector(pi[k], VF) > 0.f ? a[k] : negInf;  // dead stays dead
+                0.5 *
+                    detail::logPositiveD(selectBits(lanesLess(VD{}, ratio), ratio, splat<VD>(1.0))),
+                VF);
+            a[k] = selectBits(lanesLess(VF{}, __builtin_convertvector(pi[k], VF)), a[k],
+                              negInf);  // dead stays dead
             b[k] = __builtin_convertvector(-0.5 * invVar, VF);
             m[k] = __builtin_convertvector(mu[k], VF);
         }
@@ -249,43 +258,55 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
         VD maxSum{};
         VI expo{};
         VF prod = splat<VF>(1.f);
+        // A block of ≤ 8 samples in two passes: the responsibilities, then the sums. One pass
+        // needs more registers than there are (12 sums + the parameters + the exp's constants):
+        // GCC kept the sums in memory, a store and a load per sum and sample. Every sum adds
+        // the same terms in the same order either way.
+        std::array<std::array<VF, KA>, 8> resp;  // r_k of the block's samples
+        std::array<VF, 8> maxima;                // m of the block's samples
         for (std::size_t i0 = 0; i0 < n; i0 += 8) {
             const std::size_t i1 = std::min(n, i0 + 8);
-            std::array<VF, KA> nk{}, s1{}, s2{};
             for (std::size_t i = i0; i < i1; ++i) {
                 VF xv;
                 std::memcpy(&xv, X + kLanes * i, sizeof(VF));
-                std::array<VF, KA> dx, dx2, e;
+                std::array<VF, KA> e;
                 for (int k = 0; k < K; ++k) {
-                    dx[k] = xv - m[k];
-                    dx2[k] = dx[k] * dx[k];
-                    e[k] = a[k] + b[k] * dx2[k];
+                    const VF dx = xv - m[k];
+                    e[k] = a[k] + b[k] * (dx * dx);
                 }
                 VF mx = e[0];
-                for (int k = 1; k < K; ++k) mx = e[k] > mx ? e[k] : mx;
+                for (int k = 1; k < K; ++k) mx = selectBits(lanesLess(mx, e[k]), e[k], mx);
                 VF sum{};
                 for (int k = 0; k < K; ++k) {
                     e[k] = detail::expNonPositive(e[k] - mx);
                     sum += e[k];
                 }
                 const VF inv = 1.f / sum;  // sum ∈ [1, K]
-                for (int k = 0; k < K; ++k) {
-                    // Sums about the current μ_k: little cancellation in s2.
-                    const VF r = e[k] * inv;
-                    nk[k] += r;
-                    s1[k] += r * dx[k];
-                    s2[k] += r * dx2[k];
-                }
-                // m in double at once: |m| reaches ~100 (standardised units, far samples), where
-                // float sums of even 8 values would err by ~1e−5 per sample, above the tolerance.
-                maxSum += __builtin_convertvector(mx, VD);
+                for (int k = 0; k < K; ++k) resp[i - i0][k] = e[k] * inv;
+                maxima[i - i0] = mx;
                 prod *= sum;
             }
             for (int k = 0; k < K; ++k) {
-                nkD[k] += __builtin_convertvector(nk[k], VD);
-                s1D[k] += __builtin_convertvector(s1[k], VD);
-                s2D[k] += __builtin_convertvector(s2[k], VD);
+                // Sums about the current μ_k: little cancellation in s2.
+                VF nk{}, s1{}, s2{};
+                for (std::size_t i = i0; i < i1; ++i) {
+                    VF xv;
+                    std::memcpy(&xv, X + kLanes * i, sizeof(VF));
+                    const VF dx = xv - m[k];
+                    const VF dx2 = dx * dx;
+                    const VF r = resp[i - i0][k];
+                    nk += r;
+                    s1 += r * dx;
+                    s2 += r * dx2;
+                }
+                nkD[k] += __builtin_convertvector(nk, VD);
+                s1D[k] += __builtin_convertvector(s1, VD);
+                s2D[k] += __builtin_convertvector(s2, VD);
             }
+            // m in double at once: |m| reaches ~100 (standardised units, far samples), where
+            // float sums of even 8 values would err by ~1e−5 per sample, above the tolerance.
+            for (std::size_t i = i0; i < i1; ++i)
+                maxSum += __builtin_convertvector(maxima[i - i0], VD);
             prod = detail::splitExponent(prod, expo);  // ≤ 8 factors in [1, K]: no overflow
         }
         // Mean log-likelihood per sample (standardised units, without −½·log(2π)).
@@ -293,47 +314,50 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
                        __builtin_convertvector(detail::logPositive(prod), VD)) *
                       splat<VD>(invN);
 
-        // Lanes that stop keep the parameters `ll` was evaluated at; the rest take the M-step.
-        VD step{};  // all-ones bits where a lane takes the M-step
+        // Converged: |Δ ll| < tolerance after at least one iteration (−tol < Δ < tol is
+        // |Δ| < tol, NaN included). Lanes that stop are finished with the parameters `ll` was
+        // evaluated at, then (after the M-step, which every lane takes: cheaper than selecting)
+        // loaded with the next voxel.
+        const VD delta = ll - prevLl;
+        const VL converged = lanesLess(VD{}, iterations) & lanesLess(delta, tolerance) &
+                             lanesLess(-tolerance, delta);
+        const VL stop = active & (converged | ~lanesLess(iterations, maxIterations));
+        const VL takeMask = active & ~stop;
+        iterations = selectBits(takeMask, iterations + 1.0, iterations);
+        prevLl = selectBits(takeMask, ll, prevLl);
+        bool anyStop = false;
         for (int l = 0; l < kLanes; ++l) {
-            Lane& ln = lane[static_cast<std::size_t>(l)];
-            if (!ln.active) continue;
-            const bool converged =
-                ln.iterations > 0 && std::fabs(ll[l] - ln.prevLl) < opt.tolerance;
-            if (converged || ln.iterations >= opt.maxIterations) {
-                GmmFitInfo& info = infos[ln.voxel];
-                info.iterations = ln.iterations;
-                info.converged = converged;
-                info.meanLogLikelihood = ll[l] - std::log(ln.st.scale) - kHalfLog2Pi;
-                std::array<Component, kMaxGmmComponents> c{};
-                for (int k = 0; k < ln.d; ++k) c[k] = {pi[k][l], mu[k][l], var[k][l]};
-                finish(c.data(), ln.d, K, ln.st, floorSigma,
-                       std::span<float>(out + ln.voxel * outStride, outStride), info);
-                load(l);
-                continue;
-            }
-            ++ln.iterations;
-            ln.prevLl = ll[l];
-            step[l] = std::bit_cast<double>(~std::uint64_t{0});
+            if (stop[l] == 0) continue;
+            anyStop = true;
+            const Lane& ln = lane[static_cast<std::size_t>(l)];
+            GmmFitInfo& info = infos[ln.voxel];
+            info.iterations = static_cast<int>(iterations[l]);
+            info.converged = converged[l] != 0;
+            info.meanLogLikelihood = ll[l] - std::log(ln.st.scale) - kHalfLog2Pi;
+            std::array<Component, KA> c;
+            for (int k = 0; k < ln.d; ++k) c[k] = {pi[k][l], mu[k][l], var[k][l]};
+            finish(c.data(), ln.d, K, ln.st, floorSigma,
+                   std::span<float>(out + ln.voxel * outStride, outStride), info);
         }
         // M-step: π = N_k/n, μ += Σ r·(x − μ)/N_k, σ² = max(Σ r·(x − μ)²/N_k − shift², floor²);
         // a component that lost its samples (N_k ≤ 1e−6) gets weight 0 and keeps its mean.
-        const auto takeMask = std::bit_cast<VL>(step) != 0;
+        // Idle lanes (zero samples, one component at 0 with variance 1) stay as they are.
         for (int k = 0; k < K; ++k) {
             const VD nkS = nkD[k];
-            const auto live = nkS > splat<VD>(1e-6);
-            const VD inv = splat<VD>(1.0) / (live ? nkS : splat<VD>(1.0));
+            const VL live = lanesLess(splat<VD>(1e-6), nkS);
+            const VD inv = splat<VD>(1.0) / selectBits(live, nkS, splat<VD>(1.0));
             const VD shift = s1D[k] * inv;
             VD v = s2D[k] * inv - shift * shift;
-            v = v > floorVar ? v : floorVar;
+            v = selectBits(lanesLess(floorVar, v), v, floorVar);
             const VD muF = __builtin_convertvector(m[k], VD);  // the μ the pass used
-            const VD nPi = live ? nkS * splat<VD>(invN) : splat<VD>(0.0);
-            const VD nMu = live ? muF + shift : mu[k];
-            const VD nVar = live ? v : floorVar;
-            pi[k] = takeMask ? nPi : pi[k];
-            mu[k] = takeMask ? nMu : mu[k];
-            var[k] = takeMask ? nVar : var[k];
+            const VD nPi = selectBits(live, nkS * splat<VD>(invN), splat<VD>(0.0));
+            const VD nMu = selectBits(live, muF + shift, mu[k]);
+            var[k] = selectBits(live, v, floorVar);
+            pi[k] = nPi;
+            mu[k] = nMu;
         }
+        for (int l = 0; anyStop && l < kLanes; ++l)
+            if (stop[l] != 0) load(l);
     }
 }
 
@@ -355,7 +379,9 @@ void fitMany(std::size_t count, std::size_t n, const float* samples, const GmmOp
 
 void checkOptions(const GmmOptions& o, std::size_t n) {
     UDVR_CHECK(o.components >= 1 && o.components <= kMaxGmmComponents);
-    UDVR_CHECK(n >= static_cast<std::size_t>(o.components) && o.sigmaFloor > 0.0);
+    // n < K is allowed: at most n distinct values, so as a voxel with fewer distinct values
+    // than K (build --nan skip, a voxel with fewer finite members than K).
+    UDVR_CHECK(n >= 1 && o.sigmaFloor > 0.0);
 }
 
 }  // namespace

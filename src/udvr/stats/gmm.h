@@ -34,11 +34,12 @@ struct GmmWorkspace {
     std::vector<float> lanes;  // 16 voxels' samples, interleaved
 };
 
-/// Fit a K-component mixture to `sorted` (ascending, n ≥ K) and write 3K floats to `out`:
+/// Fit a K-component mixture to `sorted` (ascending, n ≥ 1) and write 3K floats to `out`:
 /// π_1..π_K, μ_1..μ_K, σ_1..σ_K with μ ascending. `stream` (the voxel index) makes the seeding
 /// independent of thread scheduling. A voxel with d < K distinct values gets d fitted components
-/// and K − d spare ones with π = 0, μ = the sample mean, σ = the floor; a constant voxel is a point
-/// mass (π_1 = 1, every μ = the value, every σ = the floor).
+/// and K − d spare ones with π = 0, μ = the sample mean, σ = the floor (so n < K samples give at
+/// most n components); a constant voxel is a point mass (π_1 = 1, every μ = the value, every σ =
+/// the floor).
 GmmFitInfo fitGmm(std::span<const float> sorted, const GmmOptions& options, std::uint64_t stream,
                   std::span<float> out, GmmWorkspace& ws);
 

@@ -7,7 +7,10 @@
 // vectors give two independent dependency chains per operation on AVX2 (or one zmm on AVX-512),
 // which the latency-bound EM loop needs. Error bounds are tested in fast_math_test.cpp.
 #include <bit>
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <type_traits>
 
 #include "udvr/util/normal_cdf.h"
 
@@ -44,6 +47,51 @@ inline V splat(S s) {
 inline V8f splat8(float v) { return splat<V8f>(v); }
 inline V8d splat8d(double v) { return splat<V8d>(v); }
 
+/// Bytes of the target's vector register.
+#if defined(__AVX512F__)
+inline constexpr std::size_t kRegisterBytes = 64;
+#elif defined(__AVX__)
+inline constexpr std::size_t kRegisterBytes = 32;
+#else
+inline constexpr std::size_t kRegisterBytes = 16;
+#endif
+
+/// a < b lane by lane (the mask of a vector comparison: all ones or 0; false for NaN),
+/// compared a register at a time. GCC 12 lowers comparisons of vectors wider than a register
+/// (16 doubles on AVX-512) into one scalar compare and branch per lane; on the GMM's
+/// 16-double parameters this made the per-iteration work cost more than a 20-sample E-step.
+template <class V>
+inline auto lanesLess(V a, V b) {
+    using M = decltype(a < b);
+    if constexpr (sizeof(V) <= kRegisterBytes) {
+        return a < b;
+    } else {
+        using E = std::remove_cvref_t<decltype(a[0])>;
+        typedef E H __attribute__((vector_size(sizeof(V) / 2)));
+        H a2[2], b2[2];
+        std::memcpy(a2, &a, sizeof a);
+        std::memcpy(b2, &b, sizeof b);
+        const auto lo = lanesLess(a2[0], b2[0]);
+        const auto hi = lanesLess(a2[1], b2[1]);
+        M m;
+        std::memcpy(&m, &lo, sizeof lo);
+        std::memcpy(reinterpret_cast<char*>(&m) + sizeof lo, &hi, sizeof hi);
+        return m;
+    }
+}
+
+/// mask ? a : b lane by lane for a comparison mask. Vectors wider than a register take bit
+/// operations (as for lanesLess, GCC 12 lowers their ?: lane by lane); a register-wide one keeps
+/// ?: (a blend under a mask register on AVX-512: the bit operations cost the EM 30 % there).
+template <class V, class M>
+inline V selectBits(M mask, V a, V b) {
+    static_assert(sizeof(V) == sizeof(M));
+    if constexpr (sizeof(V) <= kRegisterBytes)
+        return mask ? a : b;
+    else
+        return std::bit_cast<V>((std::bit_cast<M>(a) & mask) | (std::bit_cast<M>(b) & ~mask));
+}
+
 /// expNonPositive clamps its argument here: e^−87 ≈ 1.6e−38 is nothing next to a row maximum
 /// of e^0 = 1 (and keeps a dead mixture component, log π = −∞, dead: its responsibilities sum to
 /// < n·2e−38, far below the 1e−6 at which EM declares a component empty).
@@ -67,7 +115,8 @@ inline VF expm1OverX(VF r) {
 template <class VF>
 inline VF expNonPositive(VF x) {
     using VI = decltype(x < x);
-    const VF xc = x < kExpClampBelow ? splat<VF>(kExpClampBelow) : x;
+    const VF clamp = splat<VF>(kExpClampBelow);
+    const VF xc = selectBits(lanesLess(x, clamp), clamp, x);
     const VF shifter = splat<VF>(0x1.8p23f);  // adding it rounds to an integer
     const VF t = xc * 1.44269504f + shifter;  // low mantissa bits: 2^22 + n
     const VF n = t - shifter;
@@ -123,9 +172,9 @@ inline VD logPositiveD(VD s) {
     const VL bits = std::bit_cast<VL>(s);
     VD e = __builtin_convertvector((bits >> 52) - 1023, VD);
     VD f = std::bit_cast<VD>((bits & 0x000FFFFFFFFFFFFFLL) | 0x3FF0000000000000LL);
-    const auto big = f > 1.4142135623730951;
-    f = big ? f * 0.5 : f;
-    e = big ? e + 1.0 : e;
+    const VL big = lanesLess(splat<VD>(1.4142135623730951), f);
+    f = selectBits(big, f * 0.5, f);
+    e = selectBits(big, e + 1.0, e);
     const VD t = (f - 1.0) / (f + 1.0);
     const VD t2 = t * t;
     VD p = splat<VD>(1.0 / 19);
