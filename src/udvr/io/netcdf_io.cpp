@@ -1,6 +1,7 @@
 // NetCDF fields and ensembles (SPEC §7) through the netCDF-C library. Geometry travels as CF
 // coordinate variables x, y, z (grid point positions, evenly spaced).
 #include <fcntl.h>
+#include <hdf5.h>
 #include <netcdf.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -505,13 +506,36 @@ void checkClassicSize(const fs::path& path) {
     }
 }
 
+/// netCDF-C 4.9.0 leaves a damaged NetCDF-4 file open in HDF5 when nc_open fails on it, and
+/// HDF5 then serves the next open of that file (or of another at the same inode) from the cached
+/// damaged metadata: `udvr info` followed by a read crashed in H5HG_read with a memcpy of 2^63
+/// bytes (found by fuzzing). Closes every HDF5 object still open. Called only while udvr has no
+/// NetCDF file open (reads are serial, one file at a time, closed by NcFile on scope exit).
+void releaseLeftoverHdf5Objects() {
+    H5E_BEGIN_TRY {
+        const ssize_t count = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL);
+        if (count > 0) {
+            std::vector<hid_t> ids(static_cast<std::size_t>(count));
+            const ssize_t got = H5Fget_obj_ids(H5F_OBJ_ALL, H5F_OBJ_ALL, ids.size(), ids.data());
+            for (ssize_t i = 0; i < got; ++i) {
+                while (H5Iis_valid(ids[static_cast<std::size_t>(i)]) > 0 &&
+                       H5Idec_ref(ids[static_cast<std::size_t>(i)]) > 0) {
+                }
+            }
+        }
+    }
+    H5E_END_TRY;
+}
+
 int openForRead(const fs::path& path) {
     detail::requireFile(path);
+    releaseLeftoverHdf5Objects();
     if (checkHdf5Size(path)) probeHdf5(path);
     checkClassicSize(path);
     int nc = -1;
     int status = nc_open(path.c_str(), NC_NOWRITE, &nc);
     if (status != NC_NOERR) {
+        releaseLeftoverHdf5Objects();
         if (status == NC_EHDFERR) UDVR_FAIL(path.string() << ": " << ncErrorText(status));
         UDVR_FAIL(path.string() << ": cannot open as NetCDF: " << nc_strerror(status));
     }

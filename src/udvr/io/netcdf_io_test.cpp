@@ -9,6 +9,7 @@
 
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field_io.h"
+#include "udvr/io/file_info.h"
 #include "udvr/io/io_detail.h"
 #include "udvr/io/io_test_util.h"
 
@@ -290,6 +291,21 @@ TEST(IoNetcdf, EmptyAndHugeDimensionsAreErrors) {
     NC_OK(nc_close(nc));
     expectUdvrError([&] { readField(dir / "huge.nc"); },
                     {"huge.nc", "dims 1048576x1048576x131072 are too large"});
+}
+
+// nc_open fails on this damaged NetCDF-4 file but leaves it open in HDF5, and a second read of
+// it in the same process (`info`, then the data) crashed in H5HG_read (found by fuzzing).
+TEST(IoNetcdf, SecondReadOfAFileHdf5FailedOnIsTheSameError) {
+    const std::filesystem::path file = std::filesystem::path(UDVR_FUZZ_REGRESSIONS_DIR) / "netcdf" /
+                                       "netcdf4-reopen-after-failed-open-h5hg-memcpy";
+    TempDir dir;
+    std::filesystem::copy_file(file, dir / "bad.nc");
+    for (int i = 0; i < 3; ++i) {
+        expectUdvrError([&] { readField(dir / "bad.nc"); }, {"bad.nc", "NetCDF: HDF error"});
+        expectUdvrError([&] { readEnsemble({(dir / "bad.nc").string()}, {}); },
+                        {"bad.nc", "NetCDF: HDF error"});
+        expectUdvrError([&] { listArrays(dir / "bad.nc"); }, {"bad.nc", "NetCDF: HDF error"});
+    }
 }
 
 // HDF5 1.10.8 loops forever on this damaged NetCDF-4 file (found by fuzzing); a child process
