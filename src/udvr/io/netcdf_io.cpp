@@ -171,22 +171,24 @@ std::atomic<double> gHdf5ProbeSeconds{10.0};
 
 /// NetCDF-4 files are HDF5 files, and HDF5 1.10.8 (Debian 12) crashes or loops forever on some
 /// damaged ones (found by fuzzing, docs/testing.md: a corrupt global heap read for a dimension
-/// list never ends). Before udvr reads one, a child process makes the calls of walkNetcdf; the
-/// read goes ahead once the child has finished them (netCDF errors included: the read reports
-/// those itself). A child killed by a signal, or not done within 10 s (setHdf5ProbeSeconds) plus
-/// 1 s per 4 MB of file, becomes a one-line error.
-void probeHdf5(const fs::path& path) {
+/// list never ends). Before udvr reads one, a child process does `childWork` (the calls of
+/// walkNetcdf, or the very read that follows: guardedRead); the read goes ahead once the child
+/// has finished (netCDF errors included: the read reports those itself). A child killed by a
+/// signal, or not done within 10 s (setHdf5ProbeSeconds) plus 1 s per 4 MB of file, becomes a
+/// one-line error. `kind` names the work, for the cache below.
+void probeHdf5(const fs::path& path, const std::string& kind,
+               const std::function<void()>& childWork) {
     // A read opens a file more than once (`udvr info`, then the field): the last file probed,
     // unchanged since, and its outcome are remembered. File times are coarse (a few ms), so
     // "unchanged" also compares a hash of the first and last 64 KB (all of a small file).
     struct Probed {
-        std::string path, error;
+        std::string path, kind, error;
         std::uintmax_t size = 0;
         std::int64_t mtime = 0, ctime = 0, inode = 0;
         std::size_t hash = 0;
         bool operator==(const Probed& o) const {
-            return path == o.path && size == o.size && mtime == o.mtime && ctime == o.ctime &&
-                   inode == o.inode && hash == o.hash;
+            return path == o.path && kind == o.kind && size == o.size && mtime == o.mtime &&
+                   ctime == o.ctime && inode == o.inode && hash == o.hash;
         }
     };
     static Probed last;
@@ -206,6 +208,7 @@ void probeHdf5(const fs::path& path) {
         in.read(ends.data() + half, static_cast<std::streamsize>(ends.size() - half));
     }
     const Probed now{path.string(),
+                     kind,
                      "",
                      static_cast<std::uintmax_t>(st.st_size),
                      nanoseconds(st.st_mtim),
@@ -236,7 +239,10 @@ void probeHdf5(const fs::path& path) {
             dup2(devnull, 1);
             dup2(devnull, 2);
         }
-        walkNetcdf(path.c_str());
+        try {
+            childWork();
+        } catch (...) {  // the read reports its errors itself
+        }
         _exit(0);
     }
     const auto start = std::chrono::steady_clock::now();
@@ -527,10 +533,15 @@ void releaseLeftoverHdf5Objects() {
     H5E_END_TRY;
 }
 
+/// The file whose whole read runs under guardedRead on this thread: its probe was that read.
+thread_local const fs::path* tGuardedPath = nullptr;
+
 int openForRead(const fs::path& path) {
     detail::requireFile(path);
     releaseLeftoverHdf5Objects();
-    if (checkHdf5Size(path)) probeHdf5(path);
+    const bool hdf5 = checkHdf5Size(path);
+    if (hdf5 && (tGuardedPath == nullptr || *tGuardedPath != path))
+        probeHdf5(path, "walk", [&] { walkNetcdf(path.c_str()); });
     checkClassicSize(path);
     int nc = -1;
     int status = nc_open(path.c_str(), NC_NOWRITE, &nc);
@@ -540,6 +551,32 @@ int openForRead(const fs::path& path) {
         UDVR_FAIL(path.string() << ": cannot open as NetCDF: " << nc_strerror(status));
     }
     return nc;
+}
+
+/// `read()` of a NetCDF-4 file, made first by a child process (probeHdf5) and then here. Both
+/// start from the same library state and make the same calls, so a file on which HDF5 crashes or
+/// hangs fails in the child and becomes a one-line error here, also where the crash depends on
+/// what the library did before (HDF5 reading memory it never wrote: the walk of walkNetcdf,
+/// another order of calls, missed two such files; found by fuzzing). Other files: read().
+template <typename Read>
+auto guardedRead(const fs::path& path, const std::string& kind, Read read) {
+    const fs::path* outer = tGuardedPath;
+    struct Restore {
+        const fs::path* outer;
+        ~Restore() { tGuardedPath = outer; }
+    } restore{outer};
+    if (outer == nullptr) {
+        detail::requireFile(path);
+        if (checkHdf5Size(path)) {
+            releaseLeftoverHdf5Objects();
+            probeHdf5(path, kind, [&] {
+                tGuardedPath = &path;
+                (void)read();
+            });
+        }
+    }
+    tGuardedPath = &path;
+    return read();
 }
 
 /// Geometry from the CF coordinate variables of the last three dims (z, y, x order in the file).
@@ -785,8 +822,10 @@ void writeNetcdf(const fs::path& path, const Grid3& grid, const std::string& nam
 
 }  // namespace
 
-ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
-                                    std::string* geometryNote, bool allowMissing) {
+namespace {
+
+ScalarField readFieldNetcdfUnguarded(const fs::path& path, const std::string& varName,
+                                     std::string* geometryNote, bool allowMissing) {
     NcFile file;
     file.id = openForRead(path);
     std::vector<VarInfo> vars = allVars(path, file.id);
@@ -838,7 +877,7 @@ ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& var
     return f;
 }
 
-Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOptions& options) {
+Ensemble readEnsembleNetcdfUnguarded(const fs::path& path, const EnsembleReadOptions& options) {
     NcFile file;
     file.id = openForRead(path);
     std::vector<VarInfo> vars = allVars(path, file.id);
@@ -925,12 +964,15 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
         std::span<float> out =
             e.voxelMajor ? std::span<float>(scratch) : std::span<float>(e.values.data() + m * n, n);
         readSlab(path, file.id, *var, start, count, out, what, options.allowMissing);
-        if (!options.allowMissing) checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
+        if (!options.allowMissing)
+            detail::checkFinite(path, e.grid, out, 1, "member " + std::to_string(m));
         if (e.voxelMajor) detail::storeMember(e, static_cast<int>(m), out);
     }
     detail::printNote(geometryNote);  // only now: an error must stay the one line on stderr
     return e;
 }
+
+}  // namespace
 
 void writeFieldNetcdf(const fs::path& path, const ScalarField& field) {
     UDVR_CHECK_MSG(field.values.size() == field.grid.pointCount(), "field size vs grid");
@@ -946,7 +988,9 @@ void writeEnsembleNetcdf(const fs::path& path, const Ensemble& ensemble) {
                 ensemble.values);
 }
 
-std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
+namespace {
+
+std::vector<ArrayInfo> listArraysNetcdfUnguarded(const fs::path& path) {
     const int nc = openForRead(path);
     std::vector<ArrayInfo> arrays;
     try {
@@ -965,6 +1009,27 @@ std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
     }
     nc_close(nc);
     return arrays;
+}
+
+}  // namespace
+
+ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
+                                    std::string* geometryNote, bool allowMissing) {
+    return guardedRead(path, "field " + varName + (allowMissing ? " missing" : ""), [&] {
+        return readFieldNetcdfUnguarded(path, varName, geometryNote, allowMissing);
+    });
+}
+
+Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOptions& options) {
+    return guardedRead(path,
+                       "ensemble " + options.var + " " + options.memberDim +
+                           (options.allowMissing ? " missing" : "") +
+                           (options.voxelMajor ? " voxel-major" : ""),
+                       [&] { return readEnsembleNetcdfUnguarded(path, options); });
+}
+
+std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
+    return guardedRead(path, "list", [&] { return listArraysNetcdfUnguarded(path); });
 }
 
 void detail::setHdf5ProbeSeconds(double seconds) { gHdf5ProbeSeconds = seconds; }
