@@ -66,7 +66,9 @@ echo "== fuzz: built in $((SECONDS - start)) s; ${#targets[@]} targets, ${second
     "$jobs at a time" >&2
 
 symbolizer=$(command -v llvm-symbolizer || command -v llvm-symbolizer-14 || true)
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
+# A small quarantine: less memory for every fork of the netcdf targets' HDF5 probe (127 against
+# 98 executions a second with the default 256 MB).
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:quarantine_size_mb=16}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/fuzz/lsan.supp:print_suppressions=0}
 [ -z "$symbolizer" ] || export ASAN_SYMBOLIZER_PATH=$symbolizer
@@ -85,6 +87,12 @@ run_target() {
         vti | model | tf2_vti) dict=(-dict=fuzz/dicts/vtk_xml.dict) ;;
         nrrd) dict=(-dict=fuzz/dicts/nrrd.dict) ;;
         tf_json | tf2_json) dict=(-dict=fuzz/dicts/json.dict) ;;
+    esac
+    # netCDF-C and HDF5 leak on the error paths of most damaged files (suppressed in
+    # fuzz/lsan.supp), and libFuzzer then scans the heap for leaks after each such input: 55 % of
+    # the netcdf target's time. Leaks are checked by the other targets.
+    case "$t" in
+        netcdf | ensemble) dict+=(-detect_leaks=0) ;;
     esac
     local rc=0 t0=$SECONDS
     # shellcheck disable=SC2086

@@ -16,7 +16,9 @@ packages=(build-essential cmake pkg-config libvtk9-dev libnetcdf-dev libtbb-dev 
           python3-xarray python3-matplotlib python3-tqdm python3-pandas python3-nbformat
           python3-nbclient python3-ipykernel
           # udvr serve: the HTTP server library, and the headless browser its page tests drive
-          libcpp-httplib-dev chromium chromium-driver python3-selenium)
+          libcpp-httplib-dev chromium chromium-driver python3-selenium
+          # the readers' fuzz targets (scripts/fuzz.sh): Clang with libFuzzer and the sanitizers
+          clang libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -276,3 +276,9 @@ def test_uint8_members_with_other_estimates(tmp_path, extra):
     for h in (1, 7):
         build(*args, "--slab-height", h, "-o", tmp_path / f"s{h}.vti")
         assert same_bytes(tmp_path / "ref.vti", tmp_path / f"s{h}.vti"), h
+
+
+def test_out_of_core_pvti_is_a_one_line_error(nc_ensemble, tmp_path):
+    r = run_udvr("build", nc_ensemble, "--slab-height", "7", "-o", tmp_path / "m.pvti")
+    assert_one_line_error(r, "out of core", ".vti")
+    assert list(tmp_path.iterdir()) == []

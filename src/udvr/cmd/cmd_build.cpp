@@ -106,7 +106,7 @@ void addBuildCommand(CLI::App& app) {
     struct Opts {
         std::vector<std::string> inputs;
         std::string out, density, bandwidth = "silverman", var, memberDim, levels, nan = "error";
-        int quantiles = 8, gmm = 4, downsample = 0;
+        int quantiles = 8, gmm = 4, downsample = 0, pieces = 0;
         double tailEps = 0.0;
         CLI::Option* downsampleOpt = nullptr;
         CLI::Option* tailEpsOpt = nullptr;
@@ -153,11 +153,23 @@ void addBuildCommand(CLI::App& app) {
         "--slab-height", o->slabHeight,
         "N: build out of core in slabs of N input z-planes (a multiple of K with --downsample) "
         "whatever the memory (for tests)");
-    sub->add_option("-o,--output", o->out, "output model .vti")->required();
+    sub->add_option("-o,--output", o->out,
+                    "output model: .vti, or .pvti (VTK's parallel ImageData: the model in "
+                    "z-pieces <stem>/<stem>_<i>.vti, which ParaView opens in parallel)")
+        ->required();
+    sub->add_option("--pieces", o->pieces,
+                    "with -o .pvti: how many z-pieces (default: one per thread; at most one per "
+                    "cell layer)");
     addRawLayoutOptions(sub, o->raw);
 
     sub->callback([o] {
-        requireOutputExtension(o->out, "-o", {".vti"}, "build writes a model as VTK ImageData");
+        requireOutputExtension(o->out, "-o", {".vti", ".pvti"},
+                               "build writes a model as VTK ImageData");
+        const bool partitioned = lowerExtension(o->out) == ".pvti";
+        if (o->pieces != 0 && !partitioned)
+            UDVR_FAIL("--pieces " << o->pieces << " needs -o with a .pvti (partitioned) model");
+        if (o->pieces < 0 || o->pieces > 65536)
+            UDVR_FAIL("--pieces " << o->pieces << " is out of range; expected 1 to 65536");
         BuildOptions opt;
         opt.quantiles = o->quantiles;
         if (!o->levels.empty()) {
@@ -218,6 +230,14 @@ void addBuildCommand(CLI::App& app) {
         auto streamTo =
             [&](const Grid3& modelGrid, const SlabReader& r, int planes,
                 const std::function<ModelVolume(const SlabInput&, const SlabSink&)>& run) {
+                if (partitioned)
+                    UDVR_FAIL("-o " << o->out << ": this build runs out of core ("
+                                    << (forcedSlab > 0 ? std::string("--slab-height")
+                                                       : "its input and model exceed "
+                                                         "--memory-limit " +
+                                                             limit.text)
+                                    << "), which writes a .vti model; write -o with .vti, or "
+                                       "give a larger --memory-limit");
                 if (!r.note.empty()) notes = r.note + "\n" + notes;
                 const int slabPlanes = std::min(planes, modelGrid.dims[2]);
                 const int slabs = (modelGrid.dims[2] + slabPlanes - 1) / slabPlanes;
@@ -362,9 +382,18 @@ void addBuildCommand(CLI::App& app) {
             }
             what = std::to_string(model.samplesPerVoxel) + "-member ensemble";
         }
+        std::string writtenText = o->out;
         if (!written) {
             auto t1 = std::chrono::steady_clock::now();
-            writeModelVti(o->out, model);
+            if (partitioned) {
+                const int pieces = o->pieces > 0 ? o->pieces : threadCount();
+                writeModelPvti(o->out, model, pieces);
+                const int n =
+                    static_cast<int>(pvtiPieceBoundaries(model.grid.dims[2], pieces).size()) - 1;
+                writtenText += " (" + std::to_string(n) + (n == 1 ? " piece)" : " pieces)");
+            } else {
+                writeModelVti(o->out, model);
+            }
             writeSeconds = secondsSince(t1);
         }
 
@@ -399,7 +428,7 @@ void addBuildCommand(CLI::App& app) {
                      "build: read %.2f s, statistics %.2f s (CPU: scan %.2f, gather %.2f, "
                      "sort+moments+quantiles %.2f, GMM %.2f s), write %.2f s -> %s\n",
                      readSeconds, rep.seconds, rep.scanCpu, rep.gatherCpu, rep.estimateCpu,
-                     rep.gmmCpu, writeSeconds, o->out.c_str());
+                     rep.gmmCpu, writeSeconds, writtenText.c_str());
         if (written) {
             const double total = secondsSince(t0);
             const double samples = static_cast<double>(rep.voxels) * rep.samplesPerVoxel;

@@ -131,7 +131,7 @@ Described describeFile(const std::string& path, const InfoOpts& o) {
     const std::vector<ArrayInfo> arrays = listArrays(path, raw);
     const std::string ext = lowerExtension(path);
     bool model = false;
-    if (ext == ".vti" && o.var.empty())
+    if ((ext == ".vti" || ext == ".pvti") && o.var.empty())
         for (const ArrayInfo& a : arrays) model = model || a.name == "mean";
     // The chosen variable (or, without --var, any) with a member dimension: an ensemble.
     if (ext == ".nc" && netcdfHoldsEnsemble(arrays, o.var))

@@ -29,9 +29,10 @@ void addProbeCommand(CLI::App& app) {
         bool json = false;
     };
     auto o = std::make_shared<Opts>();
-    sub->add_option("model", o->inputs,
-                    "model (.vti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw); "
-                    "with --model members an ensemble (.nc, member files or a quoted glob)")
+    sub->add_option(
+           "model", o->inputs,
+           "model (.vti or .pvti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw); "
+           "with --model members an ensemble (.nc, member files or a quoted glob)")
         ->required();
     sub->add_option("--point", o->point,
                     "index coordinates i,j,k on the input's own grid (a downsampled model's "

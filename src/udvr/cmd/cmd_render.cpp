@@ -171,9 +171,10 @@ void addRenderCommand(CLI::App& app) {
     auto* sub = app.add_subcommand(
         "render", "ray-cast a field or a model volume with a transfer function (SPEC §5)");
     auto o = std::make_shared<RenderOpts>();
-    sub->add_option("input", o->inputs,
-                    "model .vti from 'udvr build', or any scalar field; with --model members an "
-                    "ensemble (.nc with a member dimension, member files or a quoted glob)")
+    sub->add_option(
+           "input", o->inputs,
+           "model .vti or .pvti from 'udvr build', or any scalar field; with --model members an "
+           "ensemble (.nc with a member dimension, member files or a quoted glob)")
         ->required();
     sub->add_option(
         "--model", o->model,

@@ -27,8 +27,9 @@ void addServeCommand(CLI::App& app) {
         RawLayoutFlags raw;
     };
     auto o = std::make_shared<Opts>();
-    sub->add_option("model", o->model,
-                    "model (.vti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw)")
+    sub->add_option(
+           "model", o->model,
+           "model (.vti or .pvti from `udvr build`) or a plain field (.vti .nc .nrrd .nhdr .raw)")
         ->required();
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);

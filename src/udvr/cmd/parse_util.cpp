@@ -208,7 +208,7 @@ ModelVolume readMembersModel(const std::vector<std::string>& inputs, const std::
     if (!isEnsembleInput(inputs, var, raw)) {
         const std::string& path = inputs.front();
         bool model = false;
-        if (lowerExtension(path) == ".vti" && var.empty())
+        if ((lowerExtension(path) == ".vti" || lowerExtension(path) == ".pvti") && var.empty())
             for (const ArrayInfo& a : listArrays(path, toRawLayout(raw)))
                 model = model || a.name == "mean";
         UDVR_FAIL(

@@ -748,7 +748,7 @@ ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
     ScalarField f;
     if (ext == ".nrrd" || ext == ".nhdr") {
         f = readNrrd(path, geometryNote);
-    } else if (ext == ".vti") {
+    } else if (ext == ".vti" || ext == ".pvti") {
         f = readFieldVti(path, options.var, geometryNote);
     } else if (ext == ".nc" || ext == ".nc4" || ext == ".cdf") {
         f = readFieldNetcdf(path, options.var, geometryNote, options.allowMissing);
@@ -756,7 +756,7 @@ ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
         f = readRaw(path, options.raw);
     } else {
         UDVR_FAIL("cannot read " << path.string() << ": unknown field format '" << ext
-                                 << "' (expected .raw .nrrd .nhdr .vti .nc)");
+                                 << "' (expected .raw .nrrd .nhdr .vti .pvti .nc)");
     }
     if (!options.allowMissing) checkFinite(path, f.grid, f.values);
     return f;

@@ -8,7 +8,7 @@ namespace udvr {
 std::vector<ArrayInfo> listArrays(const std::filesystem::path& path, const RawLayout& raw) {
     detail::requireFile(path);
     const std::string ext = detail::lowerExtension(path);
-    if (ext == ".vti") return detail::listArraysVti(path);
+    if (ext == ".vti" || ext == ".pvti") return detail::listArraysVti(path);
     if (ext == ".nc") return detail::listArraysNetcdf(path);
     ArrayInfo a;
     a.name = path.stem().string();
@@ -19,7 +19,7 @@ std::vector<ArrayInfo> listArrays(const std::filesystem::path& path, const RawLa
         a.type = raw.type;
     } else {
         UDVR_FAIL("cannot read " << path.string() << ": unknown field format '" << ext
-                                 << "' (expected .raw .nrrd .nhdr .vti .nc)");
+                                 << "' (expected .raw .nrrd .nhdr .vti .pvti .nc)");
     }
     return {a};
 }

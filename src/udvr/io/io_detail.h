@@ -48,6 +48,10 @@ ScalarField readFieldVti(const std::filesystem::path& path, const std::string& v
 ModelVolume readModelVti(const std::filesystem::path& path, std::string* geometryNote);
 /// A 2D transfer-function raster from a .vti of W×H×1 points (vti_io.cpp).
 TransferFunction2D readTransferFunction2DVti(const std::filesystem::path& path);
+/// How long the child process that tries a NetCDF-4 file's HDF5 calls first may take for a
+/// file of 0 bytes (plus 1 s per 4 MB): 10 s unless set (the fuzz targets and tests set less,
+/// so that a damaged file costs little).
+void setHdf5ProbeSeconds(double seconds);
 /// .nc with a 3D variable (netcdf_io.cpp); allowMissing: fill values become NaN.
 ScalarField readFieldNetcdf(const std::filesystem::path& path, const std::string& var,
                             std::string* geometryNote, bool allowMissing = false);

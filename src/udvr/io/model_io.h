@@ -3,6 +3,7 @@
 // quantiles (q+1 comps), iqr (2), gmm (3K) and the field data listed in SPEC §7.
 #include <filesystem>
 #include <memory>
+#include <vector>
 
 #include "udvr/io/field_io.h"
 #include "udvr/stats/model_volume.h"
@@ -11,7 +12,25 @@ namespace udvr {
 
 /// Write atomically; only non-empty arrays are written.
 void writeModelVti(const std::filesystem::path& path, const ModelVolume& model);
-/// Read a model written by writeModelVti (or any .vti with those array names).
+/// A model partitioned along z as VTK's parallel ImageData, which ParaView opens in parallel:
+/// `path` (.pvti) names `pieces` piece files <stem>/<stem>_<i>.vti beside it; neighbouring
+/// pieces share their boundary plane (every cell lies in one piece, so trilinear reconstruction
+/// needs nothing from a neighbour). The old header is removed first, each piece and then the
+/// header are written atomically, and pieces of an earlier write that the header no longer
+/// names are removed. readModelVti and readModelOrField read it back as one model.
+void writeModelPvti(const std::filesystem::path& path, const ModelVolume& model, int pieces);
+/// The first plane of each of (at most) `pieces` z-pieces of a grid of `planes` planes, and the
+/// last plane: piece i holds planes b[i] … b[i+1].
+std::vector<int> pvtiPieceBoundaries(int planes, int pieces);
+/// writeModelPvti in parts, for processes that each write their own piece: piece `piece` holds
+/// planes k0 … k1 of `model` (whose grid is the whole grid); the header, written last, names
+/// the pieces of `boundaries`.
+void writeModelPvtiPiece(const std::filesystem::path& path, const ModelVolume& model, int piece,
+                         int k0, int k1);
+void writeModelPvtiHeader(const std::filesystem::path& path, const ModelVolume& model,
+                          const std::vector<int>& boundaries);
+/// Read a model written by writeModelVti or writeModelPvti (or any .vti/.pvti with those array
+/// names).
 ModelVolume readModelVti(const std::filesystem::path& path);
 /// A model .vti (one with a `mean` array) or any scalar field, which becomes a mean-only model
 /// (modelFromField); `options` name the field's array/variable and a headerless .raw's layout.

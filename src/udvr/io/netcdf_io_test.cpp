@@ -9,6 +9,8 @@
 
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field_io.h"
+#include "udvr/io/file_info.h"
+#include "udvr/io/io_detail.h"
 #include "udvr/io/io_test_util.h"
 
 namespace udvr {
@@ -242,6 +244,7 @@ TEST(IoNetcdf, ClassicHeaderCountsAreCheckedBeforeOpening) {
     ScalarField f;
     f.grid.dims = {4, 3, 2};
     f.values.assign(24, 1.f);
+    f.name = "tangle";
     writeFieldNetcdf(dir / "f.nc", f);
     const std::string bytes = testing::readBytes(dir / "f.nc");
     ASSERT_EQ(bytes.substr(0, 4), std::string("CDF\x02", 4));
@@ -254,6 +257,15 @@ TEST(IoNetcdf, ClassicHeaderCountsAreCheckedBeforeOpening) {
         expectUdvrError([&] { readField(dir / "count.nc"); },
                         {"count.nc", "truncated NetCDF header"});
     }
+    // A variable type code netCDF-C does not know: it divides by its size of 0 (SIGFPE).
+    const std::size_t header = bytes.find("tangle") + 64;  // the data variable's entry
+    const std::size_t type = bytes.rfind(std::string("\0\0\0\x05", 4), header);  // NC_FLOAT
+    ASSERT_NE(type, std::string::npos);
+    std::string bad = bytes;
+    bad[type + 3] = '\x0c';
+    testing::writeBytes(dir / "type.nc", bad);
+    expectUdvrError([&] { readField(dir / "type.nc"); },
+                    {"type.nc", "type code 12 is not a NetCDF type"});
 }
 
 // A dimension of length 0 tripped an internal check (found by fuzzing); dims whose product
@@ -281,15 +293,33 @@ TEST(IoNetcdf, EmptyAndHugeDimensionsAreErrors) {
                     {"huge.nc", "dims 1048576x1048576x131072 are too large"});
 }
 
+// nc_open fails on this damaged NetCDF-4 file but leaves it open in HDF5, and a second read of
+// it in the same process (`info`, then the data) crashed in H5HG_read (found by fuzzing).
+TEST(IoNetcdf, SecondReadOfAFileHdf5FailedOnIsTheSameError) {
+    const std::filesystem::path file = std::filesystem::path(UDVR_FUZZ_REGRESSIONS_DIR) / "netcdf" /
+                                       "netcdf4-reopen-after-failed-open-h5hg-memcpy";
+    TempDir dir;
+    std::filesystem::copy_file(file, dir / "bad.nc");
+    for (int i = 0; i < 3; ++i) {
+        expectUdvrError([&] { readField(dir / "bad.nc"); }, {"bad.nc", "NetCDF: HDF error"});
+        expectUdvrError([&] { readEnsemble({(dir / "bad.nc").string()}, {}); },
+                        {"bad.nc", "NetCDF: HDF error"});
+        expectUdvrError([&] { listArrays(dir / "bad.nc"); }, {"bad.nc", "NetCDF: HDF error"});
+    }
+}
+
 // HDF5 1.10.8 loops forever on this damaged NetCDF-4 file (found by fuzzing); a child process
-// tries the library calls first and gives up after 10 s.
+// tries the library calls first and gives up after 10 s (here 0.5 s).
 TEST(IoNetcdf, Hdf5HangBecomesAnError) {
+    detail::setHdf5ProbeSeconds(0.5);
     const std::filesystem::path file = std::filesystem::path(UDVR_FUZZ_REGRESSIONS_DIR) / "netcdf" /
                                        "netcdf4-hdf5-global-heap-loop";
     TempDir dir;
     std::filesystem::copy_file(file, dir / "loop.nc");
-    expectUdvrError([&] { readField(dir / "loop.nc"); },
-                    {"loop.nc", "the HDF5 library did not finish reading this NetCDF-4 file"});
+    expectUdvrError(
+        [&] { readField(dir / "loop.nc"); },
+        {"loop.nc", "the HDF5 library did not finish reading this NetCDF-4 file", "within 0.5 s"});
+    detail::setHdf5ProbeSeconds(10.0);
 }
 
 TEST(IoNetcdf, EnsembleFromMemberDimension) {

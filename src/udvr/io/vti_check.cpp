@@ -225,12 +225,15 @@ class Checker {
             const std::size_t word = wordSize(a->GetAttribute("type"), what);
             const long long components =
                 integerAttribute(a, "NumberOfComponents", 1, 1 << 20, 1, what);
-            long double n = tuples;  // values of the array, < 0: not known
+            long double n = tuples;  // values of the array
             if (tuples < 0) {
+                // Field data: VTK reads an array without NumberOfTuples as empty and crashes
+                // on the data it then finds (a null block in vtkXMLDataParser::ReadBlock).
                 const long long t = integerAttribute(a, "NumberOfTuples", 0, 1LL << 53, -1, what);
-                n = t < 0 ? -1 : static_cast<long double>(t);
+                if (t < 0) fail(what + " has no NumberOfTuples");
+                n = static_cast<long double>(t);
             }
-            if (n >= 0) n *= static_cast<long double>(components);
+            n *= static_cast<long double>(components);
             // The output array VTK allocates for the whole extent, before reading the data.
             const long double whole =
                 tuples < 0
@@ -265,10 +268,7 @@ class Checker {
                 fail(what + " has format '" + f +
                      "' (expected ascii, binary, or appended with an offset)");
             }
-            if (word == 0) {
-                if (n < 0) fail(what + " is a String array without NumberOfTuples");
-                strings.push_back(text);
-            }
+            if (word == 0) strings.push_back(text);
         }
     }
 

@@ -24,6 +24,8 @@
 #include <vtkStreamingDemandDrivenPipeline.h>
 #include <vtkStringArray.h>
 #include <vtkUnsignedCharArray.h>
+#include <vtkXMLDataElement.h>
+#include <vtkXMLDataParser.h>
 #include <vtkXMLImageDataWriter.h>
 
 #include <algorithm>
@@ -35,6 +37,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -110,9 +113,12 @@ void throwIfFailed(const fs::path& path, detail::CheckedVtiReader* reader,
                                 << " (truncated or corrupt file?)");
 }
 
-/// Read a VTK ImageData file; with maxPoints > 0, a whole extent of more points is refused from
-/// the header, before any data is allocated.
+vtkSmartPointer<vtkImageData> readPvti(const fs::path& path, double maxPoints);
+
+/// Read a VTK ImageData file (.vti, or a .pvti and its pieces as one image); with maxPoints > 0,
+/// a whole extent of more points is refused from the header, before any data is allocated.
 vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoints = 0) {
+    if (detail::lowerExtension(path) == ".pvti") return readPvti(path, maxPoints);
     vtkNew<ErrorCollector> errors;
     auto reader = newReader(path, errors);
     const std::string name = path.string();
@@ -133,6 +139,232 @@ vtkSmartPointer<vtkImageData> readImageData(const fs::path& path, double maxPoin
     throwIfFailed(path, reader, errors, image == nullptr);
     vtkSmartPointer<vtkImageData> out = image;
     return out;
+}
+
+// ---- partitioned images (.pvti, VTK's parallel ImageData) ------------------------------------
+
+/// A .pvti's pieces as ParaView's writer names them: <dir>/<stem>/<stem>_<i>.vti, Source
+/// relative to the .pvti's folder.
+std::string pieceSource(const fs::path& pvti, int piece) {
+    const std::string stem = pvti.stem().string();
+    return stem + "/" + stem + "_" + std::to_string(piece) + ".vti";
+}
+
+/// `count` integers of an attribute of `e`, or an error naming the .pvti.
+std::vector<long long> intsOf(const fs::path& path, vtkXMLDataElement* e, const char* name,
+                              std::size_t count) {
+    const char* text = e->GetAttribute(name);
+    if (text == nullptr)
+        UDVR_FAIL(path.string() << ": <" << e->GetName() << "> has no " << name << " attribute");
+    std::istringstream in(text);
+    std::vector<long long> v(count);
+    for (long long& x : v) {
+        if (!(in >> x) || std::llabs(x) > (1LL << 30))
+            UDVR_FAIL(path.string() << ": <" << e->GetName() << "> " << name << "=\"" << text
+                                    << "\" is not " << count << " integers");
+    }
+    std::string rest;
+    if (in >> rest)
+        UDVR_FAIL(path.string() << ": <" << e->GetName() << "> " << name << "=\"" << text
+                                << "\" has more than " << count << " values");
+    return v;
+}
+
+std::array<double, 3> doublesOf(const fs::path& path, vtkXMLDataElement* e, const char* name) {
+    const char* text = e->GetAttribute(name);
+    if (text == nullptr)
+        UDVR_FAIL(path.string() << ": <" << e->GetName() << "> has no " << name << " attribute");
+    std::istringstream in(text);
+    std::array<double, 3> v{};
+    for (double& x : v) {
+        if (!(in >> x) || !std::isfinite(x))
+            UDVR_FAIL(path.string() << ": <" << e->GetName() << "> " << name << "=\"" << text
+                                    << "\" is not 3 finite numbers");
+    }
+    return v;
+}
+
+/// One piece of a .pvti: its file and its point extent within the whole extent.
+struct PvtiPiece {
+    fs::path file;
+    std::array<long long, 6> extent{};
+};
+
+struct PvtiHeader {
+    std::array<long long, 6> wholeExtent{};
+    std::array<double, 3> origin{}, spacing{};
+    std::vector<PvtiPiece> pieces;
+};
+
+/// Parses and checks a .pvti (VTKFile type="PImageData"): a whole extent, origin, spacing and
+/// pieces whose extents lie inside it. The pieces are read by readImageData (checked as any
+/// .vti); whether they cover the extent is checked when they are assembled.
+PvtiHeader readPvtiHeader(const fs::path& path) {
+    detail::requireFile(path);
+    std::error_code ec;
+    const auto bytes = fs::file_size(path, ec);
+    if (!ec && bytes > (16u << 20))
+        UDVR_FAIL(path.string() << ": " << bytes << " bytes is not a .pvti header (at most 16 MB)");
+    vtkNew<vtkXMLDataParser> parser;
+    const std::string name = path.string();
+    parser->SetFileName(name.c_str());
+    if (parser->Parse() == 0 || parser->GetRootElement() == nullptr)
+        UDVR_FAIL(name << ": not a VTK XML file (cannot parse it as XML)");
+    vtkXMLDataElement* root = parser->GetRootElement();
+    const char* type = root->GetAttribute("type");
+    if (std::string(root->GetName()) != "VTKFile" || type == nullptr ||
+        std::string(type) != "PImageData")
+        UDVR_FAIL(name << ": not a parallel VTK ImageData file (expected <VTKFile "
+                          "type=\"PImageData\">)");
+    vtkXMLDataElement* image = root->FindNestedElementWithName("PImageData");
+    if (image == nullptr) UDVR_FAIL(name << ": no <PImageData> element");
+    PvtiHeader h;
+    const auto whole = intsOf(path, image, "WholeExtent", 6);
+    std::copy(whole.begin(), whole.end(), h.wholeExtent.begin());
+    h.origin = doublesOf(path, image, "Origin");
+    h.spacing = doublesOf(path, image, "Spacing");
+    for (int a = 0; a < 3; ++a) {
+        if (h.wholeExtent[2 * a] > h.wholeExtent[2 * a + 1])
+            UDVR_FAIL(name << ": empty WholeExtent along axis " << a);
+        if (!(h.spacing[a] > 0.0))
+            UDVR_FAIL(name << ": Spacing along axis " << a << " is " << h.spacing[a]
+                           << ", expected a positive number");
+    }
+    const fs::path folder = path.parent_path();
+    for (int i = 0; i < image->GetNumberOfNestedElements(); ++i) {
+        vtkXMLDataElement* e = image->GetNestedElement(i);
+        if (std::string(e->GetName()) != "Piece") continue;
+        if (h.pieces.size() >= 65536) UDVR_FAIL(name << ": more than 65536 pieces");
+        PvtiPiece piece;
+        const auto extent = intsOf(path, e, "Extent", 6);
+        std::copy(extent.begin(), extent.end(), piece.extent.begin());
+        for (int a = 0; a < 3; ++a) {
+            if (piece.extent[2 * a] > piece.extent[2 * a + 1] ||
+                piece.extent[2 * a] < h.wholeExtent[2 * a] ||
+                piece.extent[2 * a + 1] > h.wholeExtent[2 * a + 1])
+                UDVR_FAIL(name << ": piece " << h.pieces.size()
+                               << " has an Extent outside the WholeExtent");
+        }
+        const char* source = e->GetAttribute("Source");
+        if (source == nullptr || *source == '\0')
+            UDVR_FAIL(name << ": piece " << h.pieces.size() << " has no Source file");
+        piece.file = fs::path(source).is_absolute() ? fs::path(source) : folder / source;
+        if (detail::lowerExtension(piece.file) != ".vti")
+            UDVR_FAIL(name << ": piece " << h.pieces.size() << " is '" << source
+                           << "', expected a .vti file");
+        h.pieces.push_back(piece);
+    }
+    if (h.pieces.empty()) UDVR_FAIL(name << ": no <Piece> elements");
+    return h;
+}
+
+/// The whole image of a .pvti: every piece read and checked as a .vti (its extent, origin and
+/// spacing those the .pvti says), its point arrays copied into arrays of the whole extent (the
+/// pieces share boundary planes; every point must be covered), the field data of piece 0.
+vtkSmartPointer<vtkImageData> readPvti(const fs::path& path, double maxPoints) {
+    const PvtiHeader h = readPvtiHeader(path);
+    const std::string name = path.string();
+    std::array<long long, 3> dims{};
+    double points = 1;
+    for (int a = 0; a < 3; ++a) {
+        dims[a] = h.wholeExtent[2 * a + 1] - h.wholeExtent[2 * a] + 1;
+        points *= static_cast<double>(dims[a]);
+    }
+    if (maxPoints > 0 && points > maxPoints)
+        UDVR_FAIL(name << ": a whole extent of " << points << " points, more than " << maxPoints);
+    if (points > 1e11) UDVR_FAIL(name << ": a whole extent of " << points << " points");
+    auto whole = vtkSmartPointer<vtkImageData>::New();
+    whole->SetExtent(static_cast<int>(h.wholeExtent[0]), static_cast<int>(h.wholeExtent[1]),
+                     static_cast<int>(h.wholeExtent[2]), static_cast<int>(h.wholeExtent[3]),
+                     static_cast<int>(h.wholeExtent[4]), static_cast<int>(h.wholeExtent[5]));
+    whole->SetOrigin(h.origin.data());
+    whole->SetSpacing(h.spacing.data());
+    const auto n = static_cast<vtkIdType>(points);
+    std::vector<bool> covered(static_cast<std::size_t>(n), false);
+    vtkPointData* out = whole->GetPointData();
+    for (std::size_t p = 0; p < h.pieces.size(); ++p) {
+        const PvtiPiece& piece = h.pieces[p];
+        double piecePoints = 1;
+        for (int a = 0; a < 3; ++a)
+            piecePoints *= static_cast<double>(piece.extent[2 * a + 1] - piece.extent[2 * a] + 1);
+        const std::string what =
+            name + ": piece " + std::to_string(p) + " (" + piece.file.string() + ")";
+        vtkSmartPointer<vtkImageData> image;
+        try {
+            // At most as many points as its Extent in the .pvti (checked before VTK reads).
+            image = readImageData(piece.file, piecePoints);
+        } catch (const FileError& e) {
+            UDVR_FILE_FAIL(name << ": piece " << p << ": " << e.what());
+        } catch (const UdvrError& e) {
+            UDVR_FAIL(name << ": piece " << p << ": " << e.what());
+        }
+        int e[6];
+        double origin[3], spacing[3];
+        image->GetExtent(e);
+        image->GetOrigin(origin);
+        image->GetSpacing(spacing);
+        for (int a = 0; a < 6; ++a) {
+            if (e[a] != piece.extent[a])
+                UDVR_FAIL(what << " has extent " << e[0] << " " << e[1] << " " << e[2] << " "
+                               << e[3] << " " << e[4] << " " << e[5]
+                               << ", not the Extent the .pvti gives it");
+        }
+        for (int a = 0; a < 3; ++a) {
+            const double tol =
+                1e-9 * std::max(1.0, std::abs(h.spacing[a]) * static_cast<double>(dims[a]));
+            if (std::abs(origin[a] - h.origin[a]) > tol ||
+                std::abs(spacing[a] - h.spacing[a]) > 1e-9 * h.spacing[a])
+                UDVR_FAIL(what << " has another origin or spacing than the .pvti");
+        }
+        vtkPointData* in = image->GetPointData();
+        if (p == 0) {
+            for (int i = 0; i < in->GetNumberOfArrays(); ++i) {
+                vtkAbstractArray* a = in->GetAbstractArray(i);
+                auto* numeric = vtkDataArray::SafeDownCast(a);
+                if (numeric == nullptr || a->GetName() == nullptr) continue;
+                vtkSmartPointer<vtkDataArray> copy;
+                copy.TakeReference(numeric->NewInstance());
+                copy->SetName(a->GetName());
+                copy->SetNumberOfComponents(a->GetNumberOfComponents());
+                copy->SetNumberOfTuples(n);
+                out->AddArray(copy);
+            }
+            if (const char* active = in->GetScalars() ? in->GetScalars()->GetName() : nullptr)
+                out->SetActiveScalars(active);
+            whole->GetFieldData()->ShallowCopy(image->GetFieldData());
+        }
+        for (int i = 0; i < out->GetNumberOfArrays(); ++i) {
+            vtkDataArray* dst = out->GetArray(i);
+            vtkDataArray* src = in->GetArray(dst->GetName());
+            if (src == nullptr || src->GetNumberOfComponents() != dst->GetNumberOfComponents())
+                UDVR_FAIL(what << " has no point array '" << dst->GetName() << "' with "
+                               << dst->GetNumberOfComponents() << " components, as piece 0 has");
+            if (src->GetNumberOfTuples() != static_cast<vtkIdType>(piecePoints))
+                UDVR_FAIL(what << ": array '" << dst->GetName() << "' holds "
+                               << src->GetNumberOfTuples() << " tuples, its extent " << piecePoints
+                               << " points");
+        }
+        vtkIdType t = 0;
+        for (long long k = piece.extent[4]; k <= piece.extent[5]; ++k)
+            for (long long j = piece.extent[2]; j <= piece.extent[3]; ++j)
+                for (long long i = piece.extent[0]; i <= piece.extent[1]; ++i, ++t) {
+                    const vtkIdType at = static_cast<vtkIdType>(
+                        ((k - h.wholeExtent[4]) * dims[1] + (j - h.wholeExtent[2])) * dims[0] +
+                        (i - h.wholeExtent[0]));
+                    covered[static_cast<std::size_t>(at)] = true;
+                    for (int a = 0; a < out->GetNumberOfArrays(); ++a)
+                        out->GetArray(a)->SetTuple(at, t,
+                                                   in->GetArray(out->GetArray(a)->GetName()));
+                }
+    }
+    const auto gap = std::find(covered.begin(), covered.end(), false);
+    if (gap != covered.end()) {
+        const auto at = static_cast<long long>(gap - covered.begin());
+        UDVR_FAIL(name << ": the pieces do not cover point (" << at % dims[0] + h.wholeExtent[0]
+                       << ", " << at / dims[0] % dims[1] + h.wholeExtent[2] << ", "
+                       << at / dims[0] / dims[1] + h.wholeExtent[4] << ") of the WholeExtent");
+    }
+    return whole;
 }
 
 /// The image's grid; a Direction other than the identity is ignored, which *note (when given)
@@ -410,27 +642,135 @@ void addModelFieldData(vtkFieldData* fd, const ModelVolume& model, bool hasQuant
     addString(fd, "source", model.source);
 }
 
-void writeModelVti(const fs::path& path, const ModelVolume& model) {
-    std::size_t n = model.voxelCount();
+namespace {
+
+/// f(values, components, name) for each point array of a model file, in file order (SPEC §7);
+/// an absent array has empty values.
+template <typename F>
+void forEachModelArray(const ModelVolume& model, F&& f) {
+    f(model.mean, 1, "mean");
+    f(model.stddev, 1, "stddev");
+    f(model.min, 1, "min");
+    f(model.max, 1, "max");
+    f(model.quantiles, model.quantileCount + 1, "quantiles");
+    f(model.iqr, 2, "iqr");
+    f(model.gmm, 3 * model.gmmComponents, "gmm");
+}
+
+/// The model's planes k0 … k1 (z) as an image whose extent is those planes of the whole grid
+/// (the origin stays the grid's), with the model's field data.
+vtkSmartPointer<vtkImageData> modelImage(const ModelVolume& model, int k0, int k1) {
+    const std::size_t n = model.voxelCount();
+    const std::size_t plane = static_cast<std::size_t>(model.grid.dims[0]) * model.grid.dims[1];
+    UDVR_CHECK(0 <= k0 && k0 <= k1 && k1 < model.grid.dims[2]);
     auto image = makeImage(model.grid);
+    image->SetExtent(0, model.grid.dims[0] - 1, 0, model.grid.dims[1] - 1, k0, k1);
     vtkPointData* pd = image->GetPointData();
     auto add = [&](const std::vector<float>& values, int components, const char* name) {
         if (values.empty()) return;
         UDVR_CHECK_MSG(values.size() == n * static_cast<std::size_t>(components),
                        std::string("model array size: ") + name);
-        pd->AddArray(wrapFloats(values, components, name));
+        if (k0 == 0 && k1 == model.grid.dims[2] - 1) {
+            pd->AddArray(wrapFloats(values, components, name));
+            return;
+        }
+        // A copy of the planes (wrapFloats does not copy).
+        const std::size_t c = static_cast<std::size_t>(components);
+        const std::size_t begin = plane * c * static_cast<std::size_t>(k0);
+        const std::size_t count = plane * c * static_cast<std::size_t>(k1 - k0 + 1);
+        auto array = vtkSmartPointer<vtkFloatArray>::New();
+        array->SetName(name);
+        array->SetNumberOfComponents(components);
+        array->SetNumberOfValues(static_cast<vtkIdType>(count));
+        std::copy_n(values.begin() + static_cast<std::ptrdiff_t>(begin), count,
+                    array->GetPointer(0));
+        pd->AddArray(array);
     };
-    add(model.mean, 1, "mean");
-    add(model.stddev, 1, "stddev");
-    add(model.min, 1, "min");
-    add(model.max, 1, "max");
-    if (model.hasQuantiles()) add(model.quantiles, model.quantileCount + 1, "quantiles");
-    add(model.iqr, 2, "iqr");
-    if (model.hasGmm()) add(model.gmm, 3 * model.gmmComponents, "gmm");
+    forEachModelArray(model, add);
     if (!model.mean.empty()) pd->SetActiveScalars("mean");
 
     addModelFieldData(image->GetFieldData(), model, model.hasQuantiles(), model.hasGmm());
-    writeImageData(path, image, Compression::Lz4);
+    return image;
+}
+
+}  // namespace
+
+void writeModelVti(const fs::path& path, const ModelVolume& model) {
+    writeImageData(path, modelImage(model, 0, model.grid.dims[2] - 1), Compression::Lz4);
+}
+
+std::vector<int> pvtiPieceBoundaries(int planes, int pieces) {
+    UDVR_CHECK(planes >= 1 && pieces >= 1);
+    const int cells = std::max(planes - 1, 1);
+    pieces = std::min(pieces, cells);
+    std::vector<int> b(static_cast<std::size_t>(pieces) + 1);
+    for (int i = 0; i <= pieces; ++i)
+        b[static_cast<std::size_t>(i)] =
+            static_cast<int>(static_cast<long long>(i) * (planes - 1) / pieces);
+    return b;
+}
+
+void writeModelPvtiPiece(const fs::path& path, const ModelVolume& model, int piece, int k0,
+                         int k1) {
+    const fs::path file = path.parent_path() / pieceSource(path, piece);
+    std::error_code ec;
+    fs::create_directories(file.parent_path(), ec);
+    if (ec)
+        UDVR_FILE_FAIL("cannot write " << path.string() << ": cannot create the folder "
+                                       << file.parent_path().string() << ": " << ec.message());
+    writeImageData(file, modelImage(model, k0, k1), Compression::Lz4);
+}
+
+void writeModelPvtiHeader(const fs::path& path, const ModelVolume& model,
+                          const std::vector<int>& boundaries) {
+    const Grid3& g = model.grid;
+    std::ostringstream x;
+    x.precision(17);
+    x << "<?xml version=\"1.0\"?>\n"
+      << "<VTKFile type=\"PImageData\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\" compressor=\"vtkLZ4DataCompressor\">\n"
+      << "  <PImageData WholeExtent=\"0 " << g.dims[0] - 1 << " 0 " << g.dims[1] - 1 << " 0 "
+      << g.dims[2] - 1 << "\" GhostLevel=\"0\" Origin=\"" << g.origin[0] << " " << g.origin[1]
+      << " " << g.origin[2] << "\" Spacing=\"" << g.spacing[0] << " " << g.spacing[1] << " "
+      << g.spacing[2] << "\" Direction=\"1 0 0 0 1 0 0 0 1\">\n"
+      << "    <PPointData" << (model.mean.empty() ? "" : " Scalars=\"mean\"") << ">\n";
+    auto array = [&](const std::vector<float>& values, int components, const char* name) {
+        if (values.empty()) return;
+        x << "      <PDataArray type=\"Float32\" Name=\"" << name << "\"";
+        if (components > 1) x << " NumberOfComponents=\"" << components << "\"";
+        x << "/>\n";
+    };
+    forEachModelArray(model, array);
+    x << "    </PPointData>\n";
+    for (std::size_t i = 0; i + 1 < boundaries.size(); ++i)
+        x << "    <Piece Extent=\"0 " << g.dims[0] - 1 << " 0 " << g.dims[1] - 1 << " "
+          << boundaries[i] << " " << boundaries[i + 1] << "\" Source=\""
+          << pieceSource(path, static_cast<int>(i)) << "\"/>\n";
+    x << "  </PImageData>\n</VTKFile>\n";
+    const std::string text = x.str();
+    writeAtomically(path, [&](const fs::path& tmp) {
+        std::ofstream out(tmp, std::ios::binary);
+        out.write(text.data(), static_cast<std::streamsize>(text.size()));
+        out.close();
+        if (!out) UDVR_FILE_FAIL("cannot write " << path.string() << ": " << writeErrorText(errno));
+    });
+    // Pieces of an earlier write with more pieces, which this header no longer names.
+    std::error_code ec;
+    for (int i = static_cast<int>(boundaries.size()) - 1;; ++i) {
+        const fs::path stale = path.parent_path() / pieceSource(path, i);
+        if (!fs::remove(stale, ec)) break;
+    }
+}
+
+void writeModelPvti(const fs::path& path, const ModelVolume& model, int pieces) {
+    const std::vector<int> b = pvtiPieceBoundaries(model.grid.dims[2], pieces);
+    // An earlier header goes first: a write stopped half-way leaves no .pvti that would name a
+    // mix of old and new pieces.
+    std::error_code ec;
+    fs::remove(path, ec);
+    for (std::size_t i = 0; i + 1 < b.size(); ++i)
+        writeModelPvtiPiece(path, model, static_cast<int>(i), b[i], b[i + 1]);
+    writeModelPvtiHeader(path, model, b);
 }
 
 ModelVolume readModelVti(const fs::path& path) {
@@ -611,6 +951,8 @@ void writeTransferFunction2DVti(const fs::path& path, const TransferFunction2D& 
 std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
     // The header only: the reader's pipeline information names each point array, its type and
     // components without reading the data (a model's arrays can be gigabytes).
+    if (detail::lowerExtension(path) == ".pvti")  // the arrays of its first piece
+        return listArraysVti(readPvtiHeader(path).pieces.front().file);
     vtkNew<ErrorCollector> errors;
     auto reader = newReader(path, errors);
     reader->UpdateInformation();
@@ -635,7 +977,8 @@ std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
 }
 
 ModelVolume readModelOrField(const fs::path& path, const FieldReadOptions& options) {
-    if (detail::lowerExtension(path) == ".vti" && options.var.empty()) {
+    const std::string ext = detail::lowerExtension(path);
+    if ((ext == ".vti" || ext == ".pvti") && options.var.empty()) {
         std::string modelError;
         try {
             std::string note;

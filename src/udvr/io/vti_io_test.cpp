@@ -352,6 +352,10 @@ TEST(IoVti, UnknownArrayTypesAreErrorsNotCrashes) {
     const std::string first = "<DataArray type=\"Int32\"";
     misnamed.replace(misnamed.find(first), first.size(), "<DapaArray type=\"Float43\"");
     expectRejected(dir, "tag.vti", misnamed, "'Float43'");
+    // Without NumberOfTuples VTK reads a field data array as empty and crashes on its data.
+    std::string untold = model;
+    untold.erase(untold.find("NumberOfTuples=\"1\""), 18);
+    expectRejected(dir, "untold.vti", untold, "'quantile_count' has no NumberOfTuples");
 }
 
 /// A model file with the header of its first appended array's data block (compressed: block
