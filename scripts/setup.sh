@@ -18,7 +18,9 @@ packages=(build-essential cmake pkg-config libvtk9-dev libnetcdf-dev libtbb-dev 
           # udvr serve: the HTTP server library, and the headless browser its page tests drive
           libcpp-httplib-dev chromium chromium-driver python3-selenium
           # the readers' fuzz targets (scripts/fuzz.sh): Clang with libFuzzer and the sanitizers
-          clang libclang-rt-14-dev)
+          clang libclang-rt-14-dev
+          # `mpirun -np N udvr build -o m.pvti` (VTK's packages pull these in too)
+          libopenmpi-dev openmpi-bin)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/mpi_job.h"
 #include "udvr/cmd/parse_util.h"
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field_io.h"
@@ -95,6 +96,146 @@ struct SlabBars {
         return bar.get();
     }
 };
+
+/// What the streamed builds read from an opened input.
+SlabInput slabInputOf(const SlabReader& r) {
+    SlabInput in;
+    in.grid = r.grid;
+    in.members = r.members;
+    in.valueStep = r.valueStep;
+    in.valueType = r.valueType;
+    in.read = r.read;
+    return in;
+}
+
+/// The one field that --downsample K reduces, as slabs; an ensemble file is a one-line error.
+SlabReader openBrickedField(const std::vector<std::string>& inputs, const FieldReadOptions& ro) {
+    if (inputs.size() != 1)
+        UDVR_FAIL("--downsample takes one field, got " << inputs.size() << " inputs");
+    try {
+        return openFieldSlabs(inputs[0], ro);
+    } catch (const EnsembleNotFieldError& e) {
+        UDVR_FAIL(e.file << " holds a " << e.members << "-member ensemble (variable '" << e.var
+                         << "', dims " << e.dims
+                         << "): --downsample reduces one field; drop --downsample to build the "
+                            "model from the "
+                         << e.members << " members");
+    }
+}
+
+/// Ensemble inputs: one field without --downsample is a one-line error.
+void requireEnsembleInputs(const std::vector<std::string>& inputs) {
+    const std::string& first = inputs[0];
+    if (inputs.size() == 1 && first.find_first_of("*?[") == std::string::npos &&
+        lowerExtension(first) != ".nc")
+        UDVR_FAIL(first << " is one field: --downsample K models its K^3 bricks; an ensemble is "
+                           "a NetCDF variable with a member dimension or 2+ member files");
+}
+
+/// The arrays of a model, for copying slabs (all std::vector<float>).
+constexpr std::vector<float> ModelVolume::*kModelArrays[] = {
+    &ModelVolume::mean,      &ModelVolume::stddev, &ModelVolume::min, &ModelVolume::max,
+    &ModelVolume::quantiles, &ModelVolume::iqr,    &ModelVolume::gmm};
+
+/// `mpirun -np N udvr build … -o m.pvti` (mpi_job.h; docs/formats.md, "Partitioned models"):
+/// the model's z-planes split into N pieces (pvtiPieceBoundaries: neighbours share a plane).
+/// Rank r streams piece r's planes (BuildOptions::modelPlanes: every rank scans the whole input,
+/// so the range, the NaN/Inf checks and every voxel are the single build's, bit for bit) and
+/// writes its piece; rank 0 writes the header once every piece is written. k: --downsample K, or
+/// 0 for an ensemble. An error of any rank is said once, by rank 0 (agreeOrThrow).
+void buildOnRanks(const std::vector<std::string>& inputs, const std::string& out, int k,
+                  const EnsembleReadOptions& ro, BuildOptions opt, const MemoryLimit& limit,
+                  int forcedSlab, bool gmmGiven, bool quantilesGiven) {
+    const MpiJob& job = mpiJob();
+    const auto t0 = std::chrono::steady_clock::now();
+    std::string error, notes, what;
+    Grid3 modelGrid;
+    std::vector<int> bounds;
+    ModelVolume piece;  // this rank's planes, its grid the whole grid's
+    BuildReport rep;
+    try {
+        if (job.rank == 0) {  // a stopped write leaves no header naming old pieces
+            std::error_code ec;
+            std::filesystem::remove(out, ec);
+        }
+        SlabReader r;
+        if (k > 0) {
+            FieldReadOptions fo;
+            fo.var = ro.var;
+            fo.raw = ro.raw;
+            fo.allowMissing = ro.allowMissing;
+            r = openBrickedField(inputs, fo);
+            checkDensityForInput(opt.density, r.valueStep, r.valueType);
+            modelGrid = downsampledGrid(r.grid, k);
+            fitOptionsToSamples(opt, static_cast<long long>(k) * k * k, gmmGiven, quantilesGiven,
+                                notes);
+            what = std::to_string(r.grid.dims[0]) + "x" + std::to_string(r.grid.dims[1]) + "x" +
+                   std::to_string(r.grid.dims[2]) + " field in " + std::to_string(k) + "^3 bricks";
+        } else {
+            requireEnsembleInputs(inputs);
+            r = openEnsembleSlabs(inputs, ro);
+            checkDensityForInput(opt.density, r.valueStep, r.valueType);
+            fitOptionsToSamples(opt, r.members, gmmGiven, quantilesGiven, notes);
+            modelGrid = r.grid;
+            what = std::to_string(r.members) + "-member ensemble";
+        }
+        if (!r.note.empty()) notes = r.note + "\n" + notes;
+        bounds = pvtiPieceBoundaries(modelGrid.dims[2], job.size);
+        if (job.rank + 1 < static_cast<int>(bounds.size())) {  // else more ranks than pieces
+            const int k0 = bounds[static_cast<std::size_t>(job.rank)];
+            const int k1 = bounds[static_cast<std::size_t>(job.rank) + 1];
+            const int kk = std::max(k, 1);
+            opt.modelPlanes = {k0, k1 + 1};
+            BuildMemory mem =
+                buildMemory(r.grid, r.members, kk, opt, r.scratchPerPlane, r.scratchFixed);
+            mem.fixed += residentBytes();
+            int planes = planSlabs(mem, limit, k1 - k0 + 1, kk, forcedSlab, "the input");
+            if (planes == 0) planes = k1 - k0 + 1;  // the piece fits: one slab
+            const SlabInput in = slabInputOf(r);
+            auto sink = [&](const ModelVolume& slab, std::size_t) {
+                for (auto array : kModelArrays)
+                    (piece.*array)
+                        .insert((piece.*array).end(), (slab.*array).begin(), (slab.*array).end());
+            };
+            SlabBars bars;  // rank 0's only
+            SlabProgress progress;
+            if (job.rank == 0)
+                progress = [&](const char* pass, int slab, int slabs, std::size_t voxels) {
+                    return bars.next(pass, slab, slabs, voxels);
+                };
+            ModelVolume m =
+                k > 0 ? buildModelDownsampledStreamed(in, k, planes, opt, sink, progress, &rep)
+                      : buildModelStreamed(in, planes, opt, sink, progress, &rep);
+            bars.bar.reset();
+            for (auto array : kModelArrays) m.*array = std::move(piece.*array);
+            m.grid = modelGrid;
+            m.grid.dims[2] = k1 - k0 + 1;
+            m.grid.origin[2] = modelGrid.origin[2] + k0 * modelGrid.spacing[2];
+            writeModelPvtiPiece(out, m, job.rank, k0, k1, k0);
+            piece = std::move(m);
+        }
+    } catch (const UdvrError& e) {
+        error = e.what();
+    } catch (const std::bad_alloc&) {
+        error = "out of memory";
+    } catch (const std::exception& e) {
+        error = std::string("internal error: ") + e.what();
+    }
+    agreeOrThrow(error);
+    if (job.rank != 0) return;
+    std::fputs(notes.c_str(), stderr);
+    piece.grid = modelGrid;  // the header: the whole grid, and the arrays every piece has
+    writeModelPvtiHeader(out, piece, bounds);
+    const int pieces = static_cast<int>(bounds.size()) - 1;
+    std::fprintf(stderr,
+                 "build: %d ranks, one z-piece each: %s -> %dx%dx%d voxels x %d samples; q=%d, "
+                 "GMM K=%d; rank 0: statistics %.2f s (read %.2f s), %d threads; %.2f s in all "
+                 "-> %s (%d piece%s)\n",
+                 job.size, what.c_str(), modelGrid.dims[0], modelGrid.dims[1], modelGrid.dims[2],
+                 rep.samplesPerVoxel, opt.quantiles, opt.gmmComponents, rep.seconds,
+                 rep.readSeconds, threadCount(), secondsSince(t0), out.c_str(), pieces,
+                 pieces == 1 ? "" : "s");
+}
 
 }  // namespace
 
@@ -210,6 +351,29 @@ void addBuildCommand(CLI::App& app) {
         if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
 
         requireOutputDirectory(o->out, "-o");
+        const MpiJob& job = mpiJob();
+        if (job.launchedWithoutMpi)
+            UDVR_FAIL(
+                "started by an MPI launcher, but this udvr was built without MPI "
+                "(-DUDVR_MPI=ON): every copy would build the whole model into the same file");
+        if (job.active) {
+            if (!partitioned)
+                UDVR_FAIL(
+                    "under mpirun, build writes one z-piece per rank: -o needs a .pvti "
+                    "(partitioned) model, got "
+                    << o->out);
+            if (o->pieces != 0 && o->pieces != job.size)
+                UDVR_FAIL("--pieces " << o->pieces << " under mpirun: the pieces are the "
+                                      << job.size << " ranks");
+            EnsembleReadOptions ro;
+            ro.var = o->var;
+            ro.memberDim = o->memberDim;
+            ro.raw = toRawLayout(o->raw);
+            ro.allowMissing = skipNan;
+            buildOnRanks(o->inputs, o->out, bricks ? o->downsample : 0, ro, opt, limit, forcedSlab,
+                         o->gmmOpt->count() > 0, o->quantilesOpt->count() > 0);
+            return;
+        }
         auto t0 = std::chrono::steady_clock::now();
         ModelVolume model;
         BuildReport rep;
@@ -260,12 +424,7 @@ void addBuildCommand(CLI::App& app) {
                     r.wholeMembers ? "; VTI/NRRD members are read whole for every slab" : "");
                 notes += plan;
                 ModelVtiStreamWriter writer(o->out, modelGrid, opt.quantiles, opt.gmmComponents);
-                SlabInput in;
-                in.grid = r.grid;
-                in.members = r.members;
-                in.valueStep = r.valueStep;
-                in.valueType = r.valueType;
-                in.read = r.read;
+                const SlabInput in = slabInputOf(r);
                 auto sink = [&](const ModelVolume& slab, std::size_t) {
                     const auto ts = std::chrono::steady_clock::now();
                     writer.append(slab);
@@ -281,25 +440,11 @@ void addBuildCommand(CLI::App& app) {
                 written = true;
             };
         if (bricks) {
-            if (o->inputs.size() != 1)
-                UDVR_FAIL("--downsample takes one field, got " << o->inputs.size() << " inputs");
             FieldReadOptions ro;
             ro.var = o->var;
             ro.raw = toRawLayout(o->raw);
             ro.allowMissing = skipNan;  // build's own scan reports them by policy
-            auto notAField = [&](const EnsembleNotFieldError& e) {
-                UDVR_FAIL(e.file << " holds a " << e.members << "-member ensemble (variable '"
-                                 << e.var << "', dims " << e.dims
-                                 << "): --downsample reduces one field; drop --downsample to "
-                                    "build the model from the "
-                                 << e.members << " members");
-            };
-            SlabReader r;
-            try {
-                r = openFieldSlabs(o->inputs[0], ro);
-            } catch (const EnsembleNotFieldError& e) {
-                notAField(e);
-            }
+            SlabReader r = openBrickedField(o->inputs, ro);
             checkDensityForInput(opt.density, r.valueStep, r.valueType);
             const Grid3 reduced = downsampledGrid(r.grid, o->downsample);
             const long long k = o->downsample;
@@ -320,12 +465,8 @@ void addBuildCommand(CLI::App& app) {
                 });
             } else {
                 r = SlabReader{};  // what it read to open the field
-                ScalarField f;
-                try {
-                    f = readField(o->inputs[0], ro);
-                } catch (const EnsembleNotFieldError& e) {
-                    notAField(e);
-                }
+                // The file opened as a field above (openBrickedField).
+                const ScalarField f = readField(o->inputs[0], ro);
                 readSeconds = secondsSince(t0);
                 sayNotes();
                 ProgressBar bar("build", reduced.pointCount());
@@ -343,12 +484,7 @@ void addBuildCommand(CLI::App& app) {
                    "x" + std::to_string(inputGrid.dims[2]) + " field in " +
                    std::to_string(o->downsample) + "^3 bricks";
         } else {
-            const std::string& first = o->inputs[0];
-            if (o->inputs.size() == 1 && first.find_first_of("*?[") == std::string::npos &&
-                lowerExtension(first) != ".nc")
-                UDVR_FAIL(first << " is one field: --downsample K models its K^3 bricks; an "
-                                   "ensemble is a NetCDF variable with a member dimension or 2+ "
-                                   "member files");
+            requireEnsembleInputs(o->inputs);
             EnsembleReadOptions ro;
             ro.var = o->var;
             ro.memberDim = o->memberDim;

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/mpi_job.h"
 #include "udvr/cmd/parse_util.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/build_info.h"
@@ -32,6 +33,8 @@ int main(int argc, char** argv) {
     // Ctrl-C or a kill removes the temporary output being written; over the file size limit a
     // write fails (EFBIG) with an error line instead of SIGXFSZ killing the process.
     udvr::installInterruptCleanup();
+    // MPI when an MPI launcher started this process (`mpirun -np N udvr build … -o m.pvti`).
+    udvr::cmd::MpiScope mpi(&argc, &argv);
     CLI::App app{"udvr: direct volume rendering of uncertain data (Athawale et al., TVCG 2021)"};
     app.require_subcommand(1);
     // The version, the CPU target (UDVR_ARCH) and the vector registers in use.
@@ -57,7 +60,20 @@ int main(int argc, char** argv) {
         sub->add_option("--threads", threads, threadsHelp)
             ->check(udvr::cmd::wholeNumberIn(0, 4096));
 
+    // Under mpirun every rank runs the same command line, so an error before the ranks part is
+    // every rank's: rank 0 says it (a rank's own error reaches rank 0 through agreeOrThrow).
+    const udvr::cmd::MpiJob& job = udvr::cmd::mpiJob();
+    if (job.active && job.rank != 0) {  // help, version, notes and errors: once, by rank 0
+        if (std::freopen("/dev/null", "w", stdout) == nullptr) std::fclose(stdout);
+        if (std::freopen("/dev/null", "w", stderr) == nullptr) std::fclose(stderr);
+    }
     try {
+        if (const std::string word = firstCommandWord(argc, argv);
+            job.active && job.size > 1 && !word.empty() && word != "build")
+            UDVR_FAIL(
+                "under mpirun only `build -o m.pvti` runs on several ranks (each rank would "
+                "do the whole work and write the same files); run '"
+                << firstCommandWord(argc, argv) << "' without mpirun");
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
@@ -89,6 +105,8 @@ int main(int argc, char** argv) {
     } catch (const udvr::UdvrError& e) {
         std::fprintf(stderr, "udvr: error: %s\n", e.what());
         return 2;
+    } catch (const udvr::cmd::SilentFailure&) {
+        return 2;  // another MPI rank (rank 0) says the error
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "udvr: error: out of memory\n");
         return 3;

@@ -22,11 +22,12 @@ void writeModelPvti(const std::filesystem::path& path, const ModelVolume& model,
 /// The first plane of each of (at most) `pieces` z-pieces of a grid of `planes` planes, and the
 /// last plane: piece i holds planes b[i] … b[i+1].
 std::vector<int> pvtiPieceBoundaries(int planes, int pieces);
-/// writeModelPvti in parts, for processes that each write their own piece: piece `piece` holds
-/// planes k0 … k1 of `model` (whose grid is the whole grid); the header, written last, names
-/// the pieces of `boundaries`.
+/// writeModelPvti in parts, for processes that each write their own piece (`mpirun … build`):
+/// piece `piece` holds planes k0 … k1 of the whole grid; `model` holds the whole grid's planes
+/// from modelFirstPlane on (its grid: those planes, origin at plane modelFirstPlane). The header,
+/// written last, names the pieces of `boundaries`.
 void writeModelPvtiPiece(const std::filesystem::path& path, const ModelVolume& model, int piece,
-                         int k0, int k1);
+                         int k0, int k1, int modelFirstPlane = 0);
 void writeModelPvtiHeader(const std::filesystem::path& path, const ModelVolume& model,
                           const std::vector<int>& boundaries);
 /// Read a model written by writeModelVti or writeModelPvti (or any .vti/.pvti with those array

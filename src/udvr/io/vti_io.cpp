@@ -710,15 +710,22 @@ std::vector<int> pvtiPieceBoundaries(int planes, int pieces) {
     return b;
 }
 
-void writeModelPvtiPiece(const fs::path& path, const ModelVolume& model, int piece, int k0,
-                         int k1) {
+void writeModelPvtiPiece(const fs::path& path, const ModelVolume& model, int piece, int k0, int k1,
+                         int modelFirstPlane) {
     const fs::path file = path.parent_path() / pieceSource(path, piece);
     std::error_code ec;
     fs::create_directories(file.parent_path(), ec);
     if (ec)
         UDVR_FILE_FAIL("cannot write " << path.string() << ": cannot create the folder "
                                        << file.parent_path().string() << ": " << ec.message());
-    writeImageData(file, modelImage(model, k0, k1), Compression::Lz4);
+    auto image = modelImage(model, k0 - modelFirstPlane, k1 - modelFirstPlane);
+    if (modelFirstPlane != 0) {
+        // `model` holds planes from modelFirstPlane on: the extent and origin of the whole grid.
+        image->SetExtent(0, model.grid.dims[0] - 1, 0, model.grid.dims[1] - 1, k0, k1);
+        image->SetOrigin(model.grid.origin[0], model.grid.origin[1],
+                         model.grid.origin[2] - modelFirstPlane * model.grid.spacing[2]);
+    }
+    writeImageData(file, image, Compression::Lz4);
 }
 
 void writeModelPvtiHeader(const fs::path& path, const ModelVolume& model,

@@ -703,6 +703,12 @@ ModelVolume streamBuild(
     UDVR_CHECK(slabPlanes >= 1 && in.read);
     slabPlanes = std::min(slabPlanes, Z);
     const int slabs = (Z + slabPlanes - 1) / slabPlanes;
+    // The planes this build computes (BuildOptions::modelPlanes); the scans cover all Z.
+    const int zBegin = options.modelPlanes.begin;
+    const int zEnd = options.modelPlanes.end < 0 ? Z : options.modelPlanes.end;
+    UDVR_CHECK(0 <= zBegin && zBegin < zEnd && zEnd <= Z);
+    const bool allPlanes = zBegin == 0 && zEnd == Z;
+    const int buildSlabs = (zEnd - zBegin + slabPlanes - 1) / slabPlanes;
     const std::size_t inPlane =
         static_cast<std::size_t>(in.grid.dims[0]) * static_cast<std::size_t>(in.grid.dims[1]);
     const std::size_t modelPlane =
@@ -714,14 +720,22 @@ ModelVolume streamBuild(
         int mz0, mz1;
         std::size_t first, count;  // model voxels
     };
-    auto slabAt = [&](int s) {
+    auto slabFrom = [&](int z0, int z1) {
         Slab sl;
-        sl.mz0 = s * slabPlanes;
-        sl.mz1 = std::min(Z, sl.mz0 + slabPlanes);
+        sl.mz0 = z0;
+        sl.mz1 = z1;
         sl.first = static_cast<std::size_t>(sl.mz0) * modelPlane;
         sl.count = static_cast<std::size_t>(sl.mz1 - sl.mz0) * modelPlane;
         return sl;
     };
+    auto slabAt = [&](int s) {
+        return slabFrom(s * slabPlanes, std::min(Z, (s + 1) * slabPlanes));
+    };
+    // Slab s of the statistics pass: within [zBegin, zEnd).
+    auto buildSlabAt = [&](int s) {
+        return slabFrom(zBegin + s * slabPlanes, std::min(zEnd, zBegin + (s + 1) * slabPlanes));
+    };
+    const std::size_t builtVoxels = static_cast<std::size_t>(zEnd - zBegin) * modelPlane;
     auto read = [&](const Slab& sl) {
         const auto t0 = std::chrono::steady_clock::now();
         const std::size_t size = static_cast<std::size_t>(in.members) *
@@ -731,8 +745,8 @@ ModelVolume streamBuild(
         readSeconds += secondsSince(t0);
         return std::span<const float>(buf.data(), size);
     };
-    auto barFor = [&](const char* pass, int s, const Slab& sl) -> ProgressBar* {
-        return progress ? progress(pass, s, slabs, sl.count) : nullptr;
+    auto barFor = [&](const char* pass, int s, const Slab& sl, int of) -> ProgressBar* {
+        return progress ? progress(pass, s, of, sl.count) : nullptr;
     };
 
     InputScan scan;
@@ -742,7 +756,7 @@ ModelVolume streamBuild(
         scanSlab(data, sl.mz0, sl.mz1, scan);
         scanCpu += threadCpuSeconds() - t0;
     };
-    if (options.gmmComponents == 0 && options.nan == NanPolicy::Error) {
+    if (options.gmmComponents == 0 && options.nan == NanPolicy::Error && allPlanes) {
         // One pass: without a GMM nothing needs the whole input's range, and NaN/Inf are an
         // error (a slab that has any ends the build: the rest is only scanned, for the count).
         if (report) *report = BuildReport{};
@@ -752,7 +766,7 @@ ModelVolume streamBuild(
         ModelVolume slabModel;
         for (int s = 0; s < slabs; ++s) {
             const Slab sl = slabAt(s);
-            opt.progress = barFor("scan+build", s, sl);
+            opt.progress = barFor("scan+build", s, sl, slabs);
             const std::span<const float> data = read(sl);
             scanOne(sl, data);
             if (scan.nonFinite > 0) {
@@ -779,7 +793,7 @@ ModelVolume streamBuild(
     // Pass 1: non-finite samples and the range, over the whole input.
     for (int s = 0; s < slabs; ++s) {
         const Slab sl = slabAt(s);
-        ProgressBar* bar = barFor("scan", s, sl);
+        ProgressBar* bar = barFor("scan", s, sl, slabs);
         scanOne(sl, read(sl));
         if (bar) bar->advance(sl.count);
     }
@@ -796,7 +810,7 @@ ModelVolume streamBuild(
         FiniteCounts counts;
         for (int s = 0; s < slabs; ++s) {
             const Slab sl = slabAt(s);
-            ProgressBar* bar = barFor("count", s, sl);
+            ProgressBar* bar = barFor("count", s, sl, slabs);
             const std::span<const float> data = read(sl);
             counts.merge(countFinite(sl.first, sl.count, n, gatherFor(data, sl.mz0, sl.mz1)));
             if (bar) bar->advance(sl.count);
@@ -806,12 +820,14 @@ ModelVolume streamBuild(
 
     // Pass 2: the statistics, slab by slab, each handed to the sink.
     CoreTotals totals;
-    if (options.density == DensityEstimate::Kde) totals.bandwidths.resize(voxels);
+    // NaN: no bandwidth (constant voxels, and those of other ranks), left out of the median.
+    if (options.density == DensityEstimate::Kde)
+        totals.bandwidths.resize(voxels, std::numeric_limits<float>::quiet_NaN());
     BuildOptions opt = options;
     ModelVolume slabModel;
-    for (int s = 0; s < slabs; ++s) {
-        const Slab sl = slabAt(s);
-        opt.progress = barFor("build", s, sl);
+    for (int s = 0; s < buildSlabs; ++s) {
+        const Slab sl = buildSlabAt(s);
+        opt.progress = barFor("build", s, sl, buildSlabs);
         const std::span<const float> data = read(sl);
         buildSlab(grid, sl.first, sl.count, n, gatherFor(data, sl.mz0, sl.mz1), opt, scan,
                   in.valueStep, slabModel, totals);
@@ -819,7 +835,7 @@ ModelVolume streamBuild(
     }
     ModelVolume m;
     m.grid = grid;
-    finishModel(m, n, voxels, options, scan, in.valueStep, totals, report, start);
+    finishModel(m, n, builtVoxels, options, scan, in.valueStep, totals, report, start);
     if (report) {
         report->readSeconds = readSeconds;
         report->seconds -= readSeconds;

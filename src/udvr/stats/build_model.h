@@ -38,6 +38,12 @@ struct BuildOptions {
     std::uint64_t gmmSeed = 1;                // k-means++ seed
     std::string source;                       // input description for the field data
     ProgressBar* progress = nullptr;          // advanced by voxels done (may be null)
+    /// Streamed builds only (one MPI rank's share): the model z-planes [begin, end) to compute
+    /// and hand to the sink; end < 0: all. The scans still read the whole input, so the range,
+    /// the NaN/Inf checks and each voxel's values are the whole build's, bit for bit.
+    struct PlaneRange {
+        int begin = 0, end = -1;
+    } modelPlanes;
 };
 
 /// What a build did, for the summary line.
