@@ -2,6 +2,9 @@
 // coordinate variables x, y, z (grid point positions, evenly spaced).
 #include <fcntl.h>
 #include <hdf5.h>
+#ifdef UDVR_FUZZ_LIBFUZZER
+#include <sanitizer/common_interface_defs.h>
+#endif
 #include <netcdf.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -240,6 +243,11 @@ void probeHdf5(const fs::path& path, const std::string& kind,
             dup2(devnull, 1);
             dup2(devnull, 2);
         }
+#ifdef UDVR_FUZZ_LIBFUZZER
+        // Under libFuzzer a sanitizer report here would save the input as the fuzzer's own
+        // crash; the child just dies (exit 1), which the parent reports as a crash.
+        __sanitizer_set_death_callback(nullptr);
+#endif
         try {
             childWork();
         } catch (...) {  // the read reports its errors itself
@@ -274,6 +282,9 @@ void probeHdf5(const fs::path& path, const std::string& kind,
     if (WIFSIGNALED(status))
         error = path.string() + ": the HDF5 library crashed reading this NetCDF-4 file (signal " +
                 std::to_string(WTERMSIG(status)) + "; a damaged file?)";
+    else if (WIFEXITED(status) && WEXITSTATUS(status) != 0)  // the child ends with _exit(0)
+        error = path.string() + ": the HDF5 library failed reading this NetCDF-4 file (exit " +
+                std::to_string(WEXITSTATUS(status)) + "; a damaged file?)";
     remember(error);
 }
 
