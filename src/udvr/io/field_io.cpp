@@ -284,12 +284,14 @@ std::string rawLayoutHint(const RawLayout& layout, ScalarType type, std::size_t 
     return {};
 }
 
-ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
+/// The type of a raw file's layout, after checking that dims and type are given, the spacing
+/// positive and the origin finite (one-line errors naming the file).
+ScalarType checkedRawLayout(const fs::path& path, const RawLayout& layout) {
     if (!layout.given()) {
         UDVR_FAIL(path.string() << ": a raw file needs its dims (and type, endianness) given, e.g. "
                                    "--dims 64,64,64 --type float32");
     }
-    auto type = rawTypeFromName(layout.type);
+    const auto type = rawTypeFromName(layout.type);
     if (!type) {
         UDVR_FAIL(path.string() << ": unsupported raw type '" << layout.type
                                 << "' (expected uint8 int8 uint16 int16 uint32 int32 float32 "
@@ -302,6 +304,11 @@ ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
         if (!std::isfinite(layout.origin[a]))
             UDVR_FAIL(path.string() << ": origin must be finite, got " << layout.origin[a]);
     }
+    return *type;
+}
+
+ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
+    const std::optional<ScalarType> type = checkedRawLayout(path, layout);
     ScalarField f;
     f.grid.dims = layout.dims;
     f.grid.spacing = layout.spacing;
@@ -785,23 +792,7 @@ namespace {
 
 /// A headerless raw file read at the slab's offset.
 SlabReader openRawSlabs(const fs::path& path, const RawLayout& layout) {
-    if (!layout.given()) {
-        UDVR_FAIL(path.string() << ": a raw file needs its dims (and type, endianness) given, e.g. "
-                                   "--dims 64,64,64 --type float32");
-    }
-    auto type = rawTypeFromName(layout.type);
-    if (!type) {
-        UDVR_FAIL(path.string() << ": unsupported raw type '" << layout.type
-                                << "' (expected uint8 int8 uint16 int16 uint32 int32 float32 "
-                                   "float64)");
-    }
-    for (int a = 0; a < 3; ++a) {
-        if (!(layout.spacing[a] > 0.0) || !std::isfinite(layout.spacing[a])) {
-            UDVR_FAIL(path.string() << ": spacing must be positive, got " << layout.spacing[a]);
-        }
-        if (!std::isfinite(layout.origin[a]))
-            UDVR_FAIL(path.string() << ": origin must be finite, got " << layout.origin[a]);
-    }
+    const std::optional<ScalarType> type = checkedRawLayout(path, layout);
     SlabReader r;
     r.grid.dims = layout.dims;
     r.grid.spacing = layout.spacing;
