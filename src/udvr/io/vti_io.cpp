@@ -344,18 +344,29 @@ vtkSmartPointer<vtkImageData> readPvti(const fs::path& path, double maxPoints) {
                                << src->GetNumberOfTuples() << " tuples, its extent " << piecePoints
                                << " points");
         }
+        // Row by row (x contiguous in both): a copy of the bytes where the types match.
+        std::vector<std::pair<vtkDataArray*, vtkDataArray*>> pairs;  // (whole, piece)
+        for (int a = 0; a < out->GetNumberOfArrays(); ++a)
+            pairs.emplace_back(out->GetArray(a), in->GetArray(out->GetArray(a)->GetName()));
+        const auto row = static_cast<vtkIdType>(piece.extent[1] - piece.extent[0] + 1);
         vtkIdType t = 0;
         for (long long k = piece.extent[4]; k <= piece.extent[5]; ++k)
-            for (long long j = piece.extent[2]; j <= piece.extent[3]; ++j)
-                for (long long i = piece.extent[0]; i <= piece.extent[1]; ++i, ++t) {
-                    const vtkIdType at = static_cast<vtkIdType>(
-                        ((k - h.wholeExtent[4]) * dims[1] + (j - h.wholeExtent[2])) * dims[0] +
-                        (i - h.wholeExtent[0]));
-                    covered[static_cast<std::size_t>(at)] = true;
-                    for (int a = 0; a < out->GetNumberOfArrays(); ++a)
-                        out->GetArray(a)->SetTuple(at, t,
-                                                   in->GetArray(out->GetArray(a)->GetName()));
+            for (long long j = piece.extent[2]; j <= piece.extent[3]; ++j, t += row) {
+                const auto at = static_cast<vtkIdType>(
+                    ((k - h.wholeExtent[4]) * dims[1] + (j - h.wholeExtent[2])) * dims[0] +
+                    (piece.extent[0] - h.wholeExtent[0]));
+                std::fill_n(covered.begin() + at, row, true);
+                for (const auto& [dst, src] : pairs) {
+                    if (dst->GetDataType() == src->GetDataType()) {
+                        const int c = dst->GetNumberOfComponents();
+                        std::memcpy(dst->GetVoidPointer(at * c), src->GetVoidPointer(t * c),
+                                    static_cast<std::size_t>(row * c) *
+                                        static_cast<std::size_t>(dst->GetDataTypeSize()));
+                    } else {
+                        for (vtkIdType i = 0; i < row; ++i) dst->SetTuple(at + i, t + i, src);
+                    }
                 }
+            }
     }
     const auto gap = std::find(covered.begin(), covered.end(), false);
     if (gap != covered.end()) {
