@@ -301,7 +301,8 @@ inline Vf gather(const float* base, Vi idx, Mask live) {
 #endif
 }
 /// base[idx] and base[idx + 1] in the `live` lanes (0 elsewhere): the two ends of an x-edge.
-/// On AVX-512 one 64-bit gather loads both, so 16 edges take two 8-lane gathers.
+/// One 64-bit gather loads both: 16 edges take two 8-lane gathers on AVX-512, 8 edges two
+/// 4-lane gathers on AVX2.
 inline void gatherPair(const float* base, Vi idx, Mask live, Vf& v0, Vf& v1) {
 #if defined(__AVX512F__)
     const std::uint32_t m = bits(live);
@@ -315,6 +316,20 @@ inline void gatherPair(const float* base, Vi idx, Mask live, Vf& v0, Vf& v1) {
                                  28, 30);
     v1 = __builtin_shufflevector(Vf(lo), Vf(hi), 1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27,
                                  29, 31);
+#elif defined(__AVX2__)
+    // Two 4-lane 64-bit gathers (8 element loads instead of 16), then split even/odd floats.
+    const __m256i i = std::bit_cast<__m256i>(idx);
+    const __m256i m = std::bit_cast<__m256i>(live);
+    const __m256d lo = _mm256_mask_i32gather_pd(
+        _mm256_setzero_pd(), reinterpret_cast<const double*>(base), _mm256_castsi256_si128(i),
+        _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(m))), 4);
+    const __m256d hi = _mm256_mask_i32gather_pd(
+        _mm256_setzero_pd(), reinterpret_cast<const double*>(base), _mm256_extracti128_si256(i, 1),
+        _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256(m, 1))), 4);
+    v0 = __builtin_shufflevector(Vf(_mm256_castpd_ps(lo)), Vf(_mm256_castpd_ps(hi)), 0, 2, 4, 6, 8,
+                                 10, 12, 14);
+    v1 = __builtin_shufflevector(Vf(_mm256_castpd_ps(lo)), Vf(_mm256_castpd_ps(hi)), 1, 3, 5, 7, 9,
+                                 11, 13, 15);
 #else
     v0 = gather(base, idx, live);
     v1 = gather(base, idx + 1, live);
