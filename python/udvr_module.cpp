@@ -11,6 +11,7 @@
 #include <cstring>
 #include <future>
 #include <optional>
+#include <string_view>
 #include <utility>
 
 #include "udvr/classify/model_kind.h"
@@ -178,26 +179,23 @@ ModelVolume modelFromArrays(
     return mv;
 }
 
-// The per-voxel arrays of SPEC §7 as the Python Model shows them: name, member, values per voxel.
-struct ModelArrayRow {
-    const char* name;
-    std::vector<float> ModelVolume::*values;
-    int (*components)(const ModelVolume&);
-    const char* doc;
-};
-int one(const ModelVolume&) { return 1; }
-const ModelArrayRow kModelArrays[] = {
-    {"mean", &ModelVolume::mean, one, "μ per voxel, (Z, Y, X)"},
-    {"stddev", &ModelVolume::stddev, one, "σ per voxel (ddof = 1), (Z, Y, X)"},
-    {"min", &ModelVolume::min, one, "sample minimum per voxel, (Z, Y, X)"},
-    {"max", &ModelVolume::max, one, "sample maximum per voxel, (Z, Y, X)"},
-    {"quantiles", &ModelVolume::quantiles, [](const ModelVolume& m) { return m.quantileCount + 1; },
-     "boundaries b_0..b_q per voxel, (Z, Y, X, q+1); None when not built"},
-    {"iqr", &ModelVolume::iqr, [](const ModelVolume&) { return 2; },
-     "b(0.25), b(0.75) per voxel, (Z, Y, X, 2); None when not built"},
-    {"gmm", &ModelVolume::gmm, [](const ModelVolume& m) { return 3 * m.gmmComponents; },
-     "π_1..π_K, μ_1..μ_K, σ_1..σ_K per voxel, (Z, Y, X, 3K); None when not built"},
-};
+// The docstring of each per-voxel array of SPEC §7 (kModelFileArrays) as the Python Model
+// shows it.
+std::string modelArrayDoc(std::string_view name) {
+    constexpr std::pair<std::string_view, const char*> kDocs[] = {
+        {"mean", "μ per voxel, (Z, Y, X)"},
+        {"stddev", "σ per voxel (ddof = 1), (Z, Y, X)"},
+        {"min", "sample minimum per voxel, (Z, Y, X)"},
+        {"max", "sample maximum per voxel, (Z, Y, X)"},
+        {"quantiles", "boundaries b_0..b_q per voxel, (Z, Y, X, q+1); None when not built"},
+        {"iqr", "b(0.25), b(0.75) per voxel, (Z, Y, X, 2); None when not built"},
+        {"gmm", "π_1..π_K, μ_1..μ_K, σ_1..σ_K per voxel, (Z, Y, X, 3K); None when not built"},
+    };
+    for (const auto& [n, doc] : kDocs)
+        if (n == name) return doc;
+    UDVR_CHECK_MSG(false, "every model file array has a docstring");
+    return {};
+}
 
 // A read-only NumPy view of one of the model's arrays (no copy): `owner`, the Python Model,
 // stays alive as long as the view does. None where the model has no such array.
@@ -476,20 +474,21 @@ PYBIND11_MODULE(_udvr, m) {
         .def(
             "array",
             [](const ModelVolume& mv, const std::string& name) {
-                for (const ModelArrayRow& r : kModelArrays)
-                    if (name == r.name) return voxelArray(mv.grid, mv.*r.values, r.components(mv));
+                for (const ModelFileArray& a : kModelFileArrays)
+                    if (name == a.name)
+                        return voxelArray(mv.grid, mv.*a.values, a.floatsPerVoxel(mv));
                 throw UdvrError("unknown model array '" + name +
                                 "'; expected mean, stddev, min, max, quantiles, iqr or gmm");
             },
             py::arg("name"), "a per-voxel array as (Z, Y, X[, components]) (a copy)");
-    for (const ModelArrayRow& r : kModelArrays)
+    for (const ModelFileArray& a : kModelFileArrays)
         modelClass.def_property_readonly(
-            r.name,
-            [r](py::object self) {
+            a.name,
+            [&a](py::object self) {
                 const auto& mv = self.cast<const ModelVolume&>();
-                return modelView(self, mv.grid, mv.*r.values, r.components(mv));
+                return modelView(self, mv.grid, mv.*a.values, a.floatsPerVoxel(mv));
             },
-            (std::string(r.doc) + ": a read-only view of the model's memory (no copy)").c_str());
+            (modelArrayDoc(a.name) + ": a read-only view of the model's memory (no copy)").c_str());
 
     py::class_<TransferFunction1D>(m, "TransferFunction")
         .def(py::init([](const std::vector<std::array<double, 4>>& colors,

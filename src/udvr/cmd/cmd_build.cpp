@@ -17,6 +17,7 @@
 #include "udvr/io/field_io.h"
 #include "udvr/io/model_io.h"
 #include "udvr/stats/build_model.h"
+#include "udvr/stats/model_volume.h"
 #include "udvr/util/check.h"
 #include "udvr/util/memory.h"
 #include "udvr/util/parallel.h"
@@ -132,11 +133,6 @@ void requireEnsembleInputs(const std::vector<std::string>& inputs) {
                            "a NetCDF variable with a member dimension or 2+ member files");
 }
 
-/// The arrays of a model, for copying slabs (all std::vector<float>).
-constexpr std::vector<float> ModelVolume::*kModelArrays[] = {
-    &ModelVolume::mean,      &ModelVolume::stddev, &ModelVolume::min, &ModelVolume::max,
-    &ModelVolume::quantiles, &ModelVolume::iqr,    &ModelVolume::gmm};
-
 /// `mpirun -np N udvr build … -o m.pvti` (mpi_job.h; docs/formats.md, "Partitioned models"):
 /// the model's z-planes split into N pieces (pvtiPieceBoundaries: neighbours share a plane).
 /// Rank r streams piece r's planes (BuildOptions::modelPlanes: every rank scans the whole input,
@@ -193,9 +189,10 @@ void buildOnRanks(const std::vector<std::string>& inputs, const std::string& out
             if (planes == 0) planes = k1 - k0 + 1;  // the piece fits: one slab
             const SlabInput in = slabInputOf(r);
             auto sink = [&](const ModelVolume& slab, std::size_t) {
-                for (auto array : kModelArrays)
-                    (piece.*array)
-                        .insert((piece.*array).end(), (slab.*array).begin(), (slab.*array).end());
+                for (const ModelFileArray& a : kModelFileArrays)
+                    (piece.*a.values)
+                        .insert((piece.*a.values).end(), (slab.*a.values).begin(),
+                                (slab.*a.values).end());
             };
             SlabBars bars;  // rank 0's only
             SlabProgress progress;
@@ -207,7 +204,8 @@ void buildOnRanks(const std::vector<std::string>& inputs, const std::string& out
                 k > 0 ? buildModelDownsampledStreamed(in, k, planes, opt, sink, progress, &rep)
                       : buildModelStreamed(in, planes, opt, sink, progress, &rep);
             bars.bar.reset();
-            for (auto array : kModelArrays) m.*array = std::move(piece.*array);
+            for (const ModelFileArray& a : kModelFileArrays)
+                m.*a.values = std::move(piece.*a.values);
             m.grid = modelGrid;
             m.grid.dims[2] = k1 - k0 + 1;
             m.grid.origin[2] = modelGrid.origin[2] + k0 * modelGrid.spacing[2];

@@ -659,13 +659,8 @@ namespace {
 /// an absent array has empty values.
 template <typename F>
 void forEachModelArray(const ModelVolume& model, F&& f) {
-    f(model.mean, 1, "mean");
-    f(model.stddev, 1, "stddev");
-    f(model.min, 1, "min");
-    f(model.max, 1, "max");
-    f(model.quantiles, model.quantileCount + 1, "quantiles");
-    f(model.iqr, 2, "iqr");
-    f(model.gmm, 3 * model.gmmComponents, "gmm");
+    for (const ModelFileArray& a : kModelFileArrays)
+        f(model.*a.values, a.floatsPerVoxel(model), a.name);
 }
 
 /// The model's planes k0 … k1 (z) as an image whose extent is those planes of the whole grid
@@ -1156,22 +1151,15 @@ ModelVtiStreamWriter::ModelVtiStreamWriter(const fs::path& path, const Grid3& gr
     configureWriter(w.writer, Compression::Lz4);
     w.blockSize = static_cast<std::size_t>(w.writer->GetBlockSize());
     UDVR_CHECK(w.writer->GetCompressor() != nullptr && w.blockSize > 0);
-    using M = ModelVolume;
-    auto add = [&](const char* name, int components, const std::vector<float> M::*member) {
+    for (const ModelFileArray& file : kModelFileArrays) {  // writeModelVti's order
+        const int c = file.floatsPerVoxel(quantileCount, gmmComponents);
+        if (c == 0) continue;
         Impl::Array a;
-        a.name = name;
-        a.components = components;
-        a.member = member;
+        a.name = file.name;
+        a.components = c;
+        a.member = file.values;
         w.arrays.push_back(std::move(a));
-    };
-    // writeModelVti's order.
-    add("mean", 1, &M::mean);
-    add("stddev", 1, &M::stddev);
-    add("min", 1, &M::min);
-    add("max", 1, &M::max);
-    if (quantileCount > 0) add("quantiles", quantileCount + 1, &M::quantiles);
-    add("iqr", 2, &M::iqr);
-    if (gmmComponents > 0) add("gmm", 3 * gmmComponents, &M::gmm);
+    }
     fs::path dir = path.parent_path();
     if (dir.empty()) dir = ".";
     for (Impl::Array& a : w.arrays) {

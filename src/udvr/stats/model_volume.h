@@ -70,6 +70,44 @@ struct ModelVolume {
     }
 };
 
+/// A per-voxel array of a model file (SPEC §7): its name and member, and its floats per voxel.
+struct ModelFileArray {
+    enum class Arity { One, Pair, Quantiles, Gmm };
+    const char* name;
+    std::vector<float> ModelVolume::*values;
+    Arity arity;
+    /// Floats per voxel in a model of q quantiles and K components: 1, 2, q + 1 or 3K; 0 for
+    /// quantiles without q and a GMM without K (the array is absent).
+    constexpr int floatsPerVoxel(int q, int k) const {
+        switch (arity) {
+            case Arity::One:
+                return 1;
+            case Arity::Pair:
+                return 2;
+            case Arity::Quantiles:
+                return q > 0 ? q + 1 : 0;
+            case Arity::Gmm:
+                return 3 * k;
+        }
+        return 0;
+    }
+    int floatsPerVoxel(const ModelVolume& m) const {
+        return floatsPerVoxel(m.quantileCount, m.gmmComponents);
+    }
+};
+
+/// Every per-voxel array a model file holds, in the order it is written (SPEC §7). The
+/// `members` of the ensemble reference are not a file array.
+inline constexpr ModelFileArray kModelFileArrays[] = {
+    {"mean", &ModelVolume::mean, ModelFileArray::Arity::One},
+    {"stddev", &ModelVolume::stddev, ModelFileArray::Arity::One},
+    {"min", &ModelVolume::min, ModelFileArray::Arity::One},
+    {"max", &ModelVolume::max, ModelFileArray::Arity::One},
+    {"quantiles", &ModelVolume::quantiles, ModelFileArray::Arity::Quantiles},
+    {"iqr", &ModelVolume::iqr, ModelFileArray::Arity::Pair},
+    {"gmm", &ModelVolume::gmm, ModelFileArray::Arity::Gmm},
+};
+
 /// Checks quantile levels for q quantiles (q + 1 values, t_0 = 0, strictly increasing, t_q = 1)
 /// and returns them, or an empty vector where every t_j is within 1e−9 of j/q (even levels, so
 /// that even levels given explicitly give exactly the images of the even default). `what` names
