@@ -127,6 +127,9 @@ inline VF expNonPositive(VF x) {
     return p * std::bit_cast<VF>(bits);
 }
 
+/// Doubles of one vector register (8 on AVX-512, 4 on AVX2, 2 on SSE2/NEON).
+using VRd = double __attribute__((vector_size(kRegisterBytes)));
+
 /// Splits positive normal floats s = 2^e·f with f ∈ [1, 2): returns f, adds e to `expo`.
 template <class VF, class VI>
 inline VF splitExponent(VF s, VI& expo) {
@@ -220,15 +223,23 @@ inline VD expNonPositiveD(VD x) {
     return flush ? VD{} : v;
 }
 
-/// Φ(u) and φ(u) of the standard normal on double lanes: the formula of util/normal_cdf.h
-/// (erfc through erfcx's degree-12 fit, |Φ error| < 4e−10) with expNonPositiveD.
+/// Φ(u), 1 − Φ(u) and φ(u) of the standard normal on double lanes: the formula of
+/// util/normal_cdf.h (erfc through erfcx's degree-12 fit, |Φ error| < 4e−10) with
+/// expNonPositiveD. The upper tail is computed as such, never as 1 − Φ.
 template <class VD>
-inline void normalCdfPdfLanes(VD u, VD& cdf, VD& pdf) {
+inline void normalCdfPdfLanes(VD u, VD& cdf, VD& upper, VD& pdf) {
     const VD g = expNonPositiveD(-0.5 * u * u);
     const VD z = (u < 0.0 ? -u : u) * 0.70710678118654752440;
     const VD tail = 0.5 * g * erfcxNonNegative(z);  // Φ(−|u|)
     cdf = u >= 0.0 ? 1.0 - tail : tail;
+    upper = u >= 0.0 ? tail : 1.0 - tail;
     pdf = 0.39894228040143267794 * g;
+}
+/// Φ(u) and φ(u) only.
+template <class VD>
+inline void normalCdfPdfLanes(VD u, VD& cdf, VD& pdf) {
+    VD upper;
+    normalCdfPdfLanes(u, cdf, upper, pdf);
 }
 
 /// Sum of the lanes in double (pairwise: short dependency chains).

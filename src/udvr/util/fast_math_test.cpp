@@ -113,6 +113,15 @@ TEST(FastMath, NormalCdfPdfLanesMatchScalar) {
             EXPECT_NEAR(p[l], pdf, 3e-13 * pdf) << u[l];
             EXPECT_NEAR(c[l], normalCdfPdf(u[l]).cdf, 1e-13) << u[l];
         }
+        // The upper tail keeps its digits (relative error, not 1 − Φ's absolute one).
+        V8d c3, up, p3;
+        normalCdfPdfLanes(u, c3, up, p3);
+        for (int l = 0; l < 8; ++l) {
+            const double tail = 0.5 * std::erfc(u[l] / std::sqrt(2.0));
+            EXPECT_NEAR(up[l], tail, 1e-8 * tail) << u[l];
+            EXPECT_EQ(c3[l], c[l]);
+            EXPECT_EQ(p3[l], p[l]);
+        }
     }
 }
 
