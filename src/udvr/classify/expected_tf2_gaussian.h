@@ -131,11 +131,14 @@ inline void tf2NormalAlongB(const Tf2Axes& ax, double a, double m, double s, dou
 /// mb + β(a − ma) and standard deviation s, A = x unless `swapped`: the outer integral over a of
 /// inner(a, m_B(a), out), E over B | A = a (tf2NormalAlongB for a normal; see the header comment).
 /// `cuts` comes in holding where pdfA has kinks or jumps; every σ_A/2, the A-lines and the
-/// crossings of m_B(a) with B-lines are added.
+/// crossings of m_B(a) with B-lines are added. fewestNodes (2, 4 or 8) bounds the nodes per
+/// interval from below: 2 only where the integrand is smooth on the scale σ_A (the Gaussian);
+/// a box-spline density of n boxes is a polynomial of degree n − 1 between its knots, which
+/// 4 nodes integrate exactly for n ≤ 8.
 template <class Pdf, class Inner>
 void tf2ConditionalOuter(const Tf2Raster<double>& r, bool swapped, double lo, double hi, double sa,
                          double ma, double mb, double beta, double s, std::vector<double>& cuts,
-                         Pdf pdfA, Inner inner, double out[4]) {
+                         Pdf pdfA, Inner inner, int fewestNodes, double out[4]) {
     const Tf2Axes ax{r, swapped};
     const int steps = static_cast<int>(std::ceil((hi - lo) / (0.5 * sa)));
     for (int k = 0; k <= steps; ++k) cuts.push_back(lo + k * (0.5 * sa));
@@ -176,7 +179,8 @@ void tf2ConditionalOuter(const Tf2Raster<double>& r, bool swapped, double lo, do
     for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
         const double c = 0.5 * (cuts[k] + cuts[k + 1]), h = 0.5 * (cuts[k + 1] - cuts[k]);
         if (!(h > 0)) continue;
-        const int half = 2.0 * h <= 0.125 * scale ? 1 : (2.0 * h <= 0.25 * scale ? 2 : 4);
+        const int half = std::max(fewestNodes / 2,
+                                  2.0 * h <= 0.125 * scale ? 1 : (2.0 * h <= 0.25 * scale ? 2 : 4));
         const double* xs = half == 1 ? kX2 : (half == 2 ? kX4 : kX8);
         const double* ws = half == 1 ? kW2 : (half == 2 ? kW4 : kW8);
         for (int n = 0; n < 2 * half; ++n) {
@@ -223,7 +227,7 @@ inline void expectedTf2Gaussian(const Tf2Raster<double>& r, double mx, double my
                 tf2At<double>(r, swapped ? m : a, swapped ? a : m, true, v);
             }
         },
-        out);
+        2, out);  // the integrand is smooth on σ_A: 2 nodes where intervals are that short
 }
 
 }  // namespace udvr

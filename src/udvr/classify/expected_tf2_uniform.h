@@ -206,7 +206,7 @@ inline void expectedTf2UniformConditional(const Tf2Raster<double>& r, double cx,
     }
     tf2ConditionalOuter(
         r, false, x.shift, x.shift + x.total, std::sqrt(vxx), cx, cy, beta, s, cuts,
-        [&](double v) { return (survival(v - hw) - survival(v)) / hw; }, inner, out);
+        [&](double v) { return (survival(v - hw) - survival(v)) / hw; }, inner, 4, out);
 }
 }  // namespace detail
 
