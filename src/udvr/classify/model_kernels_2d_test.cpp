@@ -524,6 +524,68 @@ TEST(Tf2, GaussianMatchesMonteCarloOfIndependentNormalVoxels) {
     }
 }
 
+// expectedTf2Gaussian against a dense midpoint sum of the bivariate normal density over
+// sub-cells aligned with the raster's lines (so the TF2 is smooth on each), over ±7σ, on rasters
+// fine in both axes (120×100, 90×140: σ of 7–40 cells), so that the inner windows along B span
+// several chunks of the B-lines' normals, correlations up to ±0.8. Two sums (sub-cells
+// ≤ σ/100 and half that) extrapolated (Richardson) agree with it to ~1e−7; tolerance 2e−6.
+TEST(Tf2, GaussianOnFineRastersMatchesDenseQuadrature) {
+    CounterRng rng(21, 0, 0);
+    for (const std::array<int, 2>& size :
+         {std::array<int, 2>{120, 100}, std::array<int, 2>{90, 140}}) {
+        const TransferFunction2D t = randomTf2(rng, size[0], size[1], -1.0, 1.0, -1.0, 1.0);
+        Tf2Raster<double> r;
+        r.width = t.width;
+        r.height = t.height;
+        r.x0 = t.x0;
+        r.y0 = t.y0;
+        r.invDx = (t.width - 1) / (t.x1 - t.x0);
+        r.invDy = (t.height - 1) / (t.y1 - t.y0);
+        r.rgba = t.rgba.data();
+        for (int trial = 0; trial < 2; ++trial) {
+            const double mx = 0.6 * rng.uniform() - 0.3, my = 0.6 * rng.uniform() - 0.3;
+            const double sx = 0.15 + 0.3 * rng.uniform(), sy = 0.15 + 0.3 * rng.uniform();
+            const double rho = 1.6 * rng.uniform() - 0.8;
+            const double vxx = sx * sx, vyy = sy * sy, vxy = rho * sx * sy;
+            double got[4];
+            expectedTf2Gaussian(r, mx, my, vxx, vxy, vyy, got);
+            // Sub-cells: `split` × an integer number per raster cell, each at most σ/100 wide; the
+            // midpoint sum.
+            const double det = vxx * vyy - vxy * vxy;
+            const auto midpointSum = [&](int split) {
+                const auto lattice = [split](double cell, double sigma) {
+                    return cell / (split * std::ceil(cell / (sigma / 100.0)));
+                };
+                const double hx = lattice(1.0 / r.invDx, sx), hy = lattice(1.0 / r.invDy, sy);
+                const int ix0 = static_cast<int>(std::floor((mx - 7 * sx - t.x0) / hx));
+                const int ix1 = static_cast<int>(std::ceil((mx + 7 * sx - t.x0) / hx));
+                const int iy0 = static_cast<int>(std::floor((my - 7 * sy - t.y0) / hy));
+                const int iy1 = static_cast<int>(std::ceil((my + 7 * sy - t.y0) / hy));
+                std::array<double, 4> sum{};
+                for (int i = ix0; i < ix1; ++i) {
+                    const double x = t.x0 + (i + 0.5) * hx, dx = x - mx;
+                    for (int j = iy0; j < iy1; ++j) {
+                        const double y = t.y0 + (j + 0.5) * hy, dy = y - my;
+                        const double q = (vyy * dx * dx - 2 * vxy * dx * dy + vxx * dy * dy) / det;
+                        const double w = std::exp(-0.5 * q);
+                        const auto c = classify2(t, x, y);
+                        for (int ch = 0; ch < 4; ++ch) sum[ch] += w * c[ch];
+                    }
+                }
+                for (double& v : sum) v *= hx * hy / (2 * M_PI * std::sqrt(det));
+                return sum;
+            };
+            // The TF2 is smooth on every sub-cell, so the sums' error is c·h² + O(h⁴):
+            // Richardson's (4·S(h/2) − S(h))/3 removes the h² term.
+            const auto coarse = midpointSum(1), fine = midpointSum(2);
+            for (int ch = 0; ch < 4; ++ch)
+                EXPECT_NEAR(got[ch], (4 * fine[ch] - coarse[ch]) / 3, 2e-6)
+                    << size[0] << "x" << size[1] << " trial " << trial << " ch " << ch
+                    << " (midpoint sums " << coarse[ch] << ", " << fine[ch] << ")";
+        }
+    }
+}
+
 TEST(Tf2, MeanKernelIsTheTf2AtTheMeanValueAndGradientMagnitude) {
     CounterRng rng(7, 0, 0);
     ModelVolume m = testing::randomModel(rng, {5, 4, 3}, 4);
