@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
             UDVR_FAIL(
                 "under mpirun only `build -o m.pvti` runs on several ranks (each rank would "
                 "do the whole work and write the same files); run '"
-                << firstCommandWord(argc, argv) << "' without mpirun");
+                << word << "' without mpirun");
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);

@@ -69,13 +69,6 @@ void agreeOrThrow(const std::string& error) {
     UDVR_FAIL("rank " << first << ": " << std::string(text.begin(), text.end()));
 }
 
-double sumOverRanks(double value) {
-    if (!gJob.active) return value;
-    double sum = 0.0;
-    MPI_Allreduce(&value, &sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-    return sum;
-}
-
 #else  // built without MPI: always rank 0 of 1
 
 MpiScope::MpiScope(int*, char***) {
@@ -88,8 +81,6 @@ MpiScope::~MpiScope() = default;
 void agreeOrThrow(const std::string& error) {
     if (!error.empty()) UDVR_FAIL(error);
 }
-
-double sumOverRanks(double value) { return value; }
 
 #endif
 

@@ -40,7 +40,4 @@ struct SilentFailure {};
 /// MPI: throws UdvrError(error) when error is not empty.
 void agreeOrThrow(const std::string& error);
 
-/// Sum of `value` over the ranks, on every rank (value itself outside MPI).
-double sumOverRanks(double value);
-
 }  // namespace udvr::cmd

@@ -308,28 +308,28 @@ ScalarType checkedRawLayout(const fs::path& path, const RawLayout& layout) {
 }
 
 ScalarField readRaw(const fs::path& path, const RawLayout& layout) {
-    const std::optional<ScalarType> type = checkedRawLayout(path, layout);
+    const ScalarType type = checkedRawLayout(path, layout);
     ScalarField f;
     f.grid.dims = layout.dims;
     f.grid.spacing = layout.spacing;
     f.grid.origin = layout.origin;
     f.name = path.stem().string();
-    detail::checkedDataBytes(path, layout.dims, typeSize(*type));
+    detail::checkedDataBytes(path, layout.dims, typeSize(type));
     std::string bytes = readWholeFile(path);
     std::size_t n = f.grid.pointCount();
-    if (bytes.size() != n * typeSize(*type)) {
-        const std::string hint = rawLayoutHint(layout, *type, bytes.size());
+    if (bytes.size() != n * typeSize(type)) {
+        const std::string hint = rawLayoutHint(layout, type, bytes.size());
         if (!hint.empty())
             UDVR_FAIL(path.string()
                       << ": size " << bytes.size() << " bytes does not fit " << layout.dims[0]
                       << "x" << layout.dims[1] << "x" << layout.dims[2] << " " << layout.type
-                      << " (" << n * typeSize(*type) << " bytes) but " << hint);
+                      << " (" << n * typeSize(type) << " bytes) but " << hint);
     }
-    requireByteCount(path, n * typeSize(*type), bytes.size(), "raw data");
+    requireByteCount(path, n * typeSize(type), bytes.size(), "raw data");
     f.values.resize(n);
-    decode(*type, layout.bigEndian, reinterpret_cast<const unsigned char*>(bytes.data()), n,
+    decode(type, layout.bigEndian, reinterpret_cast<const unsigned char*>(bytes.data()), n,
            f.values.data());
-    setValueType(f, *type);
+    setValueType(f, type);
     return f;
 }
 
@@ -792,19 +792,19 @@ namespace {
 
 /// A headerless raw file read at the slab's offset.
 SlabReader openRawSlabs(const fs::path& path, const RawLayout& layout) {
-    const std::optional<ScalarType> type = checkedRawLayout(path, layout);
+    const ScalarType type = checkedRawLayout(path, layout);
     SlabReader r;
     r.grid.dims = layout.dims;
     r.grid.spacing = layout.spacing;
     r.grid.origin = layout.origin;
     r.members = 1;
     r.name = path.stem().string();
-    const std::size_t ts = typeSize(*type);
+    const std::size_t ts = typeSize(type);
     detail::checkedDataBytes(path, layout.dims, ts);
     const std::size_t n = r.grid.pointCount();
     const std::size_t size = static_cast<std::size_t>(fs::file_size(path));
     if (size != n * ts) {
-        const std::string hint = rawLayoutHint(layout, *type, size);
+        const std::string hint = rawLayoutHint(layout, type, size);
         if (!hint.empty())
             UDVR_FAIL(path.string() << ": size " << size << " bytes does not fit " << layout.dims[0]
                                     << "x" << layout.dims[1] << "x" << layout.dims[2] << " "
@@ -812,15 +812,14 @@ SlabReader openRawSlabs(const fs::path& path, const RawLayout& layout) {
     }
     requireByteCount(path, n * ts, size, "raw data");
     ScalarField typed;
-    setValueType(typed, *type);
+    setValueType(typed, type);
     r.valueType = typed.valueType;
     r.valueStep = typed.valueStep;
     const std::size_t plane =
         static_cast<std::size_t>(r.grid.dims[0]) * static_cast<std::size_t>(r.grid.dims[1]);
     r.scratchPerPlane = plane * ts;
-    const ScalarType t = *type;
     const bool bigEndian = layout.bigEndian;
-    r.read = [path, plane, ts, t, bigEndian](int z0, int z1, std::span<float> out) {
+    r.read = [path, plane, ts, type, bigEndian](int z0, int z1, std::span<float> out) {
         const std::size_t count = static_cast<std::size_t>(z1 - z0) * plane;
         UDVR_CHECK(out.size() == count);
         std::ifstream in(path, std::ios::binary);
@@ -830,7 +829,7 @@ SlabReader openRawSlabs(const fs::path& path, const RawLayout& layout) {
         if (!in || static_cast<std::size_t>(in.gcount()) != bytes.size())
             UDVR_FAIL(path.string() << ": cannot read z-planes " << z0 << " to " << z1 - 1
                                     << " (was the file changed while build ran?)");
-        decode(t, bigEndian, bytes.data(), count, out.data());
+        decode(type, bigEndian, bytes.data(), count, out.data());
     };
     return r;
 }
