@@ -170,6 +170,28 @@ struct ClassifyInLoad {
         for (int ch = 0; ch < 4; ++ch) out[ch] = c.v[ch];
     }
 };
+/// f(view): on AVX2 (lanes::kWindowLookups) the 8-piece window of `tf` that holds the pieces of
+/// every live lane's values in [lo, hi], where one does (lookups: one permute instead of two or
+/// four and blends; in a batch of neighbouring rays the quantiles of a sample seldom span more
+/// than 8 pieces) where `worth` (choosing costs two reductions and two piece searches: iqr's
+/// single interval does not repay them); otherwise `tf` itself. The callee may only look up
+/// values in [lo, hi].
+template <class Tf, class F>
+UDVR_INLINE void withPieceWindow(const Tf& tf, lanes::Vf lo, lanes::Vf hi, lanes::Mask live,
+                                 bool worth, const F& f) {
+    if constexpr (lanes::kWindowLookups && Tf::kLookupSize != 8) {
+        if (worth && lanes::anyOf(live)) {
+            // pieceOf is monotone: the pieces of the extreme values bound every lane's.
+            const int first = tf.pieceOf(lanes::minOf(lo, live));
+            const int last = tf.pieceOf(lanes::maxOf(hi, live));
+            if (last - first < 8 && first + 8 <= tf.stride) {
+                f(tf.window(first, last - first));
+                return;
+            }
+        }
+    }
+    f(tf);
+}
 /// The load of the quantile kernels: body(tf, boundary, width, out) with boundary(j), width(j)
 /// callables over boundaries first … first + count − 1 of a voxel-major array (`stride` floats
 /// per voxel) — the batch's transposed rows where they fit (kMaxRowBoundaries), else one
@@ -186,8 +208,10 @@ UDVR_CPU_GPU UDVR_INLINE Classified<T> quantileLoad(const K& k, const float* dat
             lanes::Vf b[kMaxRowBoundaries], w[kMaxRowBoundaries];
             boundaryRows(k.geometry, data, stride, first, count, c, live, b, widths ? w : nullptr);
             k.template withTf<T>([&](const auto& t) {
-                body(
-                    t, [&](int j) { return b[j]; }, [&](int j) { return w[j]; }, r.v);
+                withPieceWindow(t, b[0], b[count - 1], live, count > 2, [&](const auto& tw) {
+                    body(
+                        tw, [&](int j) { return b[j]; }, [&](int j) { return w[j]; }, r.v);
+                });
             });
             keepLive<T>(live, r.v);
             return r;

@@ -436,6 +436,92 @@ TEST(Kernels, LaneGathersKnowWhereInt32IndicesEnd) {
     EXPECT_FALSE(GmmOrderedKernel(huge, nullptr, 1, pieces).gathersFit(1));
 }
 
+// TfPieces::window and detail::withPieceWindow (the 8-piece windows of AVX2 lookups): Eq. 4
+// and Eq. 5 on lanes whose boundaries span 0 … 11 pieces from random first pieces, through the
+// window where it is taken, through a forced window on every target, and against the double
+// body. On AVX2 both the window and the whole-TF fallback must occur.
+TEST(Kernels, PieceWindowsMatchTheWholeTf) {
+    using lanes::Vf;
+    CounterRng rng(91, 0, 0);
+    int windows = 0, fallbacks = 0, forced = 0;
+    for (int breaks : {9, 20}) {  // 16- and 32-entry lookups on AVX2
+        TransferFunction1D tf;
+        for (int i = 0; i < breaks; ++i) {
+            tf.colorX.push_back(i);
+            tf.color.push_back({rng.uniform(), rng.uniform(), rng.uniform()});
+            tf.opacityX.push_back(i);
+            tf.opacity.push_back(rng.uniform());
+        }
+        const TfPiecesStorage st(tf);
+        const auto& whole = st.fast().sized<kTfSmall>();
+        const QuantileLevels levels;
+        constexpr int q = 8;
+        for (int trial = 0; trial < 400; ++trial) {
+            // Lane l's boundaries: sorted uniforms over [x0, x0 + span] (span up to 12 pieces).
+            const double x0 = -1.0 + (breaks + 1.0) * rng.uniform();
+            const double span = 12.0 * rng.uniform();
+            Vf b[q + 1], w[q];
+            for (int l = 0; l < lanes::kWidth; ++l) {
+                double v[q + 1];
+                for (double& x : v) x = x0 + span * rng.uniform() * (0.5 + 0.5 * rng.uniform());
+                std::sort(v, v + q + 1);
+                for (int j = 0; j <= q; ++j) b[j][l] = static_cast<float>(v[j]);
+            }
+            for (int j = 0; j < q; ++j) w[j] = b[j + 1] - b[j];
+            const lanes::Mask live =
+                trial % 3 == 0 ? lanes::allTrue<Vf>()
+                               : lanes::fromBits(static_cast<std::uint32_t>(rng.nextBits() | 1u));
+            const auto boundary = [&](int j) { return b[j]; };
+            const auto width = [&](int j) { return w[j]; };
+            const auto classify = [&](const auto& view, Vf range[4], Vf mean[4]) {
+                expectedTfQuantileRange<Vf>(view, boundary, q + 1, levels, range);
+                expectedTfQuantileMean<Vf>(view, boundary, width, q, levels, true,
+                                           lanes::splat<Vf>(1e-12f), live, mean);
+            };
+            Vf range[4], mean[4];
+            detail::withPieceWindow(whole, b[0], b[q], live, true, [&](const auto& view) {
+                (std::decay_t<decltype(view)>::kLookupSize == 8 ? windows : fallbacks) += 1;
+                classify(view, range, mean);
+            });
+            // The window itself on every target (AVX-512's 8-entry lookup reads 16 entries).
+            const int first = whole.pieceOf(lanes::minOf(b[0], live));
+            const int last = whole.pieceOf(lanes::maxOf(b[q], live));
+            Vf rangeW[4], meanW[4];
+            const bool fits = last - first < 8 && first + 16 <= whole.stride;
+            if (fits) {
+                ++forced;
+                classify(whole.window(first, last - first), rangeW, meanW);
+            }
+            for (int l = 0; l < lanes::kWidth; ++l) {
+                if (!live[l]) continue;
+                double bl[q + 1];
+                for (int j = 0; j <= q; ++j) bl[j] = b[j][l];
+                double wantRange[4], wantMean[4];
+                expectedTfQuantileRange<double>(
+                    st.exact(), [&](int j) { return bl[j]; }, q + 1, levels, wantRange);
+                expectedTfQuantileMean<double>(
+                    st.exact(), [&](int j) { return bl[j]; },
+                    [&](int j) { return static_cast<double>(w[j][l]); }, q, levels, true, 1e-12,
+                    true, wantMean);
+                for (int ch = 0; ch < 4; ++ch) {
+                    EXPECT_NEAR(range[ch][l], wantRange[ch], 2e-5) << breaks << " " << trial;
+                    EXPECT_NEAR(mean[ch][l], wantMean[ch], 2e-5) << breaks << " " << trial;
+                    if (!fits) continue;
+                    EXPECT_NEAR(rangeW[ch][l], wantRange[ch], 2e-5) << breaks << " " << trial;
+                    EXPECT_NEAR(meanW[ch][l], wantMean[ch], 2e-5) << breaks << " " << trial;
+                }
+            }
+        }
+    }
+    EXPECT_GT(forced, 200);
+    if (lanes::kWindowLookups) {
+        EXPECT_GT(windows, 200);
+        EXPECT_GT(fallbacks, 50);
+    } else {
+        EXPECT_EQ(windows, 0);
+    }
+}
+
 TEST(Kernels, LaneAndFloatBodiesMatchTheDoubleBody) {
     CounterRng rng(77, 0, 0);
     for (const std::array<int, 3>& dims :

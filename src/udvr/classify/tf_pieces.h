@@ -55,6 +55,7 @@ inline constexpr int kTfSmall = 32;
 /// lanes::lookup); 0: any TF (gathers).
 template <class Real, int LookupSize = 0>
 struct TfPieces {
+    static constexpr int kLookupSize = LookupSize;
     int breakCount = 0;  // N ≥ 1 distinct breakpoints
     int stride = 0;      // entries per column (≥ 32, ≥ 2·bit_floor(N), a multiple of 16)
     const Real* data = nullptr;    // kTfColumns columns
@@ -79,6 +80,16 @@ struct TfPieces {
         UDVR_DCHECK(breakCount < Size && stride >= Size);
         return TfPieces<Real, Size>{breakCount,     stride,  data,          bucketCount,
                                     bucketInvWidth, buckets, narrowestPiece};
+    }
+
+    /// The pieces first … first + count as a view of their own (count < 8: one 8-entry permute
+    /// per lookup where lanes::kWindowLookups): piece first + i of this TF is piece i there, and
+    /// pieceOf counts only the bounds u_first … u_{first+count−1}, so it is right for values
+    /// whose piece here lies in [first, first + count] (the caller's promise), and any value's
+    /// lookups stay inside the columns. Lane lookups only (no buckets).
+    TfPieces<Real, 8> window(int first, int count) const {
+        UDVR_DCHECK(first >= 0 && count >= 0 && count < 8 && first + 8 <= stride);
+        return TfPieces<Real, 8>{count, stride, data + first, 0, Real(0), nullptr, narrowestPiece};
     }
 
     /// Piece of x (0 … N); O(1) on average: the bucket of x, then a short walk.

@@ -203,6 +203,24 @@ inline int maxOf(Vi v, Mask live) {
     return m;
 #endif
 }
+/// Smallest and largest lane of v among the `live` lanes (live must not be empty; NaN lanes
+/// may or may not win).
+inline float minOf(Vf v, Mask live) {
+    const Vf w = select(live, v, splat<Vf>(__builtin_inff()));
+#if defined(__AVX512F__)
+    return _mm512_reduce_min_ps(w);
+#elif defined(__AVX__)
+    __m256 m = _mm256_min_ps(w, _mm256_permute2f128_ps(w, w, 1));
+    m = _mm256_min_ps(m, _mm256_permute_ps(m, 0x4E));
+    m = _mm256_min_ps(m, _mm256_permute_ps(m, 0xB1));
+    return _mm256_cvtss_f32(m);
+#else
+    float m = w[0];
+    for (int i = 1; i < kWidth; ++i) m = w[i] < m ? w[i] : m;
+    return m;
+#endif
+}
+inline float maxOf(Vf v, Mask live) { return -minOf(-v, live); }
 /// Sum of the lanes (pairwise: log2(kWidth) dependent adds).
 inline float sum(Vf v) {
 #if defined(__AVX512F__)
@@ -244,6 +262,16 @@ inline constexpr int kPermuteSizes[] = {16, 32};
 inline constexpr int kPermuteSizes[] = {16, 32};
 #else
 inline constexpr int kPermuteSizes[] = {0};
+#endif
+
+/// Whether an 8-entry lookup is one register permute where a 16- or 32-entry one takes two or
+/// four and a blend tree (AVX2): kernels then look pieces up in a window of 8 consecutive
+/// pieces where every lane's pieces fit in one (TfPieces::window). On AVX-512 a 16- or 32-entry
+/// lookup is already one permute; elsewhere lookups are scalar loops.
+#if defined(__AVX2__) && !defined(__AVX512F__)
+inline constexpr bool kWindowLookups = true;
+#else
+inline constexpr bool kWindowLookups = false;
 #endif
 
 /// table[idx] per lane, idx in [0, Size) for Size ∈ {8, 16, 32} (a table of at least Size
