@@ -412,21 +412,27 @@ UDVR_CPU_GPU UDVR_INLINE void remainderTail(const BoxSplineFastScaled<T>& b, T z
     remainderTailFrom(b, z, n.cdf, n.pdf, out);
 }
 
+/// Level one (below) right of the pair's support: the closed form Σ_i z^{j−i}/(j−i)! · w_i.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void levelOneClosed(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    using lanes::fma;
+    const T z2 = z * z * S(0.5);
+    out[0] = z + b.w1;
+    out[1] = fma(z, b.w1, z2 + b.w2);
+    out[2] = fma(z2, fma(z, lanes::splat<T>(S(1.0 / 3.0)), b.w1), fma(z, b.w2, b.w3));
+}
 /// E[(σz + h2·U2 + R)_+^j]/(j!·σ^j), j = 1, 2, 3 (level one of the tree) from remainderTail's
 /// values a at z + h2/σ and c at z: their divided difference over h2/σ, or right of the node's
-/// support (z ≥ cutoff) the closed form Σ_i z^{j−i}/(j−i)! · w_i (no digits lost to
-/// z ≫ h2/σ).
+/// support (z ≥ cutoff) levelOneClosed (no digits lost to z ≫ h2/σ).
 template <class T>
 UDVR_CPU_GPU UDVR_INLINE void levelOneFrom(const BoxSplineFastScaled<T>& b, T z, const T a[3],
                                            const T c[3], lanes::ScalarOf<T> cutoff, T out[3]) {
-    using S = lanes::ScalarOf<T>;
-    using lanes::fma;
     for (int j = 0; j < 3; ++j) out[j] = (a[j] - c[j]) * b.invH2;
     const auto right = z >= lanes::splat<T>(cutoff);
     if (!lanes::anyOf(right)) return;
-    const T z2 = z * z * S(0.5);
-    const T closed[3] = {z + b.w1, fma(z, b.w1, z2 + b.w2),
-                         fma(z2, fma(z, lanes::splat<T>(S(1.0 / 3.0)), b.w1), fma(z, b.w2, b.w3))};
+    T closed[3];
+    levelOneClosed(b, z, closed);
     for (int j = 0; j < 3; ++j) out[j] = select(right, closed[j], out[j]);
 }
 /// levelOneFrom with the remainder evaluated at both nodes, cut off at kBoxSplineCutoffSigmas.
@@ -483,16 +489,13 @@ UDVR_CPU_GPU UDVR_INLINE void breakNodes(const BoxSplineFastScaled<T>& sc, T cen
     z[3] = z[2] + sc.h2;
 }
 
-/// out += Σ_d Δ_d·σ^d·T(u, d) in the lanes `on`, from the remainder's values r at the four
-/// nodes: level one on both pairs, then their divided difference over h1 (q1 = σ·invH1,
-/// q2 = 2σ²·invH1: σ^d and d! folded in).
+/// out += Σ_d Δ_d·σ^d·T(u, d) in the lanes `on`, from level one at the upper (z + h1) and the
+/// lower (z) pair of nodes: their divided difference over h1 (q1 = σ·invH1, q2 = 2σ²·invH1:
+/// σ^d and d! folded in).
 template <class T, class S>
-UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T>& sc, const T z[4],
-                                       const T r[4][3], lanes::MaskOf<T> on, const S da[4],
+UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T>& sc, const T upper[3],
+                                       const T lower[3], lanes::MaskOf<T> on, const S da[4],
                                        const S db[4], const S dc[4], T q1, T q2, T out[4]) {
-    T upper[3], lower[3];
-    levelOneFrom(sc, z[2], r[3], r[2], S(kBoxSplineNearSigmas), upper);
-    levelOneFrom(sc, z[0], r[1], r[0], S(kBoxSplineNearSigmas), lower);
     // T(u, d)·σ^d for d = 0, 1, 2 (d! folded into q2), 0 outside `on`.
     const T t0 = select(on, (upper[0] - lower[0]) * sc.invH1, T{});
     const T t1 = select(on, (upper[1] - lower[1]) * q1, T{});
@@ -503,7 +506,8 @@ UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T>& sc, const T
 }
 
 /// The breaks kFirst … kLast − 1 of expectedTfUniformFast, one value of T at a time: Φ and φ
-/// only at nodes within kBoxSplineNearSigmas.
+/// only at nodes within kBoxSplineNearSigmas, and the upper pair's nodes not at all where it is
+/// right of them (its closed form; a quarter of the tangle's breaks).
 template <class T, class Tf>
 UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<T>& b,
                                                 const BoxSplineFastScaled<T>& sc,
@@ -516,9 +520,9 @@ UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFas
         if (!tfBreakChange<S>(tf, k, da, db, dc)) continue;
         const auto on = spread & (kl <= k) & (kh > k);
         if (!lanes::anyOf(on)) continue;
-        T z[4], r[4][3];
+        T z[4], r[4][3], upper[3], lower[3];
         breakNodes(sc, b.center, lanes::splat<T>(tf.at(kTfBound, k)), z);
-        for (int i = 0; i < 4; ++i) {
+        const auto node = [&](int i) {
             T cdf = z[i] >= S(0) ? S(1) : S(0), pdf = S(0);
             if (lanes::abs(z[i]) < S(kBoxSplineNearSigmas)) {
                 const NormalAt<T> n = normalAt(z[i]);
@@ -526,8 +530,18 @@ UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFas
                 pdf = n.pdf;
             }
             remainderTailFrom(sc, z[i], cdf, pdf, r[i]);
+        };
+        if (z[2] >= S(kBoxSplineNearSigmas)) {
+            levelOneClosed(sc, z[2], upper);
+        } else {
+            node(2);
+            node(3);
+            levelOneFrom(sc, z[2], r[3], r[2], S(kBoxSplineNearSigmas), upper);
         }
-        addBreak(sc, z, r, on, da, db, dc, q1, q2, out);
+        node(0);
+        node(1);
+        levelOneFrom(sc, z[0], r[1], r[0], S(kBoxSplineNearSigmas), lower);
+        addBreak(sc, upper, lower, on, da, db, dc, q1, q2, out);
     }
 }
 
@@ -535,7 +549,8 @@ UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFas
 /// kBoxSplineNearSigmas of every break of the block are packed (lanes::compressStore), then Φ
 /// and φ are evaluated on full vectors of them (normalCdfPdfNear), then unpacked per node, the
 /// others taking the one-sided limits. On the tangle 36 % of a break's 16 × 4 lane-nodes need
-/// Φ: the others are dead lanes, lanes whose support the break is outside, or ≥ 5σ away.
+/// Φ: the others are dead lanes, lanes whose support the break is outside, or ≥ 5σ away. As
+/// there, the upper pair takes its closed form where every lane is right of it.
 template <class Tf>
 UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<lanes::Vf>& b,
                                    const BoxSplineFastScaled<lanes::Vf>& sc, lanes::Mask spread,
@@ -580,15 +595,25 @@ UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<lanes::Vf>&
         }
         for (int j = 0; j < n; ++j) {
             const Break& e = block[j];
-            Vf z[4], r[4][3];
+            Vf z[4], r[4][3], upper[3], lower[3];
             breakNodes(sc, b.center, lanes::splat<Vf>(e.u), z);
-            for (int i = 0; i < 4; ++i) {
+            const auto node = [&](int i) {
                 const Vf side = lanes::select(z[i] >= 0.f, lanes::splat<Vf>(1.f), Vf{});
                 const Vf cdf = lanes::expandLoad(cdfs + e.at[i], e.near[i], side);
                 const Vf pdf = lanes::expandLoad(pdfs + e.at[i], e.near[i], Vf{});
                 remainderTailFrom(sc, z[i], cdf, pdf, r[i]);
+            };
+            if (lanes::noneOf(e.on & (z[2] < near))) {
+                levelOneClosed(sc, z[2], upper);
+            } else {
+                node(2);
+                node(3);
+                levelOneFrom(sc, z[2], r[3], r[2], kNormalNearRange, upper);
             }
-            addBreak(sc, z, r, e.on, e.da, e.db, e.dc, q1, q2, out);
+            node(0);
+            node(1);
+            levelOneFrom(sc, z[0], r[1], r[0], kNormalNearRange, lower);
+            addBreak(sc, upper, lower, e.on, e.da, e.db, e.dc, q1, q2, out);
         }
     }
 }
