@@ -356,7 +356,11 @@ inline constexpr double kBoxSplineCutoffSigmas = 7.0;
 inline constexpr double kBoxSplineNearSigmas = kNormalNearRange;
 
 /// What the tail of BoxSplineFast needs per sample, in units of the remainder's σ (z = t/σ).
-template <class T>
+/// K44: the remainder's density is the Edgeworth series to second order, φ·(1 + k4·He4 +
+/// k6·He6 + (k4²/2)·He8) (the 2D kernel), or without its κ4² term (K44 = false: the Gram–Charlier
+/// A series through He6, which matches R's first six moments; expectedTfUniformFast, where it
+/// halves the error against the exact box spline, docs/models.md).
+template <class T, bool K44 = true>
 struct BoxSplineFastScaled {
     T invSigma, h1, h2, invH1, invH2;  // h/σ and σ/h
     T k4;                              // κ4/(24σ⁴)
@@ -371,7 +375,7 @@ struct BoxSplineFastScaled {
         invH1 = b.sigma / b.h1;
         invH2 = b.sigma / b.h2;
         k4 = b.k4;
-        const T k6 = b.k6, k44 = b.k4 * b.k4 * S(0.5);  // κ4²/(1152σ⁸)
+        const T k6 = b.k6, k44 = K44 ? b.k4 * b.k4 * S(0.5) : T{};  // κ4²/(1152σ⁸)
         c0 = k4 - S(3) * k6 + S(15) * k44, c1 = k6 - S(10) * k44, c2 = k44;
         d0 = k4 - k6 + S(3) * k44, d1 = k6 - S(6) * k44, d2 = k44;
         f0 = k6 - S(3) * k44, f1 = k44;
@@ -382,15 +386,15 @@ struct BoxSplineFastScaled {
 };
 
 /// E[(σz + R)_+^j]/(j!·σ^j), j = 2, 3, 4, for R of BoxSplineFast, from Φ(z) and φ(z): M_j(z) of
-/// the standard normal (M_0 = Φ, M_1 = zΦ + φ, j·M_j = z·M_{j−1} + M_{j−2}) plus the Edgeworth
-/// terms to second order, k4·S(j−4) + k6·S(j−6) + (k4²/2)·S(j−8) with S(0) = Φ and
+/// the standard normal (M_0 = Φ, M_1 = zΦ + φ, j·M_j = z·M_{j−1} + M_{j−2}) plus the density's
+/// correction terms, k4·S(j−4) + k6·S(j−6) (+ (k4²/2)·S(j−8) where K44) with S(0) = Φ and
 /// S(−k) = (−1)^{k−1} He_{k−1}(z)·φ(z) (the k−1'th derivative of the density; k6 = κ6/(720σ⁶)),
 /// folded into polynomials in z. With Φ = [z ≥ 0] and φ = 0 it is the one-sided limit (0, or
 /// the moments' polynomial). Absolute error ~ε (for z ≪ 0 the recursion cancels, but its terms
 /// are then as small as φ).
-template <class T>
-UDVR_CPU_GPU UDVR_INLINE void remainderTailFrom(const BoxSplineFastScaled<T>& b, T z, T cdf, T pdf,
-                                                T out[3]) {
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void remainderTailFrom(const BoxSplineFastScaled<T, K44>& b, T z, T cdf,
+                                                T pdf, T out[3]) {
     using S = lanes::ScalarOf<T>;
     using lanes::fma;
     const T m1 = fma(z, cdf, pdf);
@@ -398,9 +402,16 @@ UDVR_CPU_GPU UDVR_INLINE void remainderTailFrom(const BoxSplineFastScaled<T>& b,
     const T m3 = fma(z, m2, m1) * S(1.0 / 3.0);
     const T m4 = fma(z, m3, m2) * S(0.25);
     const T z2 = z * z;
-    const T e2 = -z * fma(z2, fma(z2, b.c2, b.c1), b.c0);  // −(k4·He1 + k6·He3 + k44·He5)
-    const T e3 = fma(z2, fma(z2, b.d2, b.d1), b.d0);       // k4 + k6·He2 + k44·He4
-    const T e4 = -z * fma(z2, b.f1, b.f0);                 // −(k6·He1 + k44·He3)
+    T e2, e3, e4;
+    if constexpr (K44) {
+        e2 = -z * fma(z2, fma(z2, b.c2, b.c1), b.c0);  // −(k4·He1 + k6·He3 + k44·He5)
+        e3 = fma(z2, fma(z2, b.d2, b.d1), b.d0);       // k4 + k6·He2 + k44·He4
+        e4 = -z * fma(z2, b.f1, b.f0);                 // −(k6·He1 + k44·He3)
+    } else {                                           // k44 = 0: c2 = d2 = f1 = 0
+        e2 = -z * fma(z2, b.c1, b.c0);
+        e3 = fma(z2, b.d1, b.d0);
+        e4 = -z * b.f0;
+    }
     out[0] = fma(e2, pdf, m2);
     out[1] = fma(e3, pdf, m3);
     out[2] = fma(e4, pdf, fma(b.k4, cdf, m4));
@@ -413,8 +424,8 @@ UDVR_CPU_GPU UDVR_INLINE void remainderTail(const BoxSplineFastScaled<T>& b, T z
 }
 
 /// Level one (below) right of the pair's support: the closed form Σ_i z^{j−i}/(j−i)! · w_i.
-template <class T>
-UDVR_CPU_GPU UDVR_INLINE void levelOneClosed(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void levelOneClosed(const BoxSplineFastScaled<T, K44>& b, T z, T out[3]) {
     using S = lanes::ScalarOf<T>;
     using lanes::fma;
     const T z2 = z * z * S(0.5);
@@ -425,8 +436,8 @@ UDVR_CPU_GPU UDVR_INLINE void levelOneClosed(const BoxSplineFastScaled<T>& b, T 
 /// E[(σz + h2·U2 + R)_+^j]/(j!·σ^j), j = 1, 2, 3 (level one of the tree) from remainderTail's
 /// values a at z + h2/σ and c at z: their divided difference over h2/σ, or right of the node's
 /// support (z ≥ cutoff) levelOneClosed (no digits lost to z ≫ h2/σ).
-template <class T>
-UDVR_CPU_GPU UDVR_INLINE void levelOneFrom(const BoxSplineFastScaled<T>& b, T z, const T a[3],
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void levelOneFrom(const BoxSplineFastScaled<T, K44>& b, T z, const T a[3],
                                            const T c[3], lanes::ScalarOf<T> cutoff, T out[3]) {
     for (int j = 0; j < 3; ++j) out[j] = (a[j] - c[j]) * b.invH2;
     const auto right = z >= lanes::splat<T>(cutoff);
@@ -481,8 +492,9 @@ UDVR_CPU_GPU UDVR_INLINE bool tfBreakChange(const Tf& tf, int k, S da[4], S db[4
 
 /// The four nodes of break k in σ units: z, z + h2, z + h1, z + h1 + h2 with z = (center −
 /// u_k)/σ (levels: node 0, 1 the lower pair, 2, 3 the upper one).
-template <class T>
-UDVR_CPU_GPU UDVR_INLINE void breakNodes(const BoxSplineFastScaled<T>& sc, T center, T u, T z[4]) {
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void breakNodes(const BoxSplineFastScaled<T, K44>& sc, T center, T u,
+                                         T z[4]) {
     z[0] = (center - u) * sc.invSigma;
     z[1] = z[0] + sc.h2;
     z[2] = z[0] + sc.h1;
@@ -492,8 +504,8 @@ UDVR_CPU_GPU UDVR_INLINE void breakNodes(const BoxSplineFastScaled<T>& sc, T cen
 /// out += Σ_d Δ_d·σ^d·T(u, d) in the lanes `on`, from level one at the upper (z + h1) and the
 /// lower (z) pair of nodes: their divided difference over h1 (q1 = σ·invH1, q2 = 2σ²·invH1:
 /// σ^d and d! folded in).
-template <class T, class S>
-UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T>& sc, const T upper[3],
+template <class T, bool K44, class S>
+UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T, K44>& sc, const T upper[3],
                                        const T lower[3], lanes::MaskOf<T> on, const S da[4],
                                        const S db[4], const S dc[4], T q1, T q2, T out[4]) {
     // T(u, d)·σ^d for d = 0, 1, 2 (d! folded into q2), 0 outside `on`.
@@ -510,7 +522,7 @@ UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T>& sc, const T
 /// right of them (its closed form; a quarter of the tangle's breaks).
 template <class T, class Tf>
 UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<T>& b,
-                                                const BoxSplineFastScaled<T>& sc,
+                                                const BoxSplineFastScaled<T, false>& sc,
                                                 lanes::MaskOf<T> spread, lanes::IntOf<T> kl,
                                                 lanes::IntOf<T> kh, int kFirst, int kLast, T q1,
                                                 T q2, T out[4]) {
@@ -553,9 +565,9 @@ UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFas
 /// there, the upper pair takes its closed form where every lane is right of it.
 template <class Tf>
 UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<lanes::Vf>& b,
-                                   const BoxSplineFastScaled<lanes::Vf>& sc, lanes::Mask spread,
-                                   lanes::Vi kl, lanes::Vi kh, int kFirst, int kLast, lanes::Vf q1,
-                                   lanes::Vf q2, lanes::Vf out[4]) {
+                                   const BoxSplineFastScaled<lanes::Vf, false>& sc,
+                                   lanes::Mask spread, lanes::Vi kl, lanes::Vi kh, int kFirst,
+                                   int kLast, lanes::Vf q1, lanes::Vf q2, lanes::Vf out[4]) {
     using lanes::Vf;
     constexpr int kBlock = 4;  // breaks (4 and 8 measured alike; 16 slower)
     constexpr int kW = lanes::kWidth;
@@ -650,7 +662,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfUniformFast(const Tf& tf, const BoxSplin
     }
     const auto spread = live & !pointMass & (kl != kh);
     if (!lanes::anyOf(spread)) return;
-    const detail::BoxSplineFastScaled<T> scaled(b);
+    const detail::BoxSplineFastScaled<T, false> scaled(b);  // no κ4² term (measured better)
     // T's divided difference over h1 (1/h1 in σ units) times σ^d·d!: the break's Δ_d multiply it.
     const T q1 = scaled.invH1 * b.sigma, q2 = q1 * b.sigma * S(2);
     const int kFirst = detail::lowestOf(kl, spread), kLast = detail::highestOf(kh, spread);
