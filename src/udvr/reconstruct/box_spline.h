@@ -230,10 +230,11 @@ UDVR_CPU_GPU UDVR_INLINE BoxSplineFast<T> makeBoxSplineFast(const T lo[8], const
     const T sf = b.h2 * s(1e-3);
     const T var = max(r2 * s(1.0 / 12.0), sf * sf);
     b.sigma = lanes::sqrt(var);
-    // One power of var at a time: var² and var³ underflow in float where σ is at its floor
-    // (0/0 where the remainder is empty); r4 ≤ r2², r6 ≤ r2³ keep the quotients bounded.
-    b.k4 = -(r4 / var) / (var * s(2880.0));           // −(Σh⁴/120)/(24σ⁴)
-    b.k6 = ((r6 / var) / var) / (var * s(181440.0));  // (Σh⁶/252)/(720σ⁶)
+    // One power of 1/var at a time: var² and var³ underflow in float where σ is at its floor
+    // (0/0 where the remainder is empty); r4 ≤ r2², r6 ≤ r2³ keep the products bounded.
+    const T inv = s(1.0) / var;
+    b.k4 = -(r4 * inv) * (inv * s(1.0 / 2880.0));           // −(Σh⁴/120)/(24σ⁴)
+    b.k6 = ((r6 * inv) * inv) * (inv * s(1.0 / 181440.0));  // (Σh⁶/252)/(720σ⁶)
     b.variance = all2 * s(1.0 / 12.0);
     return b;
 }
