@@ -114,7 +114,7 @@ TEST(UniformFast, MatchesTheExactBoxSpline) {
     EXPECT_EQ(e.nonFinite, 0);
     EXPECT_LE(e.worst, 1e-3);
     EXPECT_LE(e.worstLanes, 1e-3);
-    EXPECT_GT(e.nLanes, 10000);
+    EXPECT_GT(e.nLanes, 600 * lanes::kWidth);  // of 1000·kWidth (the rest too wide for float)
 }
 
 // Sums whose boxes are near the point-mass width (1e−6 of the range, 6e−6 here), about a TF

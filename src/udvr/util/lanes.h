@@ -359,6 +359,7 @@ inline int compressStore(float* dst, Vf v, Mask m) {
     _mm512_storeu_ps(dst, _mm512_maskz_compress_ps(k, v));
     return std::popcount(static_cast<unsigned>(k));
 #else
+    static_cast<void>(m);
     store(dst, v);
     return kWidth;
 #endif
