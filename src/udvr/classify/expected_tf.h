@@ -344,11 +344,23 @@ UDVR_CPU_GPU inline void expectedTfUniformSum(const TfPieces<double>& tf, const 
 namespace detail {
 /// Beyond this many σ the remainder of BoxSplineFast is taken as entirely on one side (its
 /// Gaussian mass beyond 7σ, 1.3e−12, is dropped): the moments' closed form then replaces a
-/// divided difference that would lose digits (level one below).
+/// divided difference that would lose digits (level one below). The 2D kernel's cutoff
+/// (expected_tf2_uniform.h); the 1D kernel cuts at kBoxSplineNearSigmas.
 inline constexpr double kBoxSplineCutoffSigmas = 7.0;
+/// expectedTfUniformFast's cutoff: a node of a break beyond 5σ takes Φ, φ as 0 or 1, 0 without
+/// evaluating them (on lanes they are evaluated for the other nodes only, packed into full
+/// vectors: about half the nodes of the tangle are outside). The remainder R it stands for lies
+/// within 4.25σ (six equal boxes: 3h against σ = h/√2), so past 5σ only the surrogate's own tail
+/// is dropped: its Gaussian mass 2.9e−7 and Edgeworth terms < 4e−6 (k4²·He5·φ at 5σ); the
+/// error against the exact kernel is unchanged (docs/models.md).
+inline constexpr double kBoxSplineNearSigmas = kNormalNearRange;
 
 /// What the tail of BoxSplineFast needs per sample, in units of the remainder's σ (z = t/σ).
-template <class T>
+/// K44: the remainder's density is the Edgeworth series to second order, φ·(1 + k4·He4 +
+/// k6·He6 + (k4²/2)·He8) (the 2D kernel), or without its κ4² term (K44 = false: the Gram–Charlier
+/// A series through He6, which matches R's first six moments; expectedTfUniformFast, where it
+/// halves the error against the exact box spline, docs/models.md).
+template <class T, bool K44 = true>
 struct BoxSplineFastScaled {
     T invSigma, h1, h2, invH1, invH2;  // h/σ and σ/h
     T k4;                              // κ4/(24σ⁴)
@@ -363,7 +375,7 @@ struct BoxSplineFastScaled {
         invH1 = b.sigma / b.h1;
         invH2 = b.sigma / b.h2;
         k4 = b.k4;
-        const T k6 = b.k6, k44 = b.k4 * b.k4 * S(0.5);  // κ4²/(1152σ⁸)
+        const T k6 = b.k6, k44 = K44 ? b.k4 * b.k4 * S(0.5) : T{};  // κ4²/(1152σ⁸)
         c0 = k4 - S(3) * k6 + S(15) * k44, c1 = k6 - S(10) * k44, c2 = k44;
         d0 = k4 - k6 + S(3) * k44, d1 = k6 - S(6) * k44, d2 = k44;
         f0 = k6 - S(3) * k44, f1 = k44;
@@ -373,44 +385,75 @@ struct BoxSplineFastScaled {
     }
 };
 
-/// E[(σz + R)_+^j]/(j!·σ^j), j = 2, 3, 4, for R of BoxSplineFast: M_j(z) of the standard normal
-/// (M_0 = Φ, M_1 = zΦ + φ, j·M_j = z·M_{j−1} + M_{j−2}) plus the Edgeworth terms to second order,
-/// k4·S(j−4) + k6·S(j−6) + (k4²/2)·S(j−8) with S(0) = Φ and S(−k) = (−1)^{k−1} He_{k−1}(z)·φ(z)
-/// (the k−1'th derivative of the density; k6 = κ6/(720σ⁶)), folded into polynomials in z.
-/// Absolute error ~ε (for z ≪ 0 the recursion cancels, but its terms are then as small as φ).
-template <class T>
-UDVR_CPU_GPU UDVR_INLINE void remainderTail(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
+/// E[(σz + R)_+^j]/(j!·σ^j), j = 2, 3, 4, for R of BoxSplineFast, from Φ(z) and φ(z): M_j(z) of
+/// the standard normal (M_0 = Φ, M_1 = zΦ + φ, j·M_j = z·M_{j−1} + M_{j−2}) plus the density's
+/// correction terms, k4·S(j−4) + k6·S(j−6) (+ (k4²/2)·S(j−8) where K44) with S(0) = Φ and
+/// S(−k) = (−1)^{k−1} He_{k−1}(z)·φ(z) (the k−1'th derivative of the density; k6 = κ6/(720σ⁶)),
+/// folded into polynomials in z. With Φ = [z ≥ 0] and φ = 0 it is the one-sided limit (0, or
+/// the moments' polynomial). Absolute error ~ε (for z ≪ 0 the recursion cancels, but its terms
+/// are then as small as φ).
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void remainderTailFrom(const BoxSplineFastScaled<T, K44>& b, T z, T cdf,
+                                                T pdf, T out[3]) {
     using S = lanes::ScalarOf<T>;
     using lanes::fma;
-    const NormalAt<T> n = normalAt(z);
-    const T m1 = fma(z, n.cdf, n.pdf);
-    const T m2 = fma(z, m1, n.cdf) * S(0.5);
+    const T m1 = fma(z, cdf, pdf);
+    const T m2 = fma(z, m1, cdf) * S(0.5);
     const T m3 = fma(z, m2, m1) * S(1.0 / 3.0);
     const T m4 = fma(z, m3, m2) * S(0.25);
     const T z2 = z * z;
-    const T e2 = -z * fma(z2, fma(z2, b.c2, b.c1), b.c0);  // −(k4·He1 + k6·He3 + k44·He5)
-    const T e3 = fma(z2, fma(z2, b.d2, b.d1), b.d0);       // k4 + k6·He2 + k44·He4
-    const T e4 = -z * fma(z2, b.f1, b.f0);                 // −(k6·He1 + k44·He3)
-    out[0] = fma(e2, n.pdf, m2);
-    out[1] = fma(e3, n.pdf, m3);
-    out[2] = fma(e4, n.pdf, fma(b.k4, n.cdf, m4));
+    T e2, e3, e4;
+    if constexpr (K44) {
+        e2 = -z * fma(z2, fma(z2, b.c2, b.c1), b.c0);  // −(k4·He1 + k6·He3 + k44·He5)
+        e3 = fma(z2, fma(z2, b.d2, b.d1), b.d0);       // k4 + k6·He2 + k44·He4
+        e4 = -z * fma(z2, b.f1, b.f0);                 // −(k6·He1 + k44·He3)
+    } else {                                           // k44 = 0: c2 = d2 = f1 = 0
+        e2 = -z * fma(z2, b.c1, b.c0);
+        e3 = fma(z2, b.d1, b.d0);
+        e4 = -z * b.f0;
+    }
+    out[0] = fma(e2, pdf, m2);
+    out[1] = fma(e3, pdf, m3);
+    out[2] = fma(e4, pdf, fma(b.k4, cdf, m4));
+}
+/// remainderTailFrom at z with Φ, φ from normalAt.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void remainderTail(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
+    const NormalAt<T> n = normalAt(z);
+    remainderTailFrom(b, z, n.cdf, n.pdf, out);
 }
 
-/// E[(σz + h2·U2 + R)_+^j]/(j!·σ^j), j = 1, 2, 3 (level one of the tree): the divided difference
-/// of remainderTail over h2/σ, or right of the node's support (z ≥ 7) the closed form
-/// Σ_i z^{j−i}/(j−i)! · w_i (no digits lost to z ≫ h2/σ).
+/// Level one (below) right of the pair's support: the closed form Σ_i z^{j−i}/(j−i)! · w_i.
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void levelOneClosed(const BoxSplineFastScaled<T, K44>& b, T z, T out[3]) {
+    using S = lanes::ScalarOf<T>;
+    using lanes::fma;
+    const T z2 = z * z * S(0.5);
+    out[0] = z + b.w1;
+    out[1] = fma(z, b.w1, z2 + b.w2);
+    out[2] = fma(z2, fma(z, lanes::splat<T>(S(1.0 / 3.0)), b.w1), fma(z, b.w2, b.w3));
+}
+/// E[(σz + h2·U2 + R)_+^j]/(j!·σ^j), j = 1, 2, 3 (level one of the tree) from remainderTail's
+/// values a at z + h2/σ and c at z: their divided difference over h2/σ, or right of the node's
+/// support (z ≥ cutoff) levelOneClosed (no digits lost to z ≫ h2/σ).
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void levelOneFrom(const BoxSplineFastScaled<T, K44>& b, T z, const T a[3],
+                                           const T c[3], lanes::ScalarOf<T> cutoff, T out[3]) {
+    for (int j = 0; j < 3; ++j) out[j] = (a[j] - c[j]) * b.invH2;
+    const auto right = z >= lanes::splat<T>(cutoff);
+    if (!lanes::anyOf(right)) return;
+    T closed[3];
+    levelOneClosed(b, z, closed);
+    for (int j = 0; j < 3; ++j) out[j] = select(right, closed[j], out[j]);
+}
+/// levelOneFrom with the remainder evaluated at both nodes, cut off at kBoxSplineCutoffSigmas.
 template <class T>
 UDVR_CPU_GPU UDVR_INLINE void levelOneTail(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
     using S = lanes::ScalarOf<T>;
-    using lanes::fma;
     T a[3], c[3];
     remainderTail(b, z + b.h2, a);
     remainderTail(b, z, c);
-    const T z2 = z * z * S(0.5);
-    const T closed[3] = {z + b.w1, fma(z, b.w1, z2 + b.w2),
-                         fma(z2, fma(z, lanes::splat<T>(S(1.0 / 3.0)), b.w1), fma(z, b.w2, b.w3))};
-    const auto right = z >= lanes::splat<T>(S(kBoxSplineCutoffSigmas));
-    for (int j = 0; j < 3; ++j) out[j] = select(right, closed[j], (a[j] - c[j]) * b.invH2);
+    levelOneFrom(b, z, a, c, S(kBoxSplineCutoffSigmas), out);
 }
 }  // namespace detail
 
@@ -430,11 +473,170 @@ UDVR_CPU_GPU UDVR_INLINE void boxSplineFastTail(const detail::BoxSplineFastScale
     out[2] = (a[2] - c[2]) * (b.invH1 * S(2));
 }
 
+namespace detail {
+/// The change of the TF's polynomials at break k (piece k re-expanded about u_k, subtracted
+/// from piece k+1): Δ_d of (x − u_k)_+^d, d = 0, 1, 2, per channel; false where all are 0.
+template <class S, class Tf>
+UDVR_CPU_GPU UDVR_INLINE bool tfBreakChange(const Tf& tf, int k, S da[4], S db[4], S dc[4]) {
+    const S len = tf.at(kTfBound, k) - tf.at(kTfOrigin, k);
+    bool any = false;
+    for (int ch = 0; ch < 4; ++ch) {
+        const S pa = tf.at(kTfA + ch, k), pb = tf.at(kTfB + ch, k), pc = tf.at(kTfC + ch, k);
+        da[ch] = tf.at(kTfA + ch, k + 1) - (pa + len * (pb + len * pc));
+        db[ch] = tf.at(kTfB + ch, k + 1) - (pb + S(2) * len * pc);
+        dc[ch] = tf.at(kTfC + ch, k + 1) - pc;
+        any = any || da[ch] != S(0) || db[ch] != S(0) || dc[ch] != S(0);
+    }
+    return any;
+}
+
+/// The four nodes of break k in σ units: z, z + h2, z + h1, z + h1 + h2 with z = (center −
+/// u_k)/σ (levels: node 0, 1 the lower pair, 2, 3 the upper one).
+template <class T, bool K44>
+UDVR_CPU_GPU UDVR_INLINE void breakNodes(const BoxSplineFastScaled<T, K44>& sc, T center, T u,
+                                         T z[4]) {
+    z[0] = (center - u) * sc.invSigma;
+    z[1] = z[0] + sc.h2;
+    z[2] = z[0] + sc.h1;
+    z[3] = z[2] + sc.h2;
+}
+
+/// out += Σ_d Δ_d·σ^d·T(u, d) in the lanes `on`, from level one at the upper (z + h1) and the
+/// lower (z) pair of nodes: their divided difference over h1 (q1 = σ·invH1, q2 = 2σ²·invH1:
+/// σ^d and d! folded in).
+template <class T, bool K44, class S>
+UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T, K44>& sc, const T upper[3],
+                                       const T lower[3], lanes::MaskOf<T> on, const S da[4],
+                                       const S db[4], const S dc[4], T q1, T q2, T out[4]) {
+    // T(u, d)·σ^d for d = 0, 1, 2 (d! folded into q2), 0 outside `on`.
+    const T t0 = select(on, (upper[0] - lower[0]) * sc.invH1, T{});
+    const T t1 = select(on, (upper[1] - lower[1]) * q1, T{});
+    const T t2 = select(on, (upper[2] - lower[2]) * q2, T{});
+    for (int ch = 0; ch < 4; ++ch)
+        out[ch] = fma(lanes::splat<T>(dc[ch]), t2,
+                      fma(lanes::splat<T>(db[ch]), t1, fma(lanes::splat<T>(da[ch]), t0, out[ch])));
+}
+
+/// The breaks kFirst … kLast − 1 of expectedTfUniformFast, one value of T at a time: Φ and φ
+/// only at nodes within kBoxSplineNearSigmas, and the upper pair's nodes not at all where it is
+/// right of them (its closed form; a quarter of the tangle's breaks).
+template <class T, class Tf>
+UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<T>& b,
+                                                const BoxSplineFastScaled<T, false>& sc,
+                                                lanes::MaskOf<T> spread, lanes::IntOf<T> kl,
+                                                lanes::IntOf<T> kh, int kFirst, int kLast, T q1,
+                                                T q2, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    for (int k = kFirst; k < kLast; ++k) {
+        S da[4], db[4], dc[4];
+        if (!tfBreakChange<S>(tf, k, da, db, dc)) continue;
+        const auto on = spread & (kl <= k) & (kh > k);
+        if (!lanes::anyOf(on)) continue;
+        T z[4], r[4][3], upper[3], lower[3];
+        breakNodes(sc, b.center, lanes::splat<T>(tf.at(kTfBound, k)), z);
+        const auto node = [&](int i) {
+            T cdf = z[i] >= S(0) ? S(1) : S(0), pdf = S(0);
+            if (lanes::abs(z[i]) < S(kBoxSplineNearSigmas)) {
+                const NormalAt<T> n = normalAt(z[i]);
+                cdf = n.cdf;
+                pdf = n.pdf;
+            }
+            remainderTailFrom(sc, z[i], cdf, pdf, r[i]);
+        };
+        if (z[2] >= S(kBoxSplineNearSigmas)) {
+            levelOneClosed(sc, z[2], upper);
+        } else {
+            node(2);
+            node(3);
+            levelOneFrom(sc, z[2], r[3], r[2], S(kBoxSplineNearSigmas), upper);
+        }
+        node(0);
+        node(1);
+        levelOneFrom(sc, z[0], r[1], r[0], S(kBoxSplineNearSigmas), lower);
+        addBreak(sc, upper, lower, on, da, db, dc, q1, q2, out);
+    }
+}
+
+/// uniformFastBreaks on lanes, a block of up to kBlock breaks at a time: first the nodes within
+/// kBoxSplineNearSigmas of every break of the block are packed (lanes::compressStore), then Φ
+/// and φ are evaluated on full vectors of them (normalCdfPdfNear), then unpacked per node, the
+/// others taking the one-sided limits. On the tangle 36 % of a break's 16 × 4 lane-nodes need
+/// Φ: the others are dead lanes, lanes whose support the break is outside, or ≥ 5σ away. As
+/// there, the upper pair takes its closed form where every lane is right of it.
+template <class Tf>
+UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<lanes::Vf>& b,
+                                   const BoxSplineFastScaled<lanes::Vf, false>& sc,
+                                   lanes::Mask spread, lanes::Vi kl, lanes::Vi kh, int kFirst,
+                                   int kLast, lanes::Vf q1, lanes::Vf q2, lanes::Vf out[4]) {
+    using lanes::Vf;
+    constexpr int kBlock = 4;  // breaks (4 and 8 measured alike; 16 slower)
+    constexpr int kW = lanes::kWidth;
+    constexpr int kSlots = kBlock * 4 * kW + kW;  // a vector past the last packed node
+    struct Break {
+        lanes::Mask on, near[4];
+        int at[4];  // the first packed slot of each node
+        float da[4], db[4], dc[4];
+        float u;
+    };
+    Break block[kBlock];
+    alignas(64) float zs[kSlots], cdfs[kSlots], pdfs[kSlots];
+    const Vf near = lanes::splat<Vf>(static_cast<float>(kBoxSplineNearSigmas));
+    for (int k = kFirst; k < kLast;) {
+        int n = 0, packed = 0;
+        for (; k < kLast && n < kBlock; ++k) {
+            Break& e = block[n];
+            if (!tfBreakChange<float>(tf, k, e.da, e.db, e.dc)) continue;
+            e.on = spread & (kl <= k) & (kh > k);
+            if (!lanes::anyOf(e.on)) continue;
+            e.u = tf.at(kTfBound, k);
+            Vf z[4];
+            breakNodes(sc, b.center, lanes::splat<Vf>(e.u), z);
+            for (int i = 0; i < 4; ++i) {
+                e.near[i] = e.on & (lanes::abs(z[i]) < near);
+                e.at[i] = packed;
+                packed += lanes::compressStore(zs + packed, z[i], e.near[i]);
+            }
+            ++n;
+        }
+        lanes::store(zs + packed, Vf{});  // the last vector's unused slots: finite
+        for (int i = 0; i < packed; i += kW) {
+            Vf cdf, pdf;
+            normalCdfPdfNear(lanes::load(zs + i), cdf, pdf);
+            lanes::store(cdfs + i, cdf);
+            lanes::store(pdfs + i, pdf);
+        }
+        for (int j = 0; j < n; ++j) {
+            const Break& e = block[j];
+            Vf z[4], r[4][3], upper[3], lower[3];
+            breakNodes(sc, b.center, lanes::splat<Vf>(e.u), z);
+            const auto node = [&](int i) {
+                const Vf side = lanes::select(z[i] >= 0.f, lanes::splat<Vf>(1.f), Vf{});
+                const Vf cdf = lanes::expandLoad(cdfs + e.at[i], e.near[i], side);
+                const Vf pdf = lanes::expandLoad(pdfs + e.at[i], e.near[i], Vf{});
+                remainderTailFrom(sc, z[i], cdf, pdf, r[i]);
+            };
+            if (lanes::noneOf(e.on & (z[2] < near))) {
+                levelOneClosed(sc, z[2], upper);
+            } else {
+                node(2);
+                node(3);
+                levelOneFrom(sc, z[2], r[3], r[2], kNormalNearRange, upper);
+            }
+            node(0);
+            node(1);
+            levelOneFrom(sc, z[0], r[1], r[0], kNormalNearRange, lower);
+            addBreak(sc, upper, lower, e.on, e.da, e.db, e.dc, q1, q2, out);
+        }
+    }
+}
+}  // namespace detail
+
 /// E[TF(X)] for the fast form of the box spline (issue 12), in the `live` lanes, against the
 /// exact TF pieces: as expectedTfUniformSum, TF = p_0 + Σ_{breaks u in the support}
 /// Σ_d Δ_d·(x − u)_+^d with p_0 the support's first piece, so E[TF(X)] = E[p_0(X)] (exact mean
-/// and variance) + Σ_u Δ_d·T(center − u, d) (boxSplineFastTail). Sums of total width ≤ `point`
-/// are the point mass TF(mean). The approximation's error is measured in docs/models.md.
+/// and variance) + Σ_u Δ_d·T(center − u, d) (boxSplineFastTail's tree, its remainder cut off at
+/// kBoxSplineNearSigmas). Sums of total width ≤ `point` are the point mass TF(mean). The
+/// approximation's error is measured in docs/models.md.
 template <class T, class Tf>
 UDVR_CPU_GPU UDVR_INLINE void expectedTfUniformFast(const Tf& tf, const BoxSplineFast<T>& b,
                                                     lanes::ScalarOf<T> point, lanes::MaskOf<T> live,
@@ -460,33 +662,11 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfUniformFast(const Tf& tf, const BoxSplin
     }
     const auto spread = live & !pointMass & (kl != kh);
     if (!lanes::anyOf(spread)) return;
-    const detail::BoxSplineFastScaled<T> scaled(b);
-    const T s1 = b.sigma, s2 = b.sigma * b.sigma;
+    const detail::BoxSplineFastScaled<T, false> scaled(b);  // no κ4² term (measured better)
+    // T's divided difference over h1 (1/h1 in σ units) times σ^d·d!: the break's Δ_d multiply it.
+    const T q1 = scaled.invH1 * b.sigma, q2 = q1 * b.sigma * S(2);
     const int kFirst = detail::lowestOf(kl, spread), kLast = detail::highestOf(kh, spread);
-    for (int k = kFirst; k < kLast; ++k) {
-        // Break u_k between pieces k and k+1: piece k re-expanded about u_k, from piece k+1.
-        const S len = tf.at(kTfBound, k) - tf.at(kTfOrigin, k);
-        S da[4], db[4], dc[4];
-        bool any = false;
-        for (int ch = 0; ch < 4; ++ch) {
-            const S pa = tf.at(kTfA + ch, k), pb = tf.at(kTfB + ch, k), pc = tf.at(kTfC + ch, k);
-            da[ch] = tf.at(kTfA + ch, k + 1) - (pa + len * (pb + len * pc));
-            db[ch] = tf.at(kTfB + ch, k + 1) - (pb + S(2) * len * pc);
-            dc[ch] = tf.at(kTfC + ch, k + 1) - pc;
-            any = any || da[ch] != S(0) || db[ch] != S(0) || dc[ch] != S(0);
-        }
-        if (!any) continue;
-        const auto on = spread & (kl <= k) & (kh > k);
-        if (!lanes::anyOf(on)) continue;
-        T t[3];
-        boxSplineFastTail(scaled, (b.center - tf.at(kTfBound, k)) * scaled.invSigma, t);
-        for (int ch = 0; ch < 4; ++ch) {
-            const T v = fma(lanes::splat<T>(dc[ch]) * s2, t[2],
-                            fma(lanes::splat<T>(db[ch]) * s1, t[1],
-                                fma(lanes::splat<T>(da[ch]), t[0], out[ch])));
-            out[ch] = detail::select(on, v, out[ch]);
-        }
-    }
+    detail::uniformFastBreaks(tf, b, scaled, spread, kl, kh, kFirst, kLast, q1, q2, out);
 }
 
 }  // namespace udvr

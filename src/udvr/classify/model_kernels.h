@@ -296,7 +296,7 @@ struct UniformVoxels {
 /// Uniform (box spline, SPEC §3): X = Σ w_c U[lo_c, hi_c]. `uniform` (`exact`) takes the exact
 /// box spline in double (SPEC §4's 1e−4; every lane of a batch takes the double body);
 /// `uniform-fast` the fast form over T (BoxSplineFast: the two widest boxes exact, the rest a
-/// Gaussian with Edgeworth terms; issue 12), within 5e−4 of it. lo/hi = μ ∓ √3σ (`first` = mean,
+/// Gaussian with κ4, κ6 terms; issue 12), within 4e−4 of it. lo/hi = μ ∓ √3σ (`first` = mean,
 /// `second` = stddev) or [min, max]
 /// (`minMax`).
 struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {

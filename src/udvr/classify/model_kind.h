@@ -20,7 +20,7 @@ enum class ModelKind {
     QuartileMiddle,    // quantile-range over [.25, .75]
     QuartileUpper,     // quantile-range over [.75, 1]
     Members,           // no model: the TF averaged over an ensemble's members (issue 12)
-    UniformFast,       // the uniform model's box spline in a fast form, within 5e−4 of `uniform`
+    UniformFast,       // the uniform model's box spline in a fast form, within 4e−4 of `uniform`
 };
 
 /// Parse a CLI model name ("quantile-mean"); throws UdvrError listing the valid names.

@@ -169,24 +169,25 @@ class BoxSplineTail {
 
 /// The box spline's fast form (issue 12): X = center + h1·U1 + h2·U2 + R with the two widest
 /// boxes h1 ≥ h2 kept exact and the other terms (≤ 6) as R, zero mean, taken as a Gaussian of
-/// their variance σ² with the first Edgeworth correction for their fourth cumulant
-/// κ4 = −Σ h⁴/120 (Sakhaee & Entezari's box spline for two directions, the central limit for the
-/// rest). Written over T (double, float, lanes::Vf). Data units.
+/// their variance σ² with corrections for their fourth and sixth cumulants κ4 = −Σ h⁴/120,
+/// κ6 = Σ h⁶/252 (Sakhaee & Entezari's box spline for two directions, the central limit for the
+/// rest; the density's series in classify/expected_tf.h, BoxSplineFastScaled). Written over T
+/// (double, float, lanes::Vf). Data units.
 template <class T>
 struct BoxSplineFast {
     T lo{};      // left end of the support [lo, lo + total]
     T total{};   // Σ h
     T center{};  // lo + mean of the remainder: X − center = h1·U1 + h2·U2 + R
     T h1{}, h2{};
-    T sigma{};     // remainder's standard deviation (≥ the floor)
+    T sigma{};     // remainder's standard deviation (≥ h2/1000)
     T k4{};        // κ4/(24σ⁴) of the remainder, in [−0.05, 0]
     T k6{};        // κ6/(720σ⁶) of the remainder, ≥ 0
     T variance{};  // of X, exact: Σ h²/12
 };
 
-/// The fast form of Σ_c w_c U[lo_c, hi_c]; widths are kept ≥ `floor` (> 0, data units) so that
-/// no division meets 0 (a zero-width sample is a box of width `floor`: callers treat sums with
-/// total ≤ floor as point masses).
+/// The fast form of Σ_c w_c U[lo_c, hi_c]; h1, h2 and σ are floored (h1 ≥ floor/1000, each
+/// next ≥ 1/1000 of the one above; `floor` > 0, data units) so that no division meets 0
+/// (callers treat sums with total ≤ floor as point masses).
 template <class T>
 UDVR_CPU_GPU UDVR_INLINE BoxSplineFast<T> makeBoxSplineFast(const T lo[8], const T hi[8],
                                                             const T w[8],
@@ -211,15 +212,30 @@ UDVR_CPU_GPU UDVR_INLINE BoxSplineFast<T> makeBoxSplineFast(const T lo[8], const
         r4 = lanes::fma(o2, o2, r4);
         r6 = lanes::fma(o2 * o2, o2, r6);
     }
-    const T f = lanes::splat<T>(floor);
-    b.h1 = max(h1, f);
-    b.h2 = max(h2, f);
-    b.center = lanes::fma(r1, lanes::splat<T>(0.5), b.lo);
-    const T var = max(r2 * lanes::ScalarOf<T>(1.0 / 12.0), f * f);
+    // Floors, so that nothing divides by 0, each relative to the box above it: h1 ≥ floor/1000
+    // (only sums of total ≤ floor, the callers' point masses, have h1 < floor/8), h2 ≥ h1/1000,
+    // σ ≥ h2/1000. They add at most 1e−6 of X's variance, and z = t/σ stays below ~1e7 (float
+    // keeps its relative precision, z⁴ in range). Absolute floors (h1, h2, σ ≥ floor) spread
+    // sums a few floors wide: 0.2 off against a step inside a support of 8e−6 with floors of
+    // 6e−6 (uniform_fast_test.cpp).
+    const auto s = [](double x) { return lanes::splat<T>(static_cast<lanes::ScalarOf<T>>(x)); };
+    b.h1 = max(h1, s(1e-3 * floor));
+    b.h2 = max(h2, b.h1 * s(1e-3));
+    // The floors widen the boxes about their left ends: the centre moves left by half of what
+    // they add, so that the fast form keeps X's mean (E[TF] adds the tail terms to the first
+    // piece's polynomial at the exact mean: a mean off by half the second box's floor of 6e−6
+    // cost 1e−3 against a TF whose first piece is steep).
+    const T added = (b.h1 - h1) + (b.h2 - h2);
+    b.center = lanes::fma(r1 - added, s(0.5), b.lo);
+    const T sf = b.h2 * s(1e-3);
+    const T var = max(r2 * s(1.0 / 12.0), sf * sf);
     b.sigma = lanes::sqrt(var);
-    b.k4 = -r4 / (var * var * lanes::ScalarOf<T>(2880.0));         // −(Σh⁴/120)/(24σ⁴)
-    b.k6 = r6 / (var * var * var * lanes::ScalarOf<T>(181440.0));  // (Σh⁶/252)/(720σ⁶)
-    b.variance = all2 * lanes::ScalarOf<T>(1.0 / 12.0);
+    // One power of 1/var at a time: var² and var³ underflow in float where σ is at its floor
+    // (0/0 where the remainder is empty); r4 ≤ r2², r6 ≤ r2³ keep the products bounded.
+    const T inv = s(1.0) / var;
+    b.k4 = -(r4 * inv) * (inv * s(1.0 / 2880.0));           // −(Σh⁴/120)/(24σ⁴)
+    b.k6 = ((r6 * inv) * inv) * (inv * s(1.0 / 181440.0));  // (Σh⁶/252)/(720σ⁶)
+    b.variance = all2 * s(1.0 / 12.0);
     return b;
 }
 

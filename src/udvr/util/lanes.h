@@ -375,6 +375,32 @@ inline Vf loadFirst(const float* p, int n) {
     return r;
 #endif
 }
+/// Packs the lanes of v in m to the front of dst and returns how many there are (kWidth floats
+/// are written; those past the count are unspecified), so that work on a few lanes of many
+/// batches runs on full vectors (classify/expected_tf.h, the fast box spline). Without AVX-512
+/// nothing is packed: v is stored whole and kWidth returned; expandLoad reads either back.
+inline int compressStore(float* dst, Vf v, Mask m) {
+#if defined(__AVX512F__)
+    // The register form and a plain store: with the memory form of vcompressps (microcoded on
+    // AMD Zen 4) the fast box spline took twice as long.
+    const auto k = static_cast<__mmask16>(bits(m));
+    _mm512_storeu_ps(dst, _mm512_maskz_compress_ps(k, v));
+    return std::popcount(static_cast<unsigned>(k));
+#else
+    static_cast<void>(m);
+    store(dst, v);
+    return kWidth;
+#endif
+}
+/// The inverse of compressStore: the values packed at src back in the lanes of m (in order),
+/// fallback in the others.
+inline Vf expandLoad(const float* src, Mask m, Vf fallback) {
+#if defined(__AVX512F__)
+    return _mm512_mask_expand_ps(fallback, static_cast<__mmask16>(bits(m)), _mm512_loadu_ps(src));
+#else
+    return select(m, load(src), fallback);
+#endif
+}
 /// Bit v of a bit table per lane (`live` lanes; false elsewhere).
 inline Mask testBits(const std::uint32_t* table, Vi v, Mask live) {
 #if defined(__AVX512F__)
