@@ -501,13 +501,27 @@ UDVR_CPU_GPU UDVR_INLINE void breakNodes(const BoxSplineFastScaled<T, K44>& sc, 
     z[3] = z[2] + sc.h2;
 }
 
-/// out += Σ_d Δ_d·σ^d·T(u, d) in the lanes `on`, from level one at the upper (z + h1) and the
-/// lower (z) pair of nodes: their divided difference over h1 (q1 = σ·invH1, q2 = 2σ²·invH1:
-/// σ^d and d! folded in).
-template <class T, bool K44, class S>
-UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T, K44>& sc, const T upper[3],
-                                       const T lower[3], lanes::MaskOf<T> on, const S da[4],
-                                       const S db[4], const S dc[4], T q1, T q2, T out[4]) {
+/// out += Σ_d Δ_d·σ^d·T(u, d) in the lanes `on` for the break whose nodes are z (breakNodes):
+/// level one at the upper (z + h1) pair — its closed form where `upperRight` (every lane right
+/// of it), else from nodes 2 and 3 — and at the lower (z) pair from nodes 0 and 1, then their
+/// divided difference over h1 (q1 = σ·invH1, q2 = 2σ²·invH1: σ^d and d! folded in).
+/// node(i, r) writes remainderTailFrom at node i to r.
+template <class T, bool K44, class S, class Node>
+UDVR_CPU_GPU UDVR_INLINE void addBreak(const BoxSplineFastScaled<T, K44>& sc, const T z[4],
+                                       bool upperRight, const Node& node, lanes::MaskOf<T> on,
+                                       const S da[4], const S db[4], const S dc[4], T q1, T q2,
+                                       T out[4]) {
+    T r[4][3], upper[3], lower[3];
+    if (upperRight) {
+        levelOneClosed(sc, z[2], upper);
+    } else {
+        node(2, r[2]);
+        node(3, r[3]);
+        levelOneFrom(sc, z[2], r[3], r[2], S(kBoxSplineNearSigmas), upper);
+    }
+    node(0, r[0]);
+    node(1, r[1]);
+    levelOneFrom(sc, z[0], r[1], r[0], S(kBoxSplineNearSigmas), lower);
     // T(u, d)·σ^d for d = 0, 1, 2 (d! folded into q2), 0 outside `on`.
     const T t0 = select(on, (upper[0] - lower[0]) * sc.invH1, T{});
     const T t1 = select(on, (upper[1] - lower[1]) * q1, T{});
@@ -532,28 +546,18 @@ UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFas
         if (!tfBreakChange<S>(tf, k, da, db, dc)) continue;
         const auto on = spread & (kl <= k) & (kh > k);
         if (!lanes::anyOf(on)) continue;
-        T z[4], r[4][3], upper[3], lower[3];
+        T z[4];
         breakNodes(sc, b.center, lanes::splat<T>(tf.at(kTfBound, k)), z);
-        const auto node = [&](int i) {
+        const auto node = [&](int i, T r[3]) {
             T cdf = z[i] >= S(0) ? S(1) : S(0), pdf = S(0);
             if (lanes::abs(z[i]) < S(kBoxSplineNearSigmas)) {
                 const NormalAt<T> n = normalAt(z[i]);
                 cdf = n.cdf;
                 pdf = n.pdf;
             }
-            remainderTailFrom(sc, z[i], cdf, pdf, r[i]);
+            remainderTailFrom(sc, z[i], cdf, pdf, r);
         };
-        if (z[2] >= S(kBoxSplineNearSigmas)) {
-            levelOneClosed(sc, z[2], upper);
-        } else {
-            node(2);
-            node(3);
-            levelOneFrom(sc, z[2], r[3], r[2], S(kBoxSplineNearSigmas), upper);
-        }
-        node(0);
-        node(1);
-        levelOneFrom(sc, z[0], r[1], r[0], S(kBoxSplineNearSigmas), lower);
-        addBreak(sc, upper, lower, on, da, db, dc, q1, q2, out);
+        addBreak(sc, z, z[2] >= S(kBoxSplineNearSigmas), node, on, da, db, dc, q1, q2, out);
     }
 }
 
@@ -607,25 +611,16 @@ UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFast<lanes::Vf>&
         }
         for (int j = 0; j < n; ++j) {
             const Break& e = block[j];
-            Vf z[4], r[4][3], upper[3], lower[3];
+            Vf z[4];
             breakNodes(sc, b.center, lanes::splat<Vf>(e.u), z);
-            const auto node = [&](int i) {
+            const auto node = [&](int i, Vf r[3]) {
                 const Vf side = lanes::select(z[i] >= 0.f, lanes::splat<Vf>(1.f), Vf{});
                 const Vf cdf = lanes::expandLoad(cdfs + e.at[i], e.near[i], side);
                 const Vf pdf = lanes::expandLoad(pdfs + e.at[i], e.near[i], Vf{});
-                remainderTailFrom(sc, z[i], cdf, pdf, r[i]);
+                remainderTailFrom(sc, z[i], cdf, pdf, r);
             };
-            if (lanes::noneOf(e.on & (z[2] < near))) {
-                levelOneClosed(sc, z[2], upper);
-            } else {
-                node(2);
-                node(3);
-                levelOneFrom(sc, z[2], r[3], r[2], kNormalNearRange, upper);
-            }
-            node(0);
-            node(1);
-            levelOneFrom(sc, z[0], r[1], r[0], kNormalNearRange, lower);
-            addBreak(sc, upper, lower, e.on, e.da, e.db, e.dc, q1, q2, out);
+            addBreak(sc, z, lanes::noneOf(e.on & (z[2] < near)), node, e.on, e.da, e.db, e.dc, q1,
+                     q2, out);
         }
     }
 }
