@@ -85,8 +85,9 @@ struct TfPieces {
     /// The pieces first … first + count as a view of their own (count < 8: one 8-entry permute
     /// per lookup where lanes::kWindowLookups): piece first + i of this TF is piece i there, and
     /// pieceOf counts only the bounds u_first … u_{first+count−1}, so it is right for values
-    /// whose piece here lies in [first, first + count] (the caller's promise), and any value's
-    /// lookups stay inside the columns. Lane lookups only (no buckets).
+    /// whose piece here lies in [first, first + count] (the caller's promise). Lane lookups only
+    /// (no buckets); they read 8 entries from first on AVX2 (first + 8 ≤ stride), 16 on
+    /// AVX-512 (first + 16 ≤ stride there, where only the tests take windows).
     TfPieces<Real, 8> window(int first, int count) const {
         UDVR_DCHECK(first >= 0 && count >= 0 && count < 8 && first + 8 <= stride);
         return TfPieces<Real, 8>{count, stride, data + first, 0, Real(0), nullptr, narrowestPiece};
