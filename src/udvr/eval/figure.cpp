@@ -53,15 +53,24 @@ PanelLayout panelLayout(const FigurePanel& panel) {
     const int cols = std::max(1, std::min(panel.columns, n));
     const int rows = n == 0 ? 0 : (n + cols - 1) / cols;
     const int top = kMargin + (panel.title.empty() ? 0 : kTitleBand);
-    l.width = 2 * kMargin + cols * l.cellWidth + (cols - 1) * kGap;
-    l.height =
-        top + kMargin + rows * (l.cellHeight + l.captionHeight) + std::max(0, rows - 1) * kGap;
+    l.rowHeight.assign(static_cast<std::size_t>(rows), 1);
     for (int i = 0; i < n; ++i) {
-        const int col = i % cols, row = i / cols;
+        int& h = l.rowHeight[static_cast<std::size_t>(i / cols)];
+        h = std::max(h, panel.cells[static_cast<std::size_t>(i)].image.height);
+    }
+    l.width = 2 * kMargin + cols * l.cellWidth + (cols - 1) * kGap;
+    int y = top;
+    std::vector<int> rowTop;
+    for (int h : l.rowHeight) {
+        rowTop.push_back(y);
+        y += h + l.captionHeight + kGap;
+    }
+    l.height = y - (rows > 0 ? kGap : 0) + kMargin;
+    for (int i = 0; i < n; ++i) {
+        const int col = i % cols;
         const int x = kMargin + col * (l.cellWidth + kGap) +
                       (l.cellWidth - panel.cells[static_cast<std::size_t>(i)].image.width) / 2;
-        const int y = top + row * (l.cellHeight + l.captionHeight + kGap);
-        l.imageOrigin.push_back({x, y});
+        l.imageOrigin.push_back({x, rowTop[static_cast<std::size_t>(i / cols)]});
     }
     return l;
 }
@@ -82,7 +91,8 @@ ImageRgba renderPanel(const FigurePanel& panel) {
         const FigureCell& cell = panel.cells[i];
         const int col = static_cast<int>(i) % cols;
         const double cx = kMargin + col * (l.cellWidth + kGap) + l.cellWidth / 2.0;
-        double y = l.imageOrigin[i][1] + l.cellHeight + kLineHeight;
+        double y =
+            l.imageOrigin[i][1] + l.rowHeight[i / static_cast<std::size_t>(cols)] + kLineHeight;
         for (std::size_t k = 0; k < cell.caption.size(); ++k) {
             textCentred(cr.get(), cell.caption[k], cx, y, l.cellWidth + kGap - 2.0, kCaptionFont,
                         k == 0);

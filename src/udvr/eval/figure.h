@@ -30,10 +30,12 @@ struct PanelLayout {
     int width = 0, height = 0;
     int cellWidth = 0, cellHeight = 0;            // image area of each cell: the largest image
     int captionHeight = 0;                        // text band under each image
+    std::vector<int> rowHeight;                   // image area of each row: its largest image
     std::vector<std::array<int, 2>> imageOrigin;  // top-left pixel of each cell's image
 };
 
-/// The layout renderPanel uses (images are centred horizontally in their cell, top-aligned).
+/// The layout renderPanel uses (images are centred horizontally in their cell, top-aligned;
+/// each row as tall as its tallest image, so one large plot does not space out every row).
 PanelLayout panelLayout(const FigurePanel& panel);
 /// Draw a panel on white. Images are pasted as their RGB (they are already composited over the
 /// background), byte-exact to the 8-bit rounding of writeFigurePng; the result is opaque.

@@ -57,6 +57,25 @@ fs::path tempDir(const std::string& name) {
     return dir;
 }
 
+TEST(FigurePanel, EachRowIsAsTallAsItsTallestImage) {
+    // A tall plot in the first row must not space out the rows of small images below it.
+    FigurePanel panel;
+    panel.columns = 2;
+    panel.cells.push_back({patternImage(20, 60, 1), {"tall"}});
+    panel.cells.push_back({patternImage(20, 10, 2), {"small"}});
+    for (int k = 0; k < 2; ++k) panel.cells.push_back({patternImage(20, 10, 3), {"small"}});
+    const PanelLayout l = panelLayout(panel);
+    EXPECT_EQ(l.cellHeight, 60);
+    ASSERT_EQ(l.rowHeight, (std::vector<int>{60, 10}));
+    const int step = l.imageOrigin[2][1] - l.imageOrigin[0][1];  // row 0's band and a gap
+    EXPECT_GT(step, 60 + l.captionHeight);
+    EXPECT_LT(step, 60 + l.captionHeight + 20);
+    EXPECT_EQ(l.imageOrigin[3][1], l.imageOrigin[2][1]);
+    // The panel ends one small row (and its caption) after the second row's top.
+    EXPECT_LT(l.height, l.imageOrigin[2][1] + 10 + l.captionHeight + 20);
+    EXPECT_EQ(renderPanel(panel).height, l.height);
+}
+
 TEST(FigurePanel, PastesImagesByteExactWhereTheLayoutSays) {
     FigurePanel panel;
     panel.title = "a title";
