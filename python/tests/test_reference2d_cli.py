@@ -307,9 +307,9 @@ def test_models_without_a_2d_kernel_say_so(probe_cli, tmp_path):
 
 # ---- uniform: the bivariate box spline (SPEC §9), against Monte Carlo ------------------------
 
-# `uniform` is the converged evaluation (expected_tf2_uniform_exact.h; within 1e−7 of the
-# exact value by refinement, docs/models.md); `uniform-fast` conditions on X (X's box spline
-# exact, G | X a regression plus a residual box spline taken as independent of X). Against
+# `uniform` is the converged evaluation (expected_tf2_uniform_exact.h; within 1e−6 of the
+# exact value, checked by refinement, docs/models.md); `uniform-fast` conditions on X (X's box
+# spline exact, G | X a regression plus a residual box spline taken as independent of X). Against
 # 4·10⁶-draw Monte Carlo on these 21 points: `uniform` max |Δ| 1.8e−4 (1e6 draws: 3.9e−4;
 # both the Monte Carlo noise, which halves with 4× the draws), `uniform-fast` 1.5e−2.
 # `uniform-fast` against `uniform` over 600 points of 40 such models: max 2.8e−2 (an edge

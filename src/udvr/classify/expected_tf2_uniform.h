@@ -2,7 +2,7 @@
 // E[TF2(X, G)] for the `uniform` model (SPEC §9): (X, G) = (cx, cy) + Σ_i t_i·(a_i, b_i) with
 // t_i ~ U[−1, 1] independent, (a_i, b_i) = h_i·(w_i, u_i) (h_i the voxel's half width, w_i its
 // trilinear weight, u_i = n̂·g_i): the paper's bivariate box spline with up to 32 directions.
-// `uniform` takes expectedTf2UniformExact (expected_tf2_uniform_exact.h: converged to 1e−7);
+// `uniform` takes expectedTf2UniformExact (expected_tf2_uniform_exact.h: within 1e−6);
 // `uniform-fast`, for rendering, conditions on X:
 // - X = Σ a_i t_i over the ≤ 8 corners (a_i ≠ 0) is a univariate box spline, taken exactly
 //   (its density from BoxSplineTail);
@@ -204,7 +204,7 @@ inline void expectedTf2UniformConditional(const Tf2Raster<double>& r, double cx,
 }  // namespace detail
 
 /// E[(α·c, α)(X, G)] for (X, G) = (cx, cy) + Σ_i t_i·d_i: `exact` (the `uniform` model) by
-/// expectedTf2UniformExact (error ≤ 1e−7), else (`uniform-fast`) by the conditioning above.
+/// expectedTf2UniformExact (error ≤ 1e−6), else (`uniform-fast`) by the conditioning above.
 inline void expectedTf2Uniform(const Tf2Raster<double>& r, double cx, double cy,
                                const BoxDirection2* d, int n, bool exact, double tinyWidth,
                                double pointWidth, double out[4]) {

@@ -22,8 +22,9 @@
 // - No binned corner and R = 0: (X, G) lies on a segment; its exact mean (tf2MeanAlongSegment).
 // Errors: the binning's O(Δx²) (each binning adds Δx²/6 to the variance of X), extrapolated
 // away from two grids (Richardson), and the series' tail (terms decay as the sincs of R and of
-// the corners times T̂'s 1/k²; stopped after 8 terms below 1e−11). Checked by refinement (2×
-// finer grids, the series to 1e−13) in the tests and docs/models.md: ≤ 1e−7 at the defaults.
+// the corners times T̂'s 1/k²; stopped after 8 terms below 1e−11). Bound: 1e−6 absolute; 2×
+// finer grids with the series to 1e−13 change the defaults' result by ≤ 2.6e−8 in the tests
+// and ≤ 1.1e−7 over 200 tangle points (docs/models.md).
 // Cost: two grids × the terms × (nodes + strips × row pieces); a few ms to 0.1 s a sample.
 #include <algorithm>
 #include <cmath>
@@ -40,7 +41,7 @@ struct BoxDirection2 {
     double a = 0.0, b = 0.0;
 };
 
-/// Accuracy controls of expectedTf2UniformExact (defaults: error ≤ 1e−7, docs/models.md).
+/// Accuracy controls of expectedTf2UniformExact (defaults: error ≤ 1e−6, docs/models.md).
 struct Tf2UniformExactOptions {
     int xCells = 256;  // nodes across the non-widest corners' support (Δx = 2A'/xCells; also 2×)
     double kTol = 1e-11;  // stop the series after kQuiet terms each below kTol (absolute)

@@ -165,9 +165,9 @@ TEST(Tf2UniformExact, IndependentCornerIsAProduct) {
 }
 
 // The defaults' result against a finer one (node grids 2× finer, the series run to 1e−13):
-// the stated bound, 1e−7, on random 7×5 rasters and 8 corners + 24 y-only directions, as in
-// the pytest's models; also 8 corners alone (the largest binning error), and one or two
-// corners with little or no y-only spread (the longest series).
+// within 1e−7 (a tenth of the stated bound, 1e−6), on random 7×5 rasters and 8 corners + 24 y-only
+// directions, as in the pytest's models; also 8 corners alone (the largest binning error), and one
+// or two corners with little or no y-only spread (the longest series).
 TEST(Tf2UniformExact, RefinementChangesLessThanTheBound) {
     std::mt19937_64 gen(5);
     std::uniform_real_distribution<double> u(0.0, 1.0);

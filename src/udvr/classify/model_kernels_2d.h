@@ -160,7 +160,7 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 /// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
 /// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
 /// is the paper's bivariate box spline. E[TF2] by expectedTf2Uniform, in double: `uniform`
-/// converged (expectedTf2UniformExact, ≤ 1e−7), `uniform-fast` by conditioning on X.
+/// converged (expectedTf2UniformExact, ≤ 1e−6), `uniform-fast` by conditioning on X.
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     bool exact;         // `uniform` (expectedTf2UniformExact), else `uniform-fast`
     double tinyWidth;   // data units: directions this narrow in X count for G only
