@@ -265,6 +265,10 @@ inline bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, doub
     for (const BoxDirection2& c : corners) A += std::abs(c.a);
     double BR = 0.0;
     for (const double b : yOnly) BR += std::abs(b);
+    if (!std::isfinite(cx + cy + A + B + (widest >= 0 ? d[widest].a : 0.0))) {  // NaN/inf data
+        tf2At<double>(r, cx, cy, true, out);  // (the raster lookup maps NaN to the origin)
+        return false;
+    }
     if (corners.empty() && !(BR > 0)) {  // a segment or a point: the exact segment mean
         const BoxDirection2 w = widest >= 0 ? d[widest] : BoxDirection2{};
         tf2MeanAlongSegment<double>(r, cx - w.a, cy - w.b, cx + w.a, cy + w.b, true, out);

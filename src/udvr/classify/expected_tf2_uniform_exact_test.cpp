@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -193,6 +194,22 @@ TEST(Tf2UniformExact, RefinementChangesLessThanTheBound) {
             }
         }
     std::printf("refinement: worst change %.2e\n", worst);
+}
+
+// Non-finite data (a NaN voxel) gives a finite lookup, as the other 2D kernels, not a crash.
+TEST(Tf2UniformExact, NonFiniteDataIsALookup) {
+    const Raster ras(3, 3, 0, 1, 0, 1, [](double x, double y, double v[4]) {
+        v[0] = v[1] = v[2] = 0.5, v[3] = 0.25 + 0.5 * x * y;
+    });
+    Case c;
+    c.cx = std::nan(""), c.cy = 0.5;
+    c.d = {{0.1, 0.2}, {0.2, -0.1}, {0.0, 0.1}};
+    double got[4];
+    exact(ras.r, c, got);
+    for (double v : got) EXPECT_TRUE(std::isfinite(v));
+    c.cx = 0.5, c.d[1].b = std::numeric_limits<double>::infinity();
+    exact(ras.r, c, got);
+    for (double v : got) EXPECT_TRUE(std::isfinite(v));
 }
 
 }  // namespace
