@@ -29,6 +29,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <utility>
 #include <vector>
 
 #include "udvr/classify/expected_tf2.h"
@@ -140,21 +141,25 @@ inline int binBox(double a, double m, double om, double dx, std::vector<Cplx>& P
 }
 
 /// The TF2's columns as functions of g over the window, in pieces on which every column's α
-/// and c are linear; per column strip s (x between columns s and s + 1; s = −1 and s = W − 1
-/// the clamped outsides) the coefficients of Q_{s,ch,p}(g) = Σ_d coef·σ^d (σ from the piece's
-/// start) with T = Σ_p f^p Q_p: α: Q0 = α_s, Q1 = Δα; α·c: Q0 = α_s c_s, Q1 = α_s Δc + Δα c_s,
-/// Q2 = Δα Δc.
+/// and c are linear (only the pieces with α ≠ 0 somewhere are kept); per column strip s (x between
+/// columns s and s + 1; s = −1 and s = W − 1 the clamped outsides) the coefficients of
+/// Q_{s,ch,p}(g) = Σ_d coef·σ^d (σ from the piece's start) with T = Σ_p f^p Q_p: α: Q0 = α_s, Q1 =
+/// Δα; α·c: Q0 = α_s c_s, Q1 = α_s Δc + Δα c_s, Q2 = Δα Δc.
 struct Tf2ColumnPieces {
     struct Piece {
         double off = 0, len = 0;  // [g0 + off, g0 + off + len)
+        double ya = 0, yb = 0;    // the columns are evaluated at these two ends
     };
+    static constexpr std::size_t kMaxStored = 1 << 15;  // coefficient sets kept (36 doubles each)
+    const Tf2Raster<double>& r;
     std::vector<Piece> pieces;
-    int sLo = 0, sHi = 0;      // strips sLo … sHi
-    std::vector<double> coef;  // [(strip − sLo)·pieces + piece][ch·3 + p][d]: 36 per entry
+    int sLo = 0, sHi = 0;                   // strips sLo … sHi
+    std::vector<std::pair<int, int>> live;  // (strip − sLo, piece) where α is not 0 throughout
+    std::vector<double> coef;               // [live entry][ch·3 + p][d], if ≤ kMaxStored entries
 
-    Tf2ColumnPieces(const Tf2Raster<double>& r, double g0, double support, double L, int sLoIn,
+    Tf2ColumnPieces(const Tf2Raster<double>& rIn, double g0, double support, double L, int sLoIn,
                     int sHiIn)
-        : sLo(sLoIn), sHi(sHiIn) {
+        : r(rIn), sLo(sLoIn), sHi(sHiIn) {
         const double dy = 1.0 / r.invDy;
         // Piece ends in g: the window's edges and the rows inside the support, then the margin.
         std::vector<double> ends{0.0};
@@ -165,24 +170,27 @@ struct Tf2ColumnPieces {
             if (o > 0) ends.push_back(o);
         }
         ends.push_back(support);
-        std::vector<double> ya, yb;  // column evaluation heights at each piece's two ends
-        for (std::size_t q = 0; q + 1 < ends.size(); ++q) {
-            if (!(ends[q + 1] > ends[q])) continue;
-            pieces.push_back({ends[q], ends[q + 1] - ends[q]});
-            ya.push_back(g0 + ends[q]);
-            yb.push_back(g0 + ends[q + 1]);
-        }
-        if (pieces.empty()) {  // G a point: T̃ constant at cy (L = len = 1, only k = 0)
-            pieces.push_back({0.0, L});
-            ya.push_back(g0 + 0.5 * L);
-            yb.push_back(g0 + 0.5 * L);
-        } else if (L > support) {  // margin: α, c linear from the support's top back to its bottom
-            pieces.push_back({support, L - support});
-            ya.push_back(g0 + support);
-            yb.push_back(g0);
-        }
+        for (std::size_t q = 0; q + 1 < ends.size(); ++q)
+            if (ends[q + 1] > ends[q])
+                pieces.push_back({ends[q], ends[q + 1] - ends[q], g0 + ends[q], g0 + ends[q + 1]});
+        if (pieces.empty())  // G a point: T̃ constant at cy (L = len = 1, only k = 0)
+            pieces.push_back({0.0, L, g0 + 0.5 * L, g0 + 0.5 * L});
+        else if (L > support)  // margin: α, c linear from the support's top back to its bottom
+            pieces.push_back({support, L - support, g0 + support, g0});
         const int np = static_cast<int>(pieces.size());
-        coef.assign(static_cast<std::size_t>(sHi - sLo + 1) * np * 36, 0.0);
+        double e[36];
+        for (int s = 0; s <= sHi - sLo; ++s)
+            for (int q = 0; q < np; ++q)
+                if (fill(s, q, e)) live.emplace_back(s, q);
+        if (live.size() <= kMaxStored) {
+            coef.resize(36 * live.size());
+            for (std::size_t i = 0; i < live.size(); ++i)
+                fill(live[i].first, live[i].second, &coef[36 * i]);
+        }
+    }
+
+    /// The coefficients of strip sLo + s on piece q; false where α = 0 throughout (all 0).
+    bool fill(int s, int q, double e[36]) const {
         const auto column = [&](int i, double y, double v[4]) {  // (c, α) of column i at y
             double fy = std::clamp((y - r.y0) * r.invDy, 0.0, static_cast<double>(r.height - 1));
             const int j = std::min(static_cast<int>(fy), r.height - 2);
@@ -191,35 +199,35 @@ struct Tf2ColumnPieces {
             const float* p1 = p0 + 4 * r.width;
             for (int ch = 0; ch < 4; ++ch) v[ch] = p0[ch] + fy * (p1[ch] - p0[ch]);
         };
-        for (int s = sLo; s <= sHi; ++s) {
-            const int i0 = std::clamp(s, 0, r.width - 1), i1 = std::clamp(s + 1, 0, r.width - 1);
-            const bool flat = s < 0 || s >= r.width - 1;  // clamped: constant in x
-            for (int q = 0; q < np; ++q) {
-                double a0[4], a1[4], b0[4], b1[4];  // columns i0, i1 at the piece's ends
-                column(i0, ya[q], a0);
-                column(i0, yb[q], a1);
-                column(flat ? i0 : i1, ya[q], b0);
-                column(flat ? i0 : i1, yb[q], b1);
-                const double inv = 1.0 / pieces[q].len;
-                // Column i0: α = A + A'σ, c = C + C'σ; Δ(·) = column i1 − column i0.
-                const double A = a0[3], As = (a1[3] - a0[3]) * inv;
-                const double dA = b0[3] - a0[3], dAs = (b1[3] - a1[3] - (b0[3] - a0[3])) * inv;
-                double* e = &coef[(static_cast<std::size_t>(s - sLo) * np + q) * 36];
-                for (int ch = 0; ch < 3; ++ch) {
-                    const double C = a0[ch], Cs = (a1[ch] - a0[ch]) * inv;
-                    const double dC = b0[ch] - a0[ch],
-                                 dCs = (b1[ch] - a1[ch] - (b0[ch] - a0[ch])) * inv;
-                    double* c = e + ch * 9;
-                    c[0] = A * C, c[1] = A * Cs + As * C, c[2] = As * Cs;
-                    c[3] = A * dC + dA * C;
-                    c[4] = A * dCs + As * dC + dA * Cs + dAs * C;
-                    c[5] = As * dCs + dAs * Cs;
-                    c[6] = dA * dC, c[7] = dA * dCs + dAs * dC, c[8] = dAs * dCs;
-                }
-                double* c = e + 27;
-                c[0] = A, c[1] = As, c[3] = dA, c[4] = dAs;
-            }
+        const int strip = sLo + s;
+        const int i0 = std::clamp(strip, 0, r.width - 1),
+                  i1 = std::clamp(strip + 1, 0, r.width - 1);
+        const bool flat = strip < 0 || strip >= r.width - 1;  // clamped: constant in x
+        const Piece& pc = pieces[q];
+        double a0[4], a1[4], b0[4], b1[4];  // columns i0, i1 at the piece's ends
+        column(i0, pc.ya, a0);
+        column(i0, pc.yb, a1);
+        column(flat ? i0 : i1, pc.ya, b0);
+        column(flat ? i0 : i1, pc.yb, b1);
+        for (int f = 0; f < 36; ++f) e[f] = 0.0;
+        if (a0[3] == 0 && a1[3] == 0 && b0[3] == 0 && b1[3] == 0) return false;
+        const double inv = 1.0 / pc.len;
+        // Column i0: α = A + A'σ, c = C + C'σ; Δ(·) = column i1 − column i0.
+        const double A = a0[3], As = (a1[3] - a0[3]) * inv;
+        const double dA = b0[3] - a0[3], dAs = (b1[3] - a1[3] - (b0[3] - a0[3])) * inv;
+        for (int ch = 0; ch < 3; ++ch) {
+            const double C = a0[ch], Cs = (a1[ch] - a0[ch]) * inv;
+            const double dC = b0[ch] - a0[ch], dCs = (b1[ch] - a1[ch] - (b0[ch] - a0[ch])) * inv;
+            double* c = e + ch * 9;
+            c[0] = A * C, c[1] = A * Cs + As * C, c[2] = As * Cs;
+            c[3] = A * dC + dA * C;
+            c[4] = A * dCs + As * dC + dA * Cs + dAs * C;
+            c[5] = As * dCs + dAs * Cs;
+            c[6] = dA * dC, c[7] = dA * dCs + dAs * dC, c[8] = dAs * dCs;
         }
+        double* c = e + 27;
+        c[0] = A, c[1] = As, c[3] = dA, c[4] = dAs;
+        return true;
     }
 
     /// Q̂[(s − sLo)·12 + ch·3 + p] = ∫ Q_{s,ch,p}(g) e^{−iω(g − g0)} dg over the window.
@@ -229,18 +237,17 @@ struct Tf2ColumnPieces {
         for (int q = 0; q < np; ++q)
             powerPhaseIntegrals(0.0, pieces[q].len, -omega * pieces[q].off, -omega, &J[3 * q]);
         Q.assign(static_cast<std::size_t>(sHi - sLo + 1) * 12, 0.0);
-        for (int s = 0; s <= sHi - sLo; ++s)
-            for (int q = 0; q < np; ++q) {
-                const double* e = &coef[(static_cast<std::size_t>(s) * np + q) * 36];
-                for (int f = 0; f < 12; ++f)
-                    Q[s * 12 + f] += e[3 * f] * J[3 * q] + e[3 * f + 1] * J[3 * q + 1] +
-                                     e[3 * f + 2] * J[3 * q + 2];
-            }
+        double tmp[36];
+        for (std::size_t i = 0; i < live.size(); ++i) {
+            const auto [s, q] = live[i];
+            const double* e = coef.empty() ? (fill(s, q, tmp), tmp) : &coef[36 * i];
+            const Cplx* j = &J[3 * q];
+            for (int f = 0; f < 12; ++f)
+                Q[s * 12 + f] += e[3 * f] * j[0] + e[3 * f + 1] * j[1] + e[3 * f + 2] * j[2];
+        }
     }
 };
-}  // namespace detail
 
-namespace detail {
 /// expectedTf2UniformExact on one node grid (xCells across the binned corners); returns whether
 /// there were binned corners (else the result does not depend on xCells).
 inline bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, double cy,
