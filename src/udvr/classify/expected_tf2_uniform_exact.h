@@ -22,9 +22,9 @@
 // - No binned corner and R = 0: (X, G) lies on a segment; its exact mean (tf2MeanAlongSegment).
 // Errors: the binning's O(Δx²) (each binning adds Δx²/6 to the variance of X), extrapolated
 // away from two grids (Richardson), and the series' tail (terms decay as the sincs of R and of
-// the corners times T̂'s 1/k²; stopped after 8 terms below 1e−11). Bound: 1e−6 absolute; 2×
-// finer grids with the series to 1e−13 change the defaults' result by ≤ 2.6e−8 in the tests
-// and ≤ 1.1e−7 over 200 tangle points (docs/models.md).
+// the corners times T̂'s 1/k²; stopped after 8 terms below 1e−11). Bound: 1e−6 absolute; finer
+// grids (2× in the tests, 4× on 200 tangle points) with the series to 1e−13 change the
+// defaults' result by ≤ 2.3e−8 and ≤ 5.2e−8 (docs/models.md).
 // Cost: two grids × the terms × (nodes + strips × row pieces); a few ms to 0.1 s a sample.
 #include <algorithm>
 #include <cmath>
@@ -44,7 +44,7 @@ struct BoxDirection2 {
 
 /// Accuracy controls of expectedTf2UniformExact (defaults: error ≤ 1e−6, docs/models.md).
 struct Tf2UniformExactOptions {
-    int xCells = 256;  // nodes across the non-widest corners' support (Δx = 2A'/xCells; also 2×)
+    int xCells = 384;  // nodes across the non-widest corners' support (Δx = 2A'/xCells; also 2×)
     double kTol = 1e-11;  // stop the series after kQuiet terms each below kTol (absolute)
     int kQuiet = 8;
     int kMax = 1 << 15;       // hard cap on the series

@@ -51,7 +51,7 @@ Case randomCase(std::mt19937_64& g, int corners, int yOnly, double aMax, double 
     return c;
 }
 
-void exact(const Tf2Raster<double>& r, const Case& c, double out[4], int xCells = 256,
+void exact(const Tf2Raster<double>& r, const Case& c, double out[4], int xCells = 384,
            double kTol = 1e-11) {
     Tf2UniformExactOptions o;
     o.xCells = xCells;
@@ -187,7 +187,7 @@ TEST(Tf2UniformExact, RefinementChangesLessThanTheBound) {
             c.cy += 0.5;
             double a[4], b[4];
             exact(ras.r, c, a);
-            exact(ras.r, c, b, 512, 1e-13);
+            exact(ras.r, c, b, 768, 1e-13);
             for (int ch = 0; ch < 4; ++ch) {
                 worst = std::max(worst, std::abs(a[ch] - b[ch]));
                 EXPECT_NEAR(a[ch], b[ch], 1e-7) << sh[0] << " corners, " << sh[1] << " y-only";
