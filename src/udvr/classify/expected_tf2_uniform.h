@@ -2,18 +2,16 @@
 // E[TF2(X, G)] for the `uniform` model (SPEC §9): (X, G) = (cx, cy) + Σ_i t_i·(a_i, b_i) with
 // t_i ~ U[−1, 1] independent, (a_i, b_i) = h_i·(w_i, u_i) (h_i the voxel's half width, w_i its
 // trilinear weight, u_i = n̂·g_i): the paper's bivariate box spline with up to 32 directions.
-// Its exact evaluation is exponential in the directions (paper §6), so it is computed by
-// conditioning on X:
+// `uniform` takes expectedTf2UniformExact (expected_tf2_uniform_exact.h: within 1e−6);
+// `uniform-fast`, for rendering, conditions on X:
 // - X = Σ a_i t_i over the ≤ 8 corners (a_i ≠ 0) is a univariate box spline, taken exactly
 //   (its density from BoxSplineTail);
 // - G | X = x is taken as cy + β(x − cx) + R with β = cov(X, G)/var X and R = Σ_i r_i t_i,
 //   r_i = b_i − β a_i, independent of X: R is uncorrelated with X, and independent of it where
 //   the directions with a_i ≠ 0 are parallel (a sample on a grid point: one corner) or carry
 //   none of G. R is a univariate box spline, taken in `uniform-fast`'s form (BoxSplineFast: its
-//   two widest boxes exact, the rest a Gaussian with Edgeworth terms);
-// - `exactTerms` = 1 first takes the direction of the widest a_i out and integrates over its
-//   t exactly (Gauss–Legendre), conditioning only the rest: the normal step then carries the
-//   dependence between the remaining corners, which is ~10× smaller (docs/models.md).
+//   two widest boxes exact, the rest a Gaussian with Edgeworth terms). Its error against the
+//   exact evaluation: docs/models.md.
 // The outer integral over x is detail::tf2ConditionalOuter, the Gaussian's.
 #include <algorithm>
 #include <cmath>
@@ -21,16 +19,11 @@
 
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2_gaussian.h"
+#include "udvr/classify/expected_tf2_uniform_exact.h"
 #include "udvr/reconstruct/box_spline.h"
 #include "udvr/util/check.h"
 
 namespace udvr {
-
-/// One direction of the bivariate box spline: t·(a, b), t ~ U[−1, 1]; data units (a: value,
-/// b: gradient magnitude).
-struct BoxDirection2 {
-    double a = 0.0, b = 0.0;
-};
 
 namespace detail {
 /// R = Σ_i r_i t_i (t_i ~ U[−1, 1]) in BoxSplineFast form, zero mean: boxes of widths 2|r_i| from
@@ -141,7 +134,7 @@ inline void tf2BoxSplineAlongY(const Tf2Raster<double>& r, double a, double m,
     }
 }
 
-/// The conditional evaluation with every direction inside the normal step (exactTerms = 0).
+/// The conditional evaluation (`uniform-fast`).
 /// Directions with |a| ≤ tinyWidth count for G only; residuals narrower than pointWidth are
 /// point masses.
 inline void expectedTf2UniformConditional(const Tf2Raster<double>& r, double cx, double cy,
@@ -210,67 +203,16 @@ inline void expectedTf2UniformConditional(const Tf2Raster<double>& r, double cx,
 }
 }  // namespace detail
 
-/// E[(α·c, α)(X, G)] for (X, G) = (cx, cy) + Σ_i t_i·d_i (header comment); exactTerms 0 or 1.
+/// E[(α·c, α)(X, G)] for (X, G) = (cx, cy) + Σ_i t_i·d_i: `exact` (the `uniform` model) by
+/// expectedTf2UniformExact (error ≤ 1e−6), else (`uniform-fast`) by the conditioning above.
 inline void expectedTf2Uniform(const Tf2Raster<double>& r, double cx, double cy,
-                               const BoxDirection2* d, int n, int exactTerms, double tinyWidth,
+                               const BoxDirection2* d, int n, bool exact, double tinyWidth,
                                double pointWidth, double out[4]) {
-    int widest = -1;
-    for (int i = 0; i < n; ++i)
-        if (std::abs(d[i].a) > tinyWidth &&
-            (widest < 0 || std::abs(d[i].a) > std::abs(d[widest].a)))
-            widest = i;
-    if (exactTerms == 0 || widest < 0) {
+    if (exact) {
+        Tf2UniformExactOptions opt;
+        expectedTf2UniformExact(r, cx, cy, d, n, tinyWidth, opt, out);
+    } else {
         detail::expectedTf2UniformConditional(r, cx, cy, d, n, tinyWidth, pointWidth, out);
-        return;
-    }
-    BoxDirection2 rest[32];
-    int m = 0;
-    double rxx = 0.0, ryy = 0.0;  // the rest's variances (×3)
-    for (int i = 0; i < n; ++i) {
-        if (i == widest) continue;
-        rest[m++] = d[i];
-        rxx += d[i].a * d[i].a;
-        ryy += d[i].b * d[i].b;
-    }
-    const BoxDirection2 w = d[widest];
-    // t ∈ [−1, 1]: 8 base pieces, plus, where the rest's spread along an axis is short against
-    // w's (the integrand's kinks there smooth out over only that scale), where the centre crosses
-    // a raster line of that axis, graded by that scale.
-    std::vector<double> cuts;
-    for (int k = 0; k <= 8; ++k) cuts.push_back(-1.0 + 0.25 * k);
-    const auto crossings = [&](double c, double slope, double origin, double step, int count,
-                               double spread) {
-        const double width = spread / std::abs(slope);  // t-scale
-        if (!(width < 0.25)) return;  // kinks smoothed out over more than a base piece
-        const double lo = std::min(c - slope, c + slope), hi = std::max(c - slope, c + slope);
-        for (int k = std::max(0, static_cast<int>(std::floor((lo - origin) / step)));
-             k <= std::min(count - 1, static_cast<int>(std::ceil((hi - origin) / step))); ++k) {
-            const double at = (origin + k * step - c) / slope;
-            cuts.push_back(at);
-            for (double g : {0.25, 1.0, 4.0})
-                for (double sign : {-1.0, 1.0}) cuts.push_back(at + sign * g * width);
-        }
-    };
-    crossings(cx, w.a, r.x0, 1.0 / r.invDx, r.width, std::sqrt(rxx / 3));
-    crossings(cy, w.b, r.y0, 1.0 / r.invDy, r.height, std::sqrt(ryy / 3));
-    for (double& c : cuts) c = std::clamp(c, -1.0, 1.0);
-    std::sort(cuts.begin(), cuts.end());
-    static constexpr double kX[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
-                                     0.9602898564975363};
-    static constexpr double kW[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
-                                     0.1012285362903763};
-    for (int ch = 0; ch < 4; ++ch) out[ch] = 0.0;
-    for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
-        const double c = 0.5 * (cuts[k] + cuts[k + 1]), h = 0.5 * (cuts[k + 1] - cuts[k]);
-        if (!(h > 0)) continue;
-        for (int nd = 0; nd < 8; ++nd) {
-            const double t = c + (nd < 4 ? -kX[nd % 4] : kX[nd % 4]) * h;
-            double v[4];
-            detail::expectedTf2UniformConditional(r, cx + t * w.a, cy + t * w.b, rest, m, tinyWidth,
-                                                  pointWidth, v);
-            const double wt = 0.5 * h * kW[nd % 4];  // the density of t is 1/2
-            for (int ch = 0; ch < 4; ++ch) out[ch] += wt * v[ch];
-        }
     }
 }
 

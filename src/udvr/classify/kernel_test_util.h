@@ -32,15 +32,15 @@ inline void randomPoints(CounterRng& rng, const std::array<int, 3>& dims, lanes:
         }
 }
 
-// The worst |lane − double| and |float − double| over the live lanes of 100 batches of kernel k
-// (lanes of cells from cellAt<Vf> at random points, random live masks); lanes that were not
-// live must be 0.
+// The worst |lane − double| and |float − double| over the live lanes of `trials` batches of kernel
+// k (lanes of cells from cellAt<Vf> at random points, random live masks); lanes that were not live
+// must be 0.
 template <class K>
 inline double worstLaneError(const K& k, CounterRng& rng, const std::array<int, 3>& dims,
-                             const std::string& what) {
+                             const std::string& what, int trials = 100) {
     using lanes::Vf;
     double worst = 0.0;
-    for (int trial = 0; trial < 100; ++trial) {
+    for (int trial = 0; trial < trials; ++trial) {
         Vf p[3];
         randomPoints(rng, dims, p);
         const lanes::Mask live = trial == 0 ? lanes::allTrue<Vf>()

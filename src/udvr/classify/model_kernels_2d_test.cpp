@@ -666,8 +666,11 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
                 if (quartile && q % 4 != 0) continue;
                 const std::string what = std::string(modelName(kind)) + " q=" + std::to_string(q) +
                                          " dims.x=" + std::to_string(dims[0]);
+                // `uniform`'s lanes take its double body (exactWhere; ~10 ms a sample here):
+                // fewer trials.
+                const int trials = kind == ModelKind::Uniform ? 20 : 100;
                 with2D(m, kind, t, [&](const auto& k) {
-                    EXPECT_LE(testing::worstLaneError(k, rng, dims, what), 5e-5) << what;
+                    EXPECT_LE(testing::worstLaneError(k, rng, dims, what, trials), 5e-5) << what;
                 });
             }
         }

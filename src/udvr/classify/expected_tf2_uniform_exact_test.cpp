@@ -1,0 +1,216 @@
+// expectedTf2UniformExact (the `uniform` model's 2D TF classification) against closed forms
+// and against its own refinement. Its Monte Carlo check is python/tests/test_reference2d_cli.py.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "udvr/classify/expected_tf2_uniform.h"
+
+namespace udvr {
+namespace {
+
+// A W×H raster over [x0, x1] × [y0, y1] sampling f(x, y) → (c_r, c_g, c_b, α).
+struct Raster {
+    std::vector<float> rgba;
+    Tf2Raster<double> r;
+    Raster(int W, int H, double x0, double x1, double y0, double y1,
+           const std::function<void(double, double, double[4])>& f) {
+        r.width = W, r.height = H, r.x0 = x0, r.y0 = y0;
+        r.invDx = (W - 1) / (x1 - x0), r.invDy = (H - 1) / (y1 - y0);
+        for (int j = 0; j < H; ++j)
+            for (int i = 0; i < W; ++i) {
+                double v[4];
+                f(x0 + i / r.invDx, y0 + j / r.invDy, v);
+                for (double c : v) rgba.push_back(static_cast<float>(c));
+            }
+        r.rgba = rgba.data();
+    }
+};
+
+struct Case {
+    double cx = 0, cy = 0;
+    std::vector<BoxDirection2> d;
+};
+
+// `corners` directions with a ∈ (0.02, aMax] (random sign) and b ∈ [−bMax, bMax], `yOnly` with
+// a = 0, b ∈ [−yMax, yMax].
+Case randomCase(std::mt19937_64& g, int corners, int yOnly, double aMax, double bMax, double yMax) {
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    Case c;
+    c.cx = u(g) - 0.5, c.cy = u(g) - 0.5;
+    for (int i = 0; i < corners; ++i)
+        c.d.push_back(
+            {(u(g) < 0.5 ? -1 : 1) * (0.02 + (aMax - 0.02) * u(g)), bMax * (2 * u(g) - 1)});
+    for (int i = 0; i < yOnly; ++i) c.d.push_back({0.0, yMax * (2 * u(g) - 1)});
+    std::shuffle(c.d.begin(), c.d.end(), g);
+    return c;
+}
+
+void exact(const Tf2Raster<double>& r, const Case& c, double out[4], int xCells = 384,
+           double kTol = 1e-11) {
+    Tf2UniformExactOptions o;
+    o.xCells = xCells;
+    o.kTol = kTol;
+    expectedTf2UniformExact(r, c.cx, c.cy, c.d.data(), static_cast<int>(c.d.size()), 1e-12, o, out);
+}
+
+// α and c linear in (x, y) inside the domain, so α·c is quadratic:
+// E[α·c] = α(μ)c(μ) + q_α q_c var X + (q_α s_c + s_α q_c) cov(X, G) + s_α s_c var G, with
+// α = p + q x + s y, var X = Σa²/3, cov = Σab/3, var G = Σb²/3. Every direction's a, b and sign
+// enters; the support stays inside the domain.
+TEST(Tf2UniformExact, QuadraticTfIsClosedForm) {
+    // Dyadic, so that the float raster holds the linear functions exactly.
+    const double P[4] = {0.25, 0.625, 0.1875, 0.5}, Q[4] = {0.0625, -0.125, 0.03125, 0.09375},
+                 S[4] = {-0.0625, 0.015625, 0.09375, 0.078125};
+    const Raster ras(9, 9, -3, 3, -4, 4, [&](double x, double y, double v[4]) {
+        for (int ch = 0; ch < 4; ++ch) v[ch] = P[ch] + Q[ch] * x + S[ch] * y;
+    });
+    std::mt19937_64 g(7);
+    const int shapes[][2] = {{8, 24}, {8, 0}, {4, 6}, {1, 0}, {1, 24}, {0, 5}, {2, 1}};
+    double worst = 0.0;
+    for (const auto& sh : shapes)
+        for (int rep = 0; rep < 4; ++rep) {
+            const Case c = randomCase(g, sh[0], sh[1], 0.3, 0.2, 0.05);
+            double vx = 0, cov = 0, vg = 0;
+            for (const BoxDirection2& d : c.d)
+                vx += d.a * d.a / 3, cov += d.a * d.b / 3, vg += d.b * d.b / 3;
+            double got[4];
+            exact(ras.r, c, got);
+            const double am = P[3] + Q[3] * c.cx + S[3] * c.cy;
+            EXPECT_NEAR(got[3], am, 1e-9);
+            for (int ch = 0; ch < 3; ++ch) {
+                const double cm = P[ch] + Q[ch] * c.cx + S[ch] * c.cy;
+                const double want = am * cm + Q[3] * Q[ch] * vx +
+                                    (Q[3] * S[ch] + S[3] * Q[ch]) * cov + S[3] * S[ch] * vg;
+                worst = std::max(worst, std::abs(got[ch] - want));
+                EXPECT_NEAR(got[ch], want, 1e-8) << sh[0] << " corners, " << sh[1] << " y-only";
+            }
+        }
+    std::printf("quadratic TF2: worst |ΔE[α·c]| %.2e\n", worst);
+}
+
+// E[f(V)] for V = c + Σ_{k<n} t_k h_k (n ≤ 2 boxes, t ~ U[−1, 1]) and f piecewise linear with
+// knots `knots`: the density is piecewise linear, so Simpson between all knots is exact.
+double boxExpectation(double c, std::vector<double> h, const std::function<double(double)>& f,
+                      std::vector<double> knots) {
+    for (double& v : h) v = std::abs(v);
+    const auto density = [&](double v) {
+        v -= c;
+        if (h.size() == 1) return std::abs(v) <= h[0] ? 0.5 / h[0] : 0.0;
+        // Two boxes: the overlap of [v − h1, v + h1] with [−h0, h0], over 4 h0 h1.
+        const double lo = std::max(v - h[1], -h[0]), hi = std::min(v + h[1], h[0]);
+        return std::max(hi - lo, 0.0) / (4 * h[0] * h[1]);
+    };
+    double tot = 0;
+    for (double v : h) tot += v;
+    knots.push_back(c - tot), knots.push_back(c + tot);
+    if (h.size() == 2)
+        for (double s : {-1.0, 1.0})
+            for (double t : {-1.0, 1.0}) knots.push_back(c + s * h[0] + t * h[1]);
+    std::sort(knots.begin(), knots.end());
+    double e = 0;
+    for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
+        const double a = std::max(knots[k], c - tot), b = std::min(knots[k + 1], c + tot);
+        if (!(b > a)) continue;
+        const auto g = [&](double v) { return density(v) * f(v); };
+        const double m = 0.5 * (a + b), e1 = 1e-13 * (b - a);
+        // One-sided limits at the ends (the density jumps at a box's ends).
+        e += (b - a) / 6 * (g(a + e1) + 4 * g(m) + g(b - e1));
+    }
+    return e;
+}
+
+// One corner with b = 0 and two y-only directions: X and G independent, and a separable TF2
+// α = f(x)·g(y) (f, g piecewise linear, clamped; c constant) gives E[α] = E[f(X)]·E[g(G)].
+TEST(Tf2UniformExact, IndependentCornerIsAProduct) {
+    std::mt19937_64 gen(11);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int rep = 0; rep < 10; ++rep) {
+        const int W = 6, H = 5;
+        std::vector<double> fx(W), gy(H);
+        for (double& v : fx) v = std::floor(16 * u(gen)) / 16;  // f·g exact in float
+        for (double& v : gy) v = std::floor(16 * u(gen)) / 16;
+        const double x0 = -1, x1 = 1, y0 = -0.8, y1 = 0.9, col[3] = {0.2, 0.5, 0.9};
+        const auto lerp = [](const std::vector<double>& t, double lo, double hi, double v) {
+            const double last = static_cast<double>(t.size() - 1);
+            double s = std::clamp((v - lo) / (hi - lo) * last, 0.0, last);
+            const int i = std::min(static_cast<int>(s), static_cast<int>(t.size()) - 2);
+            s -= i;
+            return t[i] + s * (t[i + 1] - t[i]);
+        };
+        const Raster ras(W, H, x0, x1, y0, y1, [&](double x, double y, double v[4]) {
+            for (int ch = 0; ch < 3; ++ch) v[ch] = col[ch];
+            v[3] = lerp(fx, x0, x1, x) * lerp(gy, y0, y1, y);
+        });
+        Case c;
+        c.cx = 1.6 * u(gen) - 0.8, c.cy = 1.2 * u(gen) - 0.6;
+        const double a = 0.1 + 0.6 * u(gen);
+        c.d = {{0.0, 0.1 + 0.4 * u(gen)}, {a, 0.0}, {0.0, -0.05 - 0.3 * u(gen)}};
+        std::vector<double> kx, ky;
+        for (int i = 0; i < W; ++i) kx.push_back(x0 + i * (x1 - x0) / (W - 1));
+        for (int j = 0; j < H; ++j) ky.push_back(y0 + j * (y1 - y0) / (H - 1));
+        const double ex = boxExpectation(
+            c.cx, {a}, [&](double v) { return lerp(fx, x0, x1, v); }, kx);
+        const double eg = boxExpectation(
+            c.cy, {c.d[0].b, c.d[2].b}, [&](double v) { return lerp(gy, y0, y1, v); }, ky);
+        double got[4];
+        exact(ras.r, c, got);
+        EXPECT_NEAR(got[3], ex * eg, 1e-9);
+        for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(got[ch], col[ch] * got[3], 1e-7);
+    }
+}
+
+// The defaults' result against a finer one (node grids 2× finer, the series run to 1e−13):
+// within 1e−7 (a tenth of the stated bound, 1e−6), on random 7×5 rasters and 8 corners + 24 y-only
+// directions, as in the pytest's models; also 8 corners alone (the largest binning error), and one
+// or two corners with little or no y-only spread (the longest series).
+TEST(Tf2UniformExact, RefinementChangesLessThanTheBound) {
+    std::mt19937_64 gen(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    double worst = 0.0;
+    const int shapes[][2] = {{8, 24}, {8, 0}, {4, 8}, {1, 0}, {1, 2}, {2, 0}};
+    for (const auto& sh : shapes)
+        for (int rep = 0; rep < 3; ++rep) {
+            std::vector<double> v(7 * 5 * 4);
+            for (double& x : v) x = u(gen);
+            const Raster ras(7, 5, -1, 1, -0.5, 1.0, [&](double x, double y, double out[4]) {
+                const int i = static_cast<int>(std::lround((x + 1) * 3)),
+                          j = static_cast<int>(std::lround((y + 0.5) * 4 / 1.5));
+                for (int ch = 0; ch < 4; ++ch) out[ch] = v[(j * 7 + i) * 4 + ch];
+            });
+            Case c = randomCase(gen, sh[0], sh[1], 0.15, 0.3, 0.08);
+            c.cy += 0.5;
+            double a[4], b[4];
+            exact(ras.r, c, a);
+            exact(ras.r, c, b, 768, 1e-13);
+            for (int ch = 0; ch < 4; ++ch) {
+                worst = std::max(worst, std::abs(a[ch] - b[ch]));
+                EXPECT_NEAR(a[ch], b[ch], 1e-7) << sh[0] << " corners, " << sh[1] << " y-only";
+            }
+        }
+    std::printf("refinement: worst change %.2e\n", worst);
+}
+
+// Non-finite data (a NaN voxel) gives a finite lookup, as the other 2D kernels, not a crash.
+TEST(Tf2UniformExact, NonFiniteDataIsALookup) {
+    const Raster ras(3, 3, 0, 1, 0, 1, [](double x, double y, double v[4]) {
+        v[0] = v[1] = v[2] = 0.5, v[3] = 0.25 + 0.5 * x * y;
+    });
+    Case c;
+    c.cx = std::nan(""), c.cy = 0.5;
+    c.d = {{0.1, 0.2}, {0.2, -0.1}, {0.0, 0.1}};
+    double got[4];
+    exact(ras.r, c, got);
+    for (double v : got) EXPECT_TRUE(std::isfinite(v));
+    c.cx = 0.5, c.d[1].b = std::numeric_limits<double>::infinity();
+    exact(ras.r, c, got);
+    for (double v : got) EXPECT_TRUE(std::isfinite(v));
+}
+
+}  // namespace
+}  // namespace udvr
