@@ -24,7 +24,9 @@
 // away from two grids (Richardson), and the series' tail (terms decay as the sincs of R and of
 // the corners times T̂'s 1/k²; stopped after 8 terms below 1e−11). Bound: 1e−6 absolute; finer
 // grids (2× in the tests, 4× on 200 tangle points) with the series to 1e−13 change the
-// defaults' result by ≤ 2.3e−8 and ≤ 5.2e−8 (docs/models.md).
+// defaults' result by ≤ 2.3e−8 and ≤ 5.2e−8 (docs/models.md). Not covered yet: a binned box
+// narrower than Δx (a corner of weight ~1e−3 beside a voxel face) errs at first order in Δx,
+// which Richardson does not remove (~1e−5 in a constructed case; docs/models.md).
 // Cost: two grids × the terms × (nodes + strips × row pieces); a few ms to 0.1 s a sample.
 #include <algorithm>
 #include <cmath>
