@@ -211,6 +211,12 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
         fast.cellRun = cellRuns.data();
     else
         cellRuns.clear();
+    if (static_cast<std::size_t>(tf.width) * tf.height <= kMaxTf2RowPrefixPoints) {
+        rowSameUpTo = tf.identicalRowsUpTo();
+        rowPrefix = tf.rowPrefixIntegrals();
+        fast.rowSameUpTo = rowSameUpTo.data();
+        fast.rowPrefix = rowPrefix.data();
+    }
     const int cw = tf.width - 1, rows = tf.height - 1;
     rowCells.assign(2 * static_cast<std::size_t>(rows), 0);
     for (int j = 0; j < rows; ++j) {
