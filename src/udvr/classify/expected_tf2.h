@@ -595,8 +595,9 @@ UDVR_CPU_GPU UDVR_INLINE void rowConstantMean(const Tf2RowEnd<T>& a, const Tf2Ro
     const T wa =
         lanes::select(one, lanes::abs(b.f - a.f),
                       lanes::select(aLeft, lanes::select(spans, zero - a.f, unit - a.f), a.f));
-    const T gb1 = lanes::select(!aLeft & !spans, b.f, zero);
-    const T gb2 = lanes::select(!aLeft & !spans, unit, b.f);
+    const auto bNear = !(aLeft | spans);  // b the left end of adjacent cells
+    const T gb1 = lanes::select(bNear, b.f, zero);
+    const T gb2 = lanes::select(bNear, unit, b.f);
     const T wb = lanes::select(
         one, zero, lanes::select(!aLeft, lanes::select(spans, zero - b.f, unit - b.f), b.f));
     T ma[4], mb[4];
