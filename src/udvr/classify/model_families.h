@@ -52,7 +52,8 @@ struct Tf2Rasters {
     std::vector<float> cellEmptyDistance;
     std::vector<float> cellRuns;
     /// The float view's closed form for segments that see one row's function
-    /// (Tf2Raster::rowSameUpTo, rowPrefix; empty above kMaxTf2RowPrefixPoints).
+    /// (Tf2Raster::rowSameUpTo, rowPrefix): where at least half of the bands with α > 0 have
+    /// identical rows, up to kMaxTf2RowPrefixPoints; else empty.
     std::vector<float> rowSameUpTo, rowPrefix;
     /// Per row of cells j: the first and last cell with α > 0 at a corner (first > last: none);
     /// and the first and last such row.

@@ -470,6 +470,9 @@ TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
             }
         }
     }
+    // Rows that differ (most bands with α > 0 not identical): no tables, every segment walks.
+    const TransferFunction2D noisy = randomTf2(rng, 40, 30, -2.0, 3.0, 0.0, 4.0);
+    EXPECT_EQ(Tf2Setup(noisy, unit, gradients).fast.rowPrefix, nullptr);
     const int total = 60 * lanes::kWidth;
     EXPECT_GE(served, total * 10 / 12);  // kinds 0…7, 10, 11 take the closed form …
     EXPECT_GT(walked, total / 24);       // … and of 8, 9 those crossing a change of rows walk
