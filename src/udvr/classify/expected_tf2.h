@@ -29,6 +29,13 @@ struct Tf2Raster {
     /// (TransferFunction2D::linearCellRuns). Segment means then take one piece per run, not
     /// per cell; without it every cell is its own run.
     const float* cellRun = nullptr;
+    /// Optional, both or neither: per row j, the last row j' ≥ j identical to it
+    /// (TransferFunction2D::identicalRowsUpTo); per point, 8 floats: row j's prefix integrals of
+    /// (α·r, α·g, α·b, α) over x, hi then lo (TransferFunction2D::rowPrefixIntegrals). A
+    /// segment whose y range sees one row's function only then takes its mean in O(1)
+    /// (detail::rowConstantMean), not by a walk.
+    const float* rowSameUpTo = nullptr;
+    const float* rowPrefix = nullptr;
 };
 
 namespace detail {
@@ -61,6 +68,17 @@ UDVR_CPU_GPU UDVR_INLINE T rasterLoad(const float* rgba, lanes::IntOf<T> idx,
     else
         return static_cast<T>(rgba[idx]);
 }
+/// (r, g, b, α) of the raster point at rgba[base …] (lanes of `live`; 0 in the others).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void rasterPoint(const float* rgba, lanes::IntOf<T> base,
+                                          lanes::MaskOf<T> live, T out[4]) {
+    if constexpr (lanes::kIsVector<T>) {  // (r, g) and (b, α): one 64-bit load each
+        lanes::gatherPair(rgba, base, live, out[0], out[1]);
+        lanes::gatherPair(rgba, base + 2, live, out[2], out[3]);
+    } else {
+        for (int ch = 0; ch < 4; ++ch) out[ch] = live ? static_cast<T>(rgba[base + ch]) : T{};
+    }
+}
 }  // namespace detail
 
 /// The 4 corners × (r, g, b, α) of raster cell (i, j), loaded once and evaluated at any point of
@@ -81,15 +99,7 @@ struct Tf2Cell {
         const lanes::IntOf<T> row = j * r.width, up = row + r.width;
         const lanes::IntOf<T> base[4] = {(row + i0) * 4, (row + i1) * 4, (up + i0) * 4,
                                          (up + i1) * 4};
-        for (int k = 0; k < 4; ++k) {
-            if constexpr (lanes::kIsVector<T>) {  // (r, g) and (b, α): one 64-bit load each
-                lanes::gatherPair(r.rgba, base[k], live, v[k][0], v[k][1]);
-                lanes::gatherPair(r.rgba, base[k] + 2, live, v[k][2], v[k][3]);
-            } else {
-                for (int ch = 0; ch < 4; ++ch)
-                    v[k][ch] = detail::rasterLoad<T>(r.rgba, base[k] + ch, live);
-            }
-        }
+        for (int k = 0; k < 4; ++k) detail::rasterPoint<T>(r.rgba, base[k], live, v[k]);
     }
     /// (c_r, c_g, c_b, α) at fractions (fx, fy) of the cell.
     UDVR_CPU_GPU UDVR_INLINE void at(T fx, T fy, T out[4]) const {
@@ -417,6 +427,253 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, 
         active = active & (u0 < S(1));
     }
 }
+
+/// One raster cell of one row: points i and i + 1 (α and c each linear in the fraction
+/// σ ∈ [0, 1] between them); all 0 where not loaded.
+template <class T>
+struct Tf2RowCell {
+    T p0[4] = {}, p1[4] = {};  // (r, g, b, α) at σ = 0 and 1
+
+    Tf2RowCell() = default;
+    /// Points i, i + 1 of row j from base = (j·W + i)·4 (lanes of `live`; 0 elsewhere).
+    UDVR_CPU_GPU UDVR_INLINE Tf2RowCell(const float* rgba, lanes::IntOf<T> base,
+                                        lanes::MaskOf<T> live) {
+        rasterPoint<T>(rgba, base, live, p0);
+        rasterPoint<T>(rgba, base + 4, live, p1);
+    }
+    /// Mean of (α·r, α·g, α·b, α) over σ ∈ [f1, f2] (the value at f1 where f1 = f2): with
+    /// α = a0 + da·σ and c = c0 + dc·σ, α·c = a0·c0 + (a0·dc + da·c0)·σ + da·dc·σ², whose mean
+    /// takes m1 = (f1 + f2)/2 for σ and m2 = (f1² + f1·f2 + f2²)/3 for σ².
+    UDVR_CPU_GPU UDVR_INLINE void mean(T f1, T f2, T out[4]) const {
+        using S = lanes::ScalarOf<T>;
+        const T m1 = (f1 + f2) * S(0.5);
+        const T m2 = lanes::fma(f1, f1, lanes::fma(f1, f2, f2 * f2)) * S(1.0 / 3.0);
+        const T a0 = p0[3], da = p1[3] - p0[3];
+        for (int ch = 0; ch < 3; ++ch) {
+            const T c0 = p0[ch], dc = p1[ch] - p0[ch];
+            out[ch] = lanes::fma(da * dc, m2, lanes::fma(lanes::fma(a0, dc, da * c0), m1, a0 * c0));
+        }
+        out[3] = lanes::fma(da, m1, a0);
+    }
+    /// Lane-wise m ? a : b.
+    UDVR_CPU_GPU UDVR_INLINE static Tf2RowCell pick(lanes::MaskOf<T> m, const Tf2RowCell& a,
+                                                    const Tf2RowCell& b) {
+        Tf2RowCell c;
+        for (int ch = 0; ch < 4; ++ch) {
+            c.p0[ch] = lanes::select(m, a.p0[ch], b.p0[ch]);
+            c.p1[ch] = lanes::select(m, a.p1[ch], b.p1[ch]);
+        }
+        return c;
+    }
+};
+
+/// What rowConstantMean needs of one end (x, y) of a segment, in data units: its coordinates
+/// at construction, the raster's values (`load`) only for lanes whose segment takes the closed
+/// form, and each lane once, so that the polyline's segments share their ends' reads
+/// (expectedTf2QuantileRange). Needs r.rowPrefix.
+template <class T>
+struct Tf2RowEnd {
+    using I = lanes::IntOf<T>;
+    T s{}, t{};            // raster coordinates: s unclamped, t clamped to [0, H − 1]
+    T f{};                 // fraction of s, clamped to [0, W − 1], in its cell
+    I cell{}, row{};       // that cell (≤ W − 2) and row ⌊t⌋
+    T sameUpTo{};          // Tf2Raster::rowSameUpTo at the row
+    T emptyDistance{};     // Tf2Raster::cellEmptyDistance at the cell, in a band holding the row
+    Tf2RowCell<T> values;  // the row at points cell, cell + 1 (0 where the cell has α = 0)
+    T prefix[4] = {}, prefixLo[4] = {};  // the row's prefix integrals at point `cell`, hi + lo
+    lanes::MaskOf<T> hasValues{}, hasPrefix{};  // lanes whose values, prefix are read
+
+    Tf2RowEnd() = default;
+    template <class Real>
+    UDVR_CPU_GPU UDVR_INLINE Tf2RowEnd(const Tf2Raster<Real>& r, T x, T y, lanes::MaskOf<T> live) {
+        using S = lanes::ScalarOf<T>;
+        s = (x - static_cast<S>(r.x0)) * static_cast<S>(r.invDx);
+        t = rasterCoordinate<T>(y, static_cast<S>(r.y0), static_cast<S>(r.invDy), r.height);
+        if constexpr (lanes::kIsVector<T>)
+            row = lanes::truncToInt(t);
+        else
+            row = static_cast<int>(t);
+        rasterCell(rasterCoordinate<T>(s, S(0), S(1), r.width), r.width, cell, f);
+        // A raster constant in y (every row the same, as a 1D TF sampled as a TF2) needs no
+        // lookup.
+        sameUpTo = r.rowSameUpTo[0] >= static_cast<float>(r.height - 1)
+                       ? lanes::splat<T>(S(r.height - 1))
+                       : rasterLoad<T>(r.rowSameUpTo, row, live);
+        if (r.cellEmptyDistance) {
+            const I band = lanes::min(row, I{} + (r.height - 2));
+            emptyDistance = rasterLoad<T>(r.cellEmptyDistance, band * (r.width - 1) + cell, live);
+        }
+    }
+    /// Reads the row's points for the lanes of `needValues` (where the cell has α > 0; 0
+    /// elsewhere) and its prefix for those of `needPrefix`, each lane once.
+    template <class Real>
+    UDVR_CPU_GPU UDVR_INLINE void load(const Tf2Raster<Real>& r, lanes::MaskOf<T> needValues,
+                                       lanes::MaskOf<T> needPrefix) {
+        using S = lanes::ScalarOf<T>;
+        const I base = row * r.width + cell;
+        const lanes::MaskOf<T> mv = needValues & !hasValues & (emptyDistance == S(0));
+        if (lanes::anyOf(mv)) {
+            hasValues = hasValues | mv;
+            values = Tf2RowCell<T>::pick(mv, Tf2RowCell<T>(r.rgba, base * 4, mv), values);
+        }
+        const lanes::MaskOf<T> mp = needPrefix & !hasPrefix;
+        if (!lanes::anyOf(mp)) return;
+        hasPrefix = hasPrefix | mp;
+        for (int k = 0; k < 4; k += 2) {
+            T v[4];
+            if constexpr (lanes::kIsVector<T>) {
+                lanes::gatherPair(r.rowPrefix, base * 8 + k, mp, v[0], v[1]);
+                lanes::gatherPair(r.rowPrefix, base * 8 + 4 + k, mp, v[2], v[3]);
+            } else {
+                for (int n = 0; n < 2; ++n) {
+                    v[n] = static_cast<T>(r.rowPrefix[base * 8 + k + n]);
+                    v[2 + n] = static_cast<T>(r.rowPrefix[base * 8 + 4 + k + n]);
+                }
+            }
+            for (int n = 0; n < 2; ++n) {
+                prefix[k + n] = lanes::select(mp, v[n], prefix[k + n]);
+                prefixLo[k + n] = lanes::select(mp, v[2 + n], prefixLo[k + n]);
+            }
+        }
+    }
+};
+
+/// The lanes of `live` whose segment from end a to end b sees one row's function: the rows
+/// [⌊t_lo⌋, ⌈t_hi⌉] it spans are identical (Tf2Raster::rowSameUpTo), and its ends are finite
+/// (the others walk).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> rowConstantLanes(const Tf2RowEnd<T>& a,
+                                                           const Tf2RowEnd<T>& b,
+                                                           lanes::MaskOf<T> live) {
+    using S = lanes::ScalarOf<T>;
+    T topFloor;
+    if constexpr (lanes::kIsVector<T>)
+        topFloor = lanes::toFloat(lanes::max(a.row, b.row));
+    else
+        topFloor = static_cast<T>(a.row > b.row ? a.row : b.row);
+    const T top =
+        topFloor + lanes::select(topFloor < lanes::max(a.t, b.t), lanes::splat<T>(S(1)), T{});
+    constexpr S kMax = std::numeric_limits<S>::max();
+    return live & (lanes::abs(a.s) <= kMax) & (lanes::abs(b.s) <= kMax) &
+           (lanes::select(a.t <= b.t, a.sameUpTo, b.sameUpTo) >= top);
+}
+
+/// Where the TF2 does not change with y over a segment's y range — that range lies on one row
+/// line, or rows j … j' of the raster are identical and cover [⌊t_lo⌋, ⌈t_hi⌉]
+/// (Tf2Raster::rowSameUpTo) — the segment mean is the mean of row j's function P(s) over the
+/// segment's x range [lo, hi] (raster coordinates; P clamped outside [0, W − 1]):
+///   (P(0)·|[lo, hi] ∩ (−∞, 0]| + ∫ P over [lo, hi] ∩ [0, W − 1] + P(W − 1)·|… ∩ [W − 1, ∞)|)
+///   / (hi − lo).
+/// With il ≤ ih the cells of the clamped ends, fl, fh their fractions and L(i, f) = ∫₀^f of
+/// cell i (a closed form), the middle is
+///   - one cell (il = ih): (fh − fl) × the cell's mean over [fl, fh];
+///   - adjacent cells: ∫ over [fl, 1] of cell il + L(ih, fh);
+///   - ih ≥ il + 2: prefix(ih) − prefix(il) + L(ih, fh) − L(il, fl), the prefix integrals as
+///     hi + lo pairs, so their difference keeps float's relative precision; the range is then
+///     ≥ 1 cell long, so the L terms (≤ one cell's integral) cost at most float's relative
+///     error of the mean.
+/// No piece subtracts sums larger than the range's integral by more than that, so short and
+/// vertical segments keep their digits; P(lo) where hi = lo. Each end evaluates one closed form
+/// on its own cell (no values are swapped between the ends). For the lanes of rowConstantLanes,
+/// both ends loaded there (other lanes' out is junk): no reads, against a walk over every cell
+/// (or run) the segment crosses.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void rowConstantMean(const Tf2RowEnd<T>& a, const Tf2RowEnd<T>& b,
+                                              int width, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    using I = lanes::IntOf<T>;
+    const T unit = lanes::splat<T>(S(1));
+    const auto aLeft = a.s <= b.s;
+    const I reach = lanes::select(aLeft, b.cell - a.cell, a.cell - b.cell);  // ih − il ≥ 0
+    const auto one = reach == 0, spans = reach >= 2;
+    // Each end's closed form over [g1, g2] of its cell with weight w (the mean is symmetric in
+    // its bounds): one cell: end a over [f_a, f_b], end b nothing; else the right end L(ih, fh),
+    // the left end ∫ over [fl, 1] (adjacent) or −L(il, fl) (spans).
+    const T zero{};
+    const T ga1 = lanes::select(one | (aLeft & !spans), a.f, zero);
+    const T ga2 = lanes::select(one, b.f, lanes::select(aLeft & !spans, unit, a.f));
+    const T wa =
+        lanes::select(one, lanes::abs(b.f - a.f),
+                      lanes::select(aLeft, lanes::select(spans, zero - a.f, unit - a.f), a.f));
+    const auto bNear = !(aLeft | spans);  // b the left end of adjacent cells
+    const T gb1 = lanes::select(bNear, b.f, zero);
+    const T gb2 = lanes::select(bNear, unit, b.f);
+    const T wb = lanes::select(
+        one, zero, lanes::select(!aLeft, lanes::select(spans, zero - b.f, unit - b.f), b.f));
+    T ma[4], mb[4];
+    a.values.mean(ga1, ga2, ma);
+    b.values.mean(gb1, gb2, mb);
+    const T lo = lanes::min(a.s, b.s), hi = lanes::max(a.s, b.s);
+    const T len = hi - lo;
+    const auto point = !(len > S(0));
+    const T inv = S(1) / lanes::select(point, unit, len);
+    // Lengths of [lo, hi] below 0 and above W − 1, where P is P(0) = P(lo) and P(W − 1) = P(hi).
+    const T below = lanes::max(lanes::min(hi, zero) - lo, zero);
+    const T above = lanes::max(hi - lanes::max(lo, lanes::splat<T>(S(width - 1))), zero);
+    const auto edge = point | (below > S(0)) | (above > S(0));
+    T pLo[4] = {}, pHi[4] = {};
+    if (lanes::anyOf(edge)) {
+        T pa[4], pb[4];
+        a.values.mean(a.f, a.f, pa);
+        b.values.mean(b.f, b.f, pb);
+        for (int c = 0; c < 4; ++c) {
+            pLo[c] = lanes::select(aLeft, pa[c], pb[c]);
+            pHi[c] = lanes::select(aLeft, pb[c], pa[c]);
+        }
+    }
+    const T sign =
+        lanes::select(aLeft, unit, zero - unit);  // prefix(ih) − prefix(il) = sign·(b − a)
+    for (int c = 0; c < 4; ++c) {
+        const T full = lanes::select(
+            spans, sign * ((b.prefix[c] - a.prefix[c]) + (b.prefixLo[c] - a.prefixLo[c])), zero);
+        const T sum = lanes::fma(
+            below, pLo[c],
+            lanes::fma(above, pHi[c], lanes::fma(wa, ma[c], lanes::fma(wb, mb[c], full))));
+        out[c] = lanes::select(point, pLo[c], sum * inv);
+    }
+}
+
+/// The segment from end a to end b (r.rowPrefix set) by rowConstantMean, where every lane of
+/// `live` may take it (then true, the mean in out); else false and nothing read: the caller
+/// walks every lane (the walk lasts as long as its longest lane; the closed form for the other
+/// lanes on top of it made the widget TF2 18 % slower).
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE bool rowConstantSegment(const Tf2Raster<Real>& r, Tf2RowEnd<T>& a,
+                                                 Tf2RowEnd<T>& b, lanes::MaskOf<T> live, T out[4]) {
+    using I = lanes::IntOf<T>;
+    const lanes::MaskOf<T> done = rowConstantLanes<T>(a, b, live);
+    if (lanes::anyOf(live & !done)) return false;
+    // Reads only where the segment meets a cell of α > 0: not where the block of empty cells
+    // around its left end's cell (closer than that cell's distance) holds its right end's; the
+    // prefix only where full cells lie between the ends' cells.
+    const auto aLeft = a.s <= b.s;
+    const I il = lanes::select(aLeft, a.cell, b.cell), ih = lanes::select(aLeft, b.cell, a.cell);
+    T reach;  // cells from the left end's to the right end's
+    if constexpr (lanes::kIsVector<T>)
+        reach = lanes::toFloat(ih - il);
+    else
+        reach = static_cast<T>(ih - il);
+    const lanes::MaskOf<T> meets =
+        done & (lanes::select(aLeft, a.emptyDistance, b.emptyDistance) <= reach);
+    T row[4] = {};
+    if (lanes::anyOf(meets)) {
+        const lanes::MaskOf<T> spans = meets & (ih - il >= 2);
+        a.load(r, meets, spans);
+        b.load(r, meets, spans);
+        rowConstantMean<T>(a, b, r.width, row);
+    }
+    for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::select(meets, row[ch], T{});
+    return true;
+}
+/// tf2MeanAlongSegment's walk, by runs where r.cellRun is set.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void segmentWalkOf(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
+                                            lanes::MaskOf<T> live, T out[4]) {
+    if (r.cellRun)
+        segmentWalk<true, T>(r, xa, ya, xb, yb, live, out);
+    else
+        segmentWalk<false, T>(r, xa, ya, xb, yb, live, out);
+}
 }  // namespace detail
 
 /// Mean of TF2 (α·c and α) along the segment from (xa, ya) to (xb, yb) in data units:
@@ -425,19 +682,22 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, 
 /// it leaves a run of cells over which the raster is bilinear (within the runs' tolerance); on
 /// each piece α and c are quadratic in u, α·c quartic, so 3-point Gauss–Legendre is exact. A
 /// zero-length segment gives TF2 at the point. Cost: 3 lookups per piece; lanes loop until
-/// their longest segment is done.
+/// their longest segment is done. With r.rowPrefix, segments whose y range sees one row's
+/// function (a TF2 constant in y there) take detail::rowConstantMean instead: O(1).
 template <class T, class Real>
 UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
                                                   lanes::MaskOf<T> live, T out[4]) {
-    if (r.cellRun)
-        detail::segmentWalk<true, T>(r, xa, ya, xb, yb, live, out);
-    else
-        detail::segmentWalk<false, T>(r, xa, ya, xb, yb, live, out);
+    if (r.rowPrefix) {
+        detail::Tf2RowEnd<T> a(r, xa, ya, live), b(r, xb, yb, live);
+        if (detail::rowConstantSegment<T>(r, a, b, live, out)) return;
+    }
+    detail::segmentWalkOf<T>(r, xa, ya, xb, yb, live, out);
 }
 
 /// Quantile-range with a TF2 (SPEC §9): the rank-coupled polyline (X(t), G(t)) through the
 /// vertices (x(j), g(j)), j = 0 … count − 1; Σ_j mass_j × mean of TF2 along segment j / Σ mass
-/// (levels: equal masses for even levels, as expectedTfQuantileRange).
+/// (levels: equal masses for even levels, as expectedTfQuantileRange). With r.rowPrefix each
+/// vertex's row data is loaded once for the two segments that share it.
 template <class T, class Real, class X, class G>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const X& x,
                                                        const G& g, int count,
@@ -446,10 +706,18 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
     using S = lanes::ScalarOf<T>;
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
     T xPrev = x(0), gPrev = g(0);
+    detail::Tf2RowEnd<T> prev;
+    if (r.rowPrefix) prev = detail::Tf2RowEnd<T>(r, xPrev, gPrev, live);
     for (int j = 1; j < count; ++j) {
         const T xj = x(j), gj = g(j);
         T m[4];
-        tf2MeanAlongSegment<T>(r, xPrev, gPrev, xj, gj, live, m);
+        bool done = false;
+        if (r.rowPrefix) {
+            detail::Tf2RowEnd<T> next(r, xj, gj, live);
+            done = detail::rowConstantSegment<T>(r, prev, next, live, m);
+            prev = next;
+        }
+        if (!done) detail::segmentWalkOf<T>(r, xPrev, gPrev, xj, gj, live, m);
         const T mass = lanes::splat<T>(static_cast<S>(levels.mass(j)));
         for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::fma(mass, m[ch], out[ch]);
         xPrev = xj;

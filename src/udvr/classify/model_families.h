@@ -39,6 +39,8 @@ using AnyKernel2D = std::variant<Mean2DKernel, Gaussian2DKernel, Uniform2DKernel
 /// cell runs allow (TransferFunction2D::linearCellRuns): segment means over runs then differ
 /// from the cell-by-cell walk by at most this (α) and twice it (α·c).
 inline constexpr double kTf2RunTolerance = 1e-6;
+/// Largest raster (points) that gets the row prefix integrals (8 floats per point: 128 MiB).
+inline constexpr std::size_t kMaxTf2RowPrefixPoints = std::size_t{1} << 22;
 
 /// Views of a validated TF2 for the kernels: the raster over double and float, with the
 /// distances of empty cells (TransferFunction2D::emptyCellDistances); the float view also
@@ -49,6 +51,10 @@ struct Tf2Rasters {
     Tf2Raster<float> fast;
     std::vector<float> cellEmptyDistance;
     std::vector<float> cellRuns;
+    /// The float view's closed form for segments that see one row's function
+    /// (Tf2Raster::rowSameUpTo, rowPrefix): where at least half of the bands with α > 0 have
+    /// identical rows, up to kMaxTf2RowPrefixPoints; else empty.
+    std::vector<float> rowSameUpTo, rowPrefix;
     /// Per row of cells j: the first and last cell with α > 0 at a corner (first > last: none);
     /// and the first and last such row.
     std::vector<int> rowCells;

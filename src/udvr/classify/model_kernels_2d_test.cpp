@@ -381,6 +381,109 @@ TEST(Tf2, SegmentMeanByLinearRunsMatchesTheWalkByCells) {
     EXPECT_EQ(cellWise.fast.cellRun, nullptr);
 }
 
+// A raster whose rows repeat in stretches (rows 0…2, 3…4, 6…9 identical; 5 alone):
+// segments whose y range lies in one stretch, or on one row line (also clamped below or above
+// the domain), take the closed form over the row's prefix integrals (rowConstantMean), the
+// rest walk. Against the walk by cells (double, no tables) and dense quadrature: random
+// segments, vertical, nearly vertical, horizontal, zero-length and tiny ones, segments
+// clamped on either side in x or wholly outside; double, float and float lanes.
+TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
+    CounterRng rng(33, 0, 0);
+    const int w = 50, h = 10;
+    TransferFunction2D t = randomTf2(rng, w, h, -2.0, 3.0, 0.0, 4.5);  // rows at y = 0.5·j
+    const auto copyRow = [&](int from, int to) {
+        std::copy_n(t.point(0, from), 4 * w, t.rgba.begin() + 4 * w * to);
+    };
+    for (int j : {1, 2}) copyRow(0, j);
+    copyRow(3, 4);
+    for (int j : {7, 8, 9}) copyRow(6, j);
+    const std::vector<float> same = t.identicalRowsUpTo();
+    EXPECT_EQ(same, (std::vector<float>{2, 2, 2, 4, 4, 5, 9, 9, 9, 9}));
+    ModelVolume unit;
+    unit.grid.dims = {1, 1, 1};
+    unit.mean = {0.f};
+    GradientCache gradients;
+    const Tf2Setup setup(t, unit, gradients);
+    ASSERT_NE(setup.fast.rowPrefix, nullptr);
+    Tf2Raster<double> byRows = setup.exact;  // the double body given the tables
+    byRows.rowSameUpTo = setup.rowSameUpTo.data();
+    byRows.rowPrefix = setup.rowPrefix.data();
+    // Ends of a segment: y in stretch 0…2 (y ∈ [0, 1]), 6…9 ([3, 4.5]) or anywhere in
+    // [−1, 5.5]; x in [−4, 5] (the domain is [−2, 3]).
+    const auto segment = [&](int k, double p[4]) {
+        const double x = -4.0 + 9.0 * rng.uniform();
+        const int kind = k % 12;
+        const double lo = kind < 4 ? 0.0 : 3.0, span = kind < 4 ? 1.0 : 1.5;
+        p[0] = x;
+        p[1] = kind < 8 ? lo + span * rng.uniform() : -1.0 + 6.5 * rng.uniform();
+        p[2] = -4.0 + 9.0 * rng.uniform();
+        p[3] = kind < 8 ? lo + span * rng.uniform() : -1.0 + 6.5 * rng.uniform();
+        if (kind == 1 || kind == 5) p[2] = p[0];                   // vertical
+        if (kind == 2) p[2] = p[0] + 1e-5;                         // nearly vertical
+        if (kind == 3 || kind == 9) p[3] = p[1];                   // horizontal
+        if (kind == 6) p[2] = p[0], p[3] = p[1];                   // zero-length
+        if (kind == 7) p[2] = p[0] + 3e-6, p[3] = p[1] - 2e-6;     // tiny
+        if (kind == 10) p[1] = -0.5 - rng.uniform(), p[3] = -0.1;  // below the domain
+        if (kind == 11) p[1] = 6.0, p[3] = 4.5 + rng.uniform();    // above it
+        if (k % 7 == 0) p[0] = -2.0 + (5.0 / 49.0) * std::round(49.0 * rng.uniform());  // on a line
+    };
+    double worstDense = 0, worstDouble = 0, worstFloat = 0, worstLanes = 0;
+    int served = 0, walked = 0;
+    for (int trial = 0; trial < 60; ++trial) {
+        lanes::Vf p[4];
+        double pd[lanes::kWidth][4];
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            segment(trial * lanes::kWidth + l, pd[l]);
+            for (int a = 0; a < 4; ++a) p[a][l] = static_cast<float>(pd[l][a]);
+        }
+        lanes::Vf got[4], rowOnly[4];
+        tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3],
+                                       lanes::allTrue<lanes::Vf>(), got);
+        // The closed form on its own, for the lanes it serves.
+        const auto all = lanes::allTrue<lanes::Vf>();
+        detail::Tf2RowEnd<lanes::Vf> ea(setup.fast, p[0], p[1], all),
+            eb(setup.fast, p[2], p[3], all);
+        const lanes::Mask done = detail::rowConstantLanes<lanes::Vf>(ea, eb, all);
+        ea.load(setup.fast, done, done);
+        eb.load(setup.fast, done, done);
+        detail::rowConstantMean<lanes::Vf>(ea, eb, w, rowOnly);
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            // The float ends, as the lanes see them.
+            const double x0 = p[0][l], y0 = p[1][l], x1 = p[2][l], y1 = p[3][l];
+            double walk[4], rows[4];
+            float single[4];
+            tf2MeanAlongSegment<double>(setup.exact, x0, y0, x1, y1, true, walk);
+            tf2MeanAlongSegment<double>(byRows, x0, y0, x1, y1, true, rows);
+            tf2MeanAlongSegment<float>(setup.fast, p[0][l], p[1][l], p[2][l], p[3][l], true,
+                                       single);
+            if (l < 2) {
+                const auto want = denseSegmentMean(t, x0, y0, x1, y1, 200000);
+                for (int ch = 0; ch < 4; ++ch)
+                    worstDense = std::max(worstDense, std::abs(rows[ch] - want[ch]));
+            }
+            (done[l] ? served : walked) += 1;
+            for (int ch = 0; ch < 4; ++ch) {
+                worstDouble = std::max(worstDouble, std::abs(rows[ch] - walk[ch]));
+                worstFloat = std::max(worstFloat, std::abs(single[ch] - walk[ch]));
+                worstLanes = std::max(worstLanes, std::abs(got[ch][l] - walk[ch]));
+                if (done[l]) worstLanes = std::max(worstLanes, std::abs(rowOnly[ch][l] - walk[ch]));
+            }
+        }
+    }
+    // Rows that differ (most bands with α > 0 not identical): no tables, every segment walks.
+    const TransferFunction2D noisy = randomTf2(rng, 40, 30, -2.0, 3.0, 0.0, 4.0);
+    EXPECT_EQ(Tf2Setup(noisy, unit, gradients).fast.rowPrefix, nullptr);
+    const int total = 60 * lanes::kWidth;
+    EXPECT_GE(served, total * 10 / 12);  // kinds 0…7, 10, 11 take the closed form …
+    EXPECT_GT(walked, total / 24);       // … and of 8, 9 those crossing a change of rows walk
+    EXPECT_LE(worstDense, 5e-8);
+    EXPECT_LE(worstDouble, 1e-12);
+    // Float: the ends' raster coordinates round by up to ~3e−6 cells (s ≈ 50), and α·c
+    // changes by up to ~2 per cell.
+    EXPECT_LE(worstFloat, 1e-5);
+    EXPECT_LE(worstLanes, 1e-5);
+}
+
 // Quantile-range and quantile-mean with a TF2, evaluated independently at a point: the rank
 // coupling X_i(t) = F_i⁻¹(t) (piecewise linear through (j/q, b_{j,i})) pushed through the
 // 32-voxel form of SPEC §9 (X = Σ w_i X_i, G = n̂·Σ g_i X_i, n̂ from the means), then

@@ -152,6 +152,41 @@ std::vector<float> TransferFunction2D::linearCellRuns(double tolerance) const {
     return runs;
 }
 
+std::vector<float> TransferFunction2D::identicalRowsUpTo() const {
+    std::vector<float> out(static_cast<std::size_t>(height));
+    out.back() = static_cast<float>(height - 1);
+    for (int j = height - 2; j >= 0; --j) {
+        const bool same = std::equal(point(0, j), point(0, j + 1), point(0, j + 1));
+        out[j] = same ? out[j + 1] : static_cast<float>(j);
+    }
+    return out;
+}
+
+std::vector<float> TransferFunction2D::rowPrefixIntegrals() const {
+    std::vector<float> out(static_cast<std::size_t>(width) * height * 8);
+    for (int j = 0; j < height; ++j) {
+        double sum[4] = {0.0, 0.0, 0.0, 0.0};
+        for (int i = 0;; ++i) {
+            float* o = out.data() + (static_cast<std::size_t>(j) * width + i) * 8;
+            for (int ch = 0; ch < 4; ++ch) {
+                o[ch] = static_cast<float>(sum[ch]);
+                o[4 + ch] = static_cast<float>(sum[ch] - o[ch]);
+            }
+            if (i + 1 == width) break;
+            // Cell [i, i + 1]: α = a0 + da·σ, c = c0 + dc·σ, σ ∈ [0, 1]; ∫ α·c dσ = a0·c0 +
+            // (a0·dc + da·c0)/2 + da·dc/3, ∫ α dσ = a0 + da/2.
+            const float *p0 = point(i, j), *p1 = point(i + 1, j);
+            const double a0 = p0[3], da = static_cast<double>(p1[3]) - a0;
+            for (int ch = 0; ch < 3; ++ch) {
+                const double c0 = p0[ch], dc = static_cast<double>(p1[ch]) - c0;
+                sum[ch] += a0 * c0 + 0.5 * (a0 * dc + da * c0) + da * dc / 3.0;
+            }
+            sum[3] += a0 + 0.5 * da;
+        }
+    }
+    return out;
+}
+
 void TransferFunction2D::validate() const {
     if (width < 2 || height < 2 || width > kMaxTf2Resolution || height > kMaxTf2Resolution)
         UDVR_FAIL("2D transfer function: needs 2x2 to "

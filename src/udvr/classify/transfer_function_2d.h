@@ -46,6 +46,15 @@ struct TransferFunction2D {
     /// raster's by at most `tolerance` on the whole run (0 for empty runs). Greedy from the
     /// left; O(W·H).
     std::vector<float> linearCellRuns(double tolerance) const;
+    /// Per row j: the last row j' ≥ j such that rows j … j' are identical (every point's four
+    /// channels equal), as a float. Between rows j and j' the TF2 does not depend on y.
+    std::vector<float> identicalRowsUpTo() const;
+    /// Per point (j·W + i, 8 floats): the integral over raster x coordinates [0, i] of row j's
+    /// (α·r, α·g, α·b, α) (each of α and c linear between points, so α·c quadratic), summed in
+    /// double and stored as float hi (4) then lo (4), hi + lo within 2^−48 of the sum: a
+    /// difference of two of them keeps float's relative precision (as the 1D TF's cumulative
+    /// integrals, TfPieces).
+    std::vector<float> rowPrefixIntegrals() const;
     /// Throws UdvrError unless 2 ≤ W, H ≤ kMaxTf2Resolution, rgba has W·H·4 values in [0, 1],
     /// the domain is finite with x0 < x1, y0 < y1, and its widths and raster steps are finite
     /// and non-zero in float (the kernels' coordinates).
