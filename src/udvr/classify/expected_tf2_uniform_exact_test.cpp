@@ -204,12 +204,18 @@ TEST(Tf2UniformExact, NonFiniteDataIsALookup) {
     Case c;
     c.cx = std::nan(""), c.cy = 0.5;
     c.d = {{0.1, 0.2}, {0.2, -0.1}, {0.0, 0.1}};
-    double got[4];
-    exact(ras.r, c, got);
-    for (double v : got) EXPECT_TRUE(std::isfinite(v));
+    // The TF2 at (cx, cy), premultiplied; NaN maps to the domain's origin column. α = 0.25 +
+    // 0.5·x·y is bilinear, so the raster holds it exactly.
+    const auto expectLookup = [&](double x, double y) {
+        double got[4];
+        exact(ras.r, c, got);
+        const double a = 0.25 + 0.5 * x * y;
+        for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(got[ch], 0.5 * a, 1e-12) << ch;
+        EXPECT_NEAR(got[3], a, 1e-12);
+    };
+    expectLookup(0.0, 0.5);
     c.cx = 0.5, c.d[1].b = std::numeric_limits<double>::infinity();
-    exact(ras.r, c, got);
-    for (double v : got) EXPECT_TRUE(std::isfinite(v));
+    expectLookup(0.5, 0.5);
 }
 
 }  // namespace
