@@ -58,7 +58,7 @@ namespace detail {
 using Cplx = std::complex<double>;
 
 /// J_d = ∫_{s1}^{s2} s^d e^{i(φ + ρ s)} ds, d = 0, 1, 2: Gauss–Legendre, 6 nodes on pieces whose
-/// phase changes by ≤ 1 rad (≤ 4 pieces), or by parts where the phase turns more than 4 rad.
+/// phase changes by ≤ 1 rad (≤ 5 pieces), or by parts where the phase turns more than 4 rad.
 inline void powerPhaseIntegrals(double s1, double s2, double phi, double rho, Cplx J[3]) {
     static constexpr double kX[3] = {0.2386191860831969, 0.6612093864662645, 0.9324695142031521};
     static constexpr double kW[3] = {0.4679139345726910, 0.3607615730481386, 0.1713244923791704};
