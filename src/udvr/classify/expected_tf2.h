@@ -519,21 +519,12 @@ struct Tf2RowEnd {
         const lanes::MaskOf<T> mp = needPrefix & !hasPrefix;
         if (!lanes::anyOf(mp)) return;
         hasPrefix = hasPrefix | mp;
-        for (int k = 0; k < 4; k += 2) {
-            T v[4];
-            if constexpr (lanes::kIsVector<T>) {
-                lanes::gatherPair(r.rowPrefix, base * 8 + k, mp, v[0], v[1]);
-                lanes::gatherPair(r.rowPrefix, base * 8 + 4 + k, mp, v[2], v[3]);
-            } else {
-                for (int n = 0; n < 2; ++n) {
-                    v[n] = static_cast<T>(r.rowPrefix[base * 8 + k + n]);
-                    v[2 + n] = static_cast<T>(r.rowPrefix[base * 8 + 4 + k + n]);
-                }
-            }
-            for (int n = 0; n < 2; ++n) {
-                prefix[k + n] = lanes::select(mp, v[n], prefix[k + n]);
-                prefixLo[k + n] = lanes::select(mp, v[2 + n], prefixLo[k + n]);
-            }
+        T hi[4], lo[4];  // the point's 8 floats: hi (4), then lo (4)
+        rasterPoint<T>(r.rowPrefix, base * 8, mp, hi);
+        rasterPoint<T>(r.rowPrefix, base * 8 + 4, mp, lo);
+        for (int ch = 0; ch < 4; ++ch) {
+            prefix[ch] = lanes::select(mp, hi[ch], prefix[ch]);
+            prefixLo[ch] = lanes::select(mp, lo[ch], prefixLo[ch]);
         }
     }
 };

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "udvr/classify/expected_tf2.h"
 #include "udvr/util/check.h"
 
 namespace udvr {
@@ -173,15 +174,10 @@ std::vector<float> TransferFunction2D::rowPrefixIntegrals() const {
                 o[4 + ch] = static_cast<float>(sum[ch] - o[ch]);
             }
             if (i + 1 == width) break;
-            // Cell [i, i + 1]: α = a0 + da·σ, c = c0 + dc·σ, σ ∈ [0, 1]; ∫ α·c dσ = a0·c0 +
-            // (a0·dc + da·c0)/2 + da·dc/3, ∫ α dσ = a0 + da/2.
-            const float *p0 = point(i, j), *p1 = point(i + 1, j);
-            const double a0 = p0[3], da = static_cast<double>(p1[3]) - a0;
-            for (int ch = 0; ch < 3; ++ch) {
-                const double c0 = p0[ch], dc = static_cast<double>(p1[ch]) - c0;
-                sum[ch] += a0 * c0 + 0.5 * (a0 * dc + da * c0) + da * dc / 3.0;
-            }
-            sum[3] += a0 + 0.5 * da;
+            // Cell [i, i + 1] is one unit of x: its integral is its mean over σ ∈ [0, 1].
+            double cell[4];
+            detail::Tf2RowCell<double>(rgba.data(), (j * width + i) * 4, true).mean(0.0, 1.0, cell);
+            for (int ch = 0; ch < 4; ++ch) sum[ch] += cell[ch];
         }
     }
     return out;
