@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 
@@ -26,7 +27,9 @@
 // GCC 12's AVX-512 headers start many intrinsics from _mm512_undefined_ps(), which its
 // -W(maybe-)uninitialized flag wherever they inline (GCC bug 105593, fixed in 13).
 #pragma GCC diagnostic push
+#if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #include <immintrin.h>
 #pragma GCC diagnostic pop
@@ -235,14 +238,28 @@ inline float sum(Vf v) {
 }
 
 // ---- lane movement (permutes) ---------------------------------------------------------------
+// The permutes name their lanes as compile-time index lists (`__builtin_shufflevector`, which
+// GCC ≥ 12 and Clang both have; index j ≥ kWidth picks lane j − kWidth of the second operand).
+namespace detail {
+template <int K, int... I>
+inline Vf shiftUp(Vf v, Vf fill, std::integer_sequence<int, I...>) {
+    return __builtin_shufflevector(v, fill, (I >= K ? I - K : I + kWidth)...);
+}
+template <int... I>
+inline Vf shiftDown1(Vf v, Vf fill, std::integer_sequence<int, I...>) {
+    return __builtin_shufflevector(v, fill, (I + 1)...);
+}
+}  // namespace detail
 /// Lane i ← v[i − K] for i ≥ K, fill[i] below (0 < K < kWidth).
 template <int K>
 inline Vf shiftUp(Vf v, Vf fill) {
     static_assert(K >= 1 && K < kWidth);
-    return __builtin_shuffle(v, fill, iota() >= K ? iota() - K : iota() + kWidth);
+    return detail::shiftUp<K>(v, fill, std::make_integer_sequence<int, kWidth>{});
 }
 /// Lane i ← v[i + 1] for i < kWidth − 1, fill[0] in the last lane.
-inline Vf shiftDown1(Vf v, Vf fill) { return __builtin_shuffle(v, fill, iota() + 1); }
+inline Vf shiftDown1(Vf v, Vf fill) {
+    return detail::shiftDown1(v, fill, std::make_integer_sequence<int, kWidth>{});
+}
 /// Inclusive prefix products: lane i ← v[0]·v[1]·…·v[i] (Hillis–Steele, log2(kWidth) steps).
 inline Vf prefixProduct(Vf v) {
     const Vf one = splat<Vf>(1.f);
@@ -466,16 +483,19 @@ inline void transpose(Vf r[kWidth]) {
     // log2(kWidth) rounds of interleaving row i with row i + kWidth/2 (a perfect shuffle of the
     // index bits (row, column): each round rotates them by one, so the rounds swap row and
     // column).
+    // Lane j of the lower interleave is lane j/2 of row i (j even) or of row i + kWidth/2
+    // (j odd); the upper one starts kWidth/2 lanes further on.
     constexpr int kHalf = kWidth / 2;
-    const Vi odd = iota() & 1, pos = iota() >> 1;
-    const Vi lower = odd != 0 ? pos + kWidth : pos;
-    const Vi upper = lower + kHalf;
+    const auto interleave = [&]<int... J>(Vf a, Vf b, std::integer_sequence<int, J...>) {
+        return std::pair{
+            __builtin_shufflevector(a, b, ((J >> 1) + ((J & 1) ? kWidth : 0))...),
+            __builtin_shufflevector(a, b, ((J >> 1) + kHalf + ((J & 1) ? kWidth : 0))...)};
+    };
     Vf t[kWidth];
     for (int round = 1; round < kWidth; round *= 2) {
-        for (int i = 0; i < kHalf; ++i) {
-            t[2 * i] = __builtin_shuffle(r[i], r[i + kHalf], lower);
-            t[2 * i + 1] = __builtin_shuffle(r[i], r[i + kHalf], upper);
-        }
+        for (int i = 0; i < kHalf; ++i)
+            std::tie(t[2 * i], t[2 * i + 1]) =
+                interleave(r[i], r[i + kHalf], std::make_integer_sequence<int, kWidth>{});
         for (int i = 0; i < kWidth; ++i) r[i] = t[i];
     }
 #endif
