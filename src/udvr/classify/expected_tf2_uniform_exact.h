@@ -12,21 +12,24 @@
 // - The directions with a_i = 0 (R, up to 31) enter P exactly as Π sinc(b_i ω): no table.
 // - The corners other than the widest are convolved on a grid of nodes x_j = cx + j·Δx
 //   (Δx = 2A'/xCells, A' = Σ|a_i| over them), each box's measure e^{−iω m u} du/(2|a|),
-//   u ∈ [−|a|, |a|], m = b/a, binned onto the nodes by linear (cloud-in-cell) weights: the
-//   shear in g is an exact phase; the binning errs by O(Δx²).
+//   u ∈ [−|a|, |a|], m = b/a, binned onto the nodes by a 3-node quadratic kernel that keeps
+//   every point's mass and mean and adds exactly Δx²/6 to its second moment (binBox), whatever
+//   the box's width: the shear in g is an exact phase; the binning errs by O(Δx²).
 // - The widest corner is integrated exactly per node: Λ_j = (1/2|a|) ∫ T̂_k(x_j + u) e^{iωmu} du,
 //   from the cumulative integral over the raster's column strips (T̂ is Σ_p f^p Q̂_{s,p} in strip
 //   s, f its fraction, Q̂ the exact transforms of the column products, piecewise quadratic in g).
 // - Every integral of a polynomial (degree ≤ 2) times e^{iθ} is 6-point Gauss–Legendre on
 //   pieces of ≤ 1 rad, or by parts where the phase turns > 4 rad: exact to ~1e−15.
 // - No binned corner and R = 0: (X, G) lies on a segment; its exact mean (tf2MeanAlongSegment).
-// Errors: the binning's O(Δx²) (each binning adds Δx²/6 to the variance of X), extrapolated
-// away from two grids (Richardson), and the series' tail (terms decay as the sincs of R and of
-// the corners times T̂'s 1/k²; stopped after 8 terms below 1e−11). Bound: 1e−6 absolute; finer
-// grids (2× in the tests, 4× on 200 tangle points) with the series to 1e−13 change the
-// defaults' result by ≤ 2.3e−8 and ≤ 5.2e−8 (docs/models.md). Not covered yet: a binned box
-// narrower than Δx (a corner of weight ~1e−3 beside a voxel face) errs at first order in Δx,
-// which Richardson does not remove (~1e−5 in a constructed case; docs/models.md).
+// Errors: the binning's O(Δx²) (each binning adds Δx²/6 to the variance of X, for a box of any
+// width: E is off by Δx²/6 × E[∂²T/∂x²]/2 per box plus O(Δx³)), extrapolated away from two
+// grids (Richardson; a TF2 quadratic in x comes out exact), and the series' tail (terms decay
+// as the sincs of R and of the corners times T̂'s 1/k²; stopped after 8 terms below 1e−11).
+// Bound: 1e−6 absolute; grids 2× finer with the series to 1e−13 change the defaults' result by
+// ≤ 2.3e−9 in the tests; corners of |a| = 0.003 (weight ~1e−3, beside a voxel face, narrower
+// than Δx) beside wide ones: 9e−13 off the closed form (docs/models.md). Until 2026-11-28 the
+// binning was cloud-in-cell: a box narrower than Δx got var X ≈ |a|·Δx/2, first order in Δx,
+// which Richardson left (7.6e−6 in that case).
 // Cost: two grids × the terms × (nodes + strips × row pieces); a few ms to 0.1 s a sample.
 #include <algorithm>
 #include <cmath>
@@ -97,40 +100,46 @@ inline void powerPhaseIntegrals(double s1, double s2, double phi, double rho, Cp
 inline double sincOf(double z) { return std::abs(z) < 1e-4 ? 1.0 - z * z / 6.0 : std::sin(z) / z; }
 
 /// P ← P convolved with the box u ∈ [−a, a] (density 1/(2a)) carrying the phase e^{−iωmu},
-/// binned onto the nodes q·dx by linear (cloud-in-cell) weights W_q; P's nonzero nodes are
-/// lo … hi, and the result's lo − kw … hi + kw (returns kw). Hats wholly inside the box have
-/// W_q = c·z^q (z = e^{−iωm·dx}, c = dx·sinc²(ωm·dx/2)/(2a)), summed by a running sum; the
-/// ≤ 2 at each end are integrated.
+/// binned onto the nodes q·dx by the 3-node kernel K(u/dx − q): K(t) = 5/6 − t² for |t| ≤ 1/2,
+/// (t² − 3|t| + 13/6)/2 for 1/2 < |t| ≤ 3/2. For every u it keeps the mass (Σ_q K = 1) and the
+/// mean (Σ_q q·dx·K = u) and adds exactly dx²/6 to the second moment, so the binned box has
+/// var X = a²/3 + dx²/6 and cov(X, G) = ab/3 however narrow it is (cloud-in-cell gives a box
+/// narrower than dx about a·dx/2 instead). W_q = ∫ K(u/dx − q) e^{−iωmu} du/(2a), exact (the
+/// kernel is quadratic on 3 pieces); nodes whose kernel lies inside the box have
+/// W_q = c·z^q (z = e^{−iωm·dx}), summed by a running sum. Returns kw (the result's nodes are
+/// lo − kw … hi + kw).
 inline int binBox(double a, double m, double om, double dx, std::vector<Cplx>& P, int lo, int hi,
                   std::vector<Cplx>& W, std::vector<Cplx>& Pn) {
-    const int kw = static_cast<int>(std::ceil(a / dx));
-    const int qa = static_cast<int>(std::ceil(1.0 - a / dx)), qb = -qa;  // inner hats
+    const double ta = a / dx, rho = -om * m * dx;
+    const int kw = static_cast<int>(std::ceil(ta + 1.5)) - 1;
+    const int qa = static_cast<int>(std::ceil(1.5 - ta)), qb = -qa;  // kernel inside the box
+    // ∫_{t1}^{t2} K(t) e^{i(φ + ρt)} dt over K's pieces, t clipped to [t1, t2].
+    static constexpr double kPiece[3][5] = {// t from, t to, K = k0 + k1 t + k2 t²
+                                            {-1.5, -0.5, 13.0 / 12, 1.5, 0.5},
+                                            {-0.5, 0.5, 5.0 / 6, 0.0, -1.0},
+                                            {0.5, 1.5, 13.0 / 12, -1.5, 0.5}};
+    const auto kernelIntegral = [&](double t1, double t2, double phi) {
+        Cplx w = 0.0, J[3];
+        for (const auto& pc : kPiece) {
+            const double s1 = std::max(t1, pc[0]), s2 = std::min(t2, pc[1]);
+            if (!(s2 > s1)) continue;
+            powerPhaseIntegrals(s1, s2, phi, rho, J);
+            w += pc[2] * J[0] + pc[3] * J[1] + pc[4] * J[2];
+        }
+        return w * (dx / (2.0 * a));
+    };
     W.assign(2 * kw + 1, 0.0);
-    for (int q = -kw; q <= kw; ++q) {  // ∫ hat(u/dx − q) e^{−iωmu} du/(2a)
-        if (q >= qa && q <= qb) continue;
-        Cplx J[3], w = 0.0;
-        const double u0 = std::max(-a, (q - 1) * dx), u1 = std::min(a, q * dx);
-        const double v0 = std::max(-a, q * dx), v1 = std::min(a, (q + 1) * dx);
-        if (u1 > u0) {  // rising side: (u − (q − 1)dx)/dx
-            powerPhaseIntegrals(u0, u1, 0.0, -om * m, J);
-            w += (J[1] - (q - 1) * dx * J[0]) / dx;
-        }
-        if (v1 > v0) {  // falling side: ((q + 1)dx − u)/dx
-            powerPhaseIntegrals(v0, v1, 0.0, -om * m, J);
-            w += ((q + 1) * dx * J[0] - J[1]) / dx;
-        }
-        W[q + kw] = w / (2.0 * a);
-    }
+    for (int q = -kw; q <= kw; ++q)
+        if (q < qa || q > qb) W[q + kw] = kernelIntegral(-ta - q, ta - q, rho * q);
     std::fill(Pn.begin() + (lo - kw), Pn.begin() + (hi + kw + 1), Cplx(0.0));
     for (int q = -kw; q <= kw; ++q) {
         if (q >= qa && q <= qb) continue;
         for (int j = lo; j <= hi; ++j) Pn[j + q] += W[q + kw] * P[j];
     }
     if (qa <= qb) {
-        const double ph = 0.5 * om * m * dx;
-        const Cplx z = std::polar(1.0, -om * m * dx), za = std::polar(1.0, -om * m * dx * qa),
-                   zb = std::polar(1.0, -om * m * dx * (qb + 1));
-        const double c = dx * sincOf(ph) * sincOf(ph) / (2.0 * a);
+        const Cplx c = kernelIntegral(-1.5, 1.5, 0.0);
+        const Cplx z = std::polar(1.0, rho), za = std::polar(1.0, rho * qa),
+                   zb = std::polar(1.0, rho * (qb + 1));
         const auto at = [&](int j) { return j >= lo && j <= hi ? P[j] : Cplx(0.0); };
         Cplx S = 0.0;  // Σ_{q=qa}^{qb} z^q P[j − q]
         for (int j = lo + qa; j <= hi + qb; ++j) {
@@ -285,10 +294,10 @@ inline bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, doub
     }
     const double aw = widest >= 0 ? std::abs(d[widest].a) : 0.0;
     const double mw = widest >= 0 ? d[widest].b / d[widest].a : 0.0;
-    // Nodes x_j = cx + j·dx, |j| ≤ H: the binned corners' support plus a node per binning.
+    // Nodes x_j = cx + j·dx, |j| ≤ H: the binned corners' support plus 1.5 nodes per binning.
     const double dx = A > 0 ? 2.0 * A / std::max(xCells, 2) : 0.0;
     const int H =
-        A > 0 ? static_cast<int>(std::ceil(A / dx)) + static_cast<int>(corners.size()) + 1 : 0;
+        A > 0 ? static_cast<int>(std::ceil(A / dx)) + 2 * static_cast<int>(corners.size()) + 1 : 0;
     const int N = 2 * H + 1;
     // The window in g; G a point (B = 0): one piece, k = 0 only.
     const double g0 = B > 0 ? cy - B : cy - 0.5, support = 2.0 * B, L = B > 0 ? 3.0 * B : 1.0;
