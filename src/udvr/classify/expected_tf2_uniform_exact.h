@@ -271,9 +271,11 @@ inline bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, doub
     std::vector<BoxDirection2> corners;
     std::vector<double> yOnly;
     double B = 0.0, A = 0.0;  // Σ|b| over all, Σ|a| over the binned corners
+    double tinyA = 0.0;       // Σ|a| over the y-only ones (≤ tinyWidth each, or NaN)
     for (int i = 0; i < n; ++i) {
         B += std::abs(d[i].b);
         if (!(std::abs(d[i].a) > tinyWidth)) {
+            tinyA += std::abs(d[i].a);  // NaN stays NaN: data, not a y-only direction
             yOnly.push_back(d[i].b);
         } else if (widest < 0 || std::abs(d[i].a) > std::abs(d[widest].a)) {
             if (widest >= 0) corners.push_back(d[widest]);
@@ -285,7 +287,7 @@ inline bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, doub
     for (const BoxDirection2& c : corners) A += std::abs(c.a);
     double BR = 0.0;
     for (const double b : yOnly) BR += std::abs(b);
-    if (!std::isfinite(cx + cy + A + B + (widest >= 0 ? d[widest].a : 0.0))) {  // NaN/inf data
+    if (!std::isfinite(cx + cy + A + B + tinyA + (widest >= 0 ? d[widest].a : 0.0))) {  // NaN/inf
         tf2At<double>(r, cx, cy, true, out);  // (the raster lookup maps NaN to the origin)
         return false;
     }

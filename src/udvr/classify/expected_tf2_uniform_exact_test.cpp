@@ -326,6 +326,14 @@ TEST(Tf2UniformExact, NonFiniteDataIsALookup) {
     expectLookup(0.0, 0.5);
     c.cx = 0.5, c.d[1].b = std::numeric_limits<double>::infinity();
     expectLookup(0.5, 0.5);
+    // A NaN or infinite width a, on a corner or on the y-only direction: the same lookup (a NaN
+    // a was once taken for a y-only direction and gave E[α] = 0.3717 here, not 0.375).
+    for (const int i : {0, 2})
+        for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+            c.d = {{0.1, 0.2}, {0.2, -0.1}, {0.0, 0.1}};
+            c.d[i].a = bad;
+            expectLookup(0.5, 0.5);
+        }
 }
 
 }  // namespace
