@@ -354,9 +354,12 @@ inline bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, doub
                 const int s0 = stripOf(xj - aw), s1 = stripOf(xj + aw);
                 for (int ch = 0; ch < 4; ++ch) lam[4 * j + ch] = 0.0;
                 for (int s = s0; s <= s1; ++s) {
-                    const double xs = r.x0 + s * sx;  // the strip's start (s = −1: unused)
+                    // The strip's start and end in u; each column's position by one expression,
+                    // so that the strips' pieces tile [−aw, aw] without a gap.
+                    const double xs = r.x0 + s * sx;
                     const double u0 = s > s0 ? std::clamp(xs - cx - off, -aw, aw) : -aw;
-                    const double u1 = s < s1 ? std::clamp(xs + sx - cx - off, -aw, aw) : aw;
+                    const double u1 =
+                        s < s1 ? std::clamp(r.x0 + (s + 1) * sx - cx - off, -aw, aw) : aw;
                     Cplx J[3];
                     detail::powerPhaseIntegrals(u0, u1, 0.0, om * mw, J);
                     // T̂(x_j + u) = Σ_p q_p f^p, f = f0 + u/sx: as a quadratic in u.

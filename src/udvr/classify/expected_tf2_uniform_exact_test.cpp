@@ -278,31 +278,39 @@ TEST(Tf2UniformExact, NarrowCornersBesideAFaceAreClosedForm) {
     std::printf("narrow corners beside a face: worst |ΔE| %.2e\n", worst);
 }
 
-// Corners tiny against |cx| (1e−9 at cx ≈ 1000: a few hundred ulps of cx): the widest corner's
+// Corners tiny against |cx| (1e−9 at cx ≈ 1000: a few thousand ulps of cx): the widest corner's
 // segment is integrated in coordinates relative to its node, so its length stays 2|a| to the
 // last digit (as the difference of two cumulative integrals at cx ± |a| it was up to 4.9e−6
-// off here); what is left is the series' tail (≤ 1e−11).
-// A lone corner (a segment), one with y-only directions, and binned corners under it.
+// off here); what is left is the series' tail (≤ 1e−11). A lone corner (a segment), one with
+// y-only directions, and binned corners under it, inside a column strip and across a column
+// (x = 1000); on a raster with dyadic columns and α, c bilinear, and on one whose columns are
+// not dyadic (0.3 apart, so a column's position rounds) with α, c constant in x.
 TEST(Tf2UniformExact, TinyCornersFarFromTheOriginKeepTheirDigits) {
     const Bilinear tf{{0.25, -0.5, 0.125, 0.375},
                       {0.125, 0.0625, -0.25, 0.125},
                       {0.125, -0.25, 0.0625, -0.1875},
                       {0.0625, 0.125, -0.03125, 0.09375},
                       1000.0};
-    const Raster ras(9, 9, 992, 1008, -4, 4, tf);
-    std::vector<std::vector<BoxDirection2>> shapes = {
+    Bilinear flatInX = tf;
+    for (int ch = 0; ch < 4; ++ch) flatInX.Q[ch] = flatInX.T[ch] = 0.0;
+    const Raster dyadic(9, 9, 992, 1008, -4, 4, tf), tenths(9, 9, 998.8, 1001.2, -4, 4, flatInX);
+    const std::vector<std::vector<BoxDirection2>> shapes = {
         {{1e-9, 0.3}},
         {{1e-9, 0.3}, {0.0, 0.2}, {0.0, -0.1}},
         {{4e-10, -0.2}, {1e-9, 0.3}, {-3e-10, 0.1}, {0.0, 0.2}},
         {{4e-10, -0.2}, {1e-9, 0.3}, {-3e-10, 0.1}}};
     double worst = 0;
-    for (const double cx : {1000.0 + 1.0 / 3, 1001.0, 999.0 + 1e-10})
+    const auto check = [&](const Raster& ras, const Bilinear& f, double cx, const char* what) {
         for (const auto& d : shapes) {
-            const Case c{cx, 0.37, d};
-            const double e = bilinearError(ras, tf, c);
+            const double e = bilinearError(ras, f, Case{cx, 0.37, d});
             worst = std::max(worst, e);
-            EXPECT_LT(e, 1e-10) << "cx " << cx << ", " << d.size() << " directions";
+            EXPECT_LT(e, 1e-10) << "cx " << cx << ", " << d.size() << " directions, " << what;
         }
+    };
+    for (const double cx : {1000.0 + 1.0 / 3, 1001.0, 999.0 + 1e-10, 1000.0 + 3e-10, 1000.0})
+        check(dyadic, tf, cx, "dyadic columns");
+    for (int i = 1; i < 8; ++i)  // across each inner column, as the code places it
+        check(tenths, flatInX, tenths.r.x0 + i / tenths.r.invDx + 3e-10, "columns 0.3 apart");
     std::printf("tiny corners at cx ≈ 1000: worst |ΔE| %.2e\n", worst);
 }
 
