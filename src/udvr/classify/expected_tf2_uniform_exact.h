@@ -18,8 +18,9 @@
 // - The widest corner is integrated exactly per node: Λ_j = (1/2|a|) ∫ T̂_k(x_j + u) e^{iωmu} du,
 //   from the cumulative integral over the raster's column strips (T̂ is Σ_p f^p Q̂_{s,p} in strip
 //   s, f its fraction, Q̂ the exact transforms of the column products, piecewise quadratic in g);
-//   a corner narrower than a strip directly over the ≤ 2 strips it meets, in u (exact length
-//   2|a| however large |cx| is: 1e−9 at cx = 1000 keeps 1e−11 of E, the cumulative way 5e−6).
+//   a corner of half-width under a strip's directly over the ≤ 3 strips it meets, in u (exact
+//   length 2|a| however large |cx| is: 1e−9 at cx = 1000 keeps 1e−11 of E, the cumulative way
+//   5e−6).
 // - Every integral of a polynomial (degree ≤ 2) times e^{iθ} is 6-point Gauss–Legendre on
 //   pieces of ≤ 1 rad, or by parts where the phase turns > 4 rad: exact to ~1e−15.
 // - No binned corner and R = 0: (X, G) lies on a segment; its exact mean (tf2MeanAlongSegment).
@@ -346,7 +347,7 @@ inline bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, doub
                     q[ch * 3] * J[0] + q[ch * 3 + 1] * (J[1] * f1) + q[ch * 3 + 2] * (J[2] * f2);
         };
         if (widest >= 0 && aw < sx) {
-            // Narrower than a strip: Λ_j over the ≤ 2 strips it meets, in u = x − x_j, so the
+            // Half-width under a strip's: Λ_j over the ≤ 3 strips it meets, in u = x − x_j, so the
             // segment keeps its length 2·aw to the last digit however large |cx| is (the
             // difference of cumulative integrals at x_j ± aw would lose ulp(x_j)/aw of it).
             for (int j = lo; j <= hi; ++j) {
