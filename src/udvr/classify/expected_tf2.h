@@ -11,6 +11,9 @@
 
 namespace udvr {
 
+/// The most vertices of a polyline expectedTf2QuantileRange takes (quantile levels + 1).
+inline constexpr int kMaxPolylineVertices = 128;
+
 /// Read-only view of a raster TF2 (classify/transfer_function_2d.h) with coordinates over Real;
 /// device-copyable. Points: rgba[(j·width + i)·4 + ch], (r, g, b, α).
 template <class Real>
@@ -277,28 +280,65 @@ UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> nextLineX(const Tf2Raster<Real>& r, lan
                      lineX + stepX);
 }
 
-/// tf2MeanAlongSegment's walk, by cells or (kRuns, r.cellRun set) by runs of cells.
-template <bool kRuns, class T, class Real>
-UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
+/// One segment, weight 1: the source of tf2MeanAlongSegment's walk.
+template <class T>
+struct OneSegment {
+    static constexpr bool kMany = false;
+    T xa, ya, xb, yb;
+    /// Sets the next segment's ends and weight in the lanes of m that have one; returns those.
+    UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> next(lanes::MaskOf<T> m, T& pa, T& qa, T& pb, T& qb,
+                                                   T& w) const {
+        pa = xa, qa = ya, pb = xb, qb = yb;
+        w = lanes::splat<T>(lanes::ScalarOf<T>(1));
+        return m;
+    }
+};
+
+/// The walk of tf2MeanAlongSegment, by cells or (kRuns, r.cellRun set) by runs of cells, over
+/// the segments of `source` (OneSegment, or a polyline: Σ weight × mean along each segment).
+/// With Source::kMany a lane that finishes a segment starts its next one in place, so a batch
+/// walks as long as its longest lane's total, not the sum over segments of the longest lane's.
+template <bool kRuns, class T, class Real, class Source>
+UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, Source& source,
                                           lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     using I = lanes::IntOf<T>;
     const S ox = static_cast<S>(r.x0), oy = static_cast<S>(r.y0);
     const S ix = static_cast<S>(r.invDx), iy = static_cast<S>(r.invDy);
-    // Raster coordinates, unclamped (pieces outside the domain clamp at evaluation).
-    const T sa = (xa - ox) * ix, ta = (ya - oy) * iy;
-    const T ds = (xb - ox) * ix - sa, dt = (yb - oy) * iy - ta;
-    I lineX, stepX, lineY, stepY;
-    detail::firstLine<T>(sa, ds, r.width, lineX, stepX);
-    detail::firstLine<T>(ta, dt, r.height, lineY, stepY);
-    if constexpr (kRuns)
-        lineX = detail::runLineAhead<T>(r, lineX, stepX,
-                                        detail::bandAhead<T>(ta, lineY, stepY, r.height), live);
-    T ux = detail::lineParameter<T>(sa, ds, lineX, stepX);
-    T uy = detail::lineParameter<T>(ta, dt, lineY, stepY);
+    T sa{}, ta{}, ds{}, dt{}, ux{}, uy{}, u0{}, weight{};
+    I lineX{}, stepX{}, lineY{}, stepY{};
+    // The lanes of m go on from segment parameter u, raster position (s, t): the lines ahead.
+    const auto goOnFrom = [&](lanes::MaskOf<T> m, T u, T s, T t) {
+        I lx, sx, ly, sy;
+        detail::firstLine<T>(s, ds, r.width, lx, sx);
+        detail::firstLine<T>(t, dt, r.height, ly, sy);
+        if constexpr (kRuns)
+            lx = detail::runLineAhead<T>(r, lx, sx, detail::bandAhead<T>(t, ly, sy, r.height), m);
+        lineX = lanes::select(m, lx, lineX);
+        stepX = lanes::select(m, sx, stepX);
+        lineY = lanes::select(m, ly, lineY);
+        stepY = lanes::select(m, sy, stepY);
+        ux = lanes::select(m, detail::lineParameter<T>(sa, ds, lx, sx), ux);
+        uy = lanes::select(m, detail::lineParameter<T>(ta, dt, ly, sy), uy);
+        u0 = lanes::select(m, u, u0);
+    };
+    // Starts the next segment of the lanes of m that have one (returned).
+    const auto begin = [&](lanes::MaskOf<T> m) {
+        T xa, ya, xb, yb, w;
+        const lanes::MaskOf<T> got = source.next(m, xa, ya, xb, yb, w);
+        if (!lanes::anyOf(got)) return got;
+        // Raster coordinates, unclamped (pieces outside the domain clamp at evaluation).
+        const T sa1 = (xa - ox) * ix, ta1 = (ya - oy) * iy;
+        sa = lanes::select(got, sa1, sa);
+        ta = lanes::select(got, ta1, ta);
+        ds = lanes::select(got, (xb - ox) * ix - sa1, ds);
+        dt = lanes::select(got, (yb - oy) * iy - ta1, dt);
+        weight = lanes::select(got, w, weight);
+        goOnFrom(got, T{}, sa1, ta1);
+        return got;
+    };
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
-    T u0{};
-    auto active = live;
+    auto active = begin(live);
     // Gauss–Legendre on [0, 1]: nodes ½ ∓ ½√(3/5), ½; weights 5/18, 8/18, 5/18.
     constexpr S kNode = S(0.38729833462074168852), kW0 = S(5.0 / 18.0), kW1 = S(8.0 / 18.0);
     while (lanes::anyOf(active)) {
@@ -366,7 +406,7 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, 
                     detail::rasterCoordinate<T>(lanes::fma(nodes[n], dt, ta), S(0), S(1), r.height);
                 T v[4];
                 cell.at(kRuns ? (s - ci) * invWidth : s - ci, t - cj, v);
-                const T wl = lanes::select(use, len * weights[n], T{});
+                const T wl = lanes::select(use, len * weights[n] * weight, T{});
                 for (int ch = 0; ch < 3; ++ch) out[ch] = lanes::fma(wl, v[3] * v[ch], out[ch]);
                 out[3] = lanes::fma(wl, v[3], out[3]);
             }
@@ -407,24 +447,14 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, T xa, T ya, 
         // Only a jump past the piece's end: restarting at a line found an ulp behind would walk
         // the same piece again, forever.
         jump = jump & (uJump > u1);
-        if (lanes::anyOf(jump)) {  // restart the line walk where the segment leaves the block
-            const T uj = uJump;
-            I lx, sx, ly, sy;
-            detail::firstLine<T>(lanes::fma(uj, ds, sa), ds, r.width, lx, sx);
-            detail::firstLine<T>(lanes::fma(uj, dt, ta), dt, r.height, ly, sy);
-            if constexpr (kRuns)
-                lx = detail::runLineAhead<T>(
-                    r, lx, sx, detail::bandAhead<T>(lanes::fma(uj, dt, ta), ly, sy, r.height),
-                    jump);
-            lineX = lanes::select(jump, lx, lineX);
-            stepX = lanes::select(jump, sx, stepX);
-            lineY = lanes::select(jump, ly, lineY);
-            stepY = lanes::select(jump, sy, stepY);
-            ux = lanes::select(jump, detail::lineParameter<T>(sa, ds, lx, sx), ux);
-            uy = lanes::select(jump, detail::lineParameter<T>(ta, dt, ly, sy), uy);
-            u0 = lanes::select(jump, uj, u0);
-        }
+        if (lanes::anyOf(jump))  // restart the line walk where the segment leaves the block
+            goOnFrom(jump, uJump, lanes::fma(uJump, ds, sa), lanes::fma(uJump, dt, ta));
+        const auto walked = active;
         active = active & (u0 < S(1));
+        if constexpr (Source::kMany) {
+            const auto finished = walked & !active;
+            if (lanes::anyOf(finished)) active = active | begin(finished);
+        }
     }
 }
 
@@ -624,16 +654,16 @@ UDVR_CPU_GPU UDVR_INLINE void rowConstantMean(const Tf2RowEnd<T>& a, const Tf2Ro
     }
 }
 
-/// The segment from end a to end b (r.rowPrefix set) by rowConstantMean, where every lane of
-/// `live` may take it (then true, the mean in out); else false and nothing read: the caller
-/// walks every lane (the walk lasts as long as its longest lane; the closed form for the other
-/// lanes on top of it made the widget TF2 18 % slower).
+/// The segment from end a to end b (r.rowPrefix set) by rowConstantMean in the lanes of `live`
+/// that may take it (rowConstantLanes, returned; their mean in out, the other lanes' out 0).
 template <class T, class Real>
-UDVR_CPU_GPU UDVR_INLINE bool rowConstantSegment(const Tf2Raster<Real>& r, Tf2RowEnd<T>& a,
-                                                 Tf2RowEnd<T>& b, lanes::MaskOf<T> live, T out[4]) {
+UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> rowConstantSegment(const Tf2Raster<Real>& r,
+                                                             Tf2RowEnd<T>& a, Tf2RowEnd<T>& b,
+                                                             lanes::MaskOf<T> live, T out[4]) {
     using I = lanes::IntOf<T>;
     const lanes::MaskOf<T> done = rowConstantLanes<T>(a, b, live);
-    if (lanes::anyOf(live & !done)) return false;
+    for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
+    if (!lanes::anyOf(done)) return done;
     // Reads only where the segment meets a cell of α > 0: not where the block of empty cells
     // around its left end's cell (closer than that cell's distance) holds its right end's; the
     // prefix only where full cells lie between the ends' cells.
@@ -654,17 +684,60 @@ UDVR_CPU_GPU UDVR_INLINE bool rowConstantSegment(const Tf2Raster<Real>& r, Tf2Ro
         rowConstantMean<T>(a, b, r.width, row);
     }
     for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::select(meets, row[ch], T{});
-    return true;
+    return done;
 }
-/// tf2MeanAlongSegment's walk, by runs where r.cellRun is set.
-template <class T, class Real>
-UDVR_CPU_GPU UDVR_INLINE void segmentWalkOf(const Tf2Raster<Real>& r, T xa, T ya, T xb, T yb,
+/// segmentWalk, by runs where r.cellRun is set.
+template <class T, class Real, class Source>
+UDVR_CPU_GPU UDVR_INLINE void segmentWalkOf(const Tf2Raster<Real>& r, Source& source,
                                             lanes::MaskOf<T> live, T out[4]) {
     if (r.cellRun)
-        segmentWalk<true, T>(r, xa, ya, xb, yb, live, out);
+        segmentWalk<true, T>(r, source, live, out);
     else
-        segmentWalk<false, T>(r, xa, ya, xb, yb, live, out);
+        segmentWalk<false, T>(r, source, live, out);
 }
+
+/// The segments j = 1 … count − 1 of a polyline through the vertices (x[j], g[j]), weights
+/// mass[j], each lane from segment `first` on and skipping those whose bit is set in its
+/// `skip` (taken by the closed form): the source of expectedTf2QuantileRange's walk.
+template <class T>
+struct PolylineSegments {
+    static constexpr bool kMany = true;
+    const T* x;
+    const T* g;
+    const float* mass;  // [count]
+    int count;
+    lanes::IntOf<T> skip{};  // bit j (< 32): segment j is not walked
+    lanes::IntOf<T> seg{};   // each lane's segment (0 before the first)
+
+    /// v[j] in each lane, j per lane.
+    UDVR_CPU_GPU UDVR_INLINE static T at(const T* v, lanes::IntOf<T> j, lanes::MaskOf<T> m) {
+        if constexpr (lanes::kIsVector<T>)
+            return lanes::gather(reinterpret_cast<const float*>(v),
+                                 j * lanes::kWidth + lanes::iota(), m);
+        else
+            return v[j];
+    }
+    UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> next(lanes::MaskOf<T> m, T& xa, T& ya, T& xb, T& yb,
+                                                   T& w) {
+        using I = lanes::IntOf<T>;
+        lanes::MaskOf<T> step = m;
+        do {  // to the next segment not skipped
+            seg = lanes::select(step, seg + 1, seg);
+            step = step & (seg < count) & (seg < 32) &
+                   (((skip >> lanes::min(seg, I{} + 31)) & 1) != 0);
+        } while (lanes::anyOf(step));
+        const lanes::MaskOf<T> got = m & (seg < count);
+        if (!lanes::anyOf(got)) return got;
+        const I j = lanes::select(got, seg, I{} + 1);
+        xa = at(x, j - 1, got), ya = at(g, j - 1, got);
+        xb = at(x, j, got), yb = at(g, j, got);
+        if constexpr (lanes::kIsVector<T>)
+            w = lanes::gather(mass, j, got);
+        else
+            w = static_cast<T>(mass[j]);
+        return got;
+    }
+};
 }  // namespace detail
 
 /// Mean of TF2 (α·c and α) along the segment from (xa, ya) to (xb, yb) in data units:
@@ -680,39 +753,50 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
                                                   lanes::MaskOf<T> live, T out[4]) {
     if (r.rowPrefix) {
         detail::Tf2RowEnd<T> a(r, xa, ya, live), b(r, xb, yb, live);
-        if (detail::rowConstantSegment<T>(r, a, b, live, out)) return;
+        if (!lanes::anyOf(live & !detail::rowConstantSegment<T>(r, a, b, live, out))) return;
     }
-    detail::segmentWalkOf<T>(r, xa, ya, xb, yb, live, out);
+    detail::OneSegment<T> one{xa, ya, xb, yb};
+    detail::segmentWalkOf<T>(r, one, live, out);
 }
 
 /// Quantile-range with a TF2 (SPEC §9): the rank-coupled polyline (X(t), G(t)) through the
-/// vertices (x(j), g(j)), j = 0 … count − 1; Σ_j mass_j × mean of TF2 along segment j / Σ mass
-/// (levels: equal masses for even levels, as expectedTfQuantileRange). With r.rowPrefix each
-/// vertex's row data is loaded once for the two segments that share it.
-template <class T, class Real, class X, class G>
-UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const X& x,
-                                                       const G& g, int count,
+/// vertices (x[j], g[j]), j = 0 … count − 1 (count ≤ kMaxPolylineVertices); Σ_j mass_j × mean
+/// of TF2 along segment j / Σ mass (levels: equal masses for even levels, as
+/// expectedTfQuantileRange). With r.rowPrefix the segments j < 32 of the lanes that may take
+/// rowConstantMean take it (each vertex's row data loaded once for the two segments that share
+/// it); one walk takes the rest, each lane through its segments one after the other.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const T* x,
+                                                       const T* g, int count,
                                                        const QuantileLevels& levels,
                                                        lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
+    using I = lanes::IntOf<T>;
+    float mass[kMaxPolylineVertices];
+    mass[0] = 0.f;
+    for (int j = 1; j < count; ++j) mass[j] = static_cast<float>(levels.mass(j));
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
-    T xPrev = x(0), gPrev = g(0);
-    detail::Tf2RowEnd<T> prev;
-    if (r.rowPrefix) prev = detail::Tf2RowEnd<T>(r, xPrev, gPrev, live);
-    for (int j = 1; j < count; ++j) {
-        const T xj = x(j), gj = g(j);
-        T m[4];
-        bool done = false;
-        if (r.rowPrefix) {
-            detail::Tf2RowEnd<T> next(r, xj, gj, live);
-            done = detail::rowConstantSegment<T>(r, prev, next, live, m);
+    detail::PolylineSegments<T> segments{x, g, mass, count};
+    lanes::MaskOf<T> walk = live;  // lanes with a segment to walk
+    if (r.rowPrefix && count <= 32) {
+        detail::Tf2RowEnd<T> prev(r, x[0], g[0], live);
+        lanes::MaskOf<T> closed = live;  // lanes whose every segment takes the closed form
+        for (int j = 1; j < count; ++j) {
+            detail::Tf2RowEnd<T> next(r, x[j], g[j], live);
+            T m[4];
+            const lanes::MaskOf<T> done = detail::rowConstantSegment<T>(r, prev, next, live, m);
+            const T w = lanes::splat<T>(static_cast<S>(mass[j]));
+            for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::fma(w, m[ch], out[ch]);
+            segments.skip = segments.skip | lanes::select(done, I{} + (1 << j), I{});
+            closed = closed & done;
             prev = next;
         }
-        if (!done) detail::segmentWalkOf<T>(r, xPrev, gPrev, xj, gj, live, m);
-        const T mass = lanes::splat<T>(static_cast<S>(levels.mass(j)));
-        for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::fma(mass, m[ch], out[ch]);
-        xPrev = xj;
-        gPrev = gj;
+        walk = live & !closed;
+    }
+    if (count >= 2 && lanes::anyOf(walk)) {
+        T walked[4];
+        detail::segmentWalkOf<T>(r, segments, walk, walked);
+        for (int ch = 0; ch < 4; ++ch) out[ch] += walked[ch];
     }
     const S inv = levels.template inverseTotal<S>(count);
     for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;

@@ -23,6 +23,7 @@ namespace udvr {
 
 /// Boundaries a 2D quantile kernel handles per sample (q ≤ 127).
 inline constexpr int kMaxBoundaries2D = 128;
+static_assert(kMaxBoundaries2D <= kMaxPolylineVertices);
 /// Gradient components (3 for the mean, 3 per boundary) a batch blends from its rows
 /// (Quantile2DKernel): q ≤ 19 on AVX-512, 8 on AVX2, 3 on SSE2/NEON; more take trilinear gathers.
 inline constexpr int kMaxGradientRows = 4 * lanes::kWidth;
@@ -292,9 +293,7 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         using S = lanes::ScalarOf<T>;
         const auto& t = tf2<T>();
         if (!quantileMean) {
-            expectedTf2QuantileRange<T>(
-                t, [&](int j) { return x[j]; }, [&](int j) { return g[j]; }, count, levels, live,
-                out);
+            expectedTf2QuantileRange<T>(t, x, g, count, levels, live, out);
             return;
         }
         const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
