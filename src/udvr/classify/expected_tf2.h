@@ -697,14 +697,14 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalkOf(const Tf2Raster<Real>& r, Source& so
 }
 
 /// The segments j = 1 … count − 1 of a polyline through the vertices (x[j], g[j]), weights
-/// mass[j], each lane from segment `first` on and skipping those whose bit is set in its
-/// `skip` (taken by the closed form): the source of expectedTf2QuantileRange's walk.
+/// mass[j], each lane skipping those whose bit is set in its `skip` (taken by the closed form):
+/// the source of expectedTf2QuantileRange's walk.
 template <class T>
 struct PolylineSegments {
     static constexpr bool kMany = true;
     const T* x;
     const T* g;
-    const float* mass;  // [count]
+    const lanes::ScalarOf<T>* mass;  // [count]: exact in double for the double body
     int count;
     lanes::IntOf<T> skip{};  // bit j (< 32): segment j is not walked
     lanes::IntOf<T> seg{};   // each lane's segment (0 before the first)
@@ -762,9 +762,10 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
 /// Quantile-range with a TF2 (SPEC §9): the rank-coupled polyline (X(t), G(t)) through the
 /// vertices (x[j], g[j]), j = 0 … count − 1 (count ≤ kMaxPolylineVertices); Σ_j mass_j × mean
 /// of TF2 along segment j / Σ mass (levels: equal masses for even levels, as
-/// expectedTfQuantileRange). With r.rowPrefix the segments j < 32 of the lanes that may take
+/// expectedTfQuantileRange). With r.rowPrefix the segments of the lanes that may take
 /// rowConstantMean take it (each vertex's row data loaded once for the two segments that share
-/// it); one walk takes the rest, each lane through its segments one after the other.
+/// it; past 32 segments only lanes whose every segment may); one walk takes the rest, each lane
+/// through its segments one after the other.
 template <class T, class Real>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const T* x,
                                                        const T* g, int count,
@@ -772,25 +773,32 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
                                                        lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
     using I = lanes::IntOf<T>;
-    float mass[kMaxPolylineVertices];
-    mass[0] = 0.f;
-    for (int j = 1; j < count; ++j) mass[j] = static_cast<float>(levels.mass(j));
+    S mass[kMaxPolylineVertices];
+    mass[0] = S(0);
+    for (int j = 1; j < count; ++j) mass[j] = static_cast<S>(levels.mass(j));
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
     detail::PolylineSegments<T> segments{x, g, mass, count};
     lanes::MaskOf<T> walk = live;  // lanes with a segment to walk
-    if (r.rowPrefix && count <= 32) {
+    if (r.rowPrefix) {
+        // Up to 32 segments a lane's skip bits say which took the closed form; beyond, a lane
+        // takes it only if every segment may, else walks them all.
+        const bool perSegment = count <= 32;
         detail::Tf2RowEnd<T> prev(r, x[0], g[0], live);
         lanes::MaskOf<T> closed = live;  // lanes whose every segment takes the closed form
+        T sum[4] = {};
         for (int j = 1; j < count; ++j) {
             detail::Tf2RowEnd<T> next(r, x[j], g[j], live);
             T m[4];
             const lanes::MaskOf<T> done = detail::rowConstantSegment<T>(r, prev, next, live, m);
-            const T w = lanes::splat<T>(static_cast<S>(mass[j]));
-            for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::fma(w, m[ch], out[ch]);
-            segments.skip = segments.skip | lanes::select(done, I{} + (1 << j), I{});
+            const T w = lanes::splat<T>(mass[j]);
+            for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(w, m[ch], sum[ch]);
+            if (perSegment)
+                segments.skip = segments.skip | lanes::select(done, I{} + (1 << j), I{});
             closed = closed & done;
             prev = next;
         }
+        for (int ch = 0; ch < 4; ++ch)
+            out[ch] = perSegment ? sum[ch] : lanes::select(closed, sum[ch], T{});
         walk = live & !closed;
     }
     if (count >= 2 && lanes::anyOf(walk)) {

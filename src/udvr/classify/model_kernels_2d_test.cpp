@@ -484,6 +484,81 @@ TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
     EXPECT_LE(worstLanes, 1e-5);
 }
 
+// expectedTf2QuantileRange walks each lane's whole polyline in one walk and takes the row
+// closed form per lane and segment: it must be Σ_j mass_j × (segment j's mean) / Σ mass, the
+// segment means taken one at a time by the double walk, for even and uneven levels, polylines of
+// up to 128 vertices (past 32 segments the closed form only for lanes whose every segment may),
+// and dead lanes.
+TEST(Tf2, QuantileRangePolylineIsTheMassWeightedSumOfItsSegmentMeans) {
+    CounterRng rng(35, 0, 0);
+    const int w = 50, h = 10;
+    TransferFunction2D t = randomTf2(rng, w, h, -2.0, 3.0, 0.0, 4.5);  // rows at y = 0.5·j
+    for (int j = 1; j <= 6; ++j) std::copy_n(t.point(0, 0), 4 * w, t.rgba.begin() + 4 * w * j);
+    ModelVolume unit;
+    unit.grid.dims = {1, 1, 1};
+    unit.mean = {0.f};
+    GradientCache gradients;
+    const Tf2Setup setup(t, unit, gradients);
+    ASSERT_NE(setup.fast.rowPrefix, nullptr);
+    Tf2Raster<double> byRows = setup.exact;  // the double body given the tables
+    byRows.rowSameUpTo = setup.rowSameUpTo.data();
+    byRows.rowPrefix = setup.rowPrefix.data();
+    double worstDouble = 0, worstLanes = 0, worstDead = 0;
+    for (const int count : {2, 5, 32, 33, 40, 128})
+        for (const bool even : {true, false}) {
+            // Uneven levels: t_0 … t_{count−1} increasing from 0 with random steps.
+            std::vector<double> levelValues(count, 0.0);
+            for (int j = 1; j < count; ++j)
+                levelValues[j] = levelValues[j - 1] + 0.05 + rng.uniform();
+            const QuantileLevels levels{even ? nullptr : levelValues.data(), 0};
+            std::vector<lanes::Vf> x(count), g(count);
+            for (int l = 0; l < lanes::kWidth; ++l) {
+                // Half the lanes stay in the identical rows (y ∈ [0, 3]): the closed form.
+                const bool flat = l % 2 == 0;
+                double xv = -3.0 + 7.0 * rng.uniform();
+                for (int j = 0; j < count; ++j) {
+                    xv += 0.3 * (rng.uniform() - 0.3);
+                    x[j][l] = static_cast<float>(xv);
+                    g[j][l] =
+                        static_cast<float>(flat ? 2.0 * rng.uniform() : -0.5 + 5.5 * rng.uniform());
+                }
+            }
+            const lanes::Mask live = lanes::iota() != 3;
+            lanes::Vf got[4];
+            expectedTf2QuantileRange<lanes::Vf>(setup.fast, x.data(), g.data(), count, levels, live,
+                                                got);
+            for (int l = 0; l < lanes::kWidth; ++l) {
+                std::vector<double> xd(count), gd(count);
+                for (int j = 0; j < count; ++j) xd[j] = x[j][l], gd[j] = g[j][l];
+                double want[4] = {0, 0, 0, 0}, total = 0;
+                for (int j = 1; j < count; ++j) {
+                    const double mass = levels.mass(j);
+                    double m[4];
+                    tf2MeanAlongSegment<double>(setup.exact, xd[j - 1], gd[j - 1], xd[j], gd[j],
+                                                true, m);
+                    for (int ch = 0; ch < 4; ++ch) want[ch] += mass * m[ch];
+                    total += mass;
+                }
+                double one[4];
+                expectedTf2QuantileRange<double>(byRows, xd.data(), gd.data(), count, levels, true,
+                                                 one);
+                for (int ch = 0; ch < 4; ++ch) {
+                    want[ch] /= total;
+                    worstDouble = std::max(worstDouble, std::abs(one[ch] - want[ch]));
+                    if (live[l])
+                        worstLanes = std::max(worstLanes, std::abs(got[ch][l] - want[ch]));
+                    else
+                        worstDead = std::max(worstDead, std::abs(static_cast<double>(got[ch][l])));
+                }
+            }
+        }
+    // The double body to rounding (the weights in double: as float they were 5e−8 off with
+    // uneven levels); float lanes as the segment test's.
+    EXPECT_LE(worstDouble, 1e-12);
+    EXPECT_LE(worstLanes, 1e-5);
+    EXPECT_EQ(worstDead, 0.0);
+}
+
 // Quantile-range and quantile-mean with a TF2, evaluated independently at a point: the rank
 // coupling X_i(t) = F_i⁻¹(t) (piecewise linear through (j/q, b_{j,i})) pushed through the
 // 32-voxel form of SPEC §9 (X = Σ w_i X_i, G = n̂·Σ g_i X_i, n̂ from the means), then
