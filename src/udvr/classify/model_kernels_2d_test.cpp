@@ -387,6 +387,25 @@ TEST(Tf2, SegmentMeanByLinearRunsMatchesTheWalkByCells) {
 // rest walk. Against the walk by cells (double, no tables) and dense quadrature: random
 // segments, vertical, nearly vertical, horizontal, zero-length and tiny ones, segments
 // clamped on either side in x or wholly outside; double, float and float lanes.
+// A TF2's setup over a one-point model, and its double view given the row tables (the double
+// body's closed form over identical rows).
+struct RowTableViews {
+    ModelVolume unit = [] {
+        ModelVolume m;
+        m.grid.dims = {1, 1, 1};
+        m.mean = {0.f};
+        return m;
+    }();
+    GradientCache gradients;
+    Tf2Setup setup;
+    Tf2Raster<double> byRows;
+    explicit RowTableViews(const TransferFunction2D& t)
+        : setup(t, unit, gradients), byRows(setup.exact) {
+        byRows.rowSameUpTo = setup.rowSameUpTo.data();
+        byRows.rowPrefix = setup.rowPrefix.data();
+    }
+};
+
 TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
     CounterRng rng(33, 0, 0);
     const int w = 50, h = 10;
@@ -399,15 +418,12 @@ TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
     for (int j : {7, 8, 9}) copyRow(6, j);
     const std::vector<float> same = t.identicalRowsUpTo();
     EXPECT_EQ(same, (std::vector<float>{2, 2, 2, 4, 4, 5, 9, 9, 9, 9}));
-    ModelVolume unit;
-    unit.grid.dims = {1, 1, 1};
-    unit.mean = {0.f};
-    GradientCache gradients;
-    const Tf2Setup setup(t, unit, gradients);
+    RowTableViews views(t);
+    const Tf2Setup& setup = views.setup;
+    const Tf2Raster<double>& byRows = views.byRows;
     ASSERT_NE(setup.fast.rowPrefix, nullptr);
-    Tf2Raster<double> byRows = setup.exact;  // the double body given the tables
-    byRows.rowSameUpTo = setup.rowSameUpTo.data();
-    byRows.rowPrefix = setup.rowPrefix.data();
+    ModelVolume& unit = views.unit;
+    GradientCache& gradients = views.gradients;
     // Ends of a segment: y in stretch 0…2 (y ∈ [0, 1]), 6…9 ([3, 4.5]) or anywhere in
     // [−1, 5.5]; x in [−4, 5] (the domain is [−2, 3]).
     const auto segment = [&](int k, double p[4]) {
@@ -494,15 +510,10 @@ TEST(Tf2, QuantileRangePolylineIsTheMassWeightedSumOfItsSegmentMeans) {
     const int w = 50, h = 10;
     TransferFunction2D t = randomTf2(rng, w, h, -2.0, 3.0, 0.0, 4.5);  // rows at y = 0.5·j
     for (int j = 1; j <= 6; ++j) std::copy_n(t.point(0, 0), 4 * w, t.rgba.begin() + 4 * w * j);
-    ModelVolume unit;
-    unit.grid.dims = {1, 1, 1};
-    unit.mean = {0.f};
-    GradientCache gradients;
-    const Tf2Setup setup(t, unit, gradients);
+    RowTableViews views(t);
+    const Tf2Setup& setup = views.setup;
+    const Tf2Raster<double>& byRows = views.byRows;
     ASSERT_NE(setup.fast.rowPrefix, nullptr);
-    Tf2Raster<double> byRows = setup.exact;  // the double body given the tables
-    byRows.rowSameUpTo = setup.rowSameUpTo.data();
-    byRows.rowPrefix = setup.rowPrefix.data();
     double worstDouble = 0, worstLanes = 0, worstDead = 0;
     for (const int count : {2, 5, 32, 33, 40, 128})
         for (const bool even : {true, false}) {
