@@ -299,7 +299,9 @@ struct OneSegment {
 /// The walk of tf2MeanAlongSegment, by cells or (kRuns, r.cellRun set) by runs of cells, over
 /// the segments of `source` (OneSegment, or a polyline: Σ weight × mean along each segment).
 /// With Source::kMany a lane that finishes a segment starts its next one in place, so a batch
-/// walks as long as its longest lane's total, not the sum over segments of the longest lane's.
+/// walks as long as its longest lane's total, not the sum over segments of the longest lane's;
+/// with Source::kPooled the lanes' sums go to the source (flush) as each segment ends, and the
+/// source's totals are the result (collect).
 template <bool kRuns, class T, class Real, class Source>
 UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, Source& source,
                                           lanes::MaskOf<T> live, T out[4]) {
@@ -847,8 +849,11 @@ UDVR_CPU_GPU UDVR_INLINE void tf2MeanAlongSegment(const Tf2Raster<Real>& r, T xa
 /// of TF2 along segment j / Σ mass (levels: equal masses for even levels, as
 /// expectedTfQuantileRange). With r.rowPrefix the segments of the lanes that may take
 /// rowConstantMean take it (each vertex's row data loaded once for the two segments that share
-/// it; past 32 segments only lanes whose every segment may); one walk takes the rest, each lane
-/// through its segments one after the other.
+/// it; past 32 segments only lanes whose every segment may); one walk takes the rest: in a
+/// scalar each segment in turn, in lanes the batch's segments as one pool
+/// (PooledPolylineSegments; a sample's total then sums its segments in the order they finish,
+/// which the other samples of the batch decide: deterministic, within float rounding of the
+/// per-lane order).
 template <class T, class Real>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r, const T* x,
                                                        const T* g, int count,

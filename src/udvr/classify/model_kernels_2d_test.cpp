@@ -500,11 +500,11 @@ TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
     EXPECT_LE(worstLanes, 1e-5);
 }
 
-// expectedTf2QuantileRange walks each lane's whole polyline in one walk and takes the row
-// closed form per lane and segment: it must be Σ_j mass_j × (segment j's mean) / Σ mass, the
-// segment means taken one at a time by the double walk, for even and uneven levels, polylines of
-// up to 128 vertices (past 32 segments the closed form only for lanes whose every segment may),
-// and dead lanes.
+// expectedTf2QuantileRange walks the batch's segments as one pool (lanes) or one after the
+// other (double) and takes the row closed form per lane and segment: it must be Σ_j mass_j ×
+// (segment j's mean) / Σ mass, the segment means taken one at a time by the double walk, for even
+// and uneven levels, polylines of up to 128 vertices (past 32 segments the closed form only for
+// lanes whose every segment may), and dead lanes.
 TEST(Tf2, QuantileRangePolylineIsTheMassWeightedSumOfItsSegmentMeans) {
     CounterRng rng(35, 0, 0);
     const int w = 50, h = 10;
