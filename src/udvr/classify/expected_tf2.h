@@ -705,50 +705,33 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalkOf(const Tf2Raster<Real>& r, Source& so
 }
 
 /// The segments j = 1 … count − 1 of a polyline through the vertices (x[j], g[j]), weights
-/// mass[j], each lane skipping those whose bit is set in its `skip` (taken by the closed form):
-/// the source of expectedTf2QuantileRange's walk.
+/// mass[j], skipping those whose bit is set in `skip` (taken by the closed form), in turn: the
+/// source of expectedTf2QuantileRange's walk for a scalar T (lanes take PooledPolylineSegments).
 template <class T>
 struct PolylineSegments {
+    static_assert(!lanes::kIsVector<T>);
     static constexpr bool kMany = true, kPooled = false;
     const T* x;
     const T* g;
-    const lanes::ScalarOf<T>* mass;  // [count]: exact in double for the double body
+    const T* mass;  // [count]
     int count;
-    lanes::IntOf<T> skip{};  // bit j (< 32): segment j is not walked
-    lanes::IntOf<T> seg{};   // each lane's segment (0 before the first)
+    int skip = 0;  // bit j (< 32): segment j is not walked
+    int seg = 0;   // the segment walked (0 before the first)
 
-    /// v[j] in each lane, j per lane.
-    UDVR_CPU_GPU UDVR_INLINE static T at(const T* v, lanes::IntOf<T> j, lanes::MaskOf<T> m) {
-        if constexpr (lanes::kIsVector<T>)
-            return lanes::gather(reinterpret_cast<const float*>(v),
-                                 j * lanes::kWidth + lanes::iota(), m);
-        else
-            return v[j];
-    }
-    UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> next(lanes::MaskOf<T> m, T& xa, T& ya, T& xb, T& yb,
-                                                   T& w) {
-        using I = lanes::IntOf<T>;
-        lanes::MaskOf<T> step = m;
-        do {  // to the next segment not skipped
-            seg = lanes::select(step, seg + 1, seg);
-            step = step & (seg < count) & (seg < 32) &
-                   (((skip >> lanes::min(seg, I{} + 31)) & 1) != 0);
-        } while (lanes::anyOf(step));
-        const lanes::MaskOf<T> got = m & (seg < count);
-        if (!lanes::anyOf(got)) return got;
-        const I j = lanes::select(got, seg, I{} + 1);
-        xa = at(x, j - 1, got), ya = at(g, j - 1, got);
-        xb = at(x, j, got), yb = at(g, j, got);
-        if constexpr (lanes::kIsVector<T>)
-            w = lanes::gather(mass, j, got);
-        else
-            w = static_cast<T>(mass[j]);
-        return got;
+    UDVR_CPU_GPU UDVR_INLINE bool next(bool m, T& xa, T& ya, T& xb, T& yb, T& w) {
+        if (!m) return false;
+        do ++seg;
+        while (seg < count && seg < 32 && ((static_cast<unsigned>(skip) >> seg) & 1u));
+        if (seg >= count) return false;
+        xa = x[seg - 1], ya = g[seg - 1], xb = x[seg], yb = g[seg];
+        w = mass[seg];
+        return true;
     }
 };
 
-/// The segments of the kWidth polylines of a batch (PolylineSegments' vertices, weights and
-/// skips; only the lanes of `live`) as one pool: a lane that finishes a segment takes the next
+/// The segments of the kWidth polylines of a batch (vertices x[j], g[j], weights mass[j],
+/// segments whose bit j < 32 is set in their lane's `skip` left out; only the lanes of `live`)
+/// as one pool: a lane that finishes a segment takes the next
 /// one left in the pool, of whichever polyline, and hands its sum to that polyline's total
 /// (flush), so the lanes stay busy until the pool is empty rather than each waiting for the
 /// longest polyline. Lane vectors only.
@@ -865,7 +848,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
     mass[0] = S(0);
     for (int j = 1; j < count; ++j) mass[j] = static_cast<S>(levels.mass(j));
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
-    detail::PolylineSegments<T> segments{x, g, mass, count};
+    I skip{};                      // per lane, bit j: segment j took the closed form
     lanes::MaskOf<T> walk = live;  // lanes with a segment to walk
     if (r.rowPrefix) {
         // Up to 32 segments a lane's skip bits say which took the closed form; beyond, a lane
@@ -880,8 +863,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
             const lanes::MaskOf<T> done = detail::rowConstantSegment<T>(r, prev, next, live, m);
             const T w = lanes::splat<T>(mass[j]);
             for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(w, m[ch], sum[ch]);
-            if (perSegment)
-                segments.skip = segments.skip | lanes::select(done, I{} + (1 << j), I{});
+            if (perSegment) skip = skip | lanes::select(done, I{} + (1 << j), I{});
             closed = closed & done;
             prev = next;
         }
@@ -891,10 +873,12 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
     }
     if (count >= 2 && lanes::anyOf(walk)) {
         T walked[4];
-        if constexpr (lanes::kIsVector<T>)
-            detail::pooledPolylineWalk(r, x, g, mass, count, segments.skip, walk, walked);
-        else
+        if constexpr (lanes::kIsVector<T>) {
+            detail::pooledPolylineWalk(r, x, g, mass, count, skip, walk, walked);
+        } else {
+            detail::PolylineSegments<T> segments{x, g, mass, count, skip};
             detail::segmentWalkOf<T>(r, segments, walk, walked);
+        }
         for (int ch = 0; ch < 4; ++ch) out[ch] += walked[ch];
     }
     const S inv = levels.template inverseTotal<S>(count);
