@@ -3,216 +3,182 @@
 // t_i ~ U[−1, 1] independent, (a_i, b_i) = h_i·(w_i, u_i) (h_i the voxel's half width, w_i its
 // trilinear weight, u_i = n̂·g_i): the paper's bivariate box spline with up to 32 directions.
 // `uniform` takes expectedTf2UniformExact (expected_tf2_uniform_exact.h: within 1e−6);
-// `uniform-fast`, for rendering, conditions on X:
-// - X = Σ a_i t_i over the ≤ 8 corners (a_i ≠ 0) is a univariate box spline, taken exactly
-//   (its density from BoxSplineTail);
-// - G | X = x is taken as cy + β(x − cx) + R with β = cov(X, G)/var X and R = Σ_i r_i t_i,
-//   r_i = b_i − β a_i, independent of X: R is uncorrelated with X, and independent of it where
-//   the directions with a_i ≠ 0 are parallel (a sample on a grid point: one corner) or carry
-//   none of G. R is a univariate box spline, taken in `uniform-fast`'s form (BoxSplineFast: its
-//   two widest boxes exact, the rest a Gaussian with Edgeworth terms). Its error against the
-//   exact evaluation: docs/models.md.
-// The outer integral over x is detail::tf2ConditionalOuter, the Gaussian's.
+// `uniform-fast`, for rendering, is quasi-Monte Carlo over a fixed rank-1 lattice:
+// - the points: a Korobov lattice of N = 256 points in [0, 1)³², z_j = a^j mod N, shifted by a
+//   fixed random Δ and folded by the tent (baker's) map φ(u) = 1 − |2u − 1|, so that the rule
+//   integrates non-periodic integrands at the lattice's rate; t_kj = 2φ({k·z_j/N + Δ_j}) − 1.
+//   a minimises the weighted P₂ criterion (weights γ_j = 1/(j + 1)², the first dimensions
+//   matter most) over the odd a < N (uniformLattice, built on first use);
+// - the directions in decreasing order of their extent in raster cells (|a_i|/Δx + |b_i|/Δy),
+//   so the widest take the lattice's best dimensions;
+// - E = (1/N) Σ_k TF2(cx + Σ_i t_ki a_i, cy + Σ_i t_ki b_i), premultiplied, over the float
+//   raster on lanes (the same cell-level empty skip as every TF2 lookup).
+// Error against the exact evaluation and cost: docs/models.md.
 #include <algorithm>
+#include <bit>
 #include <cmath>
-#include <vector>
 
-#include "udvr/classify/expected_tf.h"
-#include "udvr/classify/expected_tf2_gaussian.h"
+#include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_uniform_exact.h"
-#include "udvr/reconstruct/box_spline.h"
-#include "udvr/util/check.h"
+#include "udvr/util/lanes.h"
+#include "udvr/util/random.h"
 
 namespace udvr {
 
 namespace detail {
-/// R = Σ_i r_i t_i (t_i ~ U[−1, 1]) in BoxSplineFast form, zero mean: boxes of widths 2|r_i| from
-/// lo = −Σ|r_i|; the two widest exact, the rest (any number) by its variance and cumulants, as
-/// makeBoxSplineFast. Widths are kept ≥ `floor` (> 0).
-inline BoxSplineFast<double> residualBoxSpline(const double* r, int n, double floor) {
-    BoxSplineFast<double> b;
-    double h1 = 0, h2 = 0, r1 = 0, r2 = 0, r4 = 0, r6 = 0, all2 = 0;
-    for (int i = 0; i < n; ++i) {
-        const double h = 2.0 * std::abs(r[i]);
-        b.lo -= 0.5 * h;
-        b.total += h;
-        all2 += h * h;
-        const double up = std::max(h1, h), down = std::min(h1, h), out = std::min(h2, down);
-        h2 = std::max(h2, down);
-        h1 = up;
-        r1 += out;
-        r2 += out * out;
-        r4 += out * out * out * out;
-        r6 += out * out * out * out * out * out;
+/// `uniform-fast`'s point set with a TF2 (the header's comment).
+struct UniformLattice {
+    static constexpr int kPoints = 256, kDims = 32;
+    static_assert(kPoints % lanes::kWidth == 0);
+    int generator = 0;                    // a: z_j = a^j mod kPoints
+    alignas(64) float t[kDims][kPoints];  // t[j][k] ∈ [−1, 1]: dimension j of point k
+};
+
+/// The weighted P₂ criterion of the Korobov lattice with generator a over N points in `dims`
+/// dimensions: −1 + (1/N) Σ_k Π_j (1 + γ_j·2π²·B₂({k·z_j/N})), B₂(x) = x² − x + 1/6,
+/// γ_j = 1/(j + 1)² (the worst-case error² of the lattice rule in the weighted Korobov space of
+/// smoothness 1; smaller is better).
+inline double korobovP2(int a, int N, int dims) {
+    constexpr double kTwoPiSq = 19.739208802178716;  // 2π²
+    double sum = 0.0;
+    for (int k = 0; k < N; ++k) {
+        double prod = 1.0;
+        long long z = 1;  // a^j mod N
+        for (int j = 0; j < dims; ++j) {
+            const double x = static_cast<double>((k * z) % N) / N;
+            prod *= 1.0 + kTwoPiSq * (x * x - x + 1.0 / 6.0) / ((j + 1.0) * (j + 1.0));
+            z = (z * a) % N;
+        }
+        sum += prod;
     }
-    b.h1 = std::max(h1, floor);
-    b.h2 = std::max(h2, floor);
-    b.center = b.lo + 0.5 * r1;
-    const double var = std::max(r2 / 12.0, floor * floor);
-    b.sigma = std::sqrt(var);
-    b.k4 = -r4 / (var * var * 2880.0);
-    b.k6 = r6 / (var * var * var * 181440.0);
-    b.variance = all2 / 12.0;
-    return b;
+    return sum / N - 1.0;
 }
 
-/// E over B = m + R (R of residualBoxSpline) of (α·c, α)(a, B) on the raster's column blend at
-/// x = a: along y, α and c are linear between rows, α·c quadratic, so as expectedTfUniformFast,
-/// E = E[P_0(B)] (P_0 the quadratic piece at the support's lower end; exact mean and variance)
-/// + Σ_{rows u in the support} Σ_d Δ_d·E[(B − u)_+^d] (boxSplineFastTail), Δ_d the jumps of the
-/// pieces' coefficients about u. Clamped outside the rows. A support narrower than `point` is
-/// the TF2 at the mean.
-inline void tf2BoxSplineAlongY(const Tf2Raster<double>& r, double a, double m,
-                               const BoxSplineFast<double>& b,
-                               const BoxSplineFastScaled<double>& sc, double point, double out[4]) {
-    if (!(b.total > point)) {
-        tf2At<double>(r, a, m, true, out);
+inline UniformLattice makeUniformLattice() {
+    constexpr int N = UniformLattice::kPoints, D = UniformLattice::kDims;
+    UniformLattice l;
+    double best = 0.0;
+    for (int a = 3; a < N; a += 2) {  // odd: every z_j is a unit mod N (a power of 2)
+        const double p = korobovP2(a, N, D);
+        if (l.generator == 0 || p < best) best = p, l.generator = a;
+    }
+    long long z = 1;
+    for (int j = 0; j < D; ++j) {
+        const double shift = CounterRng(2021, 0x1a77, static_cast<std::uint64_t>(j)).uniform();
+        for (int k = 0; k < N; ++k) {
+            double u = static_cast<double>((k * z) % N) / N + shift;
+            u -= std::floor(u);
+            l.t[j][k] = static_cast<float>(2.0 * (1.0 - std::abs(2.0 * u - 1.0)) - 1.0);
+        }
+        z = (z * l.generator) % N;
+    }
+    return l;
+}
+
+/// The lattice, built once.
+inline const UniformLattice& uniformLattice() {
+    static const UniformLattice lattice = makeUniformLattice();
+    return lattice;
+}
+
+/// `uniform-fast`: the lattice rule above over the float raster `rf` (`rd`: the same raster in
+/// double, for the lookup of non-finite data, as the exact evaluation). Directions with a = b =
+/// 0 are left out.
+inline void expectedTf2UniformLattice(const Tf2Raster<float>& rf, const Tf2Raster<double>& rd,
+                                      double cx, double cy, const BoxDirection2* d, int n,
+                                      double out[4]) {
+    using lanes::Vf;
+    const UniformLattice& lat = uniformLattice();
+    // In raster coordinates (s, t) = ((x − x0)/Δx, (y − y0)/Δy): O(raster size), so float
+    // keeps them to ~1e−7 of a cell whatever the data's offset and scale.
+    const double s0 = (cx - rd.x0) * rd.invDx, t0 = (cy - rd.y0) * rd.invDy;
+    constexpr int kMax = UniformLattice::kDims;
+    static_assert(kMax % lanes::kWidth == 0);
+    double ds[kMax], dt[kMax], es = 0.0, et = 0.0;
+    alignas(64) float extent[kMax];  // |ds| + |dt|: raster cells; −1 past n
+    for (int i = 0; i < kMax; ++i) extent[i] = -1.0f;
+    for (int i = 0; i < n; ++i) {
+        ds[i] = d[i].a * rd.invDx;
+        dt[i] = d[i].b * rd.invDy;
+        es += std::abs(ds[i]);
+        et += std::abs(dt[i]);
+        extent[i] = static_cast<float>(std::abs(ds[i]) + std::abs(dt[i]));
+    }
+    if (!(std::abs(s0) + std::abs(t0) + es + et < 1e30)) {  // NaN, inf or beyond float
+        tf2At<double>(rd, cx, cy, true, out);               // the lookup at the centre
         return;
     }
-    const Tf2Axes ax{r, false};
-    const int nb = ax.nb();
-    double fa = std::clamp((a - ax.a0()) / ax.da(), 0.0, static_cast<double>(ax.na() - 1));
-    const int ia = std::min(static_cast<int>(fa), ax.na() - 2);
-    fa -= ia;
-    const double b0 = ax.b0(), db = ax.db();
-    const double lo = m + b.lo, hi = lo + b.total;
-    // Rows kLo … kHi inside (lo, hi); the piece at lo is row kLo − 1 … kLo (clamped ends:
-    // constant).
-    const int kLo = std::clamp(static_cast<int>(std::floor((lo - b0) / db)) + 1, 0, nb);
-    const int kHi = std::clamp(static_cast<int>(std::ceil((hi - b0) / db)) - 1, -1, nb - 1);
     for (int ch = 0; ch < 4; ++ch) out[ch] = 0.0;
-    if (ax.emptyBetween(ia, std::max(kLo - 1, 0), std::min(kHi + 1, nb - 1))) return;
-    const auto row = [&](int k, double v[4]) {  // (c_r, c_g, c_b, α) on row k at a
-        for (int ch = 0; ch < 4; ++ch)
-            v[ch] = ax.at(ia, k, ch) + fa * (ax.at(ia + 1, k, ch) - ax.at(ia, k, ch));
-    };
-    // The piece below row k as P(B) = A + B1·(B − y_k) + C·(B − y_k)² per channel (α·c and α).
-    const auto piece = [&](int k, double A[4], double B1[4], double C[4]) {
-        double v1[4];
-        row(std::clamp(k, 0, nb - 1), v1);
-        if (k <= 0 || k >= nb) {  // clamped: constant
-            for (int ch = 0; ch < 3; ++ch) A[ch] = v1[3] * v1[ch], B1[ch] = C[ch] = 0.0;
-            A[3] = v1[3], B1[3] = C[3] = 0.0;
-            return;
-        }
-        double v0[4];
-        row(k - 1, v0);
-        // On [y_{k−1}, y_k], τ = (B − y_k)/db ∈ [−1, 0]: α = α_k + dα·τ, c = c_k + dc·τ.
-        const double da = (v1[3] - v0[3]) / db;
-        for (int ch = 0; ch < 3; ++ch) {
-            const double dc = (v1[ch] - v0[ch]) / db;
-            A[ch] = v1[3] * v1[ch];
-            B1[ch] = v1[3] * dc + da * v1[ch];
-            C[ch] = da * dc;
-        }
-        A[3] = v1[3], B1[3] = da, C[3] = 0.0;
-    };
-    // E[P_0(B)], P_0 the piece under lo (the one ending at row kLo), about y_kLo.
+    if (rf.cellEmptyDistance) {  // every point within |s − s0| ≤ es, |t − t0| ≤ et, clamped
+        const int i = std::min(static_cast<int>(std::clamp(s0, 0.0, rf.width - 1.0)), rf.width - 2);
+        const int j =
+            std::min(static_cast<int>(std::clamp(t0, 0.0, rf.height - 1.0)), rf.height - 2);
+        const double empty = rf.cellEmptyDistance[j * (rf.width - 1) + i];
+        if (es + 1.0 < empty && et + 1.0 < empty) return;  // only cells with α = 0 there
+    }
+    // The directions by decreasing extent (ties by index), those of extent 0 left out: each
+    // one's rank is the count of those before it.
+    int order[kMax], m = 0;
     {
-        double A[4], B1[4], C[4];
-        piece(kLo, A, B1, C);
-        const double yk = b0 + std::min(kLo, nb - 1) * db;
-        const double e = m - yk, e2 = e * e + b.variance;
-        for (int ch = 0; ch < 4; ++ch) out[ch] = A[ch] + B1[ch] * e + C[ch] * e2;
-    }
-    for (int k = kLo; k <= kHi; ++k) {
-        // At row k: the piece above (k + 1, about y_{k+1}) re-expanded about y_k, minus the one
-        // below (k, about y_k).
-        double A0[4], B0[4], C0[4], A1[4], B1[4], C1[4];
-        piece(k, A0, B0, C0);
-        piece(k + 1, A1, B1, C1);
-        double t[3];
-        const double yk = b0 + k * db;
-        boxSplineFastTail(sc, (m + b.center - yk) * sc.invSigma, t);
-        const double s1 = b.sigma, s2 = b.sigma * b.sigma;
-        for (int ch = 0; ch < 4; ++ch) {
-            const double L = -db;  // y_k − y_{k+1}
-            const double a1 = A1[ch] + B1[ch] * L + C1[ch] * L * L, b1 = B1[ch] + 2 * C1[ch] * L;
-            out[ch] +=
-                (a1 - A0[ch]) * t[0] + (b1 - B0[ch]) * s1 * t[1] + (C1[ch] - C0[ch]) * s2 * t[2];
+        lanes::Vf ev[kMax / lanes::kWidth];
+        for (int v = 0; v < kMax / lanes::kWidth; ++v)
+            ev[v] = lanes::load(extent + v * lanes::kWidth);
+        for (int i = 0; i < n; ++i) {
+            if (!(extent[i] > 0.0f)) continue;
+            const lanes::Vf e = lanes::splat<lanes::Vf>(extent[i]);
+            int rank = 0;
+            for (int v = 0; v < kMax / lanes::kWidth; ++v) {
+                const lanes::Vi index = lanes::iota() + v * lanes::kWidth;
+                rank += std::popcount(lanes::bits((ev[v] > e) | ((ev[v] == e) & (index < i))));
+            }
+            order[rank] = i;
+            ++m;
         }
     }
-}
-
-/// The conditional evaluation (`uniform-fast`).
-/// Directions with |a| ≤ tinyWidth count for G only; residuals narrower than pointWidth are
-/// point masses.
-inline void expectedTf2UniformConditional(const Tf2Raster<double>& r, double cx, double cy,
-                                          const BoxDirection2* d, int n, double tinyWidth,
-                                          double pointWidth, double out[4]) {
-    UniformSum x;  // X = shift + Σ h·U[0, 1], h = 2|a| ascending
-    double vxx = 0.0, vxy = 0.0, vyy = 0.0;
-    x.shift = cx;
-    for (int i = 0; i < n; ++i) {
-        const double a = std::abs(d[i].a), b = d[i].a < 0 ? -d[i].b : d[i].b;
-        vyy += b * b;
-        if (!(a > tinyWidth)) continue;
-        vxx += a * a;
-        vxy += a * b;
-        x.shift -= a;
-        int k = x.n++;
-        if (k >= kMaxUniformTerms) UDVR_FAIL("a uniform sample with more than 8 value terms");
-        while (k > 0 && x.h[k - 1] > 2 * a) {
-            x.h[k] = x.h[k - 1];
-            --k;
+    float fs[kMax], ft[kMax];
+    for (int j = 0; j < m; ++j)
+        fs[j] = static_cast<float>(ds[order[j]]), ft[j] = static_cast<float>(dt[order[j]]);
+    Tf2Raster<float> unit = rf;  // looked up at raster coordinates
+    unit.x0 = unit.y0 = 0.0f;
+    unit.invDx = unit.invDy = 1.0f;
+    const Vf sc = lanes::splat<Vf>(static_cast<float>(s0)),
+             tc = lanes::splat<Vf>(static_cast<float>(t0));
+    Vf acc[4] = {};
+    // Blocks of kChunk × kWidth points share each direction's broadcast.
+    constexpr int kChunk = 4, kStep = kChunk * lanes::kWidth;
+    static_assert(UniformLattice::kPoints % kStep == 0);
+    for (int k = 0; k < UniformLattice::kPoints; k += kStep) {
+        Vf s[kChunk] = {}, t[kChunk] = {};
+        for (int j = 0; j < m; ++j) {
+            const Vf a = lanes::splat<Vf>(fs[j]), b = lanes::splat<Vf>(ft[j]);
+            for (int c = 0; c < kChunk; ++c) {
+                const Vf tj = lanes::load(&lat.t[j][k + c * lanes::kWidth]);
+                s[c] = lanes::fma(a, tj, s[c]);
+                t[c] = lanes::fma(b, tj, t[c]);
+            }
         }
-        x.h[k] = 2 * a;
+        for (int c = 0; c < kChunk; ++c) {
+            Vf v[4];
+            tf2At<Vf>(unit, sc + s[c], tc + t[c], lanes::allTrue<Vf>(), v);
+            for (int ch = 0; ch < 4; ++ch) acc[ch] += v[ch];
+        }
     }
-    for (int i = 0; i < x.n; ++i) x.total += x.h[i];
-    vxx /= 3;  // var(t) = 1/3
-    vxy /= 3;
-    vyy /= 3;
-    const double beta = x.n > 0 ? vxy / vxx : 0.0, s = std::sqrt(std::max(vyy - vxy * beta, 0.0));
-    double res[32];
-    for (int i = 0; i < n; ++i) {
-        const double a = std::abs(d[i].a) > tinyWidth ? d[i].a : 0.0;
-        res[i] = d[i].b - beta * a;
-    }
-    const BoxSplineFast<double> rb = residualBoxSpline(res, n, pointWidth);
-    const BoxSplineFastScaled<double> scaled(rb);
-    const auto inner = [&](double a, double m, double v[4]) {
-        tf2BoxSplineAlongY(r, a, m, rb, scaled, pointWidth, v);
-    };
-    if (x.n == 0) {  // X is the point cx
-        inner(cx, cy, out);
-        return;
-    }
-    // X's density: the widest box over the rest, (P(Y ≥ x − h) − P(Y ≥ x))/h.
-    UniformSum rest = x;
-    const double hw = rest.h[--rest.n];
-    rest.total -= hw;
-    const BoxSplineTail tail(rest);
-    const auto survival = [&](double z) {  // P(Y ≥ z)
-        double t[3];
-        tail.at(rest.shift - z, t);
-        return t[0];
-    };
-    std::vector<double> cuts;
-    // The density's knots, where its pieces (polynomials of degree n − 1) meet: every vertex sum
-    // (≤ 254). Gauss–Legendre between them is then exact for the density; with only the two
-    // widest boxes' knots the 1D image was off by 1e−5 for 6–8 boxes.
-    for (int mask = 1; mask + 1 < (1 << x.n); ++mask) {
-        double v = x.shift;
-        for (int k = 0; k < x.n; ++k)
-            if (mask & (1 << k)) v += x.h[k];
-        cuts.push_back(v);
-    }
-    tf2ConditionalOuter(
-        r, false, x.shift, x.shift + x.total, std::sqrt(vxx), cx, cy, beta, s, cuts,
-        [&](double v) { return (survival(v - hw) - survival(v)) / hw; }, inner, 4, out);
+    for (int ch = 0; ch < 4; ++ch)
+        out[ch] = static_cast<double>(lanes::sum(acc[ch])) / UniformLattice::kPoints;
 }
 }  // namespace detail
 
 /// E[(α·c, α)(X, G)] for (X, G) = (cx, cy) + Σ_i t_i·d_i: `exact` (the `uniform` model) by
-/// expectedTf2UniformExact (error ≤ 1e−6), else (`uniform-fast`) by the conditioning above.
-inline void expectedTf2Uniform(const Tf2Raster<double>& r, double cx, double cy,
-                               const BoxDirection2* d, int n, bool exact, double tinyWidth,
-                               double pointWidth, double out[4]) {
+/// expectedTf2UniformExact over `rd` (error ≤ 1e−6), else (`uniform-fast`) by the lattice rule
+/// above over `rf`, the same raster in float.
+inline void expectedTf2Uniform(const Tf2Raster<double>& rd, const Tf2Raster<float>& rf, double cx,
+                               double cy, const BoxDirection2* d, int n, bool exact,
+                               double tinyWidth, double out[4]) {
     if (exact) {
         Tf2UniformExactOptions opt;
-        expectedTf2UniformExact(r, cx, cy, d, n, tinyWidth, opt, out);
+        expectedTf2UniformExact(rd, cx, cy, d, n, tinyWidth, opt, out);
     } else {
-        detail::expectedTf2UniformConditional(r, cx, cy, d, n, tinyWidth, pointWidth, out);
+        detail::expectedTf2UniformLattice(rf, rd, cx, cy, d, n, out);
     }
 }
 

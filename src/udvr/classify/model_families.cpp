@@ -90,8 +90,8 @@ AnyKernel2D makeUniform2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptio
                           const ModelFamily& f) {
     return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                            o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                           f.kind == ModelKind::Uniform, kUniformTinyWidth * span(m, o),
-                           kUniformPointWidth * span(m, o), s.exact, s.fast, s.meanGradient);
+                           f.kind == ModelKind::Uniform, kUniformTinyWidth * span(m, o), s.exact,
+                           s.fast, s.meanGradient);
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,

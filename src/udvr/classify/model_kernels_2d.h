@@ -160,22 +160,21 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
 /// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
 /// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
-/// is the paper's bivariate box spline. E[TF2] by expectedTf2Uniform, in double: `uniform`
-/// converged (expectedTf2UniformExact, ≤ 1e−6), `uniform-fast` by conditioning on X.
+/// is the paper's bivariate box spline. E[TF2] by expectedTf2Uniform from a double body:
+/// `uniform` converged (expectedTf2UniformExact, ≤ 1e−6), `uniform-fast` by the lattice rule
+/// (float lanes over its 256 points).
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
-    bool exact;         // `uniform` (expectedTf2UniformExact), else `uniform-fast`
-    double tinyWidth;   // data units: directions this narrow in X count for G only
-    double pointWidth;  // data units: G residuals this narrow are point masses
+    bool exact;        // `uniform` (expectedTf2UniformExact), else `uniform-fast`
+    double tinyWidth;  // data units: directions this narrow in X count for G only (exact)
     GradientGeometry gradientGeometry;
 
     Uniform2DKernel(const Grid3& grid, const float* a, const float* b, bool mm, bool ex,
-                    double tiny, double point, const Tf2Raster<double>& tfD,
-                    const Tf2Raster<float>& tfF, const float* meanGrad)
+                    double tiny, const Tf2Raster<double>& tfD, const Tf2Raster<float>& tfF,
+                    const float* meanGrad)
         : Kernel2DBase(grid, tfD, tfF, meanGrad),
           UniformVoxels{a, b, mm},
           exact(ex),
           tinyWidth(tiny),
-          pointWidth(point),
           gradientGeometry(grid) {}
     /// The centre (X, G at t = 0) and the directions at a scalar cell; returns their count.
     UDVR_CPU_GPU int directionsAt(const Cell<double>& c, double& cx, double& cy,
@@ -202,7 +201,7 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
             double cx, cy;
             BoxDirection2 d[32];
             const int n = directionsAt(c, cx, cy, d);
-            expectedTf2Uniform(tfExact, cx, cy, d, n, exact, tinyWidth, pointWidth, r.v);
+            expectedTf2Uniform(tfExact, tfFast, cx, cy, d, n, exact, tinyWidth, r.v);
         } else {
             detail::exactWhere(*this, c, live, r.v);
         }

@@ -823,14 +823,18 @@ TEST(Tf2, ConstantInYReproducesThe1DKernels) {
                                     static_cast<float>(rng.uniform() * 3),
                                     static_cast<float>(rng.uniform() * 2)};
                 double one[4], two[4];
-                // uniform-fast's 2D form takes X's box spline exactly: the exact 1D kernel's.
-                const ModelKind one1D = kind == ModelKind::UniformFast ? ModelKind::Uniform : kind;
+                // uniform-fast's 2D form is the lattice rule over the box spline: against the
+                // exact 1D kernel, within its error (expected_tf2_uniform_test.cpp; 1.3e−2
+                // measured here).
+                const bool lattice = kind == ModelKind::UniformFast;
+                const ModelKind one1D = lattice ? ModelKind::Uniform : kind;
                 withKernel(m, one1D, tf,
                            [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], one); });
                 with2D(m, kind, t,
                        [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], two); });
                 for (int ch = 0; ch < 4; ++ch)
-                    EXPECT_NEAR(two[ch], one[ch], 2e-7) << modelName(kind) << " ch " << ch;
+                    EXPECT_NEAR(two[ch], one[ch], lattice ? 2.5e-2 : 2e-7)
+                        << modelName(kind) << " ch " << ch;
             }
         }
     }
