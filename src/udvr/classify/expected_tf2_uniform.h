@@ -36,8 +36,8 @@ struct UniformLattice {
 
 /// The weighted P₂ criterion of the Korobov lattice with generator a over N points in `dims`
 /// dimensions: −1 + (1/N) Σ_k Π_j (1 + γ_j·2π²·B₂({k·z_j/N})), B₂(x) = x² − x + 1/6,
-/// γ_j = 1/(j + 1)² (the worst-case error² of the lattice rule in the weighted Korobov space of
-/// smoothness 1; smaller is better).
+/// γ_j = 1/(j + 1)² (the squared worst-case error of the lattice rule in the weighted Korobov
+/// space of smoothness 1; smaller is better).
 inline double korobovP2(int a, int N, int dims) {
     constexpr double kTwoPiSq = 19.739208802178716;  // 2π²
     double sum = 0.0;
@@ -135,14 +135,20 @@ inline void expectedTf2UniformLattice(const Tf2Raster<float>& rf, const Tf2Raste
             ++m;
         }
     }
-    float fs[kMax], ft[kMax];
-    for (int j = 0; j < m; ++j)
-        fs[j] = static_cast<float>(ds[order[j]]), ft[j] = static_cast<float>(dt[order[j]]);
     Tf2Raster<float> unit = rf;  // looked up at raster coordinates
     unit.x0 = unit.y0 = 0.0f;
     unit.invDx = unit.invDy = 1.0f;
     const Vf sc = lanes::splat<Vf>(static_cast<float>(s0)),
              tc = lanes::splat<Vf>(static_cast<float>(t0));
+    if (m == 0) {  // no width: the point (cx, cy)
+        Vf v[4];
+        tf2At<Vf>(unit, sc, tc, lanes::allTrue<Vf>(), v);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = static_cast<double>(v[ch][0]);
+        return;
+    }
+    float fs[kMax], ft[kMax];
+    for (int j = 0; j < m; ++j)
+        fs[j] = static_cast<float>(ds[order[j]]), ft[j] = static_cast<float>(dt[order[j]]);
     Vf acc[4] = {};
     // Blocks of kChunk × kWidth points share each direction's broadcast.
     constexpr int kChunk = 4, kStep = kChunk * lanes::kWidth;
