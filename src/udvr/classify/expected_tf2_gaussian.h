@@ -41,11 +41,13 @@ struct Tf2Axes {
         const float d = r.cellEmptyDistance[static_cast<std::size_t>(j) * (r.width - 1) + i];
         return d > static_cast<float>(std::max(kc - cLo, cHi - kc));
     }
-    /// Channel ch (r, g, b, α) of the point on A-line ia and B-line ib.
-    double at(int ia, int ib, int ch) const {
+    /// The point on A-line ia and B-line ib: its (r, g, b, α).
+    const float* point(int ia, int ib) const {
         const int i = swapped ? ib : ia, j = swapped ? ia : ib;
-        return r.rgba[(static_cast<std::size_t>(j) * r.width + i) * 4 + ch];
+        return r.rgba + (static_cast<std::size_t>(j) * r.width + i) * 4;
     }
+    /// Channel ch (r, g, b, α) of the point on A-line ia and B-line ib.
+    double at(int ia, int ib, int ch) const { return point(ia, ib)[ch]; }
 };
 
 /// E over B ~ N(m, s²) of (α·c, α)(a, B), s > 0, B-lines within m ± 8s (outside: the nearest
@@ -61,67 +63,90 @@ inline void tf2NormalAlongB(const Tf2Axes& ax, double a, double m, double s, dou
     const int kLo = std::clamp(static_cast<int>(std::floor((m - 8 * s - b0) / db)), 0, nb - 1);
     const int kHi = std::clamp(static_cast<int>(std::ceil((m + 8 * s - b0) / db)), 0, nb - 1);
     for (int ch = 0; ch < 4; ++ch) out[ch] = 0.0;
-    if (ax.emptyBetween(ia, kLo, kHi)) return;   // α = 0 on every point it would read
-    const auto line = [&](int k, double v[4]) {  // (c_r, c_g, c_b, α) on B-line k at a
-        for (int ch = 0; ch < 4; ++ch)
-            v[ch] = ax.at(ia, k, ch) + fa * (ax.at(ia + 1, k, ch) - ax.at(ia, k, ch));
-    };
-    double v0[4], v1[4];
-    line(kLo, v0);
-    // Φ, 1 − Φ and φ at the lines are computed a chunk at a time, before the pieces use them:
-    // independent evaluations overlap in the CPU, where one per piece waited for the last.
+    if (ax.emptyBetween(ia, kLo, kHi)) return;  // α = 0 on every point it would read
+    // Φ, 1 − Φ and φ at the lines are computed a chunk at a time, and then the chunk's pieces
+    // a register of pieces at a time (independent sums, one horizontal sum per chunk): one
+    // piece after the other waited for the last one's sums.
     constexpr int kChunk = 32;
-    double cdf[kChunk], upper[kChunk], pdf[kChunk], zs[kChunk];
+    using V = detail::VRd;
+    constexpr int kW = sizeof(V) / sizeof(double);
+    static_assert(kChunk % kW == 0);
+    // Index 0: the chunk's first line (the last one of the previous chunk); 1 … count: the next.
+    alignas(64) double cdf[kChunk + 1], upper[kChunk + 1], pdf[kChunk + 1], zs[kChunk + 1];
+    alignas(64) double val[4][kChunk + 1];  // (c_r, c_g, c_b, α) on the lines at a
     const double invS = 1.0 / s;
     const double t0Lo = (m - (b0 + kLo * db)) / db, e = s / db;
-    const auto normals = [&](int first, int count) {  // lines first … first + count − 1
-        using V = detail::VRd;
-        constexpr int kW = sizeof(V) / sizeof(double);
-        static_assert(kChunk % kW == 0);
-        for (int c = 0; c < count; c += kW) {  // a register of lines at a time
+    const auto normals = [&](int first, int count, int at) {  // lines first …, into [at …]
+        for (int c = 0; c < count; c += kW) {                 // a register of lines at a time
             V z;
             for (int l = 0; l < kW; ++l) z[l] = (b0 + (first + c + l) * db - m) * invS;
             V vc, vu, vp;
             detail::normalCdfPdfLanes(z, vc, vu, vp);  // 1 − Φ from the tail: keeps its digits
-            std::memcpy(zs + c, &z, sizeof z);
-            std::memcpy(cdf + c, &vc, sizeof vc);
-            std::memcpy(upper + c, &vu, sizeof vu);
-            std::memcpy(pdf + c, &vp, sizeof vp);
+            for (int l = 0; l < kW && c + l < count; ++l) {
+                zs[at + c + l] = z[l], cdf[at + c + l] = vc[l];
+                upper[at + c + l] = vu[l], pdf[at + c + l] = vp[l];
+            }
         }
     };
-    normals(kLo, 1);
-    double z0 = zs[0], cdf0 = cdf[0], up0 = upper[0], pdf0 = pdf[0];
+    const auto line = [&](int k, int at) {  // line k's values at a into val[·][at]
+        using F4 = float __attribute__((vector_size(16)));
+        using D4 = double __attribute__((vector_size(32)));
+        F4 lo, hi;  // the point's 4 channels on A-lines ia, ia + 1
+        std::memcpy(&lo, ax.point(ia, k), sizeof lo);
+        std::memcpy(&hi, ax.point(ia + 1, k), sizeof hi);
+        const D4 l = __builtin_convertvector(lo, D4), h = __builtin_convertvector(hi, D4);
+        const D4 v = l + fa * (h - l);
+        for (int ch = 0; ch < 4; ++ch) val[ch][at] = v[ch];
+    };
+    normals(kLo, 1, 0);
+    line(kLo, 0);
     // Below the first line (clamped, or beyond the window): the line's value.
-    for (int ch = 0; ch < 3; ++ch) out[ch] += cdf0 * v0[3] * v0[ch];
-    out[3] += cdf0 * v0[3];
+    for (int ch = 0; ch < 3; ++ch) out[ch] += cdf[0] * val[3][0] * val[ch][0];
+    out[3] += cdf[0] * val[3][0];
     for (int k0 = kLo; k0 < kHi; k0 += kChunk) {
         const int count = std::min(kChunk, kHi - k0);
-        normals(k0 + 1, count);  // lines k0 + 1 … k0 + count
-        for (int c = 0; c < count; ++c) {
-            const int k = k0 + c;
-            line(k + 1, v1);
-            const double z1 = zs[c], up1 = upper[c], pdf1 = pdf[c];
-            // ∫ z^p φ over [z0, z1]: M0 (between upper tails where z0 ≥ 0), M1, M2.
-            const double m0 = z0 >= 0 ? up0 - up1 : cdf[c] - cdf0;
-            const double m1 = pdf0 - pdf1;
-            const double m2 = m0 + z0 * pdf0 - z1 * pdf1;
-            // On the piece, with τ = (B − line k)/db = τ0 + e·z: τ0 = (m − b_k)/db, e = s/db.
-            const double t0 = t0Lo - (k - kLo);
-            const double da = v1[3] - v0[3];
-            const double p0 = v0[3] + da * t0, p1 = da * e;  // α = p0 + p1·z
-            for (int ch = 0; ch < 3; ++ch) {
-                const double dc = v1[ch] - v0[ch];
-                const double q0 = v0[ch] + dc * t0, q1 = dc * e;  // c = q0 + q1·z
-                out[ch] += p0 * q0 * m0 + (p0 * q1 + p1 * q0) * m1 + p1 * q1 * m2;
-            }
-            out[3] += p0 * m0 + p1 * m1;
-            std::copy(v1, v1 + 4, v0);
-            z0 = z1;
-            cdf0 = cdf[c];
-            up0 = up1;
-            pdf0 = pdf1;
+        normals(k0 + 1, count, 1);  // lines k0 + 1 … k0 + count
+        for (int c = 1; c <= count; ++c) line(k0 + c, c);
+        // Piece c (lines k0 + c, k0 + c + 1), c < count; lanes past count add 0 (their
+        // moments are taken between a line and itself).
+        for (int c = count + 1; c < kChunk + 1; ++c) {
+            zs[c] = zs[count], cdf[c] = cdf[count], upper[c] = upper[count], pdf[c] = pdf[count];
+            for (int ch = 0; ch < 4; ++ch) val[ch][c] = val[ch][count];
         }
+        V acc[4] = {};
+        for (int c = 0; c < count; c += kW) {
+            const auto at = [](const double* p) {
+                V v;
+                std::memcpy(&v, p, sizeof v);
+                return v;
+            };
+            const V z0 = at(zs + c), z1 = at(zs + c + 1), p0d = at(pdf + c), p1d = at(pdf + c + 1);
+            // ∫ z^p φ over [z0, z1]: M0 (between upper tails where z0 ≥ 0), M1, M2.
+            const V m0 =
+                z0 >= 0.0 ? at(upper + c) - at(upper + c + 1) : at(cdf + c + 1) - at(cdf + c);
+            const V m1 = p0d - p1d;
+            const V m2 = m0 + z0 * p0d - z1 * p1d;
+            // On the piece, with τ = (B − line k)/db = τ0 + e·z: τ0 = (m − b_k)/db, e = s/db.
+            V t0;
+            for (int l = 0; l < kW; ++l) t0[l] = t0Lo - (k0 + c + l - kLo);
+            const V a0 = at(val[3] + c), da = at(val[3] + c + 1) - a0;
+            const V p0 = a0 + da * t0, p1 = da * e;  // α = p0 + p1·z
+            for (int ch = 0; ch < 3; ++ch) {
+                const V c0 = at(val[ch] + c), dc = at(val[ch] + c + 1) - c0;
+                const V q0 = c0 + dc * t0, q1 = dc * e;  // c = q0 + q1·z
+                acc[ch] += p0 * q0 * m0 + (p0 * q1 + p1 * q0) * m1 + p1 * q1 * m2;
+            }
+            acc[3] += p0 * m0 + p1 * m1;
+        }
+        for (int ch = 0; ch < 4; ++ch)
+            for (int l = 0; l < kW; ++l) out[ch] += acc[ch][l];
+        // The chunk's last line is the next chunk's first.
+        zs[0] = zs[count], cdf[0] = cdf[count], upper[0] = upper[count], pdf[0] = pdf[count];
+        for (int ch = 0; ch < 4; ++ch) val[ch][0] = val[ch][count];
     }
+    const double up0 = upper[0];
+    double v0[4];
+    for (int ch = 0; ch < 4; ++ch) v0[ch] = val[ch][0];
     // Above the last line: its value.
     for (int ch = 0; ch < 3; ++ch) out[ch] += up0 * v0[3] * v0[ch];
     out[3] += up0 * v0[3];
