@@ -46,8 +46,6 @@ struct Tf2Axes {
         const int i = swapped ? ib : ia, j = swapped ? ia : ib;
         return r.rgba + (static_cast<std::size_t>(j) * r.width + i) * 4;
     }
-    /// Channel ch (r, g, b, α) of the point on A-line ia and B-line ib.
-    double at(int ia, int ib, int ch) const { return point(ia, ib)[ch]; }
 };
 
 /// E over B ~ N(m, s²) of (α·c, α)(a, B), s > 0, B-lines within m ± 8s (outside: the nearest
