@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "udvr/classify/expected_tf2_uniform_test_util.h"
+#include "udvr/classify/transfer_function_2d.h"
 
 namespace udvr {
 namespace {
@@ -118,41 +119,30 @@ TEST(Tf2UniformLattice, BilinearTfIsNearTheClosedForm) {
     EXPECT_LE(worst, 2e-5);
 }
 
-// Chebyshev distance, in cells, from each cell of a W×H raster to the nearest cell with a corner
-// of α > 0 (TransferFunction2D::emptyCellDistances' table, brute force).
-std::vector<float> emptyDistances(const std::vector<double>& alpha, int W, int H) {
-    std::vector<float> empty((W - 1) * (H - 1), std::numeric_limits<float>::max());
-    const auto lit = [&](int p, int q) {
-        return alpha[q * W + p] > 0 || alpha[q * W + p + 1] > 0 || alpha[(q + 1) * W + p] > 0 ||
-               alpha[(q + 1) * W + p + 1] > 0;
-    };
-    for (int j = 0; j + 1 < H; ++j)
-        for (int i = 0; i + 1 < W; ++i)
-            for (int q = 0; q + 1 < H; ++q)
-                for (int p = 0; p + 1 < W; ++p)
-                    if (lit(p, q))
-                        empty[j * (W - 1) + i] = std::min(
-                            empty[j * (W - 1) + i],
-                            static_cast<float>(std::max(std::abs(i - p), std::abs(j - q))));
-    return empty;
-}
-
-// A raster with α at a few random points (colour constant), and the same raster with the cells'
-// empty distances.
+// A raster with α at a few random points (colour constant), and its float view with the cells'
+// empty distances as the renderer builds them (TransferFunction2D::emptyCellDistances).
 struct SparseRaster {
-    Raster plain, skip;
+    Raster plain;
     std::vector<float> empty;
+    Tf2Raster<float> skip;
     SparseRaster(const std::vector<double>& alpha, int W, int H, double dx, double dy)
         : plain(W, H, -1.5, -1.5 + (W - 1) * dx, 0.25, 0.25 + (H - 1) * dy,
                 [&](double x, double y, double out[4]) {
                     const int i = static_cast<int>(std::lround((x + 1.5) / dx)),
                               j = static_cast<int>(std::lround((y - 0.25) / dy));
                     out[0] = 0.3, out[1] = 0.6, out[2] = 0.9, out[3] = alpha[j * W + i];
-                }),
-          skip(plain),
-          empty(emptyDistances(alpha, W, H)) {
-        skip.rf.rgba = skip.r.rgba = skip.rgba.data();
-        skip.rf.cellEmptyDistance = empty.data();
+                }) {
+        TransferFunction2D tf;
+        tf.width = W, tf.height = H, tf.rgba = plain.rgba;
+        empty = tf.emptyCellDistances();
+        skip = plain.rf;
+        skip.cellEmptyDistance = empty.data();
+    }
+    // E by the lattice rule without and with the skip.
+    void both(const Case& c, double without[4], double with[4]) const {
+        lattice(plain, c, without);
+        detail::expectedTf2UniformLattice(skip, plain.r, c.cx, c.cy, c.d.data(),
+                                          static_cast<int>(c.d.size()), with);
     }
 };
 
@@ -171,8 +161,7 @@ TEST(Tf2UniformLattice, EmptyCellSkipChangesNothing) {
             Case c = randomCase(gen, 8, 8, 2.0 * u(gen), 2.0 * u(gen), 1.0);
             c.cx = -1.5 + 23 * u(gen), c.cy = 0.25 + 19 * u(gen);
             double a[4], b[4];
-            lattice(ras.plain, c, a);
-            lattice(ras.skip, c, b);
+            ras.both(c, a, b);
             for (int ch = 0; ch < 4; ++ch) EXPECT_EQ(a[ch], b[ch]) << rep << " " << trial;
             (a[3] == 0.0 ? zeros : nonZeros)++;
         }
@@ -207,8 +196,7 @@ TEST(Tf2UniformLattice, EmptyCellSkipHoldsAtItsBound) {
                 {(gen() % 2 ? 1 : -1) * w * f * dx, (gen() % 2 ? 1 : -1) * w * (1 - f) * dy});
         }
         double a[4], b[4];
-        lattice(ras.plain, c, a);
-        lattice(ras.skip, c, b);
+        ras.both(c, a, b);
         bool same = true;
         for (int ch = 0; ch < 4; ++ch) same = same && a[ch] == b[ch];
         if (!same && ++mismatches <= 3)
