@@ -79,19 +79,21 @@ AnyKernel makeMembers(const ModelVolume& m, const TfPiecesStorage& tf, const Cla
 // 2D kernels (SPEC §9).
 AnyKernel2D makeMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
                        const ModelFamily&) {
-    return Mean2DKernel(m.grid, m.mean.data(), s.exact, s.fast, s.meanGradient);
+    return Mean2DKernel(
+        m.grid, s.gradients.of(m.grid, m.mean.data(), 1, 0, 1, GradientLayout::ValueRows).data(),
+        s.exact, s.fast);
 }
 AnyKernel2D makeGaussian2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
                            const ModelFamily&) {
     return Gaussian2DKernel(m.grid, m.mean.data(), m.stddev.data(), s.exact, s.fast,
-                            s.meanGradient);
+                            s.meanGradientPlanes());
 }
 AnyKernel2D makeUniform2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                           const ModelFamily& f) {
     return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                            o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
                            f.kind == ModelKind::Uniform, kUniformTinyWidth * span(m, o), s.exact,
-                           s.fast, s.meanGradient);
+                           s.fast, s.meanGradientPlanes());
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
@@ -105,7 +107,7 @@ AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&
             .of(m.grid, data, stride, lo, hi - lo + 1, GradientLayout::VoxelRows, m.mean.data())
             .data();
     return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, levels, quantileMean, density,
-                            kQuantileZeroWidth * span(m, o), s.exact, s.fast, s.meanGradient);
+                            kQuantileZeroWidth * span(m, o), s.exact, s.fast);
 }
 AnyKernel2D makeQuantileRange2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
                                 const ModelFamily& f) {
@@ -248,10 +250,13 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
     }
 }
 
-Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache)
-    : Tf2Rasters(tf),
-      gradients(cache),
-      meanGradient(cache.of(model.grid, model.mean.data(), 1, 0, 1).data()) {}
+Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& m, GradientCache& cache)
+    : Tf2Rasters(tf), model(m), gradients(cache) {}
+
+MeanGradientView Tf2Setup::meanGradientPlanes() {
+    return {gradients.of(model.grid, model.mean.data(), 1, 0, 1).data(), 1,
+            model.grid.pointCount()};
+}
 
 void checkSameGrid(const ModelVolume& first, const ModelVolume& second) {
     const Grid3 &a = first.grid, &b = second.grid;

@@ -68,12 +68,13 @@ struct Tf2Rasters {
 /// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
 /// `gradients`, which outlives the setup).
 struct Tf2Setup : Tf2Rasters {
+    const ModelVolume& model;
     GradientCache& gradients;
-    const float* meanGradient;  // of the `mean` array, 3 per voxel
 
-    /// Views of `tf` (validated by the caller; it must outlive the setup) and the mean's grid
-    /// gradients.
+    /// Views of `tf` (validated by the caller; it must outlive the setup) over `model`.
     Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);
+    /// The `mean` array's grid gradients as planes (computed on first use).
+    MeanGradientView meanGradientPlanes();
 };
 
 struct ModelFamily {

@@ -28,22 +28,26 @@ static_assert(kMaxBoundaries2D <= kMaxPolylineVertices);
 /// (Quantile2DKernel): q ≤ 19 on AVX-512, 8 on AVX2, 3 on SSE2/NEON; more take trilinear gathers.
 inline constexpr int kMaxGradientRows = 4 * lanes::kWidth;
 
-/// What every 2D kernel holds: the grid, the TF2 raster over double and float, and the grid
-/// gradients of the `mean` array (world units; three planes of one float per voxel, the layout
-/// of gridGradients).
+/// Where a 2D kernel reads the grid gradients of the `mean` array (world units): component a of
+/// voxel v at data[v·perVoxel + a·componentStep]. gridGradients' Planes: (1, N); ValueRows:
+/// (4, 1), data at the first row's x; the quantile kernels' VoxelRows with the mean leading:
+/// (3L, L).
+struct MeanGradientView {
+    const float* data = nullptr;
+    int perVoxel = 1;
+    std::size_t componentStep = 0;
+};
+
+/// What every 2D kernel holds: the grid, the TF2 raster over double and float, and where the
+/// grid gradients of the `mean` array are.
 struct Kernel2DBase : GridKernel {
     Tf2Raster<double> tfExact;
     Tf2Raster<float> tfFast;
-    const float* meanGradient;
-    std::size_t plane;  // floats per gradient plane: the voxel count
+    MeanGradientView meanGradient;
 
     Kernel2DBase(const Grid3& grid, const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
-                 const float* meanGrad)
-        : GridKernel(grid),
-          tfExact(exact),
-          tfFast(fast),
-          meanGradient(meanGrad),
-          plane(grid.pointCount()) {}
+                 const MeanGradientView& meanGrad)
+        : GridKernel(grid), tfExact(exact), tfFast(fast), meanGradient(meanGrad) {}
     /// The raster over T's real type.
     template <class T>
     UDVR_CPU_GPU const Tf2Raster<lanes::ScalarOf<T>>& tf2() const {
@@ -57,7 +61,8 @@ struct Kernel2DBase : GridKernel {
     UDVR_CPU_GPU UDVR_INLINE void meanGradientAt(const Cell<T>& c, lanes::MaskOf<T> live,
                                                  T y[3]) const {
         for (int a = 0; a < 3; ++a)
-            y[a] = trilinear(geometry, meanGradient + a * plane, 1, c, live);
+            y[a] = trilinear(geometry, meanGradient.data + a * meanGradient.componentStep,
+                             meanGradient.perVoxel, c, live);
     }
     /// n̂ = μ_Y/|μ_Y| (+x where |μ_Y| = 0) and |μ_Y| at a cell. The components are scaled by
     /// their largest magnitude before squaring, so float neither underflows (|μ_Y| < 1e−19) nor
@@ -87,27 +92,41 @@ struct Kernel2DBase : GridKernel {
     }
 };
 
-/// Mean field and ground truth with a TF2 (SPEC §9 `mean`): TF2(x̄, |μ_Y|).
+/// Mean field and ground truth with a TF2 (SPEC §9 `mean`): TF2(x̄, |μ_Y|). Value and gradient
+/// come from one row of 4 floats per voxel (gridGradients' ValueRows): a batch reads each
+/// corner's row with one load and blends the four at once (boundaryRows; 512² tangle, one
+/// thread: 127 → 112 ms against four trilinears of 64-bit pair gathers), in the lerp order of
+/// trilinear, so the values are the same to the bit.
 struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
-    const float* values;  // one per grid point (the `mean` array, or a plain field)
+    const float* rows;  // per grid point: the value (`mean` array, or a plain field), ∇ x, y, z
 
-    Mean2DKernel(const Grid3& grid, const float* v, const Tf2Raster<double>& exact,
-                 const Tf2Raster<float>& fast, const float* meanGrad)
-        : Kernel2DBase(grid, exact, fast, meanGrad), values(v) {}
+    Mean2DKernel(const Grid3& grid, const float* valueRows, const Tf2Raster<double>& exact,
+                 const Tf2Raster<float>& fast)
+        : Kernel2DBase(grid, exact, fast, {valueRows + 1, 4, 1}), rows(valueRows) {}
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
+        T x, y[3];
+        if constexpr (lanes::kIsVector<T>) {
+            if (!gathersFit(4)) {
+                detail::exactLanes(*this, c, live, r.v);
+                return r;
+            }
+            lanes::Vf q[lanes::kWidth];  // boundaryRows' block: value, ∇ x, y, z
+            boundaryRows(geometry, rows, 4, 0, 4, c, live, q);
+            x = q[0];
+            for (int a = 0; a < 3; ++a) y[a] = q[1 + a];
+        } else {
+            x = trilinear(geometry, rows, 4, c, live);
+            meanGradientAt(c, live, y);
+        }
         T n[3];
-        const T g = meanDirectionAt(c, live, n);
-        tf2At<T>(tf2<T>(), trilinear(geometry, values, 1, c, live), g, live, r.v);
+        tf2At<T>(tf2<T>(), x, directionOf(y, n), live, r.v);
         detail::keepLive<T>(live, r.v);
         return r;
     }
-    void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = values[v]; }
-    void prefetch(int v) const {
-        prefetchRows(values, v, 1);
-        for (int a = 0; a < 3; ++a) prefetchRows(meanGradient + a * plane, v, 1);
-    }
+    void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = rows[4 * v]; }
+    void prefetch(int v) const { prefetchRows(rows, v, 4); }
 };
 
 /// Gaussian with a TF2 (SPEC §9): independent normal voxels X_i ~ N(μ_i, σ_i²); (X, G) =
@@ -121,7 +140,7 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
     Gaussian2DKernel(const Grid3& grid, const float* m, const float* s,
                      const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
-                     const float* meanGrad)
+                     const MeanGradientView& meanGrad)
         : Kernel2DBase(grid, exact, fast, meanGrad), mean(m), stddev(s), gradientGeometry(grid) {}
     /// (μ_X, μ_G, var X, cov(X, G), var G) at a scalar cell.
     UDVR_CPU_GPU void momentsAt(const Cell<double>& c, double m[5]) const {
@@ -170,7 +189,7 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
 
     Uniform2DKernel(const Grid3& grid, const float* a, const float* b, bool mm, bool ex,
                     double tiny, const Tf2Raster<double>& tfD, const Tf2Raster<float>& tfF,
-                    const float* meanGrad)
+                    const MeanGradientView& meanGrad)
         : Kernel2DBase(grid, tfD, tfF, meanGrad),
           UniformVoxels{a, b, mm},
           exact(ex),
@@ -228,9 +247,9 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     /// `levelsIn`: the model's t_0 … t_q (null: even).
     Quantile2DKernel(const Grid3& grid, const float* b, int s, int lo, int hi, const float* bGrad,
                      const double* levelsIn, bool qm, bool density, double zero,
-                     const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
-                     const float* meanGrad)
-        : Kernel2DBase(grid, exact, fast, meanGrad),
+                     const Tf2Raster<double>& exact, const Tf2Raster<float>& fast)
+        : Kernel2DBase(grid, exact, fast,
+                       {bGrad, 3 * (hi - lo + 2), static_cast<std::size_t>(hi - lo + 2)}),
           boundaries(b),
           stride(s),
           j0(lo),

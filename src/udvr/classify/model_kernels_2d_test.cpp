@@ -171,6 +171,15 @@ TEST(Gradient, CacheReusesArraysAndKeepsTheTwoLastUsed) {
             for (std::size_t l = 1; l < 3; ++l)  // layers 1, 2 of b = planes' layers 1, 2
                 ASSERT_EQ(led[(v * 3 + axis) * 3 + l], planes[(l * 3 + axis) * n + v]);
         }
+    // Value rows: layer 1 of b, then its gradient (the planes' layer 1).
+    const std::vector<float> valueRows =
+        gridGradients(grid, b.data(), 3, 1, 1, GradientLayout::ValueRows);
+    ASSERT_EQ(valueRows.size(), 4 * n);
+    for (std::size_t v = 0; v < n; ++v) {
+        ASSERT_EQ(valueRows[4 * v], b[3 * v + 1]);
+        for (std::size_t axis = 0; axis < 3; ++axis)
+            ASSERT_EQ(valueRows[4 * v + 1 + axis], planes[(3 + axis) * n + v]);
+    }
     const float* rowsData = rows.data();
     EXPECT_NE(cache.of(grid, b.data(), 3, 0, 3).data(), rowsData);  // the layout is in the key
     // The mean asked for first in a kernel survives the boundaries asked for next.

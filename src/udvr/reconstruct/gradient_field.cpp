@@ -12,11 +12,13 @@ namespace udvr {
 std::vector<float> gridGradients(const Grid3& grid, const float* values, int perVoxel, int first,
                                  int count, GradientLayout layout, const float* leading) {
     UDVR_CHECK(!leading || layout == GradientLayout::VoxelRows);
+    UDVR_CHECK(layout != GradientLayout::ValueRows || count == 1);
     const CellGeometry g(grid);
     const GradientGeometry gg(grid);
     const std::size_t n = grid.pointCount();
     const std::size_t layers = static_cast<std::size_t>(count) + (leading ? 1 : 0);
-    std::vector<float> out(n * layers * 3);
+    const bool valueRows = layout == GradientLayout::ValueRows;
+    std::vector<float> out(n * (valueRows ? 4 : layers * 3));
     const std::size_t rows = static_cast<std::size_t>(grid.dims[1]) * grid.dims[2];
     parallelForChunks(rows, 16, [&](std::size_t rb, std::size_t re) {
         for (std::size_t row = rb; row < re; ++row) {
@@ -29,10 +31,11 @@ std::vector<float> gridGradients(const Grid3& grid, const float* values, int per
                                        ? gridGradient(g, gg, leading, 1, i, j, k)
                                        : gridGradient(g, gg, values + first + l - (leading ? 1 : 0),
                                                       perVoxel, i, j, k);
+                    if (valueRows) out[v * 4] = values[v * perVoxel + first];
                     for (std::size_t a = 0; a < 3; ++a)
                         out[layout == GradientLayout::Planes ? (l * 3 + a) * n + v
-                                                             : (v * 3 + a) * layers + l] =
-                            static_cast<float>(d[a]);
+                            : valueRows                      ? v * 4 + 1 + a
+                                        : (v * 3 + a) * layers + l] = static_cast<float>(d[a]);
                 }
             }
         }

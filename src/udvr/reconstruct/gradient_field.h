@@ -18,6 +18,10 @@ enum class GradientLayout {
     /// out[v·3·L + axis·L + l] (a batch reads a corner's row with a few loads and blends all of
     /// them at once, as the quantile boundaries, boundaryRows).
     VoxelRows,
+    /// One row of 4 floats per voxel for one layer (count = 1): the layer's value, then its
+    /// gradient's x, y, z components: out[v·4 + 0] = value, out[v·4 + 1 + axis] (the 2D
+    /// mean-field kernel reads value and gradient of a corner with one load, boundaryRows).
+    ValueRows,
 };
 
 /// Grid gradients (world units) of layers first … first + count − 1 of a voxel-major array with
