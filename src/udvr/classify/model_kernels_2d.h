@@ -93,9 +93,9 @@ struct Kernel2DBase : GridKernel {
 };
 
 /// Mean field and ground truth with a TF2 (SPEC §9 `mean`): TF2(x̄, |μ_Y|). Value and gradient
-/// come from one row of 4 floats per voxel (gridGradients' ValueRows): a batch reads each
-/// corner's row with one load and blends the four at once (boundaryRows; 512² tangle, one
-/// thread: 127 → 112 ms against four trilinears of 64-bit pair gathers), in the lerp order of
+/// come from one row of 4 floats per voxel (gridGradients' ValueRows): a batch reads the rows
+/// with plain loads and blends the four floats at once (rows4; 512² tangle, one thread:
+/// 127 → 97 ms against four trilinears of 64-bit pair gathers), in the lerp order of
 /// trilinear, so the values are the same to the bit.
 struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     const float* rows;  // per grid point: the value (`mean` array, or a plain field), ∇ x, y, z
@@ -112,8 +112,8 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
                 detail::exactLanes(*this, c, live, r.v);
                 return r;
             }
-            lanes::Vf q[lanes::kWidth];  // boundaryRows' block: value, ∇ x, y, z
-            boundaryRows(geometry, rows, 4, 0, 4, c, live, q);
+            lanes::Vf q[4];  // value, ∇ x, y, z
+            rows4(geometry, rows, c, live, q);
             x = q[0];
             for (int a = 0; a < 3; ++a) y[a] = q[1 + a];
         } else {

@@ -137,6 +137,53 @@ TEST(Reconstruct, GmmOrderedInterpolatesEachRankAndNormalises) {
     }
 }
 
+// rows4 (4 floats per voxel) against the definition, and bit for bit against trilinear of each
+// float (the order of the lerps is the same): every pattern of dead lanes in a pair, points on
+// the last planes, and grids one point wide along x (x-neighbours not adjacent).
+TEST(Reconstruct, FourFloatRowsAreTrilinearBitForBit) {
+    CounterRng rng(17, 0, 0);
+    for (const std::array<int, 3> dims :
+         {kDims, std::array<int, 3>{1, 4, 3}, std::array<int, 3>{2, 2, 2}}) {
+        const CellGeometry g(dims);
+        const std::size_t voxels = static_cast<std::size_t>(dims[0]) * dims[1] * dims[2];
+        const std::vector<float> rows = randomValues(rng, 4 * voxels, -50, 50);
+        for (int round = 0; round < 64; ++round) {
+            lanes::Vf x, y, z;
+            for (int l = 0; l < lanes::kWidth; ++l) {
+                const bool onEdge = rng.uniform() < 0.25;  // on the last plane along each axis
+                x[l] = onEdge ? static_cast<float>(dims[0] - 1)
+                              : static_cast<float>(rng.uniform() * (dims[0] - 1));
+                y[l] = static_cast<float>(rng.uniform() * (dims[1] - 1));
+                z[l] = onEdge ? static_cast<float>(dims[2] - 1)
+                              : static_cast<float>(rng.uniform() * (dims[2] - 1));
+            }
+            const Cell<lanes::Vf> cells = cellAt<lanes::Vf>(g, x, y, z);
+            // Round 0: all live; then random masks (pairs with none, one or both alive).
+            lanes::Mask live = lanes::iota() >= 0;
+            if (round > 0)
+                for (int l = 0; l < lanes::kWidth; ++l) live[l] = rng.uniform() < 0.6 ? -1 : 0;
+            lanes::Vf out[4];
+            rows4(g, rows.data(), cells, live, out);
+            for (int k = 0; k < 4; ++k) {
+                const lanes::Vf want = trilinear(g, rows.data() + k, 4, cells, live);
+                for (int l = 0; l < lanes::kWidth; ++l) {
+                    if (!live[l]) {
+                        ASSERT_EQ(out[k][l], 0.f);
+                        continue;
+                    }
+                    ASSERT_EQ(out[k][l], want[l]) << k << " " << l;
+                    const Cell<double> c = cellAt<double>(g, x[l], y[l], z[l]);
+                    double w[8], sum = 0;
+                    trilinearWeights(c, w);
+                    for (int corner = 0; corner < 8; ++corner)
+                        sum += w[corner] * rows[4 * cornerVoxel(g, c.base, corner) + k];
+                    ASSERT_NEAR(out[k][l], sum, 1e-4);
+                }
+            }
+        }
+    }
+}
+
 // Eq. 2 for q from 1 to beyond two blocks of lanes: boundaryAt, widthAt and the batch's rows.
 TEST(Reconstruct, QuantileBoundariesAndWidthsFollowEq2) {
     CounterRng rng(13, 0, 0);
