@@ -198,16 +198,12 @@ UDVR_INLINE void rows4(const CellGeometry& g, const float* data, const Cell<lane
         };
         const Vf a02 = blocks02(z[0], z[2]), a46 = blocks02(z[4], z[6]);
         const Vf b02 = blocks02(z[1], z[3]), b46 = blocks02(z[5], z[7]);
-        const auto evens = [](Vf a, Vf b) {  // (a₀, a₂, b₀, b₂) again: samples of block 0
-            return __builtin_shufflevector(a, b, 0, 1, 2, 3, 8, 9, 10, 11, 16, 17, 18, 19, 24, 25,
-                                           26, 27);
-        };
-        const auto odds = [](Vf a, Vf b) {  // (a₁, a₃, b₁, b₃)
+        const auto blocks13 = [](Vf a, Vf b) {  // (a₁, a₃, b₁, b₃)
             return __builtin_shufflevector(a, b, 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22, 23, 28, 29,
                                            30, 31);
         };
-        const Vf q0 = evens(a02, a46), q1 = odds(a02, a46), q2 = evens(b02, b46),
-                 q3 = odds(b02, b46);
+        const Vf q0 = blocks02(a02, a46), q1 = blocks13(a02, a46), q2 = blocks02(b02, b46),
+                 q3 = blocks13(b02, b46);
         // 4×4 transpose within each block: out[k] block j = float k of samples 4j … 4j + 3.
         const auto unpackLo = [](Vf a, Vf b) {
             return __builtin_shufflevector(a, b, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28,
