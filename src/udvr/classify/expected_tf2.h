@@ -73,6 +73,25 @@ UDVR_CPU_GPU UDVR_INLINE T rasterLoad(const float* rgba, lanes::IntOf<T> idx,
     else
         return static_cast<T>(rgba[idx]);
 }
+/// Two raster points (r, g, b, α) side by side at rgba[base …], into p0 and p1 (lanes of
+/// `live`; 0 in the others).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE void rasterPoints2(const float* rgba, lanes::IntOf<T> base,
+                                            lanes::MaskOf<T> live, T p0[4], T p1[4]) {
+    if constexpr (lanes::kIsVector<T>) {
+        T v[8];
+        lanes::gatherRow8(rgba, base, live, v);
+        for (int ch = 0; ch < 4; ++ch) {
+            p0[ch] = v[ch];
+            p1[ch] = v[4 + ch];
+        }
+    } else {
+        for (int ch = 0; ch < 4; ++ch) {
+            p0[ch] = live ? static_cast<T>(rgba[base + ch]) : T{};
+            p1[ch] = live ? static_cast<T>(rgba[base + 4 + ch]) : T{};
+        }
+    }
+}
 /// (r, g, b, α) of the raster point at rgba[base …] (lanes of `live`; 0 in the others).
 template <class T>
 UDVR_CPU_GPU UDVR_INLINE void rasterPoint(const float* rgba, lanes::IntOf<T> base,
@@ -94,8 +113,11 @@ struct Tf2Cell {
 
     template <class Real>
     UDVR_CPU_GPU UDVR_INLINE Tf2Cell(const Tf2Raster<Real>& r, lanes::IntOf<T> i, lanes::IntOf<T> j,
-                                     lanes::MaskOf<T> live)
-        : Tf2Cell(r, i, i + 1, j, live) {}
+                                     lanes::MaskOf<T> live) {
+        const lanes::IntOf<T> row = j * r.width + i;  // points i, i + 1: 8 adjacent floats
+        detail::rasterPoints2<T>(r.rgba, row * 4, live, v[0], v[1]);
+        detail::rasterPoints2<T>(r.rgba, (row + r.width) * 4, live, v[2], v[3]);
+    }
     /// The cell spanning point columns i0 < i1 (a run of cells, see Tf2Raster::cellRun) of
     /// band j; `at` then takes fx as the fraction of [i0, i1].
     template <class Real>
@@ -476,8 +498,7 @@ struct Tf2RowCell {
     /// Points i, i + 1 of row j from base = (j·W + i)·4 (lanes of `live`; 0 elsewhere).
     UDVR_CPU_GPU UDVR_INLINE Tf2RowCell(const float* rgba, lanes::IntOf<T> base,
                                         lanes::MaskOf<T> live) {
-        rasterPoint<T>(rgba, base, live, p0);
-        rasterPoint<T>(rgba, base + 4, live, p1);
+        rasterPoints2<T>(rgba, base, live, p0, p1);
     }
     /// Mean of (α·r, α·g, α·b, α) over σ ∈ [f1, f2] (the value at f1 where f1 = f2): with
     /// α = a0 + da·σ and c = c0 + dc·σ, α·c = a0·c0 + (a0·dc + da·c0)·σ + da·dc·σ², whose mean
@@ -558,8 +579,7 @@ struct Tf2RowEnd {
         if (!lanes::anyOf(mp)) return;
         hasPrefix = hasPrefix | mp;
         T hi[4], lo[4];  // the point's 8 floats: hi (4), then lo (4)
-        rasterPoint<T>(r.rowPrefix, base * 8, mp, hi);
-        rasterPoint<T>(r.rowPrefix, base * 8 + 4, mp, lo);
+        rasterPoints2<T>(r.rowPrefix, base * 8, mp, hi, lo);
         for (int ch = 0; ch < 4; ++ch) {
             prefix[ch] = lanes::select(mp, hi[ch], prefix[ch]);
             prefixLo[ch] = lanes::select(mp, lo[ch], prefixLo[ch]);

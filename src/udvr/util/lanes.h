@@ -501,4 +501,53 @@ inline void transpose(Vf r[kWidth]) {
 #endif
 }
 
+/// out[k] = base[idx + k] for k = 0 … 7 in the `live` lanes (0 elsewhere; dead lanes' indices
+/// are not read): 8 adjacent floats a lane, as two RGBA points of a raster row. With AVX-512VL
+/// or AVX2 each lane's 8 floats are one 256-bit load and an 8×8 transpose puts them in place
+/// (16 lanes: 16 loads and 32 shuffles, against 8 64-bit gathers and 8 permutes for four
+/// gatherPairs); elsewhere four gatherPairs.
+inline void gatherRow8(const float* base, Vi idx, Mask live, Vf out[8]) {
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+    const std::uint32_t m = bits(live);
+    alignas(64) std::int32_t at[16];
+    store(at, idx);
+    __m512 r[8], t[8], u[8];
+    for (int l = 0; l < 8; ++l) {  // lane l in the low half, lane l + 8 in the high one
+        const auto lo = static_cast<__mmask8>(0u - (m >> l & 1u));
+        const auto hi = static_cast<__mmask8>(0u - (m >> (l + 8) & 1u));
+        const __m256 a = _mm256_maskz_loadu_ps(lo, base + at[l]);
+        const __m256 b = _mm256_maskz_loadu_ps(hi, base + at[l + 8]);
+        r[l] = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(a)),
+                                                   _mm256_castps_pd(b), 1));
+    }
+    // The 8×8 transpose of AVX2 (transpose below) in both halves at once.
+    for (int i = 0; i < 8; i += 2) {
+        t[i] = _mm512_unpacklo_ps(r[i], r[i + 1]);
+        t[i + 1] = _mm512_unpackhi_ps(r[i], r[i + 1]);
+    }
+    for (int i = 0; i < 8; i += 4)
+        for (int h = 0; h < 2; ++h) {
+            u[i + 2 * h] = _mm512_shuffle_ps(t[i + h], t[i + 2 + h], 0x44);
+            u[i + 2 * h + 1] = _mm512_shuffle_ps(t[i + h], t[i + 2 + h], 0xEE);
+        }
+    for (int c = 0; c < 4; ++c) {  // 128-bit blocks: (u_c 0, u_{4+c} 0, u_c 2, u_{4+c} 2) …
+        const Vf a = u[c], b = u[4 + c];
+        out[c] =
+            __builtin_shufflevector(a, b, 0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
+        out[c + 4] = __builtin_shufflevector(a, b, 4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28,
+                                             29, 30, 31);
+    }
+#elif defined(__AVX2__) && !defined(__AVX512F__)
+    alignas(32) std::int32_t at[8];
+    store(at, idx);
+    for (int l = 0; l < 8; ++l) {
+        const __m256i lane = _mm256_set1_epi32(live[l]);
+        out[l] = _mm256_maskload_ps(base + at[l], lane);
+    }
+    transpose(out);
+#else
+    for (int k = 0; k < 8; k += 2) gatherPair(base, idx + k, live, out[k], out[k + 1]);
+#endif
+}
+
 }  // namespace udvr::lanes
