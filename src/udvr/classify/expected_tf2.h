@@ -41,6 +41,11 @@ struct Tf2Raster {
     /// (detail::rowConstantMean), not by a walk.
     const float* rowSameUpTo = nullptr;
     const float* rowPrefix = nullptr;
+    /// Optional, per column of cells i (width − 1 floats): how many columns of cells from i on
+    /// have α = 0 at every corner of every row (0 where column i has a cell with α > 0). Over
+    /// such columns TF2(x, ·) = 0 whatever y, so the quantile kernels skip the gradients of
+    /// samples whose boundaries all lie there (tf2ColumnsEmpty).
+    const float* columnEmptyRun = nullptr;
 };
 
 namespace detail {
@@ -181,6 +186,27 @@ UDVR_CPU_GPU UDVR_INLINE void tf2At(const Tf2Raster<Real>& r, T x, T y, lanes::M
     Tf2Cell<T>(r, i, j, load).at(fx, fy, v);  // lanes outside `load`: corners 0, α = 0
     for (int ch = 0; ch < 3; ++ch) out[ch] = v[3] * v[ch];
     out[3] = v[3];
+}
+
+/// Lanes of `live` whose values x ∈ [xa, xb] (xa ≤ xb) lie in columns of cells with α = 0 in
+/// every row (Tf2Raster::columnEmptyRun): the TF2 is 0 there for every y, and so is its mean
+/// along any segment or at any point within [xa, xb]. The columns are those tf2At reads
+/// (x clamped into the domain, NaN → the first column). None without the table.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> tf2ColumnsEmpty(const Tf2Raster<Real>& r, T xa, T xb,
+                                                          lanes::MaskOf<T> live) {
+    using S = lanes::ScalarOf<T>;
+    if (!r.columnEmptyRun) return lanes::MaskOf<T>{};
+    const S x0 = static_cast<S>(r.x0), inv = static_cast<S>(r.invDx);
+    lanes::IntOf<T> ia, ib;
+    T f;
+    detail::rasterCell(detail::rasterCoordinate<T>(xa, x0, inv, r.width), r.width, ia, f);
+    detail::rasterCell(detail::rasterCoordinate<T>(xb, x0, inv, r.width), r.width, ib, f);
+    const T run = detail::rasterLoad<T>(r.columnEmptyRun, ia, live);
+    if constexpr (lanes::kIsVector<T>)
+        return live & (ib >= ia) & (run > lanes::toFloat(ib - ia));
+    else
+        return live && ib >= ia && run > static_cast<T>(ib - ia);
 }
 
 namespace detail {

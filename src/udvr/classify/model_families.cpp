@@ -214,6 +214,14 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
     else
         cellRuns.clear();
     const int cw = tf.width - 1, rows = tf.height - 1;
+    columnEmptyRun.assign(static_cast<std::size_t>(cw), 0.f);
+    for (int i = cw - 1; i >= 0; --i) {
+        bool empty = true;
+        for (int j = 0; j < rows && empty; ++j)
+            empty = cellEmptyDistance[static_cast<std::size_t>(j) * cw + i] != 0.f;
+        if (empty) columnEmptyRun[i] = 1.f + (i + 1 < cw ? columnEmptyRun[i + 1] : 0.f);
+    }
+    exact.columnEmptyRun = fast.columnEmptyRun = columnEmptyRun.data();
     rowCells.assign(2 * static_cast<std::size_t>(rows), 0);
     for (int j = 0; j < rows; ++j) {
         int first = cw, last = -1;

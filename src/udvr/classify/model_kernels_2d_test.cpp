@@ -878,6 +878,73 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
         }
 }
 
+// Columns of cells with α = 0 in every row (point columns 0…3 and 8…12: cells 0…2 and 8…11):
+// the run table against its definition; a value range the check calls empty has TF2 = 0 at every
+// point of it (dense x, every row and between rows), and ranges touching a cell with α > 0 are
+// not empty; the lanes agree with the double body; and the quantile kernels, whose lanes skip
+// such samples, still match their double body.
+TEST(Tf2, EmptyColumnsHoldOnlyZeroOpacity) {
+    CounterRng rng(15, 0, 0);
+    const int w = 20, h = 6;
+    TransferFunction2D t = randomTf2(rng, w, h, -2.0, 3.0, 0.0, 4.0);  // 0.25 a point column
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+            if (i <= 3 || (i >= 8 && i <= 12))
+                t.rgba[(j * w + i) * 4 + 3] = 0.f;
+            else if (t.rgba[(j * w + i) * 4 + 3] == 0.f)
+                t.rgba[(j * w + i) * 4 + 3] = 0.5f;
+    ModelVolume unit;
+    unit.grid.dims = {1, 1, 1};
+    unit.mean = {0.f};
+    GradientCache gradients;
+    const Tf2Setup setup(t, unit, gradients);
+    const std::vector<float> want = {3, 2, 1, 0, 0, 0, 0, 0, 4, 3, 2, 1, 0, 0, 0, 0, 0, 0, 0};
+    EXPECT_EQ(setup.columnEmptyRun, want);
+    const auto dataX = [&](double s) { return -2.0 + s * 5.0 / (w - 1); };  // s in cells
+    // Ranges in cells: inside empty blocks, beyond the domain, across into α > 0, reversed.
+    const std::pair<double, double> cases[] = {{0.1, 2.9}, {-5.0, 1.5}, {8.01, 11.99}, {8.5, 9.5},
+                                               {2.5, 3.5}, {7.5, 8.5},  {11.5, 12.5},  {5.0, 6.0},
+                                               {2.0, 1.0}, {18.5, 30.0}};
+    const bool wantEmpty[] = {true, true, true, true, false, false, false, false, false, false};
+    for (std::size_t k = 0; k < std::size(cases); ++k) {
+        const double xa = dataX(cases[k].first), xb = dataX(cases[k].second);
+        const bool empty = tf2ColumnsEmpty<double>(setup.exact, xa, xb, true);
+        EXPECT_EQ(empty, wantEmpty[k]) << k;
+        lanes::Vf a{}, b{};
+        a += static_cast<float>(xa);
+        b += static_cast<float>(xb);
+        const lanes::Mask lane = tf2ColumnsEmpty<lanes::Vf>(setup.fast, a, b, lanes::iota() != 1);
+        for (int l = 0; l < lanes::kWidth; ++l)
+            EXPECT_EQ(lane[l] != 0, l != 1 && wantEmpty[k]) << k << " " << l;
+    }
+    // Soundness on random ranges: wherever the check says empty, TF2 = 0 over the whole range.
+    int emptyRanges = 0;
+    for (int trial = 0; trial < 2000; ++trial) {
+        double xa = dataX(-2 + 23 * rng.uniform()), xb = dataX(-2 + 23 * rng.uniform());
+        if (xa > xb) std::swap(xa, xb);
+        if (!tf2ColumnsEmpty<double>(setup.exact, xa, xb, true)) continue;
+        ++emptyRanges;
+        for (int m = 0; m <= 200; ++m)
+            for (int n = 0; n <= 4 * (h - 1); ++n) {
+                const auto v = classify2(t, xa + (xb - xa) * m / 200.0, 4.0 * n / (4 * (h - 1)));
+                ASSERT_EQ(v[3], 0.0) << xa << " " << xb;
+            }
+    }
+    EXPECT_GT(emptyRanges, 100);
+    // The quantile kernels' lanes (which skip the empty samples) against their double body.
+    const std::array<int, 3> dims{5, 4, 3};
+    ModelVolume m = testing::randomModel(rng, dims, 8);
+    m.grid = randomGrid(rng, dims);
+    const auto range = modelDataRange(m);
+    t.x0 = range.first - 0.1 * (range.second - range.first);  // a third of the range empty
+    t.x1 = range.second + 0.1 * (range.second - range.first);
+    t.validate();
+    for (ModelKind kind : {ModelKind::QuantileRange, ModelKind::QuantileMean})
+        with2D(m, kind, t, [&](const auto& k) {
+            EXPECT_LE(testing::worstLaneError(k, rng, dims, "empty columns", 200), 5e-5);
+        });
+}
+
 TEST(Tf2, NonZeroOpacityRangesCoverEveryColumnWithAlpha) {
     CounterRng rng(13, 0, 0);
     const double inf = std::numeric_limits<double>::infinity();
