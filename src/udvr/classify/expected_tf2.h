@@ -1,7 +1,8 @@
 #pragma once
 // Classification with 2D transfer functions (SPEC §9): TF2 on a raster, colour and α each
 // bilinear between the points and clamped outside the domain. Each body is written once over
-// T ∈ {double, float, lanes::Vf} as expected_tf.h; lanes read the raster by gathers.
+// T ∈ {double, float, lanes::Vf} as expected_tf.h; lanes read the raster by gathers, or two
+// adjacent points at once by per-lane loads (lanes::gatherRow8).
 #include <bit>
 #include <cmath>
 #include <cstdint>

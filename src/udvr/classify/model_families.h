@@ -72,7 +72,7 @@ struct Tf2Setup : Tf2Rasters {
     const ModelVolume& model;
     GradientCache& gradients;
 
-    /// Views of `tf` (validated by the caller; it must outlive the setup) over `model`.
+    /// Views of `tf` (validated by the caller) over `model`; both must outlive the setup.
     Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);
     /// The `mean` array's grid gradients as planes (computed on first use).
     MeanGradientView meanGradientPlanes();

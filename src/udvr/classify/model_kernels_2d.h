@@ -107,12 +107,8 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
         T x, y[3];
-        if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(4)) {
-                detail::exactLanes(*this, c, live, r.v);
-                return r;
-            }
-            lanes::Vf q[4];  // value, ∇ x, y, z
+        if constexpr (lanes::kIsVector<T>) {  // rows4 indexes in 64 bits: no gathersFit
+            lanes::Vf q[4];                   // value, ∇ x, y, z
             rows4(geometry, rows, c, live, q);
             x = q[0];
             for (int a = 0; a < 3; ++a) y[a] = q[1 + a];

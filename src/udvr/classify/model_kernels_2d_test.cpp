@@ -182,7 +182,7 @@ TEST(Gradient, CacheReusesArraysAndKeepsTheTwoLastUsed) {
     }
     const float* rowsData = rows.data();
     EXPECT_NE(cache.of(grid, b.data(), 3, 0, 3).data(), rowsData);  // the layout is in the key
-    // The mean asked for first in a kernel survives the boundaries asked for next.
+    // The least recently used array is the one evicted.
     GradientCache lru;
     const float* mean = lru.of(grid, a.data(), 1, 0, 1).data();
     lru.of(grid, c.data(), 1, 0, 1);
@@ -886,7 +886,7 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
 TEST(Tf2, EmptyColumnsHoldOnlyZeroOpacity) {
     CounterRng rng(15, 0, 0);
     const int w = 20, h = 6;
-    TransferFunction2D t = randomTf2(rng, w, h, -2.0, 3.0, 0.0, 4.0);  // 0.25 a point column
+    TransferFunction2D t = randomTf2(rng, w, h, -2.0, 3.0, 0.0, 4.0);  // columns 5/19 apart
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i)
             if (i <= 3 || (i >= 8 && i <= 12))

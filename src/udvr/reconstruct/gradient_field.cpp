@@ -47,7 +47,7 @@ const std::vector<float>& GradientCache::of(const Grid3& grid, const float* valu
                                             int first, int count, GradientLayout layout,
                                             const float* leading) {
     // Least recently used first: a hit moves to the back (the vectors move, their data stay put),
-    // so the two arrays of one kernel never evict each other.
+    // so the array asked for last survives the next new one.
     for (auto it = entries_.begin(); it != entries_.end(); ++it)
         if (it->values == values && it->perVoxel == perVoxel && it->first == first &&
             it->count == count && it->layout == layout && it->leading == leading &&

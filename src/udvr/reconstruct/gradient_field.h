@@ -20,7 +20,7 @@ enum class GradientLayout {
     VoxelRows,
     /// One row of 4 floats per voxel for one layer (count = 1): the layer's value, then its
     /// gradient's x, y, z components: out[v·4 + 0] = value, out[v·4 + 1 + axis] (the 2D
-    /// mean-field kernel reads value and gradient of a corner with one load, boundaryRows).
+    /// mean-field kernel reads a corner's value and gradient with one load, rows4).
     ValueRows,
 };
 
@@ -33,8 +33,10 @@ std::vector<float> gridGradients(const Grid3& grid, const float* values, int per
                                  const float* leading = nullptr);
 
 /// Grid gradients kept between frames (gridGradients of the same arrays are reused): keyed by
-/// the array's address, layout and grid, so a model edited in place needs clear(). Holds the
-/// last two arrays asked for (the mean and a model's boundaries).
+/// the array's address, layout and grid, so a model edited in place needs clear() (ValueRows
+/// also copy the values). Holds the last two arrays asked for: a 2D kernel asks for one (the
+/// mean's value rows or planes, or a quantile model's boundary rows with the mean leading), so a
+/// session switching between two models keeps both.
 class GradientCache {
   public:
     /// gridGradients(grid, values, perVoxel, first, count, layout, leading), computed on first

@@ -159,7 +159,7 @@ UDVR_INLINE void rows4(const CellGeometry& g, const float* data, const Cell<lane
         const std::uint32_t liveBits = lanes::bits(live);
         alignas(64) std::int32_t base[16];
         lanes::store(base, c.base);
-        const int rowOffset[4] = {0, g.next32[1], g.next32[2], g.next32[2] + g.next32[1]};
+        const std::ptrdiff_t rowOffset[4] = {0, g.next[1], g.next[2], g.next[2] + g.next[1]};
         Vf z[8];  // pair p: sample 2p's 4 floats in block 0, sample 2p + 1's in block 2
         const auto pair = [&]<int P>(std::integral_constant<int, P>) {
             constexpr int l = 2 * P;

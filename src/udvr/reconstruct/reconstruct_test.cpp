@@ -148,20 +148,22 @@ TEST(Reconstruct, FourFloatRowsAreTrilinearBitForBit) {
         const std::size_t voxels = static_cast<std::size_t>(dims[0]) * dims[1] * dims[2];
         const std::vector<float> rows = randomValues(rng, 4 * voxels, -50, 50);
         for (int round = 0; round < 64; ++round) {
-            lanes::Vf x, y, z;
-            for (int l = 0; l < lanes::kWidth; ++l) {
-                const bool onEdge = rng.uniform() < 0.25;  // on the last plane along each axis
-                x[l] = onEdge ? static_cast<float>(dims[0] - 1)
-                              : static_cast<float>(rng.uniform() * (dims[0] - 1));
-                y[l] = static_cast<float>(rng.uniform() * (dims[1] - 1));
-                z[l] = onEdge ? static_cast<float>(dims[2] - 1)
-                              : static_cast<float>(rng.uniform() * (dims[2] - 1));
-            }
-            const Cell<lanes::Vf> cells = cellAt<lanes::Vf>(g, x, y, z);
-            // Round 0: all live; then random masks (pairs with none, one or both alive).
+            lanes::Vf p[3];  // a quarter of the coordinates on the last plane of their axis
+            for (int l = 0; l < lanes::kWidth; ++l)
+                for (int a = 0; a < 3; ++a)
+                    p[a][l] = rng.uniform() < 0.25
+                                  ? static_cast<float>(dims[a] - 1)
+                                  : static_cast<float>(rng.uniform() * (dims[a] - 1));
+            const lanes::Vf &x = p[0], &y = p[1], &z = p[2];
+            Cell<lanes::Vf> cells = cellAt<lanes::Vf>(g, x, y, z);
+            // Round 0: all live; then random masks (pairs with none, one or both alive), the
+            // dead lanes' cells 2^28 voxels outside the array (reading them would fault).
             lanes::Mask live = lanes::iota() >= 0;
             if (round > 0)
-                for (int l = 0; l < lanes::kWidth; ++l) live[l] = rng.uniform() < 0.6 ? -1 : 0;
+                for (int l = 0; l < lanes::kWidth; ++l) {
+                    live[l] = rng.uniform() < 0.6 ? -1 : 0;
+                    if (!live[l]) cells.base[l] = (1 << 28) + l;
+                }
             lanes::Vf out[4];
             rows4(g, rows.data(), cells, live, out);
             for (int k = 0; k < 4; ++k) {
