@@ -202,31 +202,11 @@ UDVR_INLINE void rows4(const CellGeometry& g, const float* data, const Cell<lane
             return __builtin_shufflevector(a, b, 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22, 23, 28, 29,
                                            30, 31);
         };
-        const Vf q0 = blocks02(a02, a46), q1 = blocks13(a02, a46), q2 = blocks02(b02, b46),
-                 q3 = blocks13(b02, b46);
+        const Vf q[4] = {blocks02(a02, a46), blocks13(a02, a46), blocks02(b02, b46),
+                         blocks13(b02, b46)};
         // 4×4 transpose within each block: out[k] block j = float k of samples 4j … 4j + 3.
-        const auto unpackLo = [](Vf a, Vf b) {
-            return __builtin_shufflevector(a, b, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28,
-                                           13, 29);
-        };
-        const auto unpackHi = [](Vf a, Vf b) {
-            return __builtin_shufflevector(a, b, 2, 18, 3, 19, 6, 22, 7, 23, 10, 26, 11, 27, 14, 30,
-                                           15, 31);
-        };
-        const auto lowPairs = [](Vf a, Vf b) {
-            return __builtin_shufflevector(a, b, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13,
-                                           28, 29);
-        };
-        const auto highPairs = [](Vf a, Vf b) {
-            return __builtin_shufflevector(a, b, 2, 3, 18, 19, 6, 7, 22, 23, 10, 11, 26, 27, 14, 15,
-                                           30, 31);
-        };
-        const Vf t0 = unpackLo(q0, q1), t1 = unpackHi(q0, q1), t2 = unpackLo(q2, q3),
-                 t3 = unpackHi(q2, q3);
-        out[0] = lanes::select(live, lowPairs(t0, t2), Vf{});
-        out[1] = lanes::select(live, highPairs(t0, t2), Vf{});
-        out[2] = lanes::select(live, lowPairs(t1, t3), Vf{});
-        out[3] = lanes::select(live, highPairs(t1, t3), Vf{});
+        lanes::transposeBlocks4(q, out);
+        for (int k = 0; k < 4; ++k) out[k] = lanes::select(live, out[k], Vf{});
         return;
     }
 #endif

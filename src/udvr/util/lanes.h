@@ -501,6 +501,19 @@ inline void transpose(Vf r[kWidth]) {
 #endif
 }
 
+#if defined(__AVX512F__)
+/// The 4×4 transpose within each 128-bit block of four registers: block j of out[k] holds
+/// float k of block j of in[0], in[1], in[2], in[3] (unpacks, then 64-bit pair shuffles).
+inline void transposeBlocks4(const Vf in[4], Vf out[4]) {
+    const __m512 t0 = _mm512_unpacklo_ps(in[0], in[1]), t1 = _mm512_unpackhi_ps(in[0], in[1]);
+    const __m512 t2 = _mm512_unpacklo_ps(in[2], in[3]), t3 = _mm512_unpackhi_ps(in[2], in[3]);
+    out[0] = _mm512_shuffle_ps(t0, t2, 0x44);
+    out[1] = _mm512_shuffle_ps(t0, t2, 0xEE);
+    out[2] = _mm512_shuffle_ps(t1, t3, 0x44);
+    out[3] = _mm512_shuffle_ps(t1, t3, 0xEE);
+}
+#endif
+
 /// out[k] = base[idx + k] for k = 0 … 7 in the `live` lanes (0 elsewhere; dead lanes' indices
 /// are not read): 8 adjacent floats a lane, as two RGBA points of a raster row. With AVX-512VL
 /// or AVX2 each lane's 8 floats are one 256-bit load and an 8×8 transpose puts them in place
@@ -511,7 +524,7 @@ inline void gatherRow8(const float* base, Vi idx, Mask live, Vf out[8]) {
     const std::uint32_t m = bits(live);
     alignas(64) std::int32_t at[16];
     store(at, idx);
-    __m512 r[8], t[8], u[8];
+    Vf r[8], u[8];
     for (int l = 0; l < 8; ++l) {  // lane l in the low half, lane l + 8 in the high one
         const auto lo = static_cast<__mmask8>(0u - (m >> l & 1u));
         const auto hi = static_cast<__mmask8>(0u - (m >> (l + 8) & 1u));
@@ -521,15 +534,8 @@ inline void gatherRow8(const float* base, Vi idx, Mask live, Vf out[8]) {
                                                    _mm256_castps_pd(b), 1));
     }
     // The 8×8 transpose of AVX2 (transpose below) in both halves at once.
-    for (int i = 0; i < 8; i += 2) {
-        t[i] = _mm512_unpacklo_ps(r[i], r[i + 1]);
-        t[i + 1] = _mm512_unpackhi_ps(r[i], r[i + 1]);
-    }
-    for (int i = 0; i < 8; i += 4)
-        for (int h = 0; h < 2; ++h) {
-            u[i + 2 * h] = _mm512_shuffle_ps(t[i + h], t[i + 2 + h], 0x44);
-            u[i + 2 * h + 1] = _mm512_shuffle_ps(t[i + h], t[i + 2 + h], 0xEE);
-        }
+    transposeBlocks4(r, u);
+    transposeBlocks4(r + 4, u + 4);
     for (int c = 0; c < 4; ++c) {  // 128-bit blocks: (u_c 0, u_{4+c} 0, u_c 2, u_{4+c} 2) …
         const Vf a = u[c], b = u[4 + c];
         out[c] =
