@@ -1,5 +1,4 @@
 #pragma once
-#include <cstdlib>
 // Classification with 2D transfer functions (SPEC §9): TF2 on a raster, colour and α each
 // bilinear between the points and clamped outside the domain. Each body is written once over
 // T ∈ {double, float, lanes::Vf} as expected_tf.h; lanes read the raster by gathers, or two
@@ -640,8 +639,10 @@ UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> rowConstantLanes(const Tf2RowEnd<T>& a
     const T top =
         topFloor + lanes::select(topFloor < lanes::max(a.t, b.t), lanes::splat<T>(S(1)), T{});
     constexpr S kMax = std::numeric_limits<S>::max();
-    return live & (lanes::abs(a.s) <= kMax) & (lanes::abs(b.s) <= kMax) &
-           (lanes::select(a.t <= b.t, a.sameUpTo, b.sameUpTo) >= top);
+    // Named masks: `&` of bools over calls is what clang's -Wbitwise-instead-of-logical flags.
+    const auto finiteA = lanes::abs(a.s) <= kMax, finiteB = lanes::abs(b.s) <= kMax;
+    const auto sameRows = lanes::select(a.t <= b.t, a.sameUpTo, b.sameUpTo) >= top;
+    return live & finiteA & finiteB & sameRows;
 }
 
 /// Where the TF2 does not change with y over a segment's y range — that range lies on one row
