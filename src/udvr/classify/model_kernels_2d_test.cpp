@@ -453,7 +453,7 @@ TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
         if (k % 7 == 0) p[0] = -2.0 + (5.0 / 49.0) * std::round(49.0 * rng.uniform());  // on a line
     };
     double worstDense = 0, worstDouble = 0, worstFloat = 0, worstLanes = 0;
-    int served = 0, walked = 0;
+    int served = 0, walked = 0, spanBatches = 0;
     for (int trial = 0; trial < 60; ++trial) {
         lanes::Vf p[4];
         double pd[lanes::kWidth][4];
@@ -495,6 +495,42 @@ TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
             }
         }
     }
+    // Batches whose every segment spans a full cell or more take the ends' integrals from point 0
+    // (prefix + partial) instead of rowConstantMean: ends inside and beyond the x domain, either
+    // order, y within one stretch of identical rows.
+    double worstSpans = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+        lanes::Vf p[4];
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            const bool upper = (trial + l) % 2 == 1;
+            const double lo = upper ? 3.0 : 0.0, span = upper ? 1.5 : 1.0;
+            // From up to 0.6 beyond the domain [−2, 3], inwards by ≥ 0.8 (8 cells of 0.1).
+            const double x0 = -2.6 + 6.2 * rng.uniform();
+            const double length = 0.8 + 3.0 * rng.uniform();
+            p[0][l] = static_cast<float>(x0);
+            p[1][l] = static_cast<float>(lo + span * rng.uniform());
+            p[2][l] = static_cast<float>(x0 < 0.5 ? x0 + length : x0 - length);
+            p[3][l] = static_cast<float>(lo + span * rng.uniform());
+        }
+        const auto all = lanes::allTrue<lanes::Vf>();
+        detail::Tf2RowEnd<lanes::Vf> ea(setup.fast, p[0], p[1], all),
+            eb(setup.fast, p[2], p[3], all);
+        bool everySpans = !lanes::anyOf(all & !detail::rowConstantLanes<lanes::Vf>(ea, eb, all));
+        for (int l = 0; l < lanes::kWidth; ++l)
+            everySpans = everySpans && std::abs(ea.cell[l] - eb.cell[l]) >= 2;
+        lanes::Vf got[4];
+        tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3], all, got);
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            double walk[4];
+            tf2MeanAlongSegment<double>(setup.exact, p[0][l], p[1][l], p[2][l], p[3][l], true,
+                                        walk);
+            for (int ch = 0; ch < 4; ++ch)
+                worstSpans = std::max(worstSpans, std::abs(got[ch][l] - walk[ch]));
+        }
+        if (everySpans) ++spanBatches;
+    }
+    EXPECT_EQ(spanBatches, 40);  // the spans form was taken
+    EXPECT_LE(worstSpans, 1e-5);
     // Rows that differ (most bands with α > 0 not identical): no tables, every segment walks.
     const TransferFunction2D noisy = randomTf2(rng, 40, 30, -2.0, 3.0, 0.0, 4.0);
     EXPECT_EQ(Tf2Setup(noisy, unit, gradients).fast.rowPrefix, nullptr);
