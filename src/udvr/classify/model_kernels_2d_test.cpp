@@ -246,55 +246,74 @@ TEST(Tf2, SegmentMeanIsExactAgainstDenseQuadrature) {
 void randomSegmentLanes(CounterRng& rng, lanes::Vf p[4]) {
     for (int l = 0; l < lanes::kWidth; ++l) {
         for (int a = 0; a < 4; ++a) p[a][l] = static_cast<float>(-4.0 + 10.0 * rng.uniform());
-        if (l % 5 == 1) p[3][l] = p[1][l];  // along a row
-        if (l % 5 == 2) p[2][l] = p[0][l];  // along a column
+        if (l % 5 == 1) p[3][l] = p[1][l];                     // along a row
+        if (l % 5 == 2) p[2][l] = p[0][l];                     // along a column
+        if (l % 5 == 3) p[2][l] = p[0][l], p[3][l] = p[1][l];  // a point
     }
 }
 
-// A sparse TF2 (α > 0 in three small blobs of a 40×30 raster): the segment walk skips empty
-// cells and jumps over blocks of them. Against dense quadrature, against the walk without the
-// distance table, and the float lanes against the double body.
+// A sparse TF2 (α > 0 in small blobs of a 40×30 raster, one of them on the domain's edge or
+// not): the segment walk skips empty cells and jumps over blocks of them. Against dense
+// quadrature, against the walk without the distance table, and the float lanes against the
+// double body; with no cell of α > 0 every segment is 0.
 TEST(Tf2, SegmentMeanJumpsOverEmptyBlocksExactly) {
     CounterRng rng(12, 0, 0);
-    TransferFunction2D t = randomTf2(rng, 40, 30, -2.0, 3.0, 0.0, 4.0);
-    for (int j = 0; j < 30; ++j)
-        for (int i = 0; i < 40; ++i) {
-            const bool blob = (std::abs(i - 8) < 3 && std::abs(j - 6) < 2) ||
-                              (std::abs(i - 30) < 2 && std::abs(j - 20) < 4) ||
-                              (i == 39 && j > 25);  // one on the domain's edge
-            if (!blob) t.rgba[(static_cast<std::size_t>(j) * 40 + i) * 4 + 3] = 0.f;
+    for (const bool edgeBlob : {true, false}) {
+        TransferFunction2D t = randomTf2(rng, 40, 30, -2.0, 3.0, 0.0, 4.0);
+        for (int j = 0; j < 30; ++j)
+            for (int i = 0; i < 40; ++i) {
+                const bool blob = (std::abs(i - 8) < 3 && std::abs(j - 6) < 2) ||
+                                  (std::abs(i - 30) < 2 && std::abs(j - 20) < 4) ||
+                                  (edgeBlob && i == 39 && j > 25);  // on the domain's edge
+                if (!blob) t.rgba[(static_cast<std::size_t>(j) * 40 + i) * 4 + 3] = 0.f;
+            }
+        ModelVolume unit;
+        unit.grid.dims = {1, 1, 1};
+        unit.mean = {0.f};
+        GradientCache gradients;
+        const Tf2Setup setup(t, unit, gradients);
+        Tf2Raster<double> noSkip = setup.exact;
+        noSkip.cellEmptyDistance = nullptr;
+        double worstDense = 0, worstSkip = 0, worstLanes = 0;
+        for (int trial = 0; trial < 40; ++trial) {
+            lanes::Vf p[4];
+            randomSegmentLanes(rng, p);
+            lanes::Vf got[4];
+            tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3],
+                                           lanes::allTrue<lanes::Vf>(), got);
+            for (int l = 0; l < lanes::kWidth; ++l) {
+                double d[4], n[4];
+                tf2MeanAlongSegment<double>(setup.exact, p[0][l], p[1][l], p[2][l], p[3][l], true,
+                                            d);
+                tf2MeanAlongSegment<double>(noSkip, p[0][l], p[1][l], p[2][l], p[3][l], true, n);
+                const auto want =
+                    l < 4 ? denseSegmentMean(t, p[0][l], p[1][l], p[2][l], p[3][l], 200000)
+                          : std::array<double, 4>{n[0], n[1], n[2], n[3]};
+                for (int ch = 0; ch < 4; ++ch) {
+                    worstDense = std::max(worstDense, std::abs(d[ch] - want[ch]));
+                    worstSkip = std::max(worstSkip, std::abs(d[ch] - n[ch]));
+                    worstLanes = std::max(worstLanes, std::abs(got[ch][l] - d[ch]));
+                }
+            }
         }
+        EXPECT_LE(worstDense, 5e-8);
+        EXPECT_LE(worstSkip, 1e-12);
+        EXPECT_LE(worstLanes, 2e-5);
+    }
+    // No cell with α > 0: every segment 0.
+    TransferFunction2D t = randomTf2(rng, 6, 5, -2.0, 3.0, 0.0, 4.0);
+    for (std::size_t k = 3; k < t.rgba.size(); k += 4) t.rgba[k] = 0.f;
     ModelVolume unit;
     unit.grid.dims = {1, 1, 1};
     unit.mean = {0.f};
     GradientCache gradients;
     const Tf2Setup setup(t, unit, gradients);
-    Tf2Raster<double> noSkip = setup.exact;
-    noSkip.cellEmptyDistance = nullptr;
-    double worstDense = 0, worstSkip = 0, worstLanes = 0;
-    for (int trial = 0; trial < 40; ++trial) {
-        lanes::Vf p[4];
-        randomSegmentLanes(rng, p);
-        lanes::Vf got[4];
-        tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3],
-                                       lanes::allTrue<lanes::Vf>(), got);
-        for (int l = 0; l < lanes::kWidth; ++l) {
-            double d[4], n[4];
-            tf2MeanAlongSegment<double>(setup.exact, p[0][l], p[1][l], p[2][l], p[3][l], true, d);
-            tf2MeanAlongSegment<double>(noSkip, p[0][l], p[1][l], p[2][l], p[3][l], true, n);
-            const auto want = l < 4
-                                  ? denseSegmentMean(t, p[0][l], p[1][l], p[2][l], p[3][l], 200000)
-                                  : std::array<double, 4>{n[0], n[1], n[2], n[3]};
-            for (int ch = 0; ch < 4; ++ch) {
-                worstDense = std::max(worstDense, std::abs(d[ch] - want[ch]));
-                worstSkip = std::max(worstSkip, std::abs(d[ch] - n[ch]));
-                worstLanes = std::max(worstLanes, std::abs(got[ch][l] - d[ch]));
-            }
-        }
-    }
-    EXPECT_LE(worstDense, 5e-8);
-    EXPECT_LE(worstSkip, 1e-12);
-    EXPECT_LE(worstLanes, 2e-5);
+    lanes::Vf p[4], got[4];
+    randomSegmentLanes(rng, p);
+    tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3], lanes::allTrue<lanes::Vf>(),
+                                   got);
+    for (int ch = 0; ch < 4; ++ch)
+        for (int l = 0; l < lanes::kWidth; ++l) EXPECT_EQ(got[ch][l], 0.f);
 }
 
 // A raster whose rows are piecewise linear in x (kinks per row at random columns, α = 0 on
