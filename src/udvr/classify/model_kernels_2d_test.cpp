@@ -241,6 +241,25 @@ TEST(Tf2, SegmentMeanIsExactAgainstDenseQuadrature) {
     EXPECT_LE(worst, 5e-8);
 }
 
+// A TF2's setup over a one-point model, and its double view given the row tables (the double
+// body's closed form over identical rows).
+struct RowTableViews {
+    ModelVolume unit = [] {
+        ModelVolume m;
+        m.grid.dims = {1, 1, 1};
+        m.mean = {0.f};
+        return m;
+    }();
+    GradientCache gradients;
+    Tf2Setup setup;
+    Tf2Raster<double> byRows;
+    explicit RowTableViews(const TransferFunction2D& t)
+        : setup(t, unit, gradients), byRows(setup.exact) {
+        byRows.rowSameUpTo = setup.rowSameUpTo.data();
+        byRows.rowPrefix = setup.rowPrefix.data();
+    }
+};
+
 // Random segments (xa, ya, xb, yb) per lane in [−4, 6]², every fifth along a row and every
 // fifth along a column.
 void randomSegmentLanes(CounterRng& rng, lanes::Vf p[4]) {
@@ -267,11 +286,8 @@ TEST(Tf2, SegmentMeanJumpsOverEmptyBlocksExactly) {
                                   (edgeBlob && i == 39 && j > 25);  // on the domain's edge
                 if (!blob) t.rgba[(static_cast<std::size_t>(j) * 40 + i) * 4 + 3] = 0.f;
             }
-        ModelVolume unit;
-        unit.grid.dims = {1, 1, 1};
-        unit.mean = {0.f};
-        GradientCache gradients;
-        const Tf2Setup setup(t, unit, gradients);
+        const RowTableViews views(t);
+        const Tf2Setup& setup = views.setup;
         Tf2Raster<double> noSkip = setup.exact;
         noSkip.cellEmptyDistance = nullptr;
         double worstDense = 0, worstSkip = 0, worstLanes = 0;
@@ -303,11 +319,8 @@ TEST(Tf2, SegmentMeanJumpsOverEmptyBlocksExactly) {
     // No cell with α > 0: every segment 0.
     TransferFunction2D t = randomTf2(rng, 6, 5, -2.0, 3.0, 0.0, 4.0);
     for (std::size_t k = 3; k < t.rgba.size(); k += 4) t.rgba[k] = 0.f;
-    ModelVolume unit;
-    unit.grid.dims = {1, 1, 1};
-    unit.mean = {0.f};
-    GradientCache gradients;
-    const Tf2Setup setup(t, unit, gradients);
+    const RowTableViews views(t);
+    const Tf2Setup& setup = views.setup;
     lanes::Vf p[4], got[4];
     randomSegmentLanes(rng, p);
     tf2MeanAlongSegment<lanes::Vf>(setup.fast, p[0], p[1], p[2], p[3], lanes::allTrue<lanes::Vf>(),
@@ -415,24 +428,6 @@ TEST(Tf2, SegmentMeanByLinearRunsMatchesTheWalkByCells) {
 // rest walk. Against the walk by cells (double, no tables) and dense quadrature: random
 // segments, vertical, nearly vertical, horizontal, zero-length and tiny ones, segments
 // clamped on either side in x or wholly outside; double, float and float lanes.
-// A TF2's setup over a one-point model, and its double view given the row tables (the double
-// body's closed form over identical rows).
-struct RowTableViews {
-    ModelVolume unit = [] {
-        ModelVolume m;
-        m.grid.dims = {1, 1, 1};
-        m.mean = {0.f};
-        return m;
-    }();
-    GradientCache gradients;
-    Tf2Setup setup;
-    Tf2Raster<double> byRows;
-    explicit RowTableViews(const TransferFunction2D& t)
-        : setup(t, unit, gradients), byRows(setup.exact) {
-        byRows.rowSameUpTo = setup.rowSameUpTo.data();
-        byRows.rowPrefix = setup.rowPrefix.data();
-    }
-};
 
 TEST(Tf2, SegmentMeanOverIdenticalRowsMatchesTheWalk) {
     CounterRng rng(33, 0, 0);
