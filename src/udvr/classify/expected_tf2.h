@@ -3,6 +3,7 @@
 // bilinear between the points and clamped outside the domain. Each body is written once over
 // T ∈ {double, float, lanes::Vf} as expected_tf.h; lanes read the raster by gathers, or two
 // adjacent points at once by per-lane loads (lanes::gatherRow8).
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -796,35 +797,106 @@ struct PolylineSegments {
 /// as one pool: a lane that finishes a segment takes the next
 /// one left in the pool, of whichever polyline, and hands its sum to that polyline's total
 /// (flush), so the lanes stay busy until the pool is empty rather than each waiting for the
-/// longest polyline. Lane vectors only.
+/// longest polyline. For the lanes to finish together the pool hands out its longest segments
+/// first (by the raster lines they cross, |Δs| + |Δt|, in powers of two), and with kParts
+/// (for pools of few segments a lane: iqr and the quartile views have one) it cuts the long ones
+/// into parts [u0, u1] of their parameter (exact: the mean over [0, 1] is Σ (u1 − u0) × the
+/// mean over the parts), each crossing at most a quarter of a lane's share of the lines.
+/// Lane vectors only.
+template <bool kParts>
 struct PooledPolylineSegments {
     static constexpr bool kMany = true, kPooled = true;
     using Vf = lanes::Vf;
+    static constexpr int kCapacity = lanes::kWidth * kMaxPolylineVertices;
     const Vf* x;
     const Vf* g;
     const float* mass;
     int items = 0, taken = 0;
-    std::int16_t itemLane[lanes::kWidth * kMaxPolylineVertices];  // polyline of each item
-    std::int16_t itemSeg[lanes::kWidth * kMaxPolylineVertices];   // its segment
-    std::int32_t laneOf[lanes::kWidth] = {};                      // each lane's polyline
-    float total[4][lanes::kWidth] = {};                           // Σ weight × mean, per polyline
+    std::int16_t itemLane[kCapacity];      // polyline of each item
+    std::int16_t itemSeg[kCapacity];       // its segment
+    float itemU0[kParts ? kCapacity : 1];  // with kParts, its part [u0, u1] of the segment
+    float itemU1[kParts ? kCapacity : 1];
+    std::int32_t laneOf[lanes::kWidth] = {};  // each lane's polyline
+    float total[4][lanes::kWidth] = {};       // Σ weight × mean, per polyline
 
+    /// invDx, invDy: raster cells per data unit along x and y (Tf2Raster).
     PooledPolylineSegments(const Vf* xs, const Vf* gs, const float* m, int count, lanes::Vi skip,
-                           lanes::Mask live)
+                           lanes::Mask live, float invDx, float invDy)
         : x(xs), g(gs), mass(m) {
+        // Class 0 … 15 of a segment (or part) crossing n lines, longest first: 15 − bit width
+        // of n (0 for n ≥ 16384 and NaN, from non-finite ends).
+        constexpr int kClasses = 16;
+        const auto classOf = [](float n) {
+            return n < 16384.0f
+                       ? kClasses - 1 -
+                             static_cast<int>(std::bit_width(static_cast<std::uint32_t>(n)))
+                       : 0;
+        };
+        std::uint8_t cls[kCapacity];
+        float lines[kParts ? kCapacity : 1];
+        int start[kClasses + 1] = {};
         const std::uint32_t liveBits = lanes::bits(live);
         for (int l = 0; l < lanes::kWidth; ++l) {
             if (!((liveBits >> l) & 1u)) continue;
             for (int j = 1; j < count; ++j) {
                 if (j < 32 && ((static_cast<std::uint32_t>(skip[l]) >> j) & 1u)) continue;
+                const float n = std::fabs(x[j][l] - x[j - 1][l]) * invDx +
+                                std::fabs(g[j][l] - g[j - 1][l]) * invDy;
+                if constexpr (kParts) lines[items] = n;
+                cls[items] = static_cast<std::uint8_t>(classOf(n));
+                ++start[cls[items] + 1];
                 itemLane[items] = static_cast<std::int16_t>(l);
                 itemSeg[items] = static_cast<std::int16_t>(j);
                 ++items;
             }
         }
+        std::int16_t lane[kCapacity], seg[kCapacity];
+        if constexpr (!kParts) {
+            for (int c = 0; c < kClasses; ++c) start[c + 1] += start[c];
+            for (int i = 0; i < items; ++i) {
+                const int to = start[cls[i]]++;
+                lane[to] = itemLane[i];
+                seg[to] = itemSeg[i];
+            }
+        } else {
+            // Parts of at most `chunk` lines (≥ 16: each part costs a start), as many as fit.
+            float sum = 0.0f;
+            for (int i = 0; i < items; ++i)
+                if (lines[i] <= std::numeric_limits<float>::max()) sum += lines[i];
+            const float chunk = std::max(16.0f, sum / static_cast<float>(4 * lanes::kWidth));
+            int parts[kCapacity];
+            int room = kCapacity - items;
+            for (int c = 0; c <= kClasses; ++c) start[c] = 0;
+            for (int i = 0; i < items; ++i) {
+                int k = 1;
+                if (lines[i] > chunk && lines[i] <= std::numeric_limits<float>::max()) {
+                    k = static_cast<int>(
+                        std::min(std::ceil(lines[i] / chunk), static_cast<float>(1 + room)));
+                    room -= k - 1;
+                    cls[i] = static_cast<std::uint8_t>(classOf(lines[i] / static_cast<float>(k)));
+                }
+                parts[i] = k;
+                start[cls[i] + 1] += k;
+            }
+            for (int c = 0; c < kClasses; ++c) start[c + 1] += start[c];
+            for (int i = 0; i < items; ++i) {
+                const float step = 1.0f / static_cast<float>(parts[i]);
+                for (int p = 0; p < parts[i]; ++p) {
+                    const int to = start[cls[i]]++;
+                    lane[to] = itemLane[i];
+                    seg[to] = itemSeg[i];
+                    itemU0[to] = static_cast<float>(p) * step;
+                    itemU1[to] = p + 1 == parts[i] ? 1.0f : static_cast<float>(p + 1) * step;
+                }
+            }
+        }
+        items = start[kClasses];
+        std::memcpy(itemLane, lane, sizeof(std::int16_t) * static_cast<std::size_t>(items));
+        std::memcpy(itemSeg, seg, sizeof(std::int16_t) * static_cast<std::size_t>(items));
     }
     lanes::Mask next(lanes::Mask m, Vf& xa, Vf& ya, Vf& xb, Vf& yb, Vf& w) {
         std::int32_t seg[lanes::kWidth] = {};
+        const int first = taken;
         std::uint32_t got = 0;
         for (std::uint32_t b = lanes::bits(m); b != 0 && taken < items; b &= b - 1) {
             const int l = std::countr_zero(b);
@@ -845,7 +917,26 @@ struct PooledPolylineSegments {
         };
         xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
         w = lanes::gather(mass, j, gotMask);
+        if constexpr (kParts) toParts(got, first, xa, ya, xb, yb, w);
         return gotMask;
+    }
+    /// The parts' ends and weights of the items next() handed out from `first` on, to the
+    /// lanes of `got` in order.
+    void toParts(std::uint32_t got, int first, Vf& xa, Vf& ya, Vf& xb, Vf& yb, Vf& w) const {
+        float u0[lanes::kWidth] = {}, u1[lanes::kWidth] = {};
+        for (int item = first; got != 0; got &= got - 1, ++item) {
+            const int l = std::countr_zero(got);
+            u0[l] = itemU0[item];
+            u1[l] = itemU1[item];
+        }
+        // A whole segment (u0 = 0, u1 = 1) keeps its vertices.
+        const Vf a = lanes::load(u0), b = lanes::load(u1), x0 = xa, y0 = ya;
+        const Vf dx = xb - x0, dy = yb - y0;
+        xa = lanes::select(a == 0.0f, x0, lanes::fma(a, dx, x0));
+        ya = lanes::select(a == 0.0f, y0, lanes::fma(a, dy, y0));
+        xb = lanes::select(b == 1.0f, xb, lanes::fma(b, dx, x0));
+        yb = lanes::select(b == 1.0f, yb, lanes::fma(b, dy, y0));
+        w = w * (b - a);
     }
     /// Adds the lanes of m to their polylines' totals and clears them.
     void flush(lanes::Mask m, Vf out[4]) {
@@ -865,8 +956,14 @@ template <class Real>
 UDVR_NOINLINE void pooledPolylineWalk(const Tf2Raster<Real>& r, const lanes::Vf* x,
                                       const lanes::Vf* g, const float* mass, int count,
                                       lanes::Vi skip, lanes::Mask walk, lanes::Vf out[4]) {
-    PooledPolylineSegments pool(x, g, mass, count, skip, walk);
-    segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
+    const float ix = static_cast<float>(r.invDx), iy = static_cast<float>(r.invDy);
+    if (std::popcount(lanes::bits(walk)) * (count - 1) >= 4 * lanes::kWidth) {
+        PooledPolylineSegments<false> pool(x, g, mass, count, skip, walk, ix, iy);
+        segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
+    } else {  // few segments a lane: cut the long ones
+        PooledPolylineSegments<true> pool(x, g, mass, count, skip, walk, ix, iy);
+        segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
+    }
 }
 }  // namespace detail
 

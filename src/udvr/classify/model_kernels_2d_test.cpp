@@ -629,6 +629,60 @@ TEST(Tf2, QuantileRangePolylineIsTheMassWeightedSumOfItsSegmentMeans) {
     EXPECT_EQ(worstDead, 0.0);
 }
 
+// Pools of few segments a lane (iqr, the quartile views: one) cut their long segments into
+// parts of the segment parameter, each walked on its own, weighted by its share of the
+// parameter. On a fine raster (160×120) with segments across the domain and beyond, the lanes
+// keep the polyline's mass-weighted sum of exact segment means (the double walk, uncut); the
+// pool is checked to have cut.
+TEST(Tf2, PooledWalkCutsLongSegmentsIntoExactParts) {
+    CounterRng rng(36, 0, 0);
+    const TransferFunction2D t = randomTf2(rng, 160, 120, -2.0, 3.0, 0.0, 4.0);
+    RowTableViews views(t);
+    const Tf2Setup& setup = views.setup;
+    double worst = 0, worstDead = 0;
+    int cutPools = 0;
+    for (const int count : {2, 3, 4, 5})
+        for (int trial = 0; trial < 4; ++trial) {
+            std::vector<lanes::Vf> x(count), g(count);
+            for (int l = 0; l < lanes::kWidth; ++l)
+                for (int j = 0; j < count; ++j) {
+                    x[j][l] = static_cast<float>(-3.0 + 7.0 * rng.uniform());
+                    g[j][l] = static_cast<float>(-0.5 + 5.0 * rng.uniform());
+                }
+            x[1][5] = x[0][5], g[1][5] = g[0][5];  // a zero-length segment
+            const lanes::Mask live = lanes::iota() != 3;
+            const QuantileLevels levels{nullptr, 0};
+            std::vector<float> mass(count);
+            for (int j = 1; j < count; ++j) mass[j] = static_cast<float>(levels.mass(j));
+            const detail::PooledPolylineSegments<true> pool(
+                x.data(), g.data(), mass.data(), count, lanes::Vi{}, live,
+                static_cast<float>(setup.fast.invDx), static_cast<float>(setup.fast.invDy));
+            cutPools += pool.items > (lanes::kWidth - 1) * (count - 1);
+            lanes::Vf got[4];
+            expectedTf2QuantileRange<lanes::Vf>(setup.fast, x.data(), g.data(), count, levels, live,
+                                                got);
+            for (int l = 0; l < lanes::kWidth; ++l) {
+                double want[4] = {0, 0, 0, 0}, total = 0;
+                for (int j = 1; j < count; ++j) {
+                    double m[4];
+                    tf2MeanAlongSegment<double>(setup.exact, x[j - 1][l], g[j - 1][l], x[j][l],
+                                                g[j][l], true, m);
+                    for (int ch = 0; ch < 4; ++ch) want[ch] += levels.mass(j) * m[ch];
+                    total += levels.mass(j);
+                }
+                for (int ch = 0; ch < 4; ++ch) {
+                    if (live[l])
+                        worst = std::max(worst, std::abs(got[ch][l] - want[ch] / total));
+                    else
+                        worstDead = std::max(worstDead, std::abs(static_cast<double>(got[ch][l])));
+                }
+            }
+        }
+    EXPECT_EQ(cutPools, 16);  // every pool here has fewer than 4 segments a lane, some long
+    EXPECT_LE(worst, 1e-5);
+    EXPECT_EQ(worstDead, 0.0);
+}
+
 // Quantile-range and quantile-mean with a TF2, evaluated independently at a point: the rank
 // coupling X_i(t) = F_i⁻¹(t) (piecewise linear through (j/q, b_{j,i})) pushed through the
 // 32-voxel form of SPEC §9 (X = Σ w_i X_i, G = n̂·Σ g_i X_i, n̂ from the means), then
