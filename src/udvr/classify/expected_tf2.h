@@ -950,6 +950,11 @@ struct PooledPolylineSegments {
         for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::load(total[ch]);
     }
 };
+/// Whether pooledPolylineWalk cuts long segments into parts (PooledPolylineSegments<true>): where
+/// the lanes of `walk` have fewer than 4 segments each of their `count` − 1 (skipped ones counted).
+inline bool pooledWalkCuts(lanes::Mask walk, int count) {
+    return std::popcount(lanes::bits(walk)) * (count - 1) < 4 * lanes::kWidth;
+}
 /// The walk over a PooledPolylineSegments of the lanes of `walk`, out of line: inlined into the
 /// ray loop it made the frames that seldom walk (the 1D TF as TF2) ~3 % slower.
 template <class Real>
@@ -957,11 +962,11 @@ UDVR_NOINLINE void pooledPolylineWalk(const Tf2Raster<Real>& r, const lanes::Vf*
                                       const lanes::Vf* g, const float* mass, int count,
                                       lanes::Vi skip, lanes::Mask walk, lanes::Vf out[4]) {
     const float ix = static_cast<float>(r.invDx), iy = static_cast<float>(r.invDy);
-    if (std::popcount(lanes::bits(walk)) * (count - 1) >= 4 * lanes::kWidth) {
-        PooledPolylineSegments<false> pool(x, g, mass, count, skip, walk, ix, iy);
-        segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
-    } else {  // few segments a lane: cut the long ones
+    if (pooledWalkCuts(walk, count)) {
         PooledPolylineSegments<true> pool(x, g, mass, count, skip, walk, ix, iy);
+        segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
+    } else {
+        PooledPolylineSegments<false> pool(x, g, mass, count, skip, walk, ix, iy);
         segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
     }
 }

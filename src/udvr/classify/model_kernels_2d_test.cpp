@@ -649,7 +649,8 @@ TEST(Tf2, PooledWalkCutsLongSegmentsIntoExactParts) {
                     x[j][l] = static_cast<float>(-3.0 + 7.0 * rng.uniform());
                     g[j][l] = static_cast<float>(-0.5 + 5.0 * rng.uniform());
                 }
-            x[1][5] = x[0][5], g[1][5] = g[0][5];  // a zero-length segment
+            constexpr int kPoint = 5 % lanes::kWidth;                  // a live lane at every width
+            x[1][kPoint] = x[0][kPoint], g[1][kPoint] = g[0][kPoint];  // a zero-length segment
             const lanes::Mask live = lanes::iota() != 3;
             const QuantileLevels levels{nullptr, 0};
             std::vector<float> mass(count);
@@ -657,7 +658,8 @@ TEST(Tf2, PooledWalkCutsLongSegmentsIntoExactParts) {
             const detail::PooledPolylineSegments<true> pool(
                 x.data(), g.data(), mass.data(), count, lanes::Vi{}, live,
                 static_cast<float>(setup.fast.invDx), static_cast<float>(setup.fast.invDy));
-            cutPools += pool.items > (lanes::kWidth - 1) * (count - 1);
+            cutPools += detail::pooledWalkCuts(live, count) &&
+                        pool.items > (lanes::kWidth - 1) * (count - 1);
             lanes::Vf got[4];
             expectedTf2QuantileRange<lanes::Vf>(setup.fast, x.data(), g.data(), count, levels, live,
                                                 got);
@@ -681,6 +683,8 @@ TEST(Tf2, PooledWalkCutsLongSegmentsIntoExactParts) {
     EXPECT_EQ(cutPools, 16);  // every pool here has fewer than 4 segments a lane, some long
     EXPECT_LE(worst, 1e-5);
     EXPECT_EQ(worstDead, 0.0);
+    // Quantile-range's 8 segments a lane (all lanes live) walk uncut, in longest-first order.
+    EXPECT_FALSE(detail::pooledWalkCuts(lanes::allTrue<lanes::Vf>(), 9));
 }
 
 // Quantile-range and quantile-mean with a TF2, evaluated independently at a point: the rank
