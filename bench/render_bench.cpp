@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "udvr/classify/model_kind.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/model_volume.h"

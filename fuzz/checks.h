@@ -4,8 +4,8 @@
 #include <string>
 
 #include "fuzz_target.h"
-#include "udvr/io/field.h"
 #include "udvr/stats/model_volume.h"
+#include "udvr/util/field.h"
 
 namespace udvr::fuzz {
 

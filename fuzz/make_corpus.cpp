@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "fuzz_target.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/noise.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/io/ensemble_io.h"

@@ -12,7 +12,9 @@
 #include <future>
 #include <optional>
 #include <string_view>
+#include <tuple>
 #include <utility>
+#include <variant>
 
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/probe.h"
@@ -30,6 +32,7 @@
 #include "udvr/render/camera.h"
 #include "udvr/render/framing.h"
 #include "udvr/render/render.h"
+#include "udvr/render/render_options.h"
 #include "udvr/stats/build_model.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/build_info.h"
@@ -775,6 +778,60 @@ PYBIND11_MODULE(_udvr, m) {
             return visibleBounds(model, tf);
         },
         py::arg("model"), py::arg("tf"));
+
+    // The library's option tables (render/render_options.h): Python's keywords are their names
+    // with '_' for '-', parsed and checked by the same code as the CLI's flags.
+    m.def(
+        "render_options",
+        [] {
+            std::vector<std::tuple<std::string, std::string, std::string>> out;
+            for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+                for (const OptionSpec& spec : table) {
+                    std::string name = spec.name;
+                    for (char& c : name)
+                        if (c == '-') c = '_';
+                    const char* type = std::visit(
+                        [](auto field) -> const char* {
+                            using T = std::remove_reference_t<decltype(RenderOptions{}.*field)>;
+                            if constexpr (std::is_same_v<T, std::string>) return "text";
+                            if constexpr (std::is_same_v<T, double>) return "real";
+                            if constexpr (std::is_same_v<T, bool>) return "flag";
+                            return "whole";
+                        },
+                        spec.field);
+                    out.emplace_back(name, type, spec.help);
+                }
+            return out;
+        },
+        "(keyword, type, help) of every option udvr.render and Model.probe take, as `udvr "
+        "render --help` lists them");
+    m.def(
+        "_uniform_minmax",
+        [](const std::string& text) {
+            RenderOptions options;
+            setOption(options, *findOptionSpec("uniform-width"), text, "uniform_width");
+            return uniformWidthIsMinMax(options);
+        },
+        py::arg("text"));
+    m.def(
+        "_render_settings",
+        [](const ModelVolume& model, const py::object& tf, bool tfGiven,
+           const std::vector<std::pair<std::string, std::string>>& given) {
+            RenderOptions options;
+            for (const auto& [key, value] : given) {
+                const OptionSpec* spec = findOptionSpec(key);
+                if (!spec) throw py::type_error("unknown render option '" + key + "'");
+                setOption(options, *spec, value, key);
+            }
+            const auto visibleBox = [&] {
+                if (py::isinstance<TransferFunction2D>(tf))
+                    return visibleBounds(model, tf.cast<const TransferFunction2D&>());
+                return visibleBounds(model, tf.cast<const TransferFunction1D&>());
+            };
+            std::string note;
+            return renderSettingsFromOptions(options, model, tfGiven, visibleBox, note);
+        },
+        py::arg("model"), py::arg("tf"), py::arg("tf_given"), py::arg("options"));
 
     py::class_<RenderSettings>(m, "RenderSettings")
         .def(py::init<>())

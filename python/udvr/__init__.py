@@ -23,15 +23,15 @@ from . import _arrays, _udvr
 from ._udvr import (Camera, Ensemble, Field, FileError, Grid, Model, RenderSettings,  # noqa: F401
                     TransferFunction, TransferFunction2D, UdvrError, experiment_names, generate,
                     model_from_field, model_names, perturb, read_ensemble, read_field,
-                    read_image, read_model, read_transfer_function, set_threads, visible_bounds,
-                    write_ensemble, write_field, write_model)
+                    read_image, read_model, read_transfer_function, render_options, set_threads,
+                    visible_bounds, write_ensemble, write_field, write_model)
 from ._udvr import __version__  # the release, as `udvr --version` prints it
 
 __build__ = _udvr.__build__  # CPU target and vector width, as `udvr --version`
 
 __all__ = ["Camera", "Ensemble", "Field", "Grid", "Model", "TransferFunction",
            "TransferFunction2D", "build", "difference_image", "experiment", "generate", "load",
-           "model_names", "perturb", "render", "rmse", "__version__"]
+           "model_names", "perturb", "render", "render_options", "rmse", "__version__"]
 
 
 # ---- progress ------------------------------------------------------------------------------
@@ -356,13 +356,11 @@ def _resolve_tf(tf, model, tf_range=None):
 
 # ---- probe -------------------------------------------------------------------------------------
 
-_UNIFORM_WIDTH = {"variance": False, "std": False, "minmax": True}
-
-
 def _uniform_minmax(text):
-    if text not in _UNIFORM_WIDTH:
-        raise ValueError(f"uniform_width must be 'variance' (or 'std') or 'minmax', got '{text}'")
-    return _UNIFORM_WIDTH[text]
+    """uniform_width as the library's option table reads it (variance, std or minmax)."""
+    if not isinstance(text, str):
+        raise TypeError(f"uniform_width must be text, got {type(text).__name__}")
+    return _udvr._uniform_minmax(text)
 
 
 def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
@@ -416,11 +414,47 @@ def _size(size):
     return w, h
 
 
-def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, view=None,
-           azimuth=None, elevation=None, zoom=1.0, view_angle=30.0, step=0.0, unit_distance=0.0,
-           early_exit=0.99, background=(1.0, 1.0, 1.0), skip_empty=True,
-           uniform_width="variance", realizations=200, seed=1, jitter=None, second=None,
-           tf_range=None):
+def _option_text(name, value):
+    """A keyword's value as the CLI's flag takes it: numbers as typed, sequences comma-joined,
+    a (width, height) size as WxH, booleans as 1/0."""
+    if name == "size":  # N or (width, height), as before the option tables
+        w, h = _size(value)
+        return f"{w}x{h}"
+    if isinstance(value, (bool, np.bool_)):
+        return "1" if value else "0"
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    try:
+        return ",".join(_option_text(name + " item", v) for v in value)
+    except TypeError:
+        raise TypeError(f"{name} must be a number, text or a sequence of numbers, got "
+                        f"{type(value).__name__}") from None
+
+
+def _render_options(options):
+    """[(option name, text)] for the library's option tables (udvr.render_options()); None
+    leaves an option at its default. skip_empty=False is kept as the old spelling of
+    no_skip=True."""
+    options = dict(options)
+    if "skip_empty" in options:
+        options["no_skip"] = not options.pop("skip_empty")
+    known = {name for name, _, _ in render_options()}
+    out = []
+    for name, value in options.items():
+        if name not in known:
+            raise TypeError(f"render() got an unexpected keyword argument '{name}' (the options "
+                            f"are udvr.render_options(): {', '.join(sorted(known))})")
+        if value is not None:
+            out.append((name, _option_text(name, value)))
+    return out
+
+
+def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, second=None,
+           tf_range=None, **options):
     """Ray-cast a model (or a field: a Field, (z, y, x) array, DataArray or path) with noise
     model `model_name`, as `udvr render` (SPEC §5): an (H, W, 4) float32 RGBA array (straight
     colour over the background; the values `--float` writes). The GIL is released while it runs.
@@ -428,28 +462,20 @@ def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, v
     size: N or (width, height). camera: a udvr.Camera; else, with a TF of your own, SPEC §5's
     default camera (azimuth 30, elevation 20, zoom), and without one (a preset) or with view=
     (+x|-x|+y|-y|+z|-z), a camera framing the visible voxels, as the CLI.
+    options: every option of `udvr render` by its name with '_' for '-' — view, azimuth,
+    elevation, zoom, view_angle, parallel_scale, step, unit_distance, early_exit, background,
+    no_skip, uniform_width, realizations, seed, jitter, force, … (udvr.render_options() lists
+    them with their help); the same code parses and checks them as the CLI's flags.
     """
     _udvr._check_model(model_name)
-    minmax = _uniform_minmax(uniform_width)
-    w, h = _size(size)
     model = _as_model(model)
     tf, given = _resolve_tf(tf, model, tf_range)
-    if camera is None:
-        if view is not None or not given:
-            camera = Camera.framed(visible_bounds(model, tf), view or "", azimuth, elevation,
-                                   zoom, view_angle, w / h)
-        else:
-            camera = Camera.default(model.bounds, 30.0 if azimuth is None else azimuth,
-                                    20.0 if elevation is None else elevation, zoom, view_angle)
-    elif not isinstance(camera, Camera):
-        raise TypeError(f"camera must be a udvr.Camera, got {type(camera).__name__}")
-    s = RenderSettings()
-    s.width, s.height, s.camera = w, h, camera
-    s.step, s.unit_distance, s.early_exit = float(step), float(unit_distance), float(early_exit)
-    s.background = [float(c) for c in _arrays.vec3(background, "background")]
-    s.skip_empty, s.uniform_minmax = bool(skip_empty), minmax
-    s.realizations, s.seed = _count(realizations, "realizations"), _count(seed, "seed")
-    s.jitter_seed = None if jitter is None else _count(jitter, "jitter")
+    s = _udvr._render_settings(model, tf, given,
+                               _render_options(dict(options, size=size)))
+    if camera is not None:
+        if not isinstance(camera, Camera):
+            raise TypeError(f"camera must be a udvr.Camera, got {type(camera).__name__}")
+        s.camera = camera
     if second is not None:
         if not isinstance(tf, TransferFunction2D):
             raise ValueError("second gives the y of a 2D transfer function: it needs a "

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "udvr/classify/classify_test_util.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/synthetic.h"
 
 namespace udvr {

@@ -14,6 +14,7 @@
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/kernel_test_util.h"
 #include "udvr/classify/model_families.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/synthetic.h"
 
 namespace udvr {

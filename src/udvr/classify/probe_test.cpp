@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include "udvr/classify/classify_test_util.h"
-#include "udvr/eval/probe_plot.h"
 
 namespace udvr {
 namespace {
@@ -45,8 +44,6 @@ TEST(Probe, JsonHoldsTheDistributionAndExpectation) {
         double mass = p.distribution.continuousMass;
         for (double a : p.distribution.atomMass) mass += a;
         EXPECT_NEAR(mass, 1.0, 1e-9) << modelName(kind);
-        const ImageRgba im = renderProbePlot(p, tf, 200, 120);
-        EXPECT_EQ(im.width, 200);
     }
     EXPECT_THROW(probeModel(m, ModelKind::Mean, tf, {2.5, 0, 0}), UdvrError);
 }

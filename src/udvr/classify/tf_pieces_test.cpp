@@ -12,6 +12,7 @@
 
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/expected_tf.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/synthetic.h"
 
 namespace udvr {

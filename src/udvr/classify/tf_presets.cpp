@@ -109,4 +109,23 @@ PresetOverValues transferFunctionPresetOver(std::string_view name, std::span<con
     return p;
 }
 
+TransferFunction1D tangleTransferFunction() {
+    TransferFunction1D tf;
+    const double rgb[][4] = {{-6.95, 0.70, 0.05, 0.05}, {-4.50, 0.85, 0.10, 0.10},
+                             {-2.00, 0.95, 0.55, 0.10}, {0.00, 1.00, 0.80, 0.20},
+                             {1.50, 0.60, 0.80, 0.80},  {3.00, 0.25, 0.45, 0.95},
+                             {35.24, 0.10, 0.20, 0.60}};
+    for (const auto& p : rgb) {
+        tf.colorX.push_back(p[0]);
+        tf.color.push_back({p[1], p[2], p[3]});
+    }
+    const double pts[][2] = {{-6.95, 0}, {-5.5, 0}, {-4.5, 0.9}, {-3.5, 0}, {-0.6, 0}, {0, 0.45},
+                             {0.6, 0},   {2.4, 0},  {3.0, 0.12}, {3.6, 0},  {35.24, 0}};
+    for (const auto& p : pts) {
+        tf.opacityX.push_back(p[0]);
+        tf.opacity.push_back(p[1]);
+    }
+    return tf;
+}
+
 }  // namespace udvr

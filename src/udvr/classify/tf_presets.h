@@ -42,4 +42,8 @@ struct PresetOverValues {
 PresetOverValues transferFunctionPresetOver(std::string_view name, std::span<const float> values,
                                             const std::optional<std::array<double, 2>>& range);
 
+/// The peer harness's three-band tangle TF (bench/peer/make_tangle.py, data/tf/tangle.json):
+/// opaque red cores at −4.5, a gold shell at 0, a faint blue shell at 3.
+TransferFunction1D tangleTransferFunction();
+
 }  // namespace udvr

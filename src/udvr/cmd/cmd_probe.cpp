@@ -7,6 +7,7 @@
 
 #include "udvr/classify/probe.h"
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/option_flags.h"
 #include "udvr/cmd/parse_util.h"
 #include "udvr/eval/probe_plot.h"
 #include "udvr/io/image.h"
@@ -21,7 +22,8 @@ void addProbeCommand(CLI::App& app) {
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
         std::vector<std::string> inputs;  // one model or field; an ensemble for --model members
-        std::string point, world, kind = "mean", plot, uniformWidth = "variance", second, var;
+        std::string point, world, kind = "mean", plot, second, var;
+        RenderOptions classify;  // --uniform-width (render/render_options.h)
         EnsembleFlags ensemble;
         TfFlags tf;
         Tf2Flags tf2;
@@ -47,8 +49,7 @@ void addProbeCommand(CLI::App& app) {
                     "bivariate fields: the model giving the TF2's y (same grid; SPEC 9)");
     sub->add_flag("--json", o->json, "print one JSON object");
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
-    sub->add_option("--uniform-width", o->uniformWidth,
-                    "uniform model: variance (alias std; mu +- sqrt(3) sigma, default) or minmax");
+    addOptionFlags(sub, classificationOptionSpecs(), o->classify);
     sub->add_option("--var", o->var, "array/variable name in the input");
     addRawLayoutOptions(sub, o->raw);
     addEnsembleOptions(sub, o->ensemble);
@@ -62,7 +63,7 @@ void addProbeCommand(CLI::App& app) {
         if (o->point.empty() == o->world.empty())
             UDVR_FAIL("give the point as --point i,j,k (index) or --world x,y,z, one of them");
         ClassifyOptions options;
-        options.uniformMinMax = parseUniformWidthMinMax(o->uniformWidth);
+        options.uniformMinMax = uniformWidthIsMinMax(o->classify);
         if (!o->plot.empty()) {
             const std::string& plot = o->plot;
             const bool png = plot.size() > 4 && (plot.compare(plot.size() - 4, 4, ".png") == 0 ||

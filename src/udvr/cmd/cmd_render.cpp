@@ -14,8 +14,8 @@
 
 #include "udvr/classify/model_kind.h"
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/option_flags.h"
 #include "udvr/cmd/parse_util.h"
-#include "udvr/cmd/render_flags.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/image.h"
 #include "udvr/io/model_io.h"
@@ -32,8 +32,8 @@ namespace {
 struct RenderOpts {
     std::vector<std::string> inputs;  // one model or field; an ensemble for --model members
     std::string model = "mean", out, floatOut;
-    TfFlags tf;          // 1D TF: file or preset (default: a preset over the data)
-    RenderFlags render;  // size, camera, step, … (shared with `udvr serve`)
+    TfFlags tf;            // 1D TF: file or preset (default: a preset over the data)
+    RenderOptions render;  // classification and frame options (render/render_options.h)
     int frames = 0;
     Tf2Flags tf2;        // 2D TF (SPEC §9)
     RawLayoutFlags raw;  // headerless .raw input
@@ -66,7 +66,7 @@ void run(const RenderOpts& o) {
         UDVR_FAIL("--model members classifies with a 1D transfer function (--tf), not --tf2");
     const std::string& input = o.inputs.front();
     checkTfFlags(o.tf, twoD);
-    checkRenderFlags(o.render);  // cheap flags are checked before the volume is read
+    checkRenderOptions(o.render);  // cheap flags are checked before the volume is read
     const bool tfGiven = twoD || !tfIsPreset(o.tf);
     // A TF file is read before the volume, so a bad one costs nothing; a preset needs the data.
     TfChoice tfChoice;
@@ -93,7 +93,7 @@ void run(const RenderOpts& o) {
     };
     std::string cameraNote;
     const RenderSettings s =
-        renderSettingsFromFlags(o.render, model, tfGiven, visibleBox, cameraNote);
+        renderSettingsFromOptions(o.render, model, tfGiven, visibleBox, cameraNote);
 
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
@@ -190,16 +190,14 @@ void addRenderCommand(CLI::App& app) {
                     "array/variable name in --second (default: --var)");
     sub->add_option("-o,--output", o->out, "output PNG")->required();
     sub->add_option("--float", o->floatOut, "also write float32 RGBA (.npy or .pfm)");
-    const RenderFlagOptions renderOptions = addRenderFlagOptions(sub, o->render);
+    addOptionFlags(sub, classificationOptionSpecs(), o->render);
+    addOptionFlags(sub, frameOptionSpecs(), o->render);
     sub->add_option("--frames", o->frames,
                     "time N frames after one warm-up; print median/min ms and frames/s");
     addRawLayoutOptions(sub, o->raw);
     sub->add_option("--var", o->var, "array/variable name in the input");
     addEnsembleOptions(sub, o->ensemble);
-    sub->callback([o, renderOptions] {
-        renderOptions.markGiven(o->render);
-        run(*o);
-    });
+    sub->callback([o] { run(*o); });
 }
 
 }  // namespace udvr::cmd

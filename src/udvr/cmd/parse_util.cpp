@@ -16,41 +16,6 @@
 #include "udvr/util/check.h"
 
 namespace udvr::cmd {
-namespace {
-
-std::vector<std::string> split(const std::string& text, char sep) {
-    std::vector<std::string> parts;
-    std::string cur;
-    for (char c : text) {
-        if (c == sep) {
-            parts.push_back(cur);
-            cur.clear();
-        } else {
-            cur += c;
-        }
-    }
-    parts.push_back(cur);
-    return parts;
-}
-
-double toDouble(const std::string& s, const std::string& flag) {
-    char* end = nullptr;
-    double v = std::strtod(s.c_str(), &end);
-    if (s.empty() || end == s.c_str() || *end != '\0' || !std::isfinite(v))
-        UDVR_FAIL(flag << ": '" << s << "' is not a finite number");
-    return v;
-}
-
-long toInt(const std::string& s, const std::string& flag) {
-    char* end = nullptr;
-    long v = std::strtol(s.c_str(), &end, 10);
-    if (s.empty() || end == s.c_str() || *end != '\0')
-        UDVR_FAIL(flag << ": '" << s << "' is not a whole number");
-    return v;
-}
-
-}  // namespace
-
 CLI::Validator wholeNumberIn(long long lo, long long hi) {
     const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
     return CLI::Validator(
@@ -64,42 +29,6 @@ CLI::Validator wholeNumberIn(long long lo, long long hi) {
             return {};
         },
         "INT in " + range);
-}
-
-std::array<int, 3> parseDims(const std::string& text, const std::string& flag) {
-    auto parts = split(text, ',');
-    if (parts.size() != 1 && parts.size() != 3)
-        UDVR_FAIL(flag << " expects N or X,Y,Z, got '" << text << "'");
-    std::array<int, 3> d{};
-    for (int a = 0; a < 3; ++a) {
-        long v = toInt(parts[parts.size() == 1 ? 0 : static_cast<std::size_t>(a)], flag);
-        if (v < 1 || v > 65536) UDVR_FAIL(flag << " values must lie in [1, 65536], got " << v);
-        d[static_cast<std::size_t>(a)] = static_cast<int>(v);
-    }
-    return d;
-}
-
-std::array<double, 3> parseVec3(const std::string& text, const std::string& flag) {
-    auto parts = split(text, ',');
-    if (parts.size() != 3) UDVR_FAIL(flag << " expects x,y,z, got '" << text << "'");
-    return {toDouble(parts[0], flag), toDouble(parts[1], flag), toDouble(parts[2], flag)};
-}
-
-std::array<int, 2> parseSize(const std::string& text, const std::string& flag) {
-    auto parts = split(text, 'x');
-    if (parts.size() != 1 && parts.size() != 2)
-        UDVR_FAIL(flag << " expects WxH, got '" << text << "'");
-    long w = toInt(parts[0], flag);
-    long h = parts.size() == 2 ? toInt(parts[1], flag) : w;
-    if (w < 1 || h < 1 || w > 16384 || h > 16384)
-        UDVR_FAIL(flag << " must be between 1x1 and 16384x16384, got '" << text << "'");
-    return {static_cast<int>(w), static_cast<int>(h)};
-}
-
-std::vector<double> parseDoubleList(const std::string& text, const std::string& flag) {
-    std::vector<double> out;
-    for (const auto& p : split(text, ',')) out.push_back(toDouble(p, flag));
-    return out;
 }
 
 void addRawLayoutOptions(CLI::App* sub, RawLayoutFlags& flags) {
@@ -134,12 +63,6 @@ RawLayout toRawLayout(const RawLayoutFlags& flags) {
     }
     if (!flags.origin.empty()) raw.origin = parseVec3(flags.origin, "--origin");
     return raw;
-}
-
-bool parseUniformWidthMinMax(const std::string& text) {
-    if (text == "variance" || text == "std") return false;
-    if (text == "minmax") return true;
-    UDVR_FAIL("--uniform-width must be 'variance' (or 'std') or 'minmax', got '" << text << "'");
 }
 
 void requireOutputDirectory(const std::string& path, const std::string& flag) {

@@ -1,5 +1,6 @@
 #pragma once
-// Small parsers for CLI values ("64", "64,64,32", "1.5,2,3", "512x512"); throw UdvrError.
+// The CLI's shared flag groups (raw layout, ensembles, TFs) and input readers; the value
+// parsers all front ends share are util/text_parse.h.
 #include <CLI/CLI.hpp>
 #include <array>
 #include <span>
@@ -11,6 +12,7 @@
 #include "udvr/io/file_info.h"
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/stats/model_volume.h"
+#include "udvr/util/text_parse.h"
 
 namespace udvr::cmd {
 
@@ -24,9 +26,6 @@ void addRawLayoutOptions(CLI::App* sub, RawLayoutFlags& flags);
 /// The RawLayout the flags describe (not given() when --dims is absent).
 RawLayout toRawLayout(const RawLayoutFlags& flags);
 
-/// --uniform-width: "variance" (alias "std"; μ ± √3σ, the default) → false, "minmax" → true.
-bool parseUniformWidthMinMax(const std::string& text);
-
 /// Fail unless the folder that will hold `path` exists and is writable (checked before long work
 /// starts, so a bad output path costs nothing and leaves nothing behind).
 void requireOutputDirectory(const std::string& path, const std::string& flag);
@@ -39,15 +38,6 @@ void requireOutputExtension(const std::string& path, const std::string& flag,
 /// A CLI11 check: a whole number in [lo, hi]. CLI11's own Range prints the bounds as doubles
 /// and accepts "-1" for unsigned options (strtoull wraps it), so counts and seeds use this.
 CLI::Validator wholeNumberIn(long long lo, long long hi);
-
-/// "N" → {N,N,N}; "X,Y,Z" → {X,Y,Z}; each ≥ 1. `flag` names the option in errors.
-std::array<int, 3> parseDims(const std::string& text, const std::string& flag);
-/// "x,y,z" → three finite doubles.
-std::array<double, 3> parseVec3(const std::string& text, const std::string& flag);
-/// "WxH" (or "N" for N×N) → {W,H}, each in [1, 16384].
-std::array<int, 2> parseSize(const std::string& text, const std::string& flag);
-/// Comma-separated finite doubles.
-std::vector<double> parseDoubleList(const std::string& text, const std::string& flag);
 
 /// The file extension of `path`, lower case, with the dot ("" when none).
 std::string lowerExtension(const std::string& path);

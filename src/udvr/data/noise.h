@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "udvr/io/field.h"
+#include "udvr/util/field.h"
 
 namespace udvr {
 

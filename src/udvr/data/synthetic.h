@@ -4,18 +4,13 @@
 #include <string_view>
 #include <vector>
 
-#include "udvr/classify/transfer_function.h"
-#include "udvr/io/field.h"
+#include "udvr/util/field.h"
 
 namespace udvr {
 
 /// Tangle (Knoll et al. 2009): x⁴−5x²+y⁴−5y²+z⁴−5z²+11.8 over [−2.5, 2.5]³ (the peer harness's
 /// field exactly). Range [−6.95, 35.2375]; f < 0 is the tangle cube.
 ScalarField makeTangle(int nx, int ny, int nz);
-
-/// The peer harness's three-band tangle TF (bench/peer/make_tangle.py, data/tf/tangle.json):
-/// opaque red cores at −4.5, a gold shell at 0, a faint blue shell at 3.
-TransferFunction1D tangleTransferFunction();
 
 /// Teardrop (Knoll et al. 2009): 0.5x⁵ + 0.5x⁴ − y² − z², positive inside the drop, sampled over
 /// x ∈ [−1.1, 0.1], y, z ∈ [−0.6, 0.6] (the drop spans x ∈ [−1, 0], radius ≤ 0.2); the field is

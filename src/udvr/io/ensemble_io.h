@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "udvr/io/field.h"
 #include "udvr/io/field_io.h"
+#include "udvr/util/field.h"
 
 namespace udvr {
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <utility>
 
-#include "udvr/io/field.h"
 #include "udvr/util/check.h"
+#include "udvr/util/field.h"
 
 namespace udvr {
 

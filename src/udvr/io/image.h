@@ -4,19 +4,9 @@
 #include <filesystem>
 #include <vector>
 
+#include "udvr/render/image_rgba.h"
+
 namespace udvr {
-
-struct ImageRgba {
-    int width = 0, height = 0;
-    std::vector<float> rgba;  // width*height*4, row-major from the top row
-
-    float* pixel(int x, int y) {
-        return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x);
-    }
-    const float* pixel(int x, int y) const {
-        return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x);
-    }
-};
 
 /// PNG, 8 bits per channel RGBA, values clamped to [0,1] and rounded; atomically.
 void writePng(const std::filesystem::path& path, const ImageRgba& image);

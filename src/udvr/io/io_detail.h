@@ -10,9 +10,9 @@
 
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/io/ensemble_io.h"
-#include "udvr/io/field.h"
 #include "udvr/io/file_info.h"
 #include "udvr/stats/model_volume.h"
+#include "udvr/util/field.h"
 
 namespace udvr::detail {
 

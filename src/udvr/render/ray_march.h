@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "udvr/classify/model_kernels.h"
-#include "udvr/io/image.h"
 #include "udvr/render/camera.h"
+#include "udvr/render/image_rgba.h"
 #include "udvr/render/render.h"
 #include "udvr/util/fast_math.h"
 #include "udvr/util/grid.h"

@@ -18,6 +18,7 @@
 
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/model_families.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/model_volume.h"

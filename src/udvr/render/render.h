@@ -11,7 +11,7 @@
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function.h"
 #include "udvr/classify/transfer_function_2d.h"
-#include "udvr/io/image.h"
+#include "udvr/render/image_rgba.h"
 #include "udvr/stats/model_volume.h"
 
 namespace udvr {

@@ -9,6 +9,7 @@
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/tf_pieces.h"
+#include "udvr/classify/tf_presets.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/render/camera.h"
 #include "udvr/render/ray_march.h"

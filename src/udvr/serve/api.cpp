@@ -14,29 +14,32 @@
 #include "udvr/classify/model_families.h"
 #include "udvr/classify/probe.h"
 #include "udvr/classify/tf_presets.h"
-#include "udvr/cmd/parse_util.h"
-#include "udvr/cmd/render_flags.h"
 #include "udvr/eval/image_metrics.h"
 #include "udvr/eval/tf2_plot.h"
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/io/transfer_function_io.h"
 #include "udvr/reconstruct/gradient_field.h"
 #include "udvr/render/framing.h"
+#include "udvr/render/render_options.h"
 #include "udvr/stats/value_summary.h"
 #include "udvr/util/build_info.h"
 #include "udvr/util/check.h"
+#include "udvr/util/text_parse.h"
 
 namespace udvr::serve {
 namespace {
 
 using nlohmann::json;
 
-// The /api/render parameters that choose the image: the `udvr render` flags of the same names.
-const std::vector<std::string> kRenderKeys = {
-    "model",       "size",          "azimuth",    "elevation",      "zoom",          "position",
-    "focal-point", "view-up",       "view-angle", "parallel-scale", "view",          "frame",
-    "step",        "unit-distance", "early-exit", "background",     "uniform-width", "realizations",
-    "seed",        "jitter",        "no-skip"};
+// The /api/render parameters that choose the image: "model" and every option of the library's
+// tables that a server takes (render/render_options.h), by the names of `udvr render`'s flags.
+const std::vector<std::string> kRenderKeys = [] {
+    std::vector<std::string> keys{"model"};
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+        for (const OptionSpec& spec : table)
+            if (spec.remote) keys.emplace_back(spec.name);
+    return keys;
+}();
 // Parameters that steer the request, not the image.
 const std::vector<std::string> kControlKeys = {"channel", "seq", "source", "format"};
 
@@ -166,7 +169,7 @@ struct Api::Frame {
 // A parsed /api/render (or /api/probe) request.
 struct Api::RenderRequest {
     ModelKind kind = ModelKind::Mean;
-    cmd::RenderFlags flags;
+    RenderOptions flags;
     std::string channel = "main", source = "model";
     std::optional<std::uint64_t> seq;
     std::shared_ptr<const TransferFunction1D> tf;
@@ -311,41 +314,27 @@ ApiResponse Api::getStatus() {
 
 namespace {
 
-// The RenderFlags of a query (`udvr render`'s flags by the same names), range-checked.
-cmd::RenderFlags renderFlagsOf(const Query& q) {
-    cmd::RenderFlags f;
-    f.size = q.text("size", f.size);
+// The RenderOptions of a query: each option of the library's tables by its name, parsed and
+// range-checked as the CLI's flags are, then the server's own caps (size, realizations).
+RenderOptions renderOptionsOf(const Query& q) {
+    RenderOptions f;
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+        for (const OptionSpec& spec : table)
+            if (const std::string* v = spec.remote ? q.find(spec.name) : nullptr)
+                setOption(f, spec, *v, spec.name);
     std::array<int, 2> size{};
     try {
-        size = cmd::parseSize(f.size, "size");
+        size = parseSize(f.size, "size");
     } catch (const UdvrError&) {
         size = {kMaxImageSide + 1, 0};  // the message below says what is allowed
     }
     if (size[0] > kMaxImageSide || size[1] > kMaxImageSide || size[1] < 1)
         UDVR_FAIL("size must be WxH between 1x1 and " << kMaxImageSide << "x" << kMaxImageSide
                                                       << ", got '" << Query::clip(f.size) << "'");
-    if (auto v = q.number("azimuth", -3600, 3600)) f.azimuth = *v, f.azimuthGiven = true;
-    if (auto v = q.number("elevation", -90, 90)) f.elevation = *v, f.elevationGiven = true;
-    if (auto v = q.number("zoom", 0, 1000, true)) f.zoom = *v;
-    if (auto v = q.number("view-angle", 0, 179.9, true)) f.viewAngle = *v;
-    if (auto v = q.number("parallel-scale", 0, 1e12, true))
-        f.parallelScale = *v, f.parallelGiven = true;
-    if (auto v = q.number("step", 0, 1e12, true)) f.step = *v;
-    if (auto v = q.number("unit-distance", 0, 1e12, true)) f.unit = *v;
-    if (auto v = q.number("early-exit", 0, 1, true)) f.earlyExit = *v;
-    if (auto v = q.whole("realizations", 1, kMaxRealizations))
-        f.realizations = static_cast<int>(*v);
-    if (auto v = q.whole("seed", 0, UINT64_MAX)) f.seed = *v;
-    if (auto v = q.whole("jitter", 0, UINT64_MAX)) f.jitter = *v, f.jitterGiven = true;
-    if (auto v = q.whole("no-skip", 0, 1)) f.noSkip = *v == 1;
-    f.position = q.text("position");
-    f.focal = q.text("focal-point");
-    f.up = q.text("view-up");
-    f.view = q.text("view");
-    f.frame = q.text("frame");
-    f.background = q.text("background");
-    f.uniformWidth = q.text("uniform-width", f.uniformWidth);
-    cmd::checkRenderFlags(f);
+    if (f.realizations > static_cast<std::uint64_t>(kMaxRealizations))
+        UDVR_FAIL("realizations must be a whole number in [1, " << kMaxRealizations << "], got "
+                                                                << f.realizations);
+    checkRenderOptions(f);
     return f;
 }
 
@@ -380,7 +369,7 @@ std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::
                         : visibleBounds(volume, *r.tf, &anyVisible);
         };
         std::string note;
-        RenderSettings s = cmd::renderSettingsFromFlags(r.flags, volume, true, visibleBox, note);
+        RenderSettings s = renderSettingsFromOptions(r.flags, volume, true, visibleBox, note);
         s.cancel = &cancel;
         auto& cache = renderCaches_[{source, kind}];
         if (!cache) cache = std::make_unique<RenderCache>();
@@ -405,7 +394,7 @@ ApiResponse Api::getRender(const ApiRequest& request) {
     const Query q(request.params, {kRenderKeys, kControlKeys});
     RenderRequest r;
     r.kind = parseModelKind(q.text("model", "mean"));
-    r.flags = renderFlagsOf(q);
+    r.flags = renderOptionsOf(q);
     r.channel = q.text("channel", "main");
     if (!isToken(r.channel))
         UDVR_FAIL("channel must be 1-32 letters, digits, '-' or '_', got '"
@@ -460,14 +449,14 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
     const Query q(request.params, {kRenderKeys, {"x", "y", "point"}});
     const ModelKind kind = parseModelKind(q.text("model", "mean"));
     ClassifyOptions options;
-    options.uniformMinMax = cmd::parseUniformWidthMinMax(q.text("uniform-width", "variance"));
+    options.uniformMinMax = uniformWidthIsMinMax(renderOptionsOf(q));
     const auto [tf, version1D] = currentTf();
     const Tf2State tf2 = currentTf2();
     const std::uint64_t version = tf2.tf ? tf2.version : version1D;
     std::array<double, 3> point{};
     if (q.has("point")) {
         if (q.has("x") || q.has("y")) UDVR_FAIL("give either point=i,j,k or x and y, not both");
-        point = cmd::parseVec3(q.text("point"), "point");
+        point = parseVec3(q.text("point"), "point");
         for (int a = 0; a < 3; ++a)
             if (point[a] < 0.0 || point[a] > data_.model.grid.dims[a] - 1)
                 UDVR_FAIL("point " << q.text("point") << " is outside the "
@@ -476,7 +465,7 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
     } else {
         if (!q.has("x") || !q.has("y"))
             UDVR_FAIL("give the pixel as x and y (or an index point as point=i,j,k)");
-        const cmd::RenderFlags flags = renderFlagsOf(q);
+        const RenderOptions flags = renderOptionsOf(q);
         bool anyVisible = true;
         const auto visibleBox = [&] {
             return tf2.tf ? visibleBounds(data_.model, *tf2.tf, &anyVisible)
@@ -484,7 +473,7 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
         };
         std::string note;
         const RenderSettings s =
-            cmd::renderSettingsFromFlags(flags, data_.model, true, visibleBox, note);
+            renderSettingsFromOptions(flags, data_.model, true, visibleBox, note);
         const int x = static_cast<int>(*q.whole("x", 0, static_cast<std::uint64_t>(s.width - 1)));
         const int y = static_cast<int>(*q.whole("y", 0, static_cast<std::uint64_t>(s.height - 1)));
         const auto hit = data_.second ? firstVisibleSampleBivariate(data_.model, *data_.second,
@@ -571,7 +560,7 @@ ApiResponse Api::getPreset(const ApiRequest& request) {
                                      << transferFunctionPresetList() << ")");
     std::optional<std::array<double, 2>> range;
     if (q.has("range")) {
-        const auto v = cmd::parseDoubleList(q.text("range"), "range");
+        const auto v = parseDoubleList(q.text("range"), "range");
         if (v.size() != 2 || !(v[1] > v[0])) UDVR_FAIL("range must be lo,hi with lo < hi");
         range = std::array<double, 2>{v[0], v[1]};
     }
@@ -586,7 +575,7 @@ ApiResponse Api::getHistogram2D(const ApiRequest& request) {
     std::array<int, 2> bins{128, 128};
     if (q.has("bins")) {
         const std::string text = q.text("bins");
-        bins = cmd::parseSize(text, "bins");  // N or NXxNY
+        bins = parseSize(text, "bins");  // N or NXxNY
         if (bins[0] > kMaxHistogram2DBins || bins[1] > kMaxHistogram2DBins)
             UDVR_FAIL("bins must be N or NXxNY with 1 <= N <= " << kMaxHistogram2DBins << ", got '"
                                                                 << Query::clip(text) << "'");
@@ -607,7 +596,7 @@ ApiResponse Api::getHistogram2D(const ApiRequest& request) {
     std::array<double, 4> domain{};
     const Tf2State tf2 = currentTf2();
     if (q.has("domain")) {
-        const auto v = cmd::parseDoubleList(q.text("domain"), "domain");
+        const auto v = parseDoubleList(q.text("domain"), "domain");
         if (v.size() != 4 || !(v[1] > v[0]) || !(v[3] > v[2]))
             UDVR_FAIL("domain must be x0,x1,y0,y1 with x0 < x1 and y0 < y1");
         domain = {v[0], v[1], v[2], v[3]};

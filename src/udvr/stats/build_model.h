@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "udvr/io/field.h"
 #include "udvr/stats/gmm.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/stats/voxel_stats.h"
+#include "udvr/util/field.h"
 
 namespace udvr {
 

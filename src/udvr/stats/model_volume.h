@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "udvr/io/field.h"
+#include "udvr/util/field.h"
 #include "udvr/util/grid.h"
 
 namespace udvr {

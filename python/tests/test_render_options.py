@@ -1,0 +1,93 @@
+"""One description per option (render/render_options.h): the CLI's flags, the Python keywords
+and `udvr serve`'s query keys come from the same tables, and a value is parsed and checked by the
+same code wherever it is given."""
+import urllib.parse
+
+import numpy as np
+import pytest
+
+import golden
+from serve_util import Server
+
+udvr = pytest.importorskip("udvr")
+
+MODEL = golden.GOLDEN / "model.vti"
+TF = golden.GOLDEN / "tf.json"
+
+
+def test_cli_help_lists_every_option():
+    render_help = golden.udvr("render", "--help")
+    probe_help = golden.udvr("probe", "--help")
+    options = udvr.render_options()
+    assert len(options) == 21
+    for name, kind, help_text in options:
+        flag = "--" + name.replace("_", "-")
+        assert flag in render_help, flag
+        assert help_text.split(" (")[0][:30] in " ".join(render_help.split()), name
+        assert kind in ("text", "real", "whole", "flag")
+    assert "--uniform-width" in probe_help
+    assert "--azimuth" not in probe_help  # probe takes the classification options only
+
+
+def test_python_keywords_render_what_the_cli_flags_render(tmp_path):
+    flags = ["--azimuth", "-40", "--elevation", "12.5", "--zoom", "1.4", "--early-exit", "0.7",
+             "--background", "0.1,0.2,0.3", "--no-skip", "--uniform-width", "minmax",
+             "--view-angle", "25", "--step", "0.2"]
+    npy = tmp_path / "cli.npy"
+    golden.udvr("render", MODEL, "--model", "uniform", "--tf", TF, "--size", "24x18", *flags,
+                "--float", npy, "-o", tmp_path / "cli.png")
+    got = udvr.render(udvr.load(str(MODEL)), "uniform", str(TF), (24, 18), azimuth=-40,
+                      elevation=12.5, zoom=1.4, early_exit=0.7, background=(0.1, 0.2, 0.3),
+                      no_skip=True, uniform_width="minmax", view_angle=25, step=0.2)
+    np.testing.assert_array_equal(got, np.load(npy))
+    # skip_empty is the old spelling of no_skip, and gives the same image
+    old = udvr.render(udvr.load(str(MODEL)), "uniform", str(TF), (24, 18), azimuth=-40,
+                      elevation=12.5, zoom=1.4, early_exit=0.7, background=(0.1, 0.2, 0.3),
+                      skip_empty=False, uniform_width="minmax", view_angle=25, step=0.2)
+    np.testing.assert_array_equal(old, got)
+
+
+@pytest.mark.parametrize("name, value", [("zoom", "0"), ("elevation", "91"), ("seed", "-1"),
+                                         ("realizations", "1.5"), ("uniform-width", "wide"),
+                                         ("early-exit", "nan")])
+def test_the_same_value_fails_the_same_way_everywhere(tmp_path, name, value):
+    p = golden.subprocess.run([golden.binary(), "render", str(MODEL), "--tf", str(TF),
+                               "--size", "8", "--" + name, value, "-o", str(tmp_path / "x.png")],
+                              capture_output=True, text=True, env=dict(golden.os.environ,
+                                                                       UDVR_NO_PROGRESS="1"))
+    assert p.returncode == 2, p.stderr
+    cli = p.stderr.strip().removeprefix("udvr: error: ")
+    kw = {name.replace("-", "_"): value}
+    with pytest.raises(ValueError) as err:
+        udvr.render(udvr.load(str(MODEL)), "mean", str(TF), 8, **kw)
+    # the same message, the option named as each front end spells it
+    assert str(err.value).replace(name.replace("-", "_"), "--" + name) == cli, (str(err.value),
+                                                                                 cli)
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_the_server_takes_the_remote_options_by_their_names():
+    s = Server(MODEL, "--tf", TF)
+    try:
+        names = [n.replace("_", "-") for n, _, _ in udvr.render_options()]
+        special = {"size": {"size": "8x6"}, "uniform-width": {"uniform-width": "std"},
+                   "view": {"view": "+x"}, "frame": {"frame": "box"},
+                   "background": {"background": "0,0,0"}}
+        camera = {"position": "9,9,9", "focal-point": "0,0,0", "view-up": "0,0,1"}
+        for name in names:
+            query = {"size": "8x6"}
+            query.update(camera if name in camera else special.get(name, {name: "1"}))
+            status, _, body = s.get("/api/render?" + urllib.parse.urlencode(query))
+            if name == "force":  # the CLI's alone: not a query key
+                assert status == 400 and b"unknown parameter 'force'" in body, body
+            else:
+                assert status == 200, (name, status, body[:200])
+        status, _, body = s.get("/api/render?size=8x6&zoom=0")
+        assert status == 400 and b"zoom must lie in (0, 1000], got 0" in body, body
+    finally:
+        s.stop()
+
+
+def test_unknown_keyword_names_the_options():
+    with pytest.raises(TypeError, match="unexpected keyword argument 'azimut'.*azimuth"):
+        udvr.render(udvr.load(str(MODEL)), "mean", str(TF), 8, azimut=3)

@@ -1,0 +1,147 @@
+#!/usr/bin/env python3
+"""The layering rules of docs/architecture.md, checked on src/udvr's include graph (every .h and
+.cpp, tests included):
+
+1. The core — util/, data/, stats/, reconstruct/, classify/, render/ — reaches, directly or
+   through other headers, no header under io/, eval/, cmd/, serve/ and no foreign library
+   header (VTK, NetCDF, HDF5, libpng, zlib, Cairo, cpp-httplib, CLI11, pybind11, MPI).
+2. No two directories include each other, directly or around a longer cycle.
+
+Prints each violation with the chain of includes that makes it, and exits 1 if there is any.
+    python3 scripts/check_layers.py [SRC_ROOT]      (default: src/ beside this script's folder)
+"""
+import pathlib
+import re
+import sys
+
+CORE = ("util", "data", "stats", "reconstruct", "classify", "render")
+ABOVE_CORE = ("io", "eval", "cmd", "serve")
+FOREIGN = re.compile(
+    r"^(vtk|netcdf|hdf5|H5|png\.h|pngconf|zlib\.h|zconf|cairo|httplib|CLI/|pybind11|Python\.h|mpi)",
+    re.IGNORECASE)
+INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^>"]+)[>"]', re.MULTILINE)
+
+
+def scan(src):
+    """{file: [(kind, target)]}, file relative to src (udvr/...); kind 'udvr' or 'system'."""
+    graph = {}
+    for path in sorted((src / "udvr").rglob("*")):
+        if path.suffix not in (".h", ".cpp") or not path.is_file():
+            continue
+        rel = path.relative_to(src).as_posix()
+        edges = []
+        for m in INCLUDE.finditer(path.read_text(errors="replace")):
+            target = m.group(2)
+            if target.startswith("udvr/"):
+                edges.append(("udvr", target))
+            else:
+                edges.append(("system", target))
+        graph[rel] = edges
+    return graph
+
+
+def directory(rel):
+    parts = rel.split("/")
+    return parts[1] if len(parts) > 2 else ""
+
+
+def core_violations(graph):
+    """(file, chain) for each core file that reaches a forbidden header."""
+    out = []
+    for start in sorted(graph):
+        if directory(start) not in CORE:
+            continue
+        seen = {start}
+        stack = [(start, [start])]
+        found = None
+        while stack and not found:
+            node, chain = stack.pop()
+            for kind, target in graph.get(node, []):
+                if kind == "system":
+                    if FOREIGN.match(target):
+                        found = chain + ["<%s>" % target]
+                        break
+                    continue
+                if directory(target) in ABOVE_CORE:
+                    found = chain + [target]
+                    break
+                if target not in seen and target in graph:
+                    seen.add(target)
+                    stack.append((target, chain + [target]))
+        if found:
+            out.append(found)
+    return out
+
+
+def directory_cycles(graph):
+    """Each cycle of the directory graph (as a list of directories), with one include per edge."""
+    edges = {}
+    for rel, incs in graph.items():
+        a = directory(rel)
+        for kind, target in incs:
+            if kind != "udvr":
+                continue
+            b = directory(target)
+            if a and b and a != b:
+                edges.setdefault(a, {}).setdefault(b, "%s -> %s" % (rel, target))
+    cycles = []
+    # Strongly connected components (Tarjan); a component of more than one directory is a cycle.
+    index, low, on, stack, counter = {}, {}, set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in edges.get(v, {}):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                cycles.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return cycles, edges
+
+
+def main():
+    src = pathlib.Path(sys.argv[1]) if len(sys.argv) > 1 else \
+        pathlib.Path(__file__).resolve().parents[1] / "src"
+    graph = scan(src)
+    if not graph:
+        print("check_layers: no sources under %s" % src, file=sys.stderr)
+        return 2
+    bad = 0
+    for chain in core_violations(graph):
+        print("core reaches a forbidden header: " + " -> ".join(chain))
+        bad += 1
+    cycles, edges = directory_cycles(graph)
+    for comp in cycles:
+        print("directory cycle among %s:" % ", ".join(comp))
+        for a in comp:
+            for b in comp:
+                if b in edges.get(a, {}):
+                    print("    " + edges[a][b])
+        bad += 1
+    if bad:
+        print("check_layers: %d violation(s) in %d files" % (bad, len(graph)))
+        return 1
+    print("check_layers: %d files; the core (%s) reaches no io/eval/cmd/serve or foreign header; "
+          "no directory cycle" % (len(graph), ", ".join(CORE)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

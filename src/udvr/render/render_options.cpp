@@ -1,0 +1,270 @@
+#include "udvr/render/render_options.h"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "udvr/render/framing.h"
+#include "udvr/util/check.h"
+#include "udvr/util/text_parse.h"
+
+namespace udvr {
+namespace {
+
+using O = RenderOptions;
+constexpr double kHuge = 1e12;  // world units: far beyond any volume's extent
+constexpr double kMaxWhole = static_cast<double>(std::numeric_limits<std::uint64_t>::max());
+
+const OptionSpec kClassificationOptions[] = {
+    {.name = "uniform-width",
+     .field = &O::uniformWidth,
+     .help = "model uniform: variance (mu -/+ sqrt(3) sigma, default) or minmax"},
+};
+
+const OptionSpec kFrameOptions[] = {
+    {.name = "size", .field = &O::size, .help = "image size WxH (default 512x512)"},
+    {.name = "position", .field = &O::position, .help = "camera position x,y,z (world units)"},
+    {.name = "focal-point", .field = &O::focal, .help = "focal point x,y,z (default: box centre)"},
+    {.name = "view-up", .field = &O::up, .help = "view-up x,y,z (default 0,1,0)"},
+    {.name = "view-angle",
+     .field = &O::viewAngle,
+     .lo = 0.0,
+     .hi = 179.9,
+     .loOpen = true,
+     .help = "vertical view angle, degrees (default 30)"},
+    {.name = "parallel-scale",
+     .field = &O::parallelScale,
+     .lo = 0.0,
+     .hi = kHuge,
+     .loOpen = true,
+     .help = "orthographic: half the view height, world units",
+     .given = &O::parallelGiven},
+    {.name = "azimuth",
+     .field = &O::azimuth,
+     .lo = -3600.0,
+     .hi = 3600.0,
+     .help = "default camera: degrees about the view-up (default 30; 0 with --view)",
+     .given = &O::azimuthGiven},
+    {.name = "elevation",
+     .field = &O::elevation,
+     .lo = -90.0,
+     .hi = 90.0,
+     .help = "default camera: degrees up (default 20; 0 with --view)",
+     .given = &O::elevationGiven},
+    {.name = "zoom",
+     .field = &O::zoom,
+     .lo = 0.0,
+     .hi = 1000.0,
+     .loOpen = true,
+     .help = "default camera: distance / zoom (default 1)"},
+    {.name = "view",
+     .field = &O::view,
+     .help = "+x|-x|+y|-y|+z|-z: look along an axis (up +z; +y for +-z), framing what the TF "
+             "shows"},
+    {.name = "frame",
+     .field = &O::frame,
+     .help = "visible | box: what the default camera frames (default: visible without --tf, else "
+             "SPEC 5's camera, which fits the box's bounding sphere)"},
+    {.name = "force",
+     .field = &O::force,
+     .remote = false,
+     .help = "render even when --step gives over 1e9 samples, --size over 8192^2 rays or "
+             "--realizations over 10000"},
+    {.name = "step",
+     .field = &O::step,
+     .lo = 0.0,
+     .hi = kHuge,
+     .help = "ray step, world units (default 0: half the smallest full-resolution spacing)"},
+    {.name = "unit-distance",
+     .field = &O::unit,
+     .lo = 0.0,
+     .hi = kHuge,
+     .help = "TF opacity unit distance, world units (default 0: smallest full-res spacing)"},
+    {.name = "early-exit",
+     .field = &O::earlyExit,
+     .lo = 0.0,
+     .hi = 1.0,
+     .loOpen = true,
+     .help = "stop a ray when accumulated alpha exceeds this (default 0.99; 1 disables)"},
+    {.name = "background",
+     .field = &O::background,
+     .help = "background r,g,b in [0,1] (default 1,1,1)"},
+    {.name = "no-skip", .field = &O::noSkip, .help = "disable empty-space skipping"},
+    {.name = "realizations",
+     .field = &O::realizations,
+     .lo = 1.0,
+     .hi = 2147483647.0,
+     .help = "gmm-mc: realizations (default 200; over 10000 needs --force)"},
+    {.name = "seed",
+     .field = &O::seed,
+     .lo = 0.0,
+     .hi = kMaxWhole,
+     .help = "gmm-mc: random seed (default 1)"},
+    {.name = "jitter",
+     .field = &O::jitter,
+     .lo = 0.0,
+     .hi = kMaxWhole,
+     .help = "jitter ray starts with this seed",
+     .given = &O::jitterGiven},
+};
+
+bool sameName(std::string_view a, std::string_view b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const char x = a[i] == '_' ? '-' : a[i], y = b[i] == '_' ? '-' : b[i];
+        if (x != y) return false;
+    }
+    return true;
+}
+
+// The camera: --position (SPEC §5) as given; else SPEC §5's default camera when a TF was given
+// and neither --view nor --frame was; else a camera framing the visible part of the volume
+// (or, --frame box, all of it) from --view or the z-up front view.
+Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m, bool tfGiven,
+                         const std::function<std::array<double, 6>()>& visibleBox, double aspect,
+                         std::string& note) {
+    const auto& b = m.bounds;
+    if (!o.position.empty() && (!o.view.empty() || !o.frame.empty()))
+        UDVR_FAIL("--view and --frame choose the default camera; they do not go with --position");
+    if (o.position.empty()) {
+        if (!o.focal.empty() || !o.up.empty())
+            UDVR_FAIL("--focal-point/--view-up need --position (or use --azimuth/--elevation)");
+        const bool framed = !o.view.empty() || !o.frame.empty() || !tfGiven;
+        Camera c;
+        if (!framed) {
+            c = defaultCamera(b, o.azimuth, o.elevation, o.zoom, o.viewAngle);
+        } else {
+            const auto box = o.frame == "box" ? b : visibleBox();
+            const ViewDirection view = o.view.empty() ? kZUpFrontView : parseViewDirection(o.view);
+            // The front view is turned to a three-quarter view unless told otherwise; an axis
+            // view looks straight along its axis.
+            const double az = o.azimuthGiven ? o.azimuth : (o.view.empty() ? 30.0 : 0.0);
+            const double el = o.elevationGiven ? o.elevation : (o.view.empty() ? 20.0 : 0.0);
+            c = framedCamera(box, view, az, el, o.zoom, o.viewAngle, aspect);
+            char text[256];
+            std::snprintf(text, sizeof text,
+                          "render: camera frames %s [%.6g, %.6g] x [%.6g, %.6g] x [%.6g, %.6g] "
+                          "(--frame box: the whole volume; --position: your own)",
+                          o.frame == "box" ? "the volume" : "the visible voxels", box[0], box[1],
+                          box[2], box[3], box[4], box[5]);
+            note = text;
+        }
+        if (o.parallelScale > 0.0) {
+            c.parallel = true;
+            c.parallelScale = o.parallelScale;
+        }
+        return c;
+    }
+    Camera c;
+    c.position = parseVec3(o.position, "--position");
+    c.focalPoint = o.focal.empty() ? std::array<double, 3>{0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]),
+                                                           0.5 * (b[4] + b[5])}
+                                   : parseVec3(o.focal, "--focal-point");
+    c.viewUp = o.up.empty() ? std::array<double, 3>{0.0, 1.0, 0.0} : parseVec3(o.up, "--view-up");
+    c.viewAngleDeg = o.viewAngle;
+    if (o.parallelScale > 0.0) {
+        c.parallel = true;
+        c.parallelScale = o.parallelScale;
+    }
+    return c;
+}
+
+}  // namespace
+
+std::span<const OptionSpec> classificationOptionSpecs() { return kClassificationOptions; }
+std::span<const OptionSpec> frameOptionSpecs() { return kFrameOptions; }
+
+const OptionSpec* findOptionSpec(std::string_view name) {
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+        for (const OptionSpec& s : table)
+            if (sameName(s.name, name)) return &s;
+    return nullptr;
+}
+
+void setOption(RenderOptions& o, const OptionSpec& spec, const std::string& text,
+               const std::string& label) {
+    std::visit(
+        [&](auto field) {
+            using T = std::remove_reference_t<decltype(o.*field)>;
+            if constexpr (std::is_same_v<T, std::string>) {
+                o.*field = text;
+            } else if constexpr (std::is_same_v<T, bool>) {
+                o.*field = parseBool(text, label);
+            } else if constexpr (std::is_same_v<T, double>) {
+                const double v = parseReal(text, label);
+                if (v < spec.lo || v > spec.hi || (spec.loOpen && v == spec.lo))
+                    UDVR_FAIL(label << " must lie in " << (spec.loOpen ? "(" : "[") << spec.lo
+                                    << ", " << spec.hi << "], got " << v);
+                o.*field = v;
+            } else {
+                static_assert(std::is_same_v<T, std::uint64_t>);
+                const auto hi = spec.hi >= kMaxWhole ? std::numeric_limits<std::uint64_t>::max()
+                                                     : static_cast<std::uint64_t>(spec.hi);
+                o.*field = parseWhole(text, label, static_cast<std::uint64_t>(spec.lo), hi);
+            }
+        },
+        spec.field);
+    if (spec.given) o.*spec.given = true;
+}
+
+bool uniformWidthIsMinMax(const RenderOptions& o) {
+    if (o.uniformWidth == "variance" || o.uniformWidth == "std") return false;
+    if (o.uniformWidth == "minmax") return true;
+    UDVR_FAIL("--uniform-width must be 'variance' (or 'std') or 'minmax', got '"
+              << clipForMessage(o.uniformWidth) << "'");
+}
+
+std::array<int, 2> checkRenderOptions(const RenderOptions& o) {
+    if (o.parallelGiven && !(o.parallelScale > 0.0))
+        UDVR_FAIL("--parallel-scale must be > 0, got " << o.parallelScale);
+    const auto size = parseSize(o.size, "--size");
+    if (static_cast<double>(size[0]) * size[1] > kMaxPixelsWithoutForce && !o.force)
+        UDVR_FAIL("--size " << o.size << " is over " << kMaxPixelsWithoutForce / 1e6
+                            << " million rays per frame; add --force to render anyway");
+    if (o.realizations < 1) UDVR_FAIL("--realizations must be at least 1, got " << o.realizations);
+    if (o.realizations > kMaxRealizationsWithoutForce && !o.force)
+        UDVR_FAIL("--realizations " << o.realizations << " is over " << kMaxRealizationsWithoutForce
+                                    << " frames of gmm-mc; add --force to render anyway");
+    if (!o.frame.empty() && o.frame != "box" && o.frame != "visible")
+        UDVR_FAIL("--frame must be 'visible' or 'box', got '" << clipForMessage(o.frame) << "'");
+    if (!o.view.empty()) parseViewDirection(o.view);
+    uniformWidthIsMinMax(o);
+    return size;
+}
+
+RenderSettings renderSettingsFromOptions(const RenderOptions& o, const ModelVolume& model,
+                                         bool tfGiven,
+                                         const std::function<std::array<double, 6>()>& visibleBox,
+                                         std::string& cameraNote) {
+    const auto size = checkRenderOptions(o);
+    RenderSettings s;
+    s.width = size[0];
+    s.height = size[1];
+    if (o.step > 0.0 && !o.force) {
+        const auto& b = model.bounds;
+        const double diagonal = std::hypot(b[1] - b[0], b[3] - b[2], b[5] - b[4]);
+        const double samples = static_cast<double>(s.width) * s.height * (diagonal / o.step);
+        if (samples > kMaxSamplesWithoutForce)
+            UDVR_FAIL("--step " << o.step << " takes up to " << samples << " samples per frame ("
+                                << s.width << "x" << s.height << " rays, up to "
+                                << diagonal / o.step
+                                << " samples each); add --force to render anyway");
+    }
+    s.camera = cameraFromOptions(o, model, tfGiven, visibleBox,
+                                 static_cast<double>(s.width) / s.height, cameraNote);
+    s.step = o.step;
+    s.unitDistance = o.unit;
+    s.earlyExit = o.earlyExit;
+    if (!o.background.empty()) {
+        const auto bg = parseVec3(o.background, "--background");
+        for (int c = 0; c < 3; ++c) s.background[c] = static_cast<float>(bg[c]);
+    }
+    s.skipEmpty = !o.noSkip;
+    s.uniformMinMax = uniformWidthIsMinMax(o);
+    s.realizations = static_cast<int>(o.realizations);
+    s.seed = o.seed;
+    if (o.jitterGiven) s.jitterSeed = o.jitter;
+    return s;
+}
+
+}  // namespace udvr

@@ -1,0 +1,102 @@
+#include "udvr/render/render_options.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+
+#include "udvr/util/check.h"
+
+namespace udvr {
+namespace {
+
+// The error a value gets, or "" when it is taken.
+std::string errorOf(const char* name, const std::string& value) {
+    RenderOptions o;
+    try {
+        setOption(o, *findOptionSpec(name), value, std::string("--") + name);
+    } catch (const UdvrError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(RenderOptions, NamesAreUniqueAndFoundWithEitherSpelling) {
+    std::set<std::string> names;
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+        for (const OptionSpec& s : table) {
+            EXPECT_TRUE(names.insert(s.name).second) << s.name;
+            EXPECT_GT(std::string(s.help).size(), 10u) << s.name;
+            std::string python = s.name;
+            for (char& c : python)
+                if (c == '-') c = '_';
+            EXPECT_EQ(findOptionSpec(python), &s) << python;
+        }
+    EXPECT_EQ(names.size(), 21u);
+    EXPECT_EQ(findOptionSpec("view_angles"), nullptr);
+    EXPECT_FALSE(findOptionSpec("force")->remote);  // --force is the CLI's alone
+}
+
+TEST(RenderOptions, NumbersAreCheckedAgainstTheirRange) {
+    EXPECT_EQ(errorOf("zoom", "1000"), "");
+    EXPECT_EQ(errorOf("zoom", "0"), "--zoom must lie in (0, 1000], got 0");
+    EXPECT_EQ(errorOf("zoom", "1000.5"), "--zoom must lie in (0, 1000], got 1000.5");
+    EXPECT_EQ(errorOf("elevation", "-90"), "");
+    EXPECT_EQ(errorOf("elevation", "nan"), "--elevation: 'nan' is not a finite number");
+    EXPECT_EQ(errorOf("step", "0"), "");  // 0: SPEC §5's default step
+    EXPECT_EQ(errorOf("step", "-1e-9"), "--step must lie in [0, 1e+12], got -1e-09");
+    EXPECT_EQ(errorOf("early-exit", "1"), "");
+    EXPECT_NE(errorOf("early-exit", "0"), "");
+    EXPECT_EQ(errorOf("realizations", "1"), "");
+    EXPECT_EQ(errorOf("realizations", "0"),
+              "--realizations must be a whole number in [1, 2147483647], got '0'");
+    EXPECT_NE(errorOf("realizations", "2.5"), "");
+    EXPECT_NE(errorOf("seed", "-1"), "");  // not 2^64 - 1
+    EXPECT_EQ(errorOf("seed", "18446744073709551615"), "");
+    EXPECT_NE(errorOf("seed", "18446744073709551616"), "");
+    EXPECT_EQ(errorOf("no-skip", "true"), "");
+    EXPECT_EQ(errorOf("no-skip", "2"), "--no-skip must be 1 or 0 (true or false), got '2'");
+    // A hostile value is cut in the message.
+    EXPECT_LT(errorOf("azimuth", std::string(100000, '9') + "x").size(), 200u);
+}
+
+TEST(RenderOptions, GivenFlagsAndSettings) {
+    RenderOptions o;
+    setOption(o, *findOptionSpec("jitter"), "7", "jitter");
+    setOption(o, *findOptionSpec("azimuth"), "45", "azimuth");
+    setOption(o, *findOptionSpec("size"), "40x30", "size");
+    setOption(o, *findOptionSpec("uniform_width"), "minmax", "uniform_width");
+    setOption(o, *findOptionSpec("no_skip"), "1", "no_skip");
+    EXPECT_TRUE(o.jitterGiven && o.azimuthGiven && !o.elevationGiven && !o.parallelGiven);
+    ModelVolume m;
+    m.grid.dims = {4, 4, 4};
+    m.bounds = {0, 3, 0, 3, 0, 3};
+    std::string note;
+    const RenderSettings s = renderSettingsFromOptions(
+        o, m, true, [] { return std::array<double, 6>{}; }, note);
+    EXPECT_EQ(s.width, 40);
+    EXPECT_EQ(s.height, 30);
+    EXPECT_EQ(s.jitterSeed, std::optional<std::uint64_t>(7));
+    EXPECT_TRUE(s.uniformMinMax);
+    EXPECT_FALSE(s.skipEmpty);
+    EXPECT_TRUE(note.empty());  // SPEC §5's default camera: a TF was given, no --view/--frame
+    const Camera want = defaultCamera(m.bounds, 45.0, 20.0, 1.0, 30.0);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(s.camera.position[a], want.position[a], 1e-12);
+}
+
+TEST(RenderOptions, CapsAskForForce) {
+    RenderOptions o;
+    o.realizations = kMaxRealizationsWithoutForce + 1;
+    EXPECT_THROW(checkRenderOptions(o), UdvrError);
+    o.force = true;
+    EXPECT_NO_THROW(checkRenderOptions(o));
+    o = {};
+    o.size = "9000x8000";
+    EXPECT_THROW(checkRenderOptions(o), UdvrError);
+    o.uniformWidth = "wide";
+    o.size = "10x10";
+    EXPECT_THROW(checkRenderOptions(o), UdvrError);
+}
+
+}  // namespace
+}  // namespace udvr
