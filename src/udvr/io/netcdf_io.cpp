@@ -43,6 +43,29 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// netCDF-C, and the HDF5 it reads NetCDF-4 through, are not thread-safe, and probeHdf5 forks.
+/// The contract: every call into either library in this process holds this lock — the public
+/// entry points of this file, each slab read, an NcFile's close — so reads from several threads
+/// (Python with the GIL released, `udvr serve`, the slab pipeline of `udvr build`) take turns,
+/// and the probe forks while holding it: the child (which has only the forking thread) finds
+/// both libraries between calls, never inside one. Recursive: entry points nest.
+std::recursive_mutex& netcdfLibraryMutex() {
+    static std::recursive_mutex mutex;
+    return mutex;
+}
+/// True in probeHdf5's child only: the lock it inherited belongs to the parent's thread id, and
+/// the child, which has one thread, takes no lock at all.
+bool gInProbeChild = false;
+class NetcdfLock {
+  public:
+    explicit NetcdfLock(std::recursive_mutex& mutex) {
+        if (!gInProbeChild) lock_ = std::unique_lock<std::recursive_mutex>(mutex);
+    }
+
+  private:
+    std::unique_lock<std::recursive_mutex> lock_;
+};
+
 constexpr const char* kMemberDimNames[] = {"member", "ensemble", "realization", "number"};
 
 /// netCDF-C says only "NetCDF: HDF error" when HDF5 cannot read a NetCDF-4 file; that is how a
@@ -233,10 +256,12 @@ void probeHdf5(const fs::path& path, const std::string& kind,
         if (!error.empty()) UDVR_FAIL(error);
     };
     const double limit = gHdf5ProbeSeconds.load() + static_cast<double>(now.size) / (4 << 20);
+    const NetcdfLock lock(netcdfLibraryMutex());  // held across fork (see netcdfLibraryMutex)
     std::fflush(nullptr);
     const pid_t child = fork();
     if (child < 0) return;  // no process to spare: read without the probe
     if (child == 0) {
+        gInProbeChild = true;
         // The child: quiet (HDF5 may print its error stack) and gone without exit handlers.
         const int devnull = open("/dev/null", O_WRONLY);
         if (devnull >= 0) {
@@ -292,9 +317,11 @@ void probeHdf5(const fs::path& path, const std::string& kind,
 struct NcFile {
     int id = -1;
     ~NcFile() {
+        const NetcdfLock lock(netcdfLibraryMutex());
         if (id >= 0) nc_close(id);
     }
     int close() {
+        const NetcdfLock lock(netcdfLibraryMutex());
         int status = nc_close(id);
         id = -1;
         return status;
@@ -1001,11 +1028,13 @@ Ensemble readEnsembleNetcdfUnguarded(const fs::path& path, const EnsembleReadOpt
 }  // namespace
 
 void writeFieldNetcdf(const fs::path& path, const ScalarField& field) {
+    const NetcdfLock lock(netcdfLibraryMutex());
     UDVR_CHECK_MSG(field.values.size() == field.grid.pointCount(), "field size vs grid");
     writeNetcdf(path, field.grid, safeName(field.name, "value"), 0, field.values);
 }
 
 void writeEnsembleNetcdf(const fs::path& path, const Ensemble& ensemble) {
+    const NetcdfLock lock(netcdfLibraryMutex());
     UDVR_CHECK_MSG(ensemble.members >= 1 && !ensemble.voxelMajor &&
                        ensemble.values.size() ==
                            static_cast<std::size_t>(ensemble.members) * ensemble.grid.pointCount(),
@@ -1041,12 +1070,14 @@ std::vector<ArrayInfo> listArraysNetcdfUnguarded(const fs::path& path) {
 
 ScalarField detail::readFieldNetcdf(const fs::path& path, const std::string& varName,
                                     std::string* geometryNote, bool allowMissing) {
+    const NetcdfLock lock(netcdfLibraryMutex());
     return guardedRead(path, "field " + varName + (allowMissing ? " missing" : ""), [&] {
         return readFieldNetcdfUnguarded(path, varName, geometryNote, allowMissing);
     });
 }
 
 Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOptions& options) {
+    const NetcdfLock lock(netcdfLibraryMutex());
     return guardedRead(path,
                        "ensemble " + options.var + " " + options.memberDim +
                            (options.allowMissing ? " missing" : "") +
@@ -1055,11 +1086,13 @@ Ensemble detail::readEnsembleNetcdf(const fs::path& path, const EnsembleReadOpti
 }
 
 std::vector<ArrayInfo> detail::listArraysNetcdf(const fs::path& path) {
+    const NetcdfLock lock(netcdfLibraryMutex());
     return guardedRead(path, "list", [&] { return listArraysNetcdfUnguarded(path); });
 }
 
 SlabReader detail::openFieldNetcdfSlabs(const fs::path& path, const std::string& varName,
                                         bool allowMissing) {
+    const NetcdfLock lock(netcdfLibraryMutex());
     // Opened for each read: an ensemble of many member files must not hold a descriptor each.
     NcFile opened;
     opened.id = openForRead(path);
@@ -1079,6 +1112,7 @@ SlabReader detail::openFieldNetcdfSlabs(const fs::path& path, const std::string&
         static_cast<std::size_t>(r.grid.dims[0]) * static_cast<std::size_t>(r.grid.dims[1]);
     r.scratchPerPlane = plane * sizeof(double);  // packed or filled values are read as double
     r.read = [var, path, first, plane, allowMissing](int z0, int z1, std::span<float> out) {
+        const NetcdfLock readLock(netcdfLibraryMutex());
         // Checked (and an HDF5 file probed) when opened above; the plain open here.
         NcFile file;
         ncCheck(nc_open(path.c_str(), NC_NOWRITE, &file.id), path, "reopening");
@@ -1095,6 +1129,7 @@ SlabReader detail::openFieldNetcdfSlabs(const fs::path& path, const std::string&
 
 SlabReader detail::openEnsembleNetcdfSlabs(const fs::path& path,
                                            const EnsembleReadOptions& options) {
+    const NetcdfLock lock(netcdfLibraryMutex());
     auto file = std::make_shared<NcFile>();
     file->id = openForRead(path);
     const std::pair<VarInfo, std::size_t> found = findEnsembleVar(path, file->id, options);
@@ -1125,6 +1160,7 @@ SlabReader detail::openEnsembleNetcdfSlabs(const fs::path& path,
     const bool allowMissing = options.allowMissing;
     r.read = [file, var, md, zd, path, members, plane, allowMissing](int z0, int z1,
                                                                      std::span<float> out) {
+        const NetcdfLock readLock(netcdfLibraryMutex());
         const std::size_t count1 = static_cast<std::size_t>(z1 - z0) * plane;
         UDVR_CHECK(out.size() == count1 * members);
         for (std::size_t m = 0; m < members; ++m) {

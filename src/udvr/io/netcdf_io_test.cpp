@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <thread>
 
 #include "udvr/io/ensemble_io.h"
 #include "udvr/io/field_io.h"
@@ -320,6 +321,39 @@ TEST(IoNetcdf, Hdf5HangBecomesAnError) {
         [&] { readField(dir / "loop.nc"); },
         {"loop.nc", "the HDF5 library did not finish reading this NetCDF-4 file", "within 0.5 s"});
     detail::setHdf5ProbeSeconds(10.0);
+}
+
+// netCDF-C and HDF5 are not thread-safe and each NetCDF-4 read forks an HDF5 probe: reads from
+// several threads at once (Python with the GIL released, the server) take turns on one lock and
+// fork only while holding it, so every read sees its own file whole (netcdfLibraryMutex).
+TEST(IoNetcdf, ThreadsReadingAtOnceEachGetTheirFile) {
+    TempDir dir;
+    for (int f = 0; f < 4; ++f) {
+        NcSpec s;
+        s.dimLengths = {6, 7, 8};
+        s.values = rampValues(s);
+        for (double& v : s.values) v += 10000.0 * f;
+        writeNc(dir / ("f" + std::to_string(f) + ".nc"), s);
+    }
+    std::vector<std::thread> threads;
+    std::vector<int> wrong(4, 0);
+    for (int t = 0; t < 4; ++t)
+        threads.emplace_back([&, t] {
+            for (int r = 0; r < 12; ++r) {
+                const int f = (t + r) % 4;
+                const auto path = dir / ("f" + std::to_string(f) + ".nc");
+                try {  // without the lock: "NetCDF: HDF error" on a sound file, 3 runs of 3
+                    const ScalarField field = readField(path);
+                    wrong[t] += field.values[field.grid.index(7, 6, 5)] !=
+                                10000.f * static_cast<float>(f) + 567.f;
+                    wrong[t] += listArrays(path).size() != 1;
+                } catch (const UdvrError&) {
+                    ++wrong[t];
+                }
+            }
+        });
+    for (auto& t : threads) t.join();
+    EXPECT_EQ(wrong, std::vector<int>(4, 0));
 }
 
 TEST(IoNetcdf, EnsembleFromMemberDimension) {
