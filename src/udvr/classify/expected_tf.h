@@ -38,27 +38,11 @@ inline int lowestOf(lanes::Vi k, lanes::Mask live) { return lanes::minOf(k, live
 UDVR_CPU_GPU inline int highestOf(int k, bool) { return k; }
 inline int highestOf(lanes::Vi k, lanes::Mask live) { return lanes::maxOf(k, live); }
 
-/// e^x for x ≤ 0: std::exp in double; expNonPositive on float lanes (relative error < 2.5e−7).
-UDVR_CPU_GPU inline double expNonPositiveOf(double x) { return std::exp(x); }
-UDVR_CPU_GPU inline float expNonPositiveOf(float x) { return std::exp(x); }
-inline lanes::Vf expNonPositiveOf(lanes::Vf x) { return expNonPositive(x); }
-
-/// Φ(z), 1 − Φ(z), φ(z) and whether z ≥ 0, each from one exp and erfcx (util/normal_cdf.h;
-/// |Φ error| < 1e−9 in double, float rounding on float lanes). The tail is computed directly,
-/// never as 1 − Φ, so differences of upper tails keep their digits.
+/// Φ(z), 1 − Φ(z), φ(z) and whether z ≥ 0 on T: util/normal_cdf.h's normalAt with the lanes'
+/// exponential (std::exp on scalars).
 template <class T>
-struct NormalAt {
-    T cdf, upper, pdf;
-    lanes::MaskOf<T> nonNegative;
-};
-template <class T>
-UDVR_CPU_GPU UDVR_INLINE NormalAt<T> normalAt(T z) {
-    using S = lanes::ScalarOf<T>;
-    const T g = expNonPositiveOf(z * z * S(-0.5));
-    const T tail = S(0.5) * g * erfcxNonNegative(lanes::abs(z) * S(0.70710678118654752440));
-    const auto pos = z >= S(0);
-    const T rest = S(1) - tail;
-    return {select(pos, rest, tail), select(pos, tail, rest), S(0.39894228040143267794) * g, pos};
+UDVR_CPU_GPU UDVR_INLINE NormalAt<T> normalOf(T z) {
+    return normalAt(z, ExpNonPositiveOf{});
 }
 }  // namespace detail
 
@@ -154,6 +138,18 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Bounda
     for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
 }
 
+/// Eq. 5's weight of one quantile (SPEC §4 quantile-mean): its mass m_j over its width w_j with
+/// density weights, else m_j (`quantile-mean-mass`). Where a quantile of the point is a point
+/// mass (width ≤ zeroWidth: infinite density), the point masses take all the weight by their
+/// masses: in `pointMasses` lanes the weight is m_j at zero widths and 0 elsewhere.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T quantileMeanWeight(lanes::ScalarOf<T> mass, T width, bool densityWeights,
+                                              lanes::MaskOf<T> pointMasses, T zeroWidth) {
+    const T m = lanes::splat<T>(mass);
+    if (!densityWeights) return m;
+    return lanes::select(pointMasses, lanes::select(width <= zeroWidth, m, T{}), mass / width);
+}
+
 /// Eq. 5's weighting, for any classification of the quantiles (1D TF or TF2): Σ_j v_j·p_j / Σ p_j
 /// over quantiles j = 0 … q − 1, valueAt(j, v) writing v_j (the TF at quantile j's midpoint),
 /// p_j = m_j/w_j (densityWeights; m_j the quantile's mass, levels.mass(j + 1), 1 for even levels
@@ -178,7 +174,7 @@ UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const
         valueAt(j, v);
         const S mass = static_cast<S>(levels.mass(j + 1));  // 1 for even levels: exact
         const T w = densityWeights ? width(j) : T{};
-        const T weight = densityWeights ? mass / w : lanes::splat<T>(mass);
+        const T weight = quantileMeanWeight<T>(mass, w, densityWeights, lanes::MaskOf<T>{}, zeroWidth);
         for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
         weightSum += weight;
         if (densityWeights) anyZero = anyZero | (live & (w <= zeroWidth));
@@ -190,11 +186,9 @@ UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const
         T v[4];
         valueAt(j, v);
         const S mass = static_cast<S>(levels.mass(j + 1));
-        const auto zero = anyZero & (width(j) <= zeroWidth);
-        const T m = lanes::splat<T>(mass);
-        for (int ch = 0; ch < 4; ++ch)
-            zeroSum[ch] = detail::select(zero, lanes::fma(m, v[ch], zeroSum[ch]), zeroSum[ch]);
-        zeroCount = detail::select(zero, zeroCount + mass, zeroCount);
+        const T m = quantileMeanWeight<T>(mass, width(j), true, anyZero, zeroWidth);
+        for (int ch = 0; ch < 4; ++ch) zeroSum[ch] = lanes::fma(m, v[ch], zeroSum[ch]);
+        zeroCount += m;
     }
     for (int ch = 0; ch < 4; ++ch)
         out[ch] = detail::select(anyZero, zeroSum[ch] / zeroCount, out[ch]);
@@ -266,7 +260,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfGaussian(const Tf& tf, T mu, T sigma, la
         auto upperB = last;
         if (lanes::anyOf(mid)) {
             const T z = (lanes::splat<T>(tf.at(kTfBound, k)) - mu) * invSigma;
-            const detail::NormalAt<T> n = detail::normalAt(z);
+            const NormalAt<T> n = detail::normalOf(z);
             cdfB = detail::select(mid, n.cdf, cdfB);
             upB = detail::select(mid, n.upper, upB);
             pdfB = detail::select(mid, n.pdf, pdfB);
@@ -419,7 +413,7 @@ UDVR_CPU_GPU UDVR_INLINE void remainderTailFrom(const BoxSplineFastScaled<T, K44
 /// remainderTailFrom at z with Φ, φ from normalAt.
 template <class T>
 UDVR_CPU_GPU UDVR_INLINE void remainderTail(const BoxSplineFastScaled<T>& b, T z, T out[3]) {
-    const NormalAt<T> n = normalAt(z);
+    const NormalAt<T> n = normalOf(z);
     remainderTailFrom(b, z, n.cdf, n.pdf, out);
 }
 
@@ -551,7 +545,7 @@ UDVR_CPU_GPU UDVR_INLINE void uniformFastBreaks(const Tf& tf, const BoxSplineFas
         const auto node = [&](int i, T r[3]) {
             T cdf = z[i] >= S(0) ? S(1) : S(0), pdf = S(0);
             if (lanes::abs(z[i]) < S(kBoxSplineNearSigmas)) {
-                const NormalAt<T> n = normalAt(z[i]);
+                const NormalAt<T> n = normalOf(z[i]);
                 cdf = n.cdf;
                 pdf = n.pdf;
             }

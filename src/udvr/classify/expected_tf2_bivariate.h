@@ -11,18 +11,19 @@
 // (expectedTf2Independent): O(cells_x × cells_y) per sample. Mass outside the domain sits at the
 // end line it is clamped to (the TF2 is constant beyond it).
 //
-// A field's distribution reaches AxisMoments as pieces (MarginalSink): point masses, uniform
-// pieces (exact per-cell polynomials), and distributions known by their partial moments
-// T_d(u) = E[(U − u)^d; U ≥ u] (normal in closed form, box spline by BoxSplineTail): cell
-// moments are differences of T at consecutive raster lines, m_0 = T_0(i) − T_0(i+1),
-// m_1 = T_1(i) − T_1(i+1) − T_0(i+1), m_2 = T_2(i) − T_2(i+1) − 2T_1(i+1) − T_0(i+1). Their
-// absolute error is ~ε·(support in cells)², below 1e−8 for rasters up to 8192 cells.
+// A field's distribution reaches AxisMoments as pieces (a DistributionSink, point_distribution.h):
+// point masses, uniform pieces (exact per-cell polynomials), and distributions known by their
+// partial moments T_d(u) = E[(U − u)^d; U ≥ u] (normal in closed form, box spline by
+// BoxSplineTail): cell moments are differences of T at consecutive raster lines, m_0 = T_0(i) −
+// T_0(i+1), m_1 = T_1(i) − T_1(i+1) − T_0(i+1), m_2 = T_2(i) − T_2(i+1) − 2T_1(i+1) − T_0(i+1).
+// Their absolute error is ~ε·(support in cells)², below 1e−8 for rasters up to 8192 cells.
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/reconstruct/box_spline.h"
+#include "udvr/util/normal_cdf.h"
 
 namespace udvr {
 
@@ -36,51 +37,10 @@ struct RasterAxis {
     int cells() const { return points - 1; }
 };
 
-/// Receives a field's distribution at one sample as pieces of probability mass (data units).
-/// Implemented by AxisMoments (per-cell moments) and MarginalSummary (mean and variance).
-struct MarginalSink {
-    virtual ~MarginalSink() = default;
-    virtual void point(double x, double mass) = 0;
-    /// mass spread uniformly over [a, b], a < b.
-    virtual void uniform(double a, double b, double mass) = 0;
-    /// mass × N(mu, sigma²), sigma > 0.
-    virtual void normal(double mu, double sigma, double mass) = 0;
-    /// mass × the density of a sum of uniforms (box spline; u.n ≥ 1).
-    virtual void boxSpline(const UniformSum& u, double mass) = 0;
-};
-
-/// Mean and variance of a distribution given as pieces.
-struct MarginalSummary final : MarginalSink {
-    double mass = 0.0, first = 0.0, second = 0.0;  // Σ mass, Σ mass·E[X], Σ mass·E[X²]
-
-    void point(double x, double m) override { add(m, x, x * x); }
-    void uniform(double a, double b, double m) override {
-        add(m, 0.5 * (a + b), (a * a + a * b + b * b) / 3.0);
-    }
-    void normal(double mu, double sigma, double m) override { add(m, mu, mu * mu + sigma * sigma); }
-    void boxSpline(const UniformSum& u, double m) override {
-        const double mu = u.mean();
-        add(m, mu, mu * mu + u.variance());
-    }
-    double mean() const { return mass > 0.0 ? first / mass : 0.0; }
-    double stddev() const {
-        if (!(mass > 0.0)) return 0.0;
-        const double mu = mean();
-        return std::sqrt(std::max(0.0, second / mass - mu * mu));
-    }
-
-  private:
-    void add(double m, double e1, double e2) {
-        mass += m;
-        first += m * e1;
-        second += m * e2;
-    }
-};
-
 /// Per-cell moments m_d = E[s^d; X ∈ cell] of a distribution along a raster axis, d = 0, 1, 2
 /// (s the cell's local coordinate); cells lo … hi may be non-zero. Reused across samples:
 /// reset() zeroes what the last sample touched.
-class AxisMoments final : public MarginalSink {
+class AxisMoments {
   public:
     /// Start a sample. Only cells windowLo … windowHi get moments (default: all): mass in
     /// other cells is dropped (callers pass the cells where the TF2 can have α > 0).
@@ -97,8 +57,8 @@ class AxisMoments final : public MarginalSink {
     int hi() const { return hi_; }
     const double* at(int cell) const { return &m_[3 * static_cast<std::size_t>(cell)]; }
 
-    void point(double x, double mass) override { pointAt(axis_.coordinate(x), mass); }
-    void uniform(double a, double b, double mass) override {
+    void point(double x, double mass) { pointAt(axis_.coordinate(x), mass); }
+    void uniform(double a, double b, double mass) {
         double ua = axis_.coordinate(a), ub = axis_.coordinate(b);
         const double n = axis_.cells(), density = mass / (ub - ua);
         if (!(ub > ua) || !std::isfinite(density)) {  // narrower than the rounding: a point
@@ -118,7 +78,7 @@ class AxisMoments final : public MarginalSink {
                 density * (s1 * s1 * s1 - s0 * s0 * s0) / 3.0);
         }
     }
-    void normal(double mu, double sigma, double mass) override {
+    void normal(double mu, double sigma, double mass) {
         const double m = axis_.coordinate(mu), s = sigma * axis_.inv;
         if (!(s > 0.0) || !std::isfinite(m)) {
             pointAt(m, mass);
@@ -128,14 +88,14 @@ class AxisMoments final : public MarginalSink {
         fromTail(m - kReach * s, m + kReach * s, mass, [&](double u, double t[3]) {
             // z = (μ − u)/σ: T_0 = Φ(z), T_1 = σ(zΦ + φ), T_2 = σ²((z² + 1)Φ + zφ).
             const double z = (m - u) / s;
-            const double cdf = 0.5 * std::erfc(-z * 0.70710678118654752440);
-            const double pdf = 0.39894228040143267794 * std::exp(-0.5 * z * z);
+            const NormalCdfPdf n = normalCdfPdf(z);
+            const double cdf = n.cdf, pdf = n.pdf;
             t[0] = cdf;
             t[1] = s * (z * cdf + pdf);
             t[2] = s * s * ((z * z + 1.0) * cdf + z * pdf);
         });
     }
-    void boxSpline(const UniformSum& u, double mass) override {
+    void boxSpline(const UniformSum& u, double mass) {
         UniformSum r = u;  // in raster units
         r.shift = axis_.coordinate(u.shift);
         for (int i = 0; i < r.n; ++i) r.h[i] = u.h[i] * axis_.inv;

@@ -13,90 +13,10 @@
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_bivariate.h"
 #include "udvr/classify/model_kernels.h"
+#include "udvr/classify/point_distribution.h"
 #include "udvr/reconstruct/quantile_interp.h"
 
 namespace udvr {
-
-/// A field's distribution at a cell as pieces into a MarginalSink (SPEC §3, model by model).
-struct FieldMarginal {
-    const Cell<double>& cell;
-    MarginalSink& sink;
-
-    void operator()(const MeanKernel& k) const { sink.point(k.load<double>(cell, true), 1.0); }
-    void operator()(const UniformKernel& k) const {
-        const UniformSum u = k.sumAt(cell);
-        if (u.n == 0)
-            sink.point(u.shift, 1.0);
-        else
-            sink.boxSpline(u, 1.0);
-    }
-    void operator()(const GaussianKernel& k) const {
-        double mu, sigma;
-        k.paramsAt<double>(cell, true, mu, sigma);
-        normalOrPoint(mu, sigma, 1.0);
-    }
-    void operator()(const GmmOrderedKernel& k) const {
-        double pi[kMaxKernelGmmComponents], mu[kMaxKernelGmmComponents],
-            sigma[kMaxKernelGmmComponents];
-        k.componentsAt<double>(cell, true, pi, mu, sigma);  // π normalised (all 0: no mass)
-        for (int i = 0; i < k.components; ++i)
-            if (pi[i] != 0.0) normalOrPoint(mu[i], sigma[i], pi[i]);
-    }
-    void operator()(const QuantileRangeKernel& k) const {
-        // Rank population j0 … j1: each quantile uniform between its boundaries (Eq. 2), with
-        // its share of the population's mass.
-        const double inv = k.levels.inverseTotal<double>(k.j1 - k.j0 + 1);
-        double a = boundaryAt<double>(k.geometry, k.boundaries, k.stride, k.j0, cell, true);
-        for (int j = k.j0 + 1; j <= k.j1; ++j) {
-            const double b = boundaryAt<double>(k.geometry, k.boundaries, k.stride, j, cell, true);
-            const double mass = k.levels.mass(j - k.j0) * inv;
-            if (b > a)
-                sink.uniform(a, b, mass);
-            else
-                sink.point(a, mass);
-            a = b;
-        }
-    }
-    void operator()(const QuantileMeanKernel& k) const {
-        // Eq. 5: point masses at the midpoints, p_j ∝ m_j/w_j (or m_j; m_j the quantile's mass,
-        // 1 for even levels); quantiles of width ≤ zeroWidth are infinitely dense and share all
-        // the weight by their masses (SPEC §4). Two passes: the weights' total, then the points.
-        const int q = k.q, stride = q + 1;
-        const auto width = [&](int j) {
-            return widthAt<double>(k.geometry, k.quantiles, stride, j, cell, true);
-        };
-        bool anyZero = false;
-        for (int j = 0; k.densityWeights && j < q; ++j)
-            anyZero = anyZero || width(j) <= k.zeroWidth;
-        const auto weight = [&](int j) {
-            const double m = k.levels.mass(j + 1);
-            if (!k.densityWeights) return m;
-            const double w = width(j);
-            return anyZero ? (w <= k.zeroWidth ? m : 0.0) : m / w;
-        };
-        double total = 0.0;
-        for (int j = 0; j < q; ++j) total += weight(j);
-        double a = boundaryAt<double>(k.geometry, k.quantiles, stride, 0, cell, true);
-        for (int j = 0; j < q; ++j) {
-            const double b = boundaryAt<double>(k.geometry, k.quantiles, stride, j + 1, cell, true);
-            const double p = weight(j) / total;
-            if (p != 0.0) sink.point(0.5 * (a + b), p);
-            a = b;
-        }
-    }
-
-    void operator()(const MembersKernel& k) const {
-        for (int i = 0; i < k.n; ++i) sink.point(k.memberAt<double>(i, cell, true), 1.0 / k.n);
-    }
-
-  private:
-    void normalOrPoint(double mu, double sigma, double mass) const {
-        if (sigma > 0.0)
-            sink.normal(mu, sigma, mass);
-        else
-            sink.point(mu, mass);
-    }
-};
 
 /// Bivariate mean field and ground truth: TF2(x̄, ȳ), on lanes.
 struct BivariateMean2DKernel : GridKernel, detail::ClassifyInLoad {
@@ -127,7 +47,7 @@ struct BivariateMean2DKernel : GridKernel, detail::ClassifyInLoad {
     }
 };
 
-/// Bivariate fields of any other model: each field's distribution (FieldMarginal) as per-cell
+/// Bivariate fields of any other model: each field's distribution (DistributionAt) as per-cell
 /// moments along its raster axis, then E[TF2] exactly (expectedTf2Independent), in double
 /// (lanes and float threads take the double body).
 struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
@@ -155,7 +75,7 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
         for (int ch = 0; ch < 4; ++ch) out[ch] = 0.0;
         y.reset(axisY, firstRow, lastRow);
         if (lastRow < firstRow) return;
-        std::visit(FieldMarginal{c, y}, second);
+        distributionAt(second, c, y);
         int lo = axisX.cells(), hi = -1;
         for (int j = y.lo(); j <= y.hi(); ++j) {
             lo = std::min(lo, rowCells[2 * j]);
@@ -163,13 +83,13 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
         }
         if (hi < lo) return;
         x.reset(axisX, lo, hi);
-        std::visit(FieldMarginal{c, x}, first);
+        distributionAt(first, c, x);
         expectedTf2Independent(tf, x, y, out, rowCells);
     }
     /// Mean and standard deviation of the second field at a cell (probe output).
-    MarginalSummary secondAt(const Cell<double>& c) const {
-        MarginalSummary s;
-        std::visit(FieldMarginal{c, s}, second);
+    DistributionMoments secondAt(const Cell<double>& c) const {
+        DistributionMoments s;
+        distributionAt(second, c, s);
         return s;
     }
     template <class T>

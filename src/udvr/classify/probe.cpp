@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
+
+#include "udvr/classify/point_distribution.h"
 
 namespace udvr {
 namespace {
@@ -10,22 +13,30 @@ using nlohmann::json;
 
 constexpr int kCdfSamples = 2048;
 
-// Samples a continuous CDF over [lo, hi].
-template <class Cdf>
-void sampleCdf(ProbeDistribution& d, Cdf cdf) {
-    d.continuousMass = 1.0;
-    if (!(d.hi > d.lo)) {  // degenerate: a point
-        d.atoms = {d.lo};
-        d.atomMass = {1.0};
-        d.continuousMass = 0.0;
-        d.lo -= 0.5, d.hi += 0.5;
-        return;
+// The probe's plot of a distribution (SPEC §8 --plot): its point masses, and the CDF of its
+// continuous part sampled over its support (normals to μ ± 4σ) padded by 5 % (a point: ± 0.5).
+ProbeDistribution plotOf(const PointDistribution& dist) {
+    ProbeDistribution d;
+    std::tie(d.lo, d.hi) = dist.support(4.0);
+    for (const auto& a : dist.atoms) {
+        d.atoms.push_back(a.x);
+        d.atomMass.push_back(a.mass);
     }
-    for (int i = 0; i <= kCdfSamples; ++i) {
-        const double x = d.lo + (d.hi - d.lo) * i / kCdfSamples;
-        d.cdfX.push_back(x);
-        d.cdfY.push_back(cdf(x));
+    d.continuousMass = dist.continuousMass();
+    const double w = d.hi - d.lo;
+    if (w > 0.0) {
+        d.lo -= 0.05 * w;
+        d.hi += 0.05 * w;
+    } else {
+        d.lo -= 0.5;
+        d.hi += 0.5;
     }
+    if (d.continuousMass > 0.0) {
+        for (int i = 0; i <= kCdfSamples; ++i)
+            d.cdfX.push_back(d.lo + (d.hi - d.lo) * i / kCdfSamples);
+        d.cdfY = dist.continuousCdf(d.lo, d.hi, kCdfSamples);
+    }
+    return d;
 }
 
 /// The model's levels t_0 … t_{count−1} (uneven levels only: levels.levels is set).
@@ -33,32 +44,21 @@ std::vector<double> levelsOf(const QuantileLevels& levels, int count) {
     return {levels.levels, levels.levels + count};
 }
 
-void pad(ProbeDistribution& d, double fraction) {
-    const double w = d.hi - d.lo;
-    d.lo -= fraction * w;
-    d.hi += fraction * w;
-}
-
-// What probe reports of each family's distribution at a cell (SPEC §8): JSON fields and the
-// distribution for the plot. One overload per kernel type; `family` tells models that share a
-// kernel apart.
+// What probe reports of each model's parameters at a cell (SPEC §8), next to its distribution
+// (DistributionAt, which the plot and the point masses listed here come from). One overload
+// per kernel type; `family` tells models that share a kernel apart.
 struct Describe {
     const ModelFamily& family;
     const Cell<double>& cell;
+    const PointDistribution& dist;
     json& j;
-    ProbeDistribution& d;
 
-    void operator()(const MeanKernel& k) const {
-        d.lo = d.hi = trilinear(k.geometry, k.values, 1, cell, true);
-        sampleCdf(d, [](double) { return 0.0; });
-    }
+    void operator()(const MeanKernel&) const {}
     void operator()(const GaussianKernel& k) const {
         double mu, sigma;
         k.paramsAt<double>(cell, true, mu, sigma);
         j["mean"] = mu;
         j["stddev"] = sigma;
-        d.lo = mu - 4 * sigma, d.hi = mu + 4 * sigma;
-        sampleCdf(d, [&](double x) { return normalCdf((x - mu) / sigma); });
     }
     void operator()(const UniformKernel& k) const {
         double weights[8];
@@ -77,19 +77,6 @@ struct Describe {
         j["stddev"] = std::sqrt(u.variance());
         j["low"] = u.shift;
         j["high"] = u.shift + u.total;
-        d.lo = u.shift, d.hi = u.shift + u.total;
-        pad(d, 0.05);
-        if (u.n == 0) {
-            d.lo = d.hi = u.shift;
-            sampleCdf(d, [](double) { return 0.0; });
-            return;
-        }
-        const BoxSplineTail tail(u);
-        sampleCdf(d, [&](double x) {
-            double t[3];
-            tail.at(u.shift - x, t);  // t[0] = P(X ≥ x)
-            return 1.0 - t[0];
-        });
     }
     void operator()(const GmmOrderedKernel& k) const {
         const int K = k.components;
@@ -98,106 +85,35 @@ struct Describe {
         j["weights"] = pi;
         j["means"] = mu;
         j["sigmas"] = sg;
-        d.lo = INFINITY, d.hi = -INFINITY;
-        for (int c = 0; c < K; ++c) {
-            if (pi[c] <= 0) continue;
-            if (sg[c] > 0) {
-                d.lo = std::min(d.lo, mu[c] - 4 * sg[c]);
-                d.hi = std::max(d.hi, mu[c] + 4 * sg[c]);
-            } else {
-                d.atoms.push_back(mu[c]);
-                d.atomMass.push_back(pi[c]);
-                d.lo = std::min(d.lo, mu[c]);
-                d.hi = std::max(d.hi, mu[c]);
-            }
-        }
-        const std::vector<double> atoms = d.atoms, masses = d.atomMass;
-        sampleCdf(d, [&](double x) {
-            double s = 0;
-            for (int c = 0; c < K; ++c)
-                if (sg[c] > 0) s += pi[c] * normalCdf((x - mu[c]) / sg[c]);
-            return s;
-        });
-        if (!atoms.empty()) {  // sampleCdf may have replaced atoms for a degenerate range
-            d.atoms = atoms;
-            d.atomMass = masses;
-            double cont = 0;
-            for (int c = 0; c < K; ++c)
-                if (sg[c] > 0) cont += pi[c];
-            d.continuousMass = cont;
-        }
     }
     void operator()(const QuantileRangeKernel& k) const {
         std::vector<double> b(static_cast<std::size_t>(k.stride));
         for (int i = 0; i < k.stride; ++i)
             b[i] = boundaryAt<double>(k.geometry, k.boundaries, k.stride, i, cell, true);
         j["boundaries"] = b;
-        const int j0 = k.j0, j1 = k.j1;
-        if (family.population.second > family.population.first) j["population"] = {j0, j1};
+        if (family.population.second > family.population.first) j["population"] = {k.j0, k.j1};
         if (k.levels.levels) j["levels"] = levelsOf(k.levels, k.stride);
-        d.lo = b[j0], d.hi = b[j1];
-        pad(d, 0.05);
-        // Quantile i's share of the population (1/(j1−j0) for even levels); zero-width
-        // quantiles are point masses of that share.
-        const double inv = k.levels.inverseTotal<double>(j1 - j0 + 1);
-        const auto share = [&](int i) { return k.levels.mass(i - j0) * inv; };
-        double atomTotal = 0;
-        for (int i = j0 + 1; i <= j1; ++i)
-            if (!(b[i] > b[i - 1])) {
-                d.atoms.push_back(b[i]);
-                d.atomMass.push_back(share(i));
-                atomTotal += share(i);
-            }
-        const std::vector<double> atoms = d.atoms, masses = d.atomMass;
-        sampleCdf(d, [&](double x) {
-            double s = 0;
-            for (int i = j0 + 1; i <= j1; ++i) {
-                const double w = b[i] - b[i - 1];
-                if (!(w > 0)) continue;
-                s += std::clamp((x - b[i - 1]) / w, 0.0, 1.0) * share(i);
-            }
-            return s;
-        });
-        d.atoms = atoms;
-        d.atomMass = masses;
-        d.continuousMass = 1.0 - atomTotal;
     }
     void operator()(const QuantileMeanKernel& k) const {
         const int q = k.q;
-        std::vector<double> b(static_cast<std::size_t>(q) + 1), w(static_cast<std::size_t>(q));
+        std::vector<double> b(static_cast<std::size_t>(q) + 1);
         for (int i = 0; i <= q; ++i)
             b[i] = boundaryAt<double>(k.geometry, k.quantiles, q + 1, i, cell, true);
-        for (int i = 0; i < q; ++i)
-            w[i] = widthAt<double>(k.geometry, k.quantiles, q + 1, i, cell, true);
         j["boundaries"] = b;
         if (k.levels.levels) j["levels"] = levelsOf(k.levels, q + 1);
-        // Discrete: midpoints m_j with weights p_j (Eq. 5: mass m_j, over w_j with density
-        // weights), as the kernel weighs them.
-        int zeros = 0;
-        for (double wi : w) zeros += (wi <= k.zeroWidth);
-        std::vector<double> p(static_cast<std::size_t>(q));
-        double ws = 0;
-        for (int i = 0; i < q; ++i) {
-            const double m = k.levels.mass(i + 1);
-            p[i] = !k.densityWeights ? m : (zeros ? (w[i] <= k.zeroWidth ? m : 0.0) : m / w[i]);
-            ws += p[i];
-        }
+        // Eq. 5's point masses: the midpoints m_j and their weights p_j, as the kernel weighs.
         std::vector<double> mids, probs;
-        for (int i = 0; i < q; ++i) {
-            mids.push_back(0.5 * (b[i] + b[i + 1]));
-            probs.push_back(p[i] / ws);
+        for (const auto& a : dist.atoms) {
+            mids.push_back(a.x);
+            probs.push_back(a.mass);
         }
         j["midpoints"] = mids;
         j["probabilities"] = probs;
-        d.lo = b[0], d.hi = b[q];
-        pad(d, 0.05);
-        d.atoms = mids;
-        d.atomMass = probs;
     }
     void operator()(const MembersKernel& k) const {
         // The members' values at the point, each a point mass 1/n (the TF is averaged over them).
-        std::vector<double> f(static_cast<std::size_t>(k.n));
-        for (int i = 0; i < k.n; ++i) f[i] = k.memberAt<double>(i, cell, true);
+        std::vector<double> f;
+        for (const auto& a : dist.atoms) f.push_back(a.x);
         double mean = 0.0, ss = 0.0;
         for (double x : f) mean += x;
         mean /= k.n;
@@ -209,13 +125,18 @@ struct Describe {
         j["max"] = *hi;
         j["mean"] = mean;
         j["stddev"] = k.n > 1 ? std::sqrt(ss / (k.n - 1)) : 0.0;  // ddof = 1, as SPEC §2's σ
-        d.lo = *lo, d.hi = *hi;
-        if (!(d.hi > d.lo)) d.lo -= 0.5, d.hi += 0.5;
-        pad(d, 0.05);
-        d.atoms = f;
-        d.atomMass.assign(f.size(), 1.0 / k.n);
     }
 };
+
+// The distribution of a 1D kernel at a cell: its JSON (Describe) and its plot.
+template <class Kernel>
+void describeDistribution(const ModelFamily& family, const Kernel& k, const Cell<double>& cell,
+                          ProbeResult& r) {
+    PointDistribution dist;
+    distributionAt(k, cell, dist);
+    Describe{family, cell, dist, r.json}(k);
+    r.distribution = plotOf(dist);
+}
 
 }  // namespace
 
@@ -320,7 +241,7 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
         double v[4];
         k.finish(k.template load<double>(cell, true), v);
         setExpected(r, v);
-        Describe{family, cell, r.json, r.distribution}(k);
+        describeDistribution(family, k, cell, r);
     });
     return r;
 }
@@ -400,9 +321,8 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
         DescribeGradient{localCell, r.json}(k);
     });
     // The value's distribution is the 1D model's (the TF plays no part in it).
-    withKernel(model, kind, reconstructionOnlyTf(), options, [&](const auto& k) {
-        Describe{family, cell, r.json, r.distribution}(k);
-    });
+    withKernel(model, kind, reconstructionOnlyTf(), options,
+               [&](const auto& k) { describeDistribution(family, k, cell, r); });
     return r;
 }
 
@@ -418,7 +338,7 @@ ProbeResult probeBivariate(const ModelVolume& first, const ModelVolume& second, 
         double v[4];
         k.finish(k.template load<double>(cell, true), v);
         setExpected(r, v);
-        MarginalSummary y;
+        DistributionMoments y;
         if constexpr (std::is_same_v<std::decay_t<decltype(k)>, Bivariate2DKernel>)
             y = k.secondAt(cell);
         else
@@ -430,9 +350,8 @@ ProbeResult probeBivariate(const ModelVolume& first, const ModelVolume& second, 
         r.json["gradient_magnitude"] = {{"mean", y.mean()}, {"stddev", y.stddev()}};
     });
     // The first field's distribution is its 1D model's.
-    withKernel(first, kind, reconstructionOnlyTf(), options, [&](const auto& k) {
-        Describe{family, cell, r.json, r.distribution}(k);
-    });
+    withKernel(first, kind, reconstructionOnlyTf(), options,
+               [&](const auto& k) { describeDistribution(family, k, cell, r); });
     return r;
 }
 

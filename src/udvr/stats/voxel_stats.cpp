@@ -145,15 +145,15 @@ KdeCdfPdf kdeCdfPdf(std::span<const float> sorted, double h, double x) {
     const double invH = 1.0 / h;
     // 8 kernels per step (fast_math.h); the lanes past `last` in the final step are masked off.
     using V8d = detail::V8d;
-    const V8d xv = detail::splat8d(x), invHv = detail::splat8d(invH);
+    const V8d xv = lanes::splat<detail::V8d>(x), invHv = lanes::splat<detail::V8d>(invH);
     V8d cdf{}, pdf{};
     for (std::size_t i = first; i < last; i += 8) {
         const std::size_t m = std::min<std::size_t>(8, last - i);
         detail::V8f s{};
         std::memcpy(&s, sorted.data() + i, m * sizeof(float));
         const V8d u = (xv - __builtin_convertvector(s, V8d)) * invHv;
-        V8d c, p;
-        detail::normalCdfPdfLanes(u, c, p);
+        const NormalAt<V8d> normal = normalAt(u, detail::ExpNonPositiveOf{});
+        V8d c = normal.cdf, p = normal.pdf;
         if (m < 8) {
             const V8d lane{0, 1, 2, 3, 4, 5, 6, 7};
             const auto valid = lane < static_cast<double>(m);

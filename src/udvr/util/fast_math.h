@@ -7,11 +7,13 @@
 // vectors give two independent dependency chains per operation on AVX2 (or one zmm on AVX-512),
 // which the latency-bound EM loop needs. Error bounds are tested in fast_math_test.cpp.
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <type_traits>
 
+#include "udvr/util/lanes.h"
 #include "udvr/util/normal_cdf.h"
 
 namespace udvr::detail {
@@ -39,13 +41,8 @@ using V8i = Lanes<8>::I;
 using V8d = Lanes<8>::D;
 using V8l = Lanes<8>::L;
 
-/// Every lane = s.
-template <class V, class S>
-inline V splat(S s) {
-    return V{} + static_cast<decltype(V{}[0] + 0)>(s);
-}
-inline V8f splat8(float v) { return splat<V8f>(v); }
-inline V8d splat8d(double v) { return splat<V8d>(v); }
+// Every lane = s: the one `splat` of util/lanes.h, for vectors of any width.
+using lanes::splat;
 
 /// Bytes of the target's vector register.
 #if defined(__AVX512F__)
@@ -223,24 +220,19 @@ inline VD expNonPositiveD(VD x) {
     return flush ? VD{} : v;
 }
 
-/// Φ(u), 1 − Φ(u) and φ(u) of the standard normal on double lanes: the formula of
-/// util/normal_cdf.h (erfc through erfcx's degree-12 fit, |Φ error| < 4e−10) with
-/// expNonPositiveD. The upper tail is computed as such, never as 1 − Φ.
-template <class VD>
-inline void normalCdfPdfLanes(VD u, VD& cdf, VD& upper, VD& pdf) {
-    const VD g = expNonPositiveD(-0.5 * u * u);
-    const VD z = (u < 0.0 ? -u : u) * 0.70710678118654752440;
-    const VD tail = 0.5 * g * erfcxNonNegative(z);  // Φ(−|u|)
-    cdf = u >= 0.0 ? 1.0 - tail : tail;
-    upper = u >= 0.0 ? tail : 1.0 - tail;
-    pdf = 0.39894228040143267794 * g;
-}
-/// Φ(u) and φ(u) only.
-template <class VD>
-inline void normalCdfPdfLanes(VD u, VD& cdf, VD& pdf) {
-    VD upper;
-    normalCdfPdfLanes(u, cdf, upper, pdf);
-}
+/// e^x for x ≤ 0 on any real type: std::exp on scalars, expNonPositiveD on double lanes,
+/// expNonPositive on float lanes (relative error < 2.5e−7). normalAt's exponential on lanes.
+struct ExpNonPositiveOf {
+    template <class T>
+    UDVR_CPU_GPU T operator()(T x) const {
+        if constexpr (std::is_arithmetic_v<T>)
+            return std::exp(x);
+        else if constexpr (std::is_same_v<lanes::ScalarOf<T>, double>)
+            return expNonPositiveD(x);
+        else
+            return expNonPositive(x);
+    }
+};
 
 /// Φ(u) and φ(u) on float lanes for |u| < kNormalNearRange only (the fast box spline's nodes,
 /// classify/expected_tf.h): Φ(−|u|) = ½·e^(−u²/2)·erfcx(|u|/√2) with erfcx as a degree-7
