@@ -62,6 +62,7 @@ struct Connection {
     Clock::time_point since = Clock::now();
     std::shared_ptr<std::atomic<bool>> gone;  // set when the client goes while handling
     bool closeAfter = false;                  // the body was left unread: close after answering
+    std::shared_ptr<void> hold;               // the answer's body budget, until it is sent
 };
 
 // The open connections: a cap (the oldest waiting connection makes room for a new one), and
@@ -397,6 +398,7 @@ class BoundedServer final : public httplib::Server {
                     req.ranges.clear();  // byte ranges are not served: one body, as it is
                     stream.startBody(bodyBudget(req));
                 });
+            connection.hold.reset();                            // the answer has been sent
             if (stream.written() == 0) stream.answerFailure();  // httplib wrote nothing
             if (!ok || closed || connection.closeAfter ||
                 stream.failure() != BoundedStream::Failure::None)
@@ -422,11 +424,13 @@ class BoundedServer final : public httplib::Server {
     const HttpOptions& o_;
 };
 
-void answer(const ApiResponse& a, httplib::Response& res) {
+void answer(ApiResponse&& a, httplib::Response& res) {
     res.status = a.status;
     for (const auto& [k, v] : a.headers) res.set_header(k, v);
     res.set_header("Cache-Control", "no-store");
-    res.set_content(a.body, a.type);
+    res.set_header("Content-Type", a.type);
+    res.body = std::move(a.body);  // no copy of a 16 MiB image
+    if (tConnection) tConnection->hold = std::move(a.hold);
 }
 
 void answerError(int status, const std::string& message, httplib::Response& res) {
@@ -434,7 +438,8 @@ void answerError(int status, const std::string& message, httplib::Response& res)
                        "application/json",
                        nlohmann::json{{"error", message}}.dump(
                            -1, ' ', false, nlohmann::json::error_handler_t::replace),
-                       {}},
+                       {},
+                       nullptr},
            res);
 }
 
