@@ -263,10 +263,11 @@ class BoundedStream final : public httplib::Stream {
     bool waitForRequest(double seconds) const {
         return begin_ < end_ || waitFor(fd_, POLLIN, after(seconds));
     }
-    /// A new request: its head may take o.maxHeaderBytes and, with its body, o.readTimeout.
-    void startHead() {
+    /// A new request: its head may take o.maxHeaderBytes and, with its body, must have arrived
+    /// by `deadline`.
+    void startHead(Clock::time_point deadline) {
         budget_ = o_.maxHeaderBytes;
-        deadline_ = after(o_.readTimeout);
+        deadline_ = deadline;
         writeDeadline_.reset();
         written_ = 0;
         failure_ = Failure::None;
@@ -378,7 +379,8 @@ class BoundedServer final : public httplib::Server {
                          "too many connections (udvr serve --max-connections " +
                              std::to_string(registry_.maxConnections()) + ")");
             (void)::send(sock, answer.data(), answer.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-            closeGently(sock);
+            ::shutdown(sock, SHUT_WR);
+            ::close(sock);  // at once: this is the thread that accepts connections
             return true;
         }
         Connection connection;
@@ -388,8 +390,11 @@ class BoundedServer final : public httplib::Server {
         BoundedStream stream(sock, o_);
         for (int n = 0; n < kMaxRequestsPerConnection && !connection.evicted; ++n) {
             registry_.setHandling(&connection, false);
+            // The first request must have arrived within the read timeout of the connection's
+            // start; each later one within it of its first byte.
+            const Clock::time_point byThen = after(o_.readTimeout);
             if (!stream.waitForRequest(n == 0 ? o_.readTimeout : o_.keepAliveTimeout)) break;
-            stream.startHead();
+            stream.startHead(n == 0 ? byThen : after(o_.readTimeout));
             connection.closeAfter = false;
             bool closed = false;
             const bool ok = process_request(
