@@ -25,6 +25,11 @@ const state = {
   timings: [],            // {kind, channel, latency (event -> pixels, ms), render (ms)}
 };
 
+// This page load's own channels on the server: its seq counts from 1 whatever an older load (or
+// another tab) sent there.
+const PAGE = Array.from(crypto.getRandomValues(new Uint8Array(8)),
+                        (b) => b.toString(16).padStart(2, '0')).join('');
+
 // Numbers as sent to the server and shown in the command line (the same text).
 const fmt = {
   angle: (v) => String(Math.round(v * 10) / 10),
@@ -136,8 +141,8 @@ function pump(v) {
   const seq = ++state.seq;
   v.inFlight.set(seq, kind);
   const params = {...v.params, size: sizeText(kind === 'coarse'), ...cameraParams(),
-                  channel: v.channel, seq};
-  const query = JSON.stringify({...params, channel: undefined, seq: undefined});
+                  channel: v.channel, seq, page: PAGE};
+  const query = JSON.stringify({...params, channel: undefined, seq: undefined, page: undefined});
   // The PNG's 8-bit RGBA values without the PNG (no encoding, no decoding): the PNG itself is
   // asked for when saved (pngOf).
   getRender({...params, format: 'rgba'})
@@ -570,7 +575,7 @@ function idle() {
 
 // The PNG `udvr render` writes of the view's shown full frame (the server keeps the frame).
 async function pngOf(v) {
-  const params = {...JSON.parse(v.shown.query), channel: `png-${v.channel}`.slice(0, 32)};
+  const params = {...JSON.parse(v.shown.query), channel: `png-${v.channel}`.slice(0, 32), page: PAGE};
   return new Blob([(await getRender(params)).bytes], {type: 'image/png'});
 }
 

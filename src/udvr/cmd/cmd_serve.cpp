@@ -47,6 +47,7 @@ void addServeCommand(CLI::App& app) {
                     "a Host name requests may carry besides loopback names and addresses (a "
                     "reverse proxy's public name; repeatable; '*': any). Others get 403, as do "
                     "pages of other origins")
+        ->allow_extra_args(false)
         ->take_all();
     sub->add_option("--read-timeout", o->http.readTimeout,
                     "seconds a request's head and body may take to arrive (default 10)")
@@ -57,7 +58,7 @@ void addServeCommand(CLI::App& app) {
     sub->add_option("--max-connections", o->http.maxConnections,
                     "connections open at once (default 64; at the cap the one that has waited "
                     "longest for its request is closed, or the new one gets 503)")
-        ->check(CLI::Range(4, 4096));
+        ->check(CLI::Range(4, 512));
     sub->add_option("--max-header", o->http.maxHeaderBytes,
                     "bytes of a request's line and headers (default 65536; more: 431)")
         ->check(CLI::Range(std::size_t{1024}, std::size_t{1} << 24));

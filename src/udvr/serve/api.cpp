@@ -215,6 +215,8 @@ ApiResponse Api::handle(const ApiRequest& request) {
         return errorResponse(400, e.what());
     } catch (const std::bad_alloc&) {
         return errorResponse(503, "out of memory");
+    } catch (const Busy& e) {
+        return errorResponse(503, e.what());
     } catch (const std::exception& e) {
         return errorResponse(500, std::string("internal error: ") + e.what());
     } catch (...) {
@@ -304,6 +306,16 @@ ApiResponse Api::getState() {
         {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
         {"defaults", {{"size", "512x512"}, {"azimuth", 30.0}, {"elevation", 20.0}, {"zoom", 1.0}}}};
     return jsonResponse(state);
+}
+
+std::shared_ptr<void> Api::reserveBodies(std::size_t bytes) {
+    std::size_t now = bodyBytes_.load();
+    do
+        if (now > 0 && now + bytes > kMaxBodyBytesInFlight)
+            throw Busy("busy: " + std::to_string(now >> 20) +
+                       " MiB of images are on their way to clients; try again");
+    while (!bodyBytes_.compare_exchange_weak(now, now + bytes));
+    return std::shared_ptr<void>(nullptr, [this, bytes](void*) { bodyBytes_ -= bytes; });
 }
 
 void Api::inGate(const ApiRequest& request, const std::function<void()>& work) {
@@ -451,6 +463,9 @@ ApiResponse Api::getRender(const ApiRequest& request) {
         request.cancel);
     if (!done) return errorResponse(409, "superseded by a newer request on channel " + r.channel);
     ApiResponse out;
+    // Image bodies on their way (built, not yet taken by slow clients) are bounded: the 8-bit
+    // values and their copy in the body (PNG: at most as large, with its filter bytes).
+    out.hold = reserveBodies(2 * (result->image.rgba.size() + result->image.height + 1024));
     if (format == "rgba") {
         // The PNG's 8-bit values without the PNG: encoding and decoding a 512² PNG cost the page
         // ~25 ms.

@@ -12,6 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -55,6 +56,13 @@ struct ApiResponse {
     std::string type = "application/json";
     std::string body;
     std::vector<std::pair<std::string, std::string>> headers;
+    /// Held until the body has been sent (its bytes count against kMaxBodyBytesInFlight).
+    std::shared_ptr<void> hold;
+};
+
+/// Thrown when a request must wait for memory others hold: 503.
+struct Busy : std::runtime_error {
+    using std::runtime_error::runtime_error;
 };
 
 /// Limits on what a request may ask.
@@ -77,6 +85,8 @@ inline constexpr std::uint64_t kMaxSeq = (std::uint64_t{1} << 53) - 1;
 /// Images the server keeps (the difference image reuses the model and truth frames).
 inline constexpr std::size_t kCachedFrames = 12;
 inline constexpr std::size_t kCachedFrameBytes = std::size_t{256} << 20;
+/// Bytes of image bodies built and not yet sent (slow clients hold theirs): over it, 503.
+inline constexpr std::size_t kMaxBodyBytesInFlight = std::size_t{512} << 20;
 
 class Api {
   public:
@@ -111,6 +121,9 @@ class Api {
     /// Run heavy work in a turn of the render gate (no channel); throws RenderCancelled when its
     /// client has gone before or while it ran.
     void inGate(const ApiRequest& request, const std::function<void()>& work);
+    /// Count `bytes` of a body against kMaxBodyBytesInFlight until the token is dropped; throws
+    /// Busy over it (unless nothing else is on its way).
+    std::shared_ptr<void> reserveBodies(std::size_t bytes);
 
     /// The current 1D TF and its version (each POST /api/tf makes a new one).
     std::pair<std::shared_ptr<const TransferFunction1D>, std::uint64_t> currentTf() const;
@@ -128,6 +141,7 @@ class Api {
 
     ServeData data_;
     RenderGate gate_;
+    std::atomic<std::size_t> bodyBytes_{0};
     mutable std::mutex tfMutex_;
     std::shared_ptr<const TransferFunction1D> tf_;
     std::uint64_t tfVersion_ = 1;

@@ -62,6 +62,7 @@ struct Connection {
     Clock::time_point since = Clock::now();
     std::shared_ptr<std::atomic<bool>> gone;  // set when the client goes while handling
     bool closeAfter = false;                  // the body was left unread: close after answering
+    std::shared_ptr<void> hold;               // the answer's body budget, until it is sent
 };
 
 // The open connections: a cap (the oldest waiting connection makes room for a new one), and
@@ -262,10 +263,11 @@ class BoundedStream final : public httplib::Stream {
     bool waitForRequest(double seconds) const {
         return begin_ < end_ || waitFor(fd_, POLLIN, after(seconds));
     }
-    /// A new request: its head may take o.maxHeaderBytes and, with its body, o.readTimeout.
-    void startHead() {
+    /// A new request: its head may take o.maxHeaderBytes and, with its body, must have arrived
+    /// by `deadline`.
+    void startHead(Clock::time_point deadline) {
         budget_ = o_.maxHeaderBytes;
-        deadline_ = after(o_.readTimeout);
+        deadline_ = deadline;
         writeDeadline_.reset();
         written_ = 0;
         failure_ = Failure::None;
@@ -377,7 +379,8 @@ class BoundedServer final : public httplib::Server {
                          "too many connections (udvr serve --max-connections " +
                              std::to_string(registry_.maxConnections()) + ")");
             (void)::send(sock, answer.data(), answer.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-            closeGently(sock);
+            ::shutdown(sock, SHUT_WR);
+            ::close(sock);  // at once: this is the thread that accepts connections
             return true;
         }
         Connection connection;
@@ -387,8 +390,11 @@ class BoundedServer final : public httplib::Server {
         BoundedStream stream(sock, o_);
         for (int n = 0; n < kMaxRequestsPerConnection && !connection.evicted; ++n) {
             registry_.setHandling(&connection, false);
+            // The first request must have arrived within the read timeout of the connection's
+            // start; each later one within it of its first byte.
+            const Clock::time_point byThen = after(o_.readTimeout);
             if (!stream.waitForRequest(n == 0 ? o_.readTimeout : o_.keepAliveTimeout)) break;
-            stream.startHead();
+            stream.startHead(n == 0 ? byThen : after(o_.readTimeout));
             connection.closeAfter = false;
             bool closed = false;
             const bool ok = process_request(
@@ -397,6 +403,7 @@ class BoundedServer final : public httplib::Server {
                     req.ranges.clear();  // byte ranges are not served: one body, as it is
                     stream.startBody(bodyBudget(req));
                 });
+            connection.hold.reset();                            // the answer has been sent
             if (stream.written() == 0) stream.answerFailure();  // httplib wrote nothing
             if (!ok || closed || connection.closeAfter ||
                 stream.failure() != BoundedStream::Failure::None)
@@ -422,11 +429,13 @@ class BoundedServer final : public httplib::Server {
     const HttpOptions& o_;
 };
 
-void answer(const ApiResponse& a, httplib::Response& res) {
+void answer(ApiResponse&& a, httplib::Response& res) {
     res.status = a.status;
     for (const auto& [k, v] : a.headers) res.set_header(k, v);
     res.set_header("Cache-Control", "no-store");
-    res.set_content(a.body, a.type);
+    res.set_header("Content-Type", a.type);
+    res.body = std::move(a.body);  // no copy of a 16 MiB image
+    if (tConnection) tConnection->hold = std::move(a.hold);
 }
 
 void answerError(int status, const std::string& message, httplib::Response& res) {
@@ -434,7 +443,8 @@ void answerError(int status, const std::string& message, httplib::Response& res)
                        "application/json",
                        nlohmann::json{{"error", message}}.dump(
                            -1, ' ', false, nlohmann::json::error_handler_t::replace),
-                       {}},
+                       {},
+                       nullptr},
            res);
 }
 

@@ -77,5 +77,74 @@ TEST(RenderGate, AnErrorIsPassedOnAndTheGateStaysOpen) {
     EXPECT_EQ(gate.stats().running, 0);
 }
 
+// Issue 34, item 7: before, the 65th channel name failed until a restart.
+TEST(RenderGate, ANewChannelEvictsTheLeastRecentlyUsedIdleOne) {
+    RenderGate gate;
+    for (int k = 0; k < 200; ++k)
+        EXPECT_TRUE(
+            gate.run("c" + std::to_string(k), std::nullopt, [](const std::atomic<bool>&) {}));
+    EXPECT_EQ(gate.stats().channels, RenderGate::kMaxChannels);
+    EXPECT_EQ(gate.stats().evicted, 200 - RenderGate::kMaxChannels);
+}
+
+TEST(RenderGate, AChannelWithARequestUnderWayIsNotEvicted) {
+    RenderGate gate;
+    std::atomic<bool> started{false}, release{false};
+    std::thread busy([&] {  // the oldest channel, but in use
+        EXPECT_TRUE(gate.run("busy", 7, [&](const std::atomic<bool>&) {
+            started = true;
+            while (!release) std::this_thread::yield();
+        }));
+    });
+    while (!started) std::this_thread::yield();
+    // Requests whose clients have already gone: each makes its channel, gives up at once, and
+    // leaves it idle; 100 of them evict idle channels only.
+    const auto gone = std::make_shared<std::atomic<bool>>(true);
+    for (int k = 0; k < 100; ++k)
+        EXPECT_FALSE(gate.run(
+            "x" + std::to_string(k), std::nullopt, [](const std::atomic<bool>&) {}, gone));
+    release = true;
+    busy.join();
+    EXPECT_FALSE(gate.run("busy", 6, [](const std::atomic<bool>&) {}));  // its seq kept: in order
+    EXPECT_EQ(gate.stats().channels, RenderGate::kMaxChannels);
+}
+
+// Issue 34, item 6: a request whose client has gone gives up waiting, or stops rendering.
+TEST(RenderGate, ARequestWhoseClientWentIsCancelled) {
+    RenderGate gate;
+    std::atomic<bool> started{false}, release{false};
+    std::thread first([&] {
+        EXPECT_TRUE(gate.run("a", std::nullopt, [&](const std::atomic<bool>&) {
+            started = true;
+            while (!release) std::this_thread::yield();
+        }));
+    });
+    while (!started) std::this_thread::yield();
+    auto gone = std::make_shared<std::atomic<bool>>(false);
+    bool ran = false;
+    std::thread waiting([&] {
+        EXPECT_FALSE(gate.run(
+            "b", std::nullopt, [&](const std::atomic<bool>&) { ran = true; }, gone));
+    });
+    while (gate.stats().waiting == 0) std::this_thread::yield();
+    *gone = true;  // the client went while waiting
+    waiting.join();
+    EXPECT_FALSE(ran);
+    release = true;
+    first.join();
+    auto gone2 = std::make_shared<std::atomic<bool>>(false);
+    std::atomic<bool> started2{false};
+    std::thread running([&] {
+        EXPECT_FALSE(gate.run(
+            "c", std::nullopt, [&](const std::atomic<bool>& c) { untilCancelled(c, started2); },
+            gone2));
+    });
+    while (!started2) std::this_thread::yield();
+    *gone2 = true;  // the client went while rendering
+    running.join();
+    EXPECT_EQ(gate.stats().abandoned, 2u);
+    EXPECT_EQ(gate.stats().running, 0);
+}
+
 }  // namespace
 }  // namespace udvr::serve
