@@ -24,7 +24,15 @@ struct Tf2ReadOptions {
     /// W, H for widgets (.json): default the file's "resolution", else 256×256; an error for
     /// rasters.
     std::optional<std::array<int, 2>> resolution;
+    /// Rasterise widgets even when that takes over kMaxTf2WidgetWorkWithoutForce evaluations.
+    bool force = false;
 };
+
+/// Widget evaluations (points × widgets, a band counting one per segment) over which
+/// rasterising a widget file needs Tf2ReadOptions::force (`--force`). 256 ellipses at 1024²
+/// (2.7e8) took 41 s on 2 busy cores; a 26 KB file of 256 ellipses at 8192² is 1.7e10 (issue 34).
+/// The default 256² takes 1e8 / 65536 ≈ 1500 widgets.
+inline constexpr double kMaxTf2WidgetWorkWithoutForce = 1e8;
 
 /// A widget file as parsed, before rasterisation.
 struct Tf2WidgetFile {

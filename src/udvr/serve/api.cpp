@@ -575,7 +575,7 @@ ApiResponse Api::getHistogram2D(const ApiRequest& request) {
     std::array<int, 2> bins{128, 128};
     if (q.has("bins")) {
         const std::string text = q.text("bins");
-        bins = parseSize(text, "bins");  // N or NXxNY
+        bins = parseSize(text, "bins", kMaxHistogram2DBins);  // N or NXxNY
         if (bins[0] > kMaxHistogram2DBins || bins[1] > kMaxHistogram2DBins)
             UDVR_FAIL("bins must be N or NXxNY with 1 <= N <= " << kMaxHistogram2DBins << ", got '"
                                                                 << Query::clip(text) << "'");
