@@ -125,3 +125,36 @@ def tf2_at(raster, domain, x, y):
     below = raster[j, i] + fx * (raster[j, i + 1] - raster[j, i])
     above = raster[j + 1, i] + fx * (raster[j + 1, i + 1] - raster[j + 1, i])
     return below + fy * (above - below)
+
+
+def host_port(server):
+    """(host, port) of a Server's URL."""
+    host, port = server.url.split("//", 1)[1].rsplit(":", 1)
+    return host, int(port)
+
+
+def raw_exchange(server, data, timeout=10.0):
+    """Send `data` (bytes) on a new connection and read until the server closes it (or
+    `timeout`); (status or None, the whole answer)."""
+    import socket
+    with socket.create_connection(host_port(server), timeout=timeout) as s:
+        try:
+            s.sendall(data)
+        except OSError:
+            pass
+        answer = b""
+        try:
+            while chunk := s.recv(1 << 16):
+                answer += chunk
+        except OSError:
+            pass
+    status = int(answer.split(b" ", 2)[1]) if answer.startswith(b"HTTP/1.1 ") else None
+    return status, answer
+
+
+def rss_mib(server):
+    """The server process's resident memory, MiB (Linux)."""
+    for line in pathlib.Path(f"/proc/{server.proc.pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    raise RuntimeError("no VmRSS")

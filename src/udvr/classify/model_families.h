@@ -134,9 +134,8 @@ void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFuncti
     const ModelFamily& family = modelFamily(kind);
     if (!family.makeKernel2D)
         UDVR_FAIL("model '" << family.name
-                            << "' has no 2D transfer-function classification yet (built: mean, "
-                               "gaussian, quantile-range, quantile-mean, quantile-mean-mass, iqr "
-                               "and the quartile views)");
+                            << "' has no 2D transfer-function classification yet (built: "
+                            << modelNames(true) << ")");
     GradientCache local;
     Tf2Setup setup(tf, model, cache ? *cache : local);
     std::visit(f, family.makeKernel2D(model, setup, options, family));

@@ -8,12 +8,17 @@ namespace udvr {
 ModelKind parseModelKind(std::string_view name) {
     for (const ModelFamily& f : modelFamilies())
         if (f.name == name) return f.kind;
+    UDVR_FAIL("unknown model '" << name << "'; expected one of: " << modelNames());
+}
+
+std::string modelNames(bool twoD) {
     std::string all;
     for (const ModelFamily& f : modelFamilies()) {
+        if (twoD && !f.makeKernel2D) continue;
         if (!all.empty()) all += ", ";
         all += f.name;
     }
-    UDVR_FAIL("unknown model '" << name << "'; expected one of: " << all);
+    return all;
 }
 
 std::string_view modelName(ModelKind kind) { return modelFamily(kind).name; }

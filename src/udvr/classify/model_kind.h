@@ -29,6 +29,9 @@ ModelKind parseModelKind(std::string_view name);
 std::string_view modelName(ModelKind kind);
 /// All models, in the order of SPEC §3–4.
 const std::vector<ModelKind>& allModelKinds();
+/// The names of the models (in table order, "mean, uniform, …"); with a 2D TF (SPEC §9) only
+/// those with a 2D classification.
+std::string modelNames(bool twoD = false);
 /// Whether a model needs the quantile boundaries array.
 bool needsQuantiles(ModelKind kind);
 

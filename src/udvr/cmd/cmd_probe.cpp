@@ -41,8 +41,8 @@ void addProbeCommand(CLI::App& app) {
                     "reduced grid)");
     sub->add_option("--world", o->world, "world coordinates x,y,z instead of --point");
     sub->add_option("--model", o->kind,
-                    "noise model (mean, uniform, uniform-fast, gaussian, gmm-ordered, "
-                    "quantile-range, ..., members; default mean)");
+                    "noise model (default mean): " + modelNames() +
+                        " (gmm-mc renders only: it has no distribution at a point)");
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
     sub->add_option("--second", o->second,

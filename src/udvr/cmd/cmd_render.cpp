@@ -182,11 +182,10 @@ void addRenderCommand(CLI::App& app) {
            "model .vti or .pvti from 'udvr build', or any scalar field; with --model members an "
            "ensemble (.nc with a member dimension, member files or a quoted glob)")
         ->required();
-    sub->add_option(
-        "--model", o->model,
-        "mean | uniform | uniform-fast | gaussian | gmm-ordered | gmm-mc | quantile-range | "
-        "quantile-mean | quantile-mean-mass | iqr | quartile-lower|middle|upper | "
-        "members (an ensemble's TF averaged over its members; default mean)");
+    sub->add_option("--model", o->model,
+                    "noise model (default mean): " + modelNames() +
+                        " (members: an ensemble's TF averaged over its members; with --tf2: " +
+                        modelNames(true) + ")");
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
     sub->add_option("--second", o->second,

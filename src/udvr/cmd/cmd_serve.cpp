@@ -11,6 +11,7 @@
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/serve/api.h"
 #include "udvr/serve/http_server.h"
+#include "udvr/serve/request_guard.h"
 #include "udvr/util/check.h"
 
 namespace udvr::cmd {
@@ -20,8 +21,8 @@ void addServeCommand(CLI::App& app) {
         "serve",
         "explore a model in the browser: orbit, edit the TF, switch models, probe (docs/serve.md)");
     struct Opts {
-        std::string model, truth, second, var, host = "127.0.0.1";
-        int port = 8080;
+        std::string model, truth, second, var;
+        serve::HttpOptions http;
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
@@ -38,10 +39,31 @@ void addServeCommand(CLI::App& app) {
                     "the RMSE (SPEC 6)");
     sub->add_option("--second", o->second,
                     "bivariate fields: the model giving the TF2's y (same grid; needs --tf2)");
-    sub->add_option("--port", o->port, "TCP port (default 8080; 0 picks a free one)")
+    sub->add_option("--port", o->http.port, "TCP port (default 8080; 0 picks a free one)")
         ->check(wholeNumberIn(0, 65535));
-    sub->add_option("--host", o->host,
+    sub->add_option("--host", o->http.host,
                     "address to listen on (default 127.0.0.1: this machine only)");
+    sub->add_option("--allow-host", o->http.allowHosts,
+                    "a Host name requests may carry besides loopback names and addresses (a "
+                    "reverse proxy's public name; repeatable; '*': any). Others get 403, as do "
+                    "pages of other origins")
+        ->take_all();
+    sub->add_option("--read-timeout", o->http.readTimeout,
+                    "seconds a request's head and body may take to arrive (default 10)")
+        ->check(CLI::Range(0.1, 3600.0));
+    sub->add_option("--write-timeout", o->http.writeTimeout,
+                    "seconds a client may take to receive a response (default 60)")
+        ->check(CLI::Range(0.1, 3600.0));
+    sub->add_option("--max-connections", o->http.maxConnections,
+                    "connections open at once (default 64; at the cap the one that has waited "
+                    "longest for its request is closed, or the new one gets 503)")
+        ->check(CLI::Range(4, 4096));
+    sub->add_option("--max-header", o->http.maxHeaderBytes,
+                    "bytes of a request's line and headers (default 65536; more: 431)")
+        ->check(CLI::Range(std::size_t{1024}, std::size_t{1} << 24));
+    sub->add_option("--max-body", o->http.maxBodyBytes,
+                    "bytes of a POST body, any transfer encoding (default 1048576; more: 413)")
+        ->check(CLI::Range(std::size_t{1024}, std::size_t{1} << 30));
     sub->add_option("--var", o->var, "array/variable name in the inputs");
     addRawLayoutOptions(sub, o->raw);
     sub->callback([o] {
@@ -76,16 +98,22 @@ void addServeCommand(CLI::App& app) {
             data.second = readModelOrField(o->second, o->var, o->raw);
             data.secondFile = o->second;
         }
-        if (o->host != "127.0.0.1" && o->host != "localhost" && o->host != "::1")
+        const std::string& host = o->http.host;
+        if (host != "127.0.0.1" && host != "localhost" && host != "::1") {
             std::fprintf(stderr,
                          "serve: warning: listening on %s: whoever reaches this address can use "
                          "the viewer (no authentication)\n",
-                         o->host.c_str());
+                         host.c_str());
+            // Requests naming the address it listens on are the server's own.
+            if (host != "0.0.0.0" && host != "::" && !host.empty())
+                o->http.allowHosts.push_back(serve::hostNameOf(
+                    host.find(':') != std::string::npos ? "[" + host + "]" : host));
+        }
+        data.maxBodyBytes = o->http.maxBodyBytes;
         serve::Api api(std::move(data));
-        serve::runHttpServer(api, o->host, o->port, [&](int port) {
+        serve::runHttpServer(api, o->http, [&](int port) {
             if (!twoD) finishTransferFunction(o->tf, tfChoice);  // --save-tf, the preset's note
-            const std::string shown =
-                o->host.find(':') != std::string::npos ? "[" + o->host + "]" : o->host;
+            const std::string shown = host.find(':') != std::string::npos ? "[" + host + "]" : host;
             std::printf("udvr serve: http://%s:%d/ (Ctrl-C stops)\n", shown.c_str(), port);
             std::fflush(stdout);
         });

@@ -10,10 +10,13 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <type_traits>
+#include <variant>
 
 #include "udvr/classify/model_families.h"
 #include "udvr/classify/probe.h"
 #include "udvr/classify/tf_presets.h"
+#include "udvr/classify/transfer_function_2d_widgets.h"
 #include "udvr/eval/image_metrics.h"
 #include "udvr/eval/tf2_plot.h"
 #include "udvr/io/transfer_function_2d_io.h"
@@ -41,7 +44,7 @@ const std::vector<std::string> kRenderKeys = [] {
     return keys;
 }();
 // Parameters that steer the request, not the image.
-const std::vector<std::string> kControlKeys = {"channel", "seq", "source", "format"};
+const std::vector<std::string> kControlKeys = {"channel", "seq", "page", "source", "format"};
 
 ApiResponse jsonResponse(const json& body, int status = 200) {
     ApiResponse r;
@@ -303,11 +306,20 @@ ApiResponse Api::getState() {
     return jsonResponse(state);
 }
 
+void Api::inGate(const ApiRequest& request, const std::function<void()>& work) {
+    if (!gate_.run(
+            "", std::nullopt, [&](const std::atomic<bool>&) { work(); }, request.cancel))
+        throw RenderCancelled();
+}
+
 ApiResponse Api::getStatus() {
     const RenderGate::Stats s = gate_.stats();
     return jsonResponse(json{{"completed", s.completed},
                              {"cancelled", s.cancelled},
                              {"superseded", s.superseded},
+                             {"abandoned", s.abandoned},
+                             {"evicted", s.evicted},
+                             {"channels", s.channels},
                              {"running", s.running},
                              {"waiting", s.waiting}});
 }
@@ -384,8 +396,17 @@ std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::
     }
     std::lock_guard lock(cacheMutex_);
     frames_.emplace_front(key, out);
-    constexpr std::size_t kCachedFrames = 12;  // ≤ 12 × 2048² × 16 bytes; 512²: 50 MB
-    while (frames_.size() > kCachedFrames) frames_.pop_back();
+    // At most kCachedFrames images and kCachedFrameBytes (12 of 512²: 50 MB; 2048²: 64 MB each).
+    std::size_t bytes = 0;
+    for (auto it = frames_.begin(); it != frames_.end(); ++it) {
+        bytes += it->second->image.rgba.size() * sizeof(float);
+        if (it != frames_.begin() &&
+            (std::distance(frames_.begin(), it) >= static_cast<long>(kCachedFrames) ||
+             bytes > kCachedFrameBytes)) {
+            frames_.erase(it, frames_.end());
+            break;
+        }
+    }
     return out;
 }
 
@@ -399,7 +420,15 @@ ApiResponse Api::getRender(const ApiRequest& request) {
     if (!isToken(r.channel))
         UDVR_FAIL("channel must be 1-32 letters, digits, '-' or '_', got '"
                   << Query::clip(r.channel) << "'");
-    r.seq = q.whole("seq", 0, UINT64_MAX);
+    r.seq = q.whole("seq", 0, kMaxSeq);
+    // A page load's own channels: its seq counts from 1, whatever another page (or an older
+    // load of this one) sent.
+    if (const std::string* page = q.find("page")) {
+        if (!isToken(*page))
+            UDVR_FAIL("page must be 1-32 letters, digits, '-' or '_', got '" << Query::clip(*page)
+                                                                             << "'");
+        r.channel = *page + "/" + r.channel;
+    }
     const std::string format = q.text("format", "png");
     if (format != "png" && format != "rgba")
         UDVR_FAIL("format must be png or rgba, got '" << Query::clip(format) << "'");
@@ -416,9 +445,10 @@ ApiResponse Api::getRender(const ApiRequest& request) {
     // Errors that need no rendering come before the gate: the model's arrays.
     if (r.source != "truth") checkModelHasArrays(data_.model, r.kind, ClassifyOptions{});
     std::shared_ptr<const Frame> result;
-    const bool done = gate_.run(r.channel, r.seq, [&](const std::atomic<bool>& cancel) {
-        result = frame(r, r.source, cancel);
-    });
+    const bool done = gate_.run(
+        r.channel, r.seq,
+        [&](const std::atomic<bool>& cancel) { result = frame(r, r.source, cancel); },
+        request.cancel);
     if (!done) return errorResponse(409, "superseded by a newer request on channel " + r.channel);
     ApiResponse out;
     if (format == "rgba") {
@@ -476,21 +506,45 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
             renderSettingsFromOptions(flags, data_.model, true, visibleBox, note);
         const int x = static_cast<int>(*q.whole("x", 0, static_cast<std::uint64_t>(s.width - 1)));
         const int y = static_cast<int>(*q.whole("y", 0, static_cast<std::uint64_t>(s.height - 1)));
-        const auto hit = data_.second ? firstVisibleSampleBivariate(data_.model, *data_.second,
-                                                                    kind, *tf2.tf, s, x, y)
-                         : tf2.tf     ? firstVisibleSample(data_.model, kind, *tf2.tf, s, x, y)
-                                      : firstVisibleSample(data_.model, kind, *tf, s, x, y);
+        // The ray's samples are classified in double precision and kept: bounded before the work
+        // (render's own limit is per frame, which a 1x1 image does not bound).
+        if (flags.step > 0.0) {
+            const auto& b = data_.model.bounds;
+            const double samples = std::hypot(b[1] - b[0], b[3] - b[2], b[5] - b[4]) / flags.step;
+            if (samples > kMaxProbeRaySamples)
+                UDVR_FAIL("step " << flags.step << " takes up to " << samples
+                                  << " samples on the probed ray, over the limit of "
+                                  << kMaxProbeRaySamples << "; give a larger step");
+        }
+        std::optional<std::array<double, 3>> hit;
+        if (!gate_.run(
+                "", std::nullopt,
+                [&](const std::atomic<bool>&) {
+                    hit = data_.second ? firstVisibleSampleBivariate(data_.model, *data_.second,
+                                                                     kind, *tf2.tf, s, x, y)
+                          : tf2.tf     ? firstVisibleSample(data_.model, kind, *tf2.tf, s, x, y)
+                                       : firstVisibleSample(data_.model, kind, *tf, s, x, y);
+                },
+                request.cancel))
+            return errorResponse(409, "cancelled");
         if (!hit)
             return errorResponse(404, "no visible sample under pixel (" + std::to_string(x) + ", " +
                                           std::to_string(y) +
                                           "): the ray misses the volume or the TF hides it");
         point = *hit;
     }
-    const ProbeResult r =
-        data_.second ? probeBivariate(data_.model, *data_.second, kind, *tf2.tf, point, options)
-        : tf2.tf     ? probeModel(data_.model, kind, *tf2.tf, point, options)
-                     : probeModel(data_.model, kind, *tf, point, options);
-    ApiResponse out = jsonResponse(r.json);
+    std::optional<ProbeResult> r;
+    if (!gate_.run(
+            "", std::nullopt,
+            [&](const std::atomic<bool>&) {
+                r = data_.second
+                        ? probeBivariate(data_.model, *data_.second, kind, *tf2.tf, point, options)
+                    : tf2.tf ? probeModel(data_.model, kind, *tf2.tf, point, options)
+                             : probeModel(data_.model, kind, *tf, point, options);
+            },
+            request.cancel))
+        return errorResponse(409, "cancelled");
+    ApiResponse out = jsonResponse(r->json);
     out.headers.emplace_back("X-Udvr-Tf-Version", std::to_string(version));
     return out;
 }
@@ -508,16 +562,21 @@ ApiResponse Api::getHistogram(const ApiRequest& request) {
         UDVR_FAIL("no " << source << " field: udvr serve was started without --" << source);
     const std::vector<float>& values = volume->mean;
     if (values.empty()) UDVR_FAIL("the " << source << " has no values");
-    const auto [mn, mx] = std::minmax_element(values.begin(), values.end());
-    double lo = q.number("lo", -1e300, 1e300).value_or(*mn);
-    double hi = q.number("hi", -1e300, 1e300).value_or(*mx);
-    if (!(hi > lo)) {
-        if (q.has("lo") || q.has("hi")) UDVR_FAIL("hi must be above lo");
-        lo -= 0.5, hi += 0.5;
-    }
-    const Histogram h = histogramOf(values, lo, hi, bins);
-    const ValueSummary summary = summarizeValues(values);
-    const auto robust = robustRange(summary);
+    const auto loGiven = q.number("lo", -1e300, 1e300), hiGiven = q.number("hi", -1e300, 1e300);
+    Histogram h;
+    std::optional<ValueSummary> summary;
+    std::array<double, 2> robust{};
+    inGate(request, [&] {
+        const auto [mn, mx] = std::minmax_element(values.begin(), values.end());
+        double lo = loGiven.value_or(*mn), hi = hiGiven.value_or(*mx);
+        if (!(hi > lo)) {
+            if (loGiven || hiGiven) UDVR_FAIL("hi must be above lo");
+            lo -= 0.5, hi += 0.5;
+        }
+        h = histogramOf(values, lo, hi, bins);
+        summary = summarizeValues(values);
+        robust = robustRange(*summary);
+    });
     return jsonResponse(json{
         {"source", source},
         {"values", volume->quantileCount > 0 || volume->gmmComponents > 0 || !volume->stddev.empty()
@@ -529,7 +588,7 @@ ApiResponse Api::getHistogram(const ApiRequest& request) {
         {"below", h.below},
         {"above", h.above},
         {"robust_range", robust},
-        {"median", summary.percentile(50)}});
+        {"median", summary->percentile(50)}});
 }
 
 ApiResponse Api::getTf() {
@@ -541,8 +600,8 @@ ApiResponse Api::getTf() {
 }
 
 ApiResponse Api::postTf(const ApiRequest& request) {
-    if (request.body.size() > kMaxBodyBytes)
-        UDVR_FAIL("the TF JSON is over " << kMaxBodyBytes << " bytes");
+    if (request.body.size() > data_.maxBodyBytes)
+        UDVR_FAIL("the TF JSON is over " << data_.maxBodyBytes << " bytes");
     auto tf = std::make_shared<TransferFunction1D>(
         parseTransferFunction(request.body, "the posted transfer function"));
     tf->validate();
@@ -564,9 +623,11 @@ ApiResponse Api::getPreset(const ApiRequest& request) {
         if (v.size() != 2 || !(v[1] > v[0])) UDVR_FAIL("range must be lo,hi with lo < hi");
         range = std::array<double, 2>{v[0], v[1]};
     }
-    const PresetOverValues p = transferFunctionPresetOver(name, data_.model.mean, range);
     ApiResponse out;
-    out.body = transferFunctionToJson(p.tf, name);
+    inGate(request, [&] {  // percentiles of every voxel
+        out.body = transferFunctionToJson(
+            transferFunctionPresetOver(name, data_.model.mean, range).tf, name);
+    });
     return out;
 }
 
@@ -580,34 +641,41 @@ ApiResponse Api::getHistogram2D(const ApiRequest& request) {
             UDVR_FAIL("bins must be N or NXxNY with 1 <= N <= " << kMaxHistogram2DBins << ", got '"
                                                                 << Query::clip(text) << "'");
     }
-    // x: the model's means; y: their gradient magnitudes (as `udvr tf2 --volume`), or the
-    // second field's means with --second.
-    const std::vector<float>& x = data_.model.mean;
-    const std::vector<float>* y = nullptr;
-    if (data_.second) {
-        y = &data_.second->mean;
-    } else {
-        std::lock_guard lock(gradientMutex_);
-        if (gradientMagnitudes_.empty())
-            gradientMagnitudes_ = gridGradientMagnitudes(data_.model.grid, x.data());
-        y = &gradientMagnitudes_;
-    }
-    if (x.empty() || x.size() != y->size()) UDVR_FAIL("the model has no values");
-    std::array<double, 4> domain{};
-    const Tf2State tf2 = currentTf2();
+    std::optional<std::array<double, 4>> domainGiven;
     if (q.has("domain")) {
         const auto v = parseDoubleList(q.text("domain"), "domain");
         if (v.size() != 4 || !(v[1] > v[0]) || !(v[3] > v[2]))
             UDVR_FAIL("domain must be x0,x1,y0,y1 with x0 < x1 and y0 < y1");
-        domain = {v[0], v[1], v[2], v[3]};
-    } else if (tf2.tf) {
-        domain = {tf2.tf->x0, tf2.tf->x1, tf2.tf->y0, tf2.tf->y1};
-    } else {  // the data's ranges
-        const auto [x0, x1] = std::minmax_element(x.begin(), x.end());
-        const auto [y0, y1] = std::minmax_element(y->begin(), y->end());
-        domain = {*x0, *x1 > *x0 ? *x1 : *x0 + 1.0, *y0, *y1 > *y0 ? *y1 : *y0 + 1.0};
+        domainGiven = {v[0], v[1], v[2], v[3]};
     }
-    const JointHistogram h = jointHistogram(x, *y, bins[0], bins[1], domain);
+    const Tf2State tf2 = currentTf2();
+    JointHistogram h;
+    inGate(request, [&] {
+        // x: the model's means; y: their gradient magnitudes (as `udvr tf2 --volume`), or the
+        // second field's means with --second.
+        const std::vector<float>& x = data_.model.mean;
+        const std::vector<float>* y = nullptr;
+        if (data_.second) {
+            y = &data_.second->mean;
+        } else {
+            std::lock_guard lock(gradientMutex_);
+            if (gradientMagnitudes_.empty())
+                gradientMagnitudes_ = gridGradientMagnitudes(data_.model.grid, x.data());
+            y = &gradientMagnitudes_;
+        }
+        if (x.empty() || x.size() != y->size()) UDVR_FAIL("the model has no values");
+        std::array<double, 4> domain{};
+        if (domainGiven) {
+            domain = *domainGiven;
+        } else if (tf2.tf) {
+            domain = {tf2.tf->x0, tf2.tf->x1, tf2.tf->y0, tf2.tf->y1};
+        } else {  // the data's ranges
+            const auto [x0, x1] = std::minmax_element(x.begin(), x.end());
+            const auto [y0, y1] = std::minmax_element(y->begin(), y->end());
+            domain = {*x0, *x1 > *x0 ? *x1 : *x0 + 1.0, *y0, *y1 > *y0 ? *y1 : *y0 + 1.0};
+        }
+        h = jointHistogram(x, *y, bins[0], bins[1], domain);
+    });
     std::vector<std::uint64_t> counts(h.counts.size());
     for (std::size_t k = 0; k < counts.size(); ++k)
         counts[k] = static_cast<std::uint64_t>(h.counts[k]);
@@ -637,8 +705,8 @@ ApiResponse Api::getTf2() {
 ApiResponse Api::postTf2(const ApiRequest& request) {
     if (!currentTf2().tf)
         UDVR_FAIL("no 2D transfer function to replace: start udvr serve with --tf2 WIDGETS.json");
-    if (request.body.size() > kMaxBodyBytes)
-        UDVR_FAIL("the 2D TF JSON is over " << kMaxBodyBytes << " bytes");
+    if (request.body.size() > data_.maxBodyBytes)
+        UDVR_FAIL("the 2D TF JSON is over " << data_.maxBodyBytes << " bytes");
     const std::string what = "the posted 2D transfer function";
     // Check the sizes before rasterising: W·H points × widgets is the work.
     const Tf2WidgetFile file = parseTf2Widgets(request.body, what);
@@ -649,9 +717,30 @@ ApiResponse Api::postTf2(const ApiRequest& request) {
                             (*file.resolution)[1] > kMaxPostedTf2Resolution))
         UDVR_FAIL(what << ": resolution " << (*file.resolution)[0] << "x" << (*file.resolution)[1]
                        << " is over " << kMaxPostedTf2Resolution << " points per axis");
-    // As `udvr render --tf2 FILE` reads the same text.
-    auto tf =
-        std::make_shared<TransferFunction2D>(transferFunction2DFromWidgets(request.body, what));
+    // The rasterisation's work: every raster point evaluates every widget (a band each segment).
+    double terms = 0.0;
+    for (const Tf2Widget& w : file.widgets)
+        terms += std::visit(
+            [](const auto& shape) -> double {
+                if constexpr (std::is_same_v<std::decay_t<decltype(shape)>, Tf2Band>)
+                    return static_cast<double>(std::max<std::size_t>(shape.points.size(), 2) - 1);
+                else
+                    return 1.0;
+            },
+            w.shape);
+    const auto [width, height] =
+        file.resolution.value_or(std::array<int, 2>{kDefaultTf2Resolution, kDefaultTf2Resolution});
+    const double work = static_cast<double>(width) * height * terms;
+    if (work > kMaxPostedTf2Work)
+        UDVR_FAIL(what << ": " << width << "x" << height << " points x " << terms
+                       << " widget terms (a band counts its segments) is over the limit of "
+                       << kMaxPostedTf2Work << "; use fewer band points or a coarser resolution");
+    // As `udvr render --tf2 FILE` reads the same text, in a turn of the gate (it is heavy work).
+    std::shared_ptr<TransferFunction2D> tf;
+    inGate(request, [&] {
+        tf =
+            std::make_shared<TransferFunction2D>(transferFunction2DFromWidgets(request.body, what));
+    });
     auto widgets = std::make_shared<std::string>(completeWidgetJson(request.body, what, *tf));
     std::lock_guard lock(tfMutex_);
     tf2_.tf = std::move(tf);

@@ -6,6 +6,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <list>
 #include <map>
 #include <memory>
@@ -38,12 +39,15 @@ struct ServeData {
     std::string tf2File;
     /// --tf2 as widget JSON: the file's text (editable on the page); empty for a raster TF2.
     std::string tf2Widgets;
+    std::size_t maxBodyBytes = 1 << 20;  // POST bodies (--max-body)
 };
 
 struct ApiRequest {
     std::string method = "GET", path;
     std::vector<std::pair<std::string, std::string>> params;  // query, in order (repeats kept)
     std::string body;
+    /// Set when the client has gone: the request's work is cancelled (null: never).
+    std::shared_ptr<std::atomic<bool>> cancel;
 };
 
 struct ApiResponse {
@@ -63,6 +67,16 @@ inline constexpr int kMaxHistogram2DBins = 1024;      // per axis of /api/histog
 inline constexpr int kMaxPostedTf2Resolution = 1024;  // raster points per axis of POST /api/tf2
 inline constexpr std::size_t kMaxPostedTf2Widgets = 256;
 inline constexpr int kMaxTf2RowPoints = 4096;  // points of GET /api/tf2/row
+/// Raster points × widget terms (a band counts its segments) of POST /api/tf2: 256 widgets at
+/// 1024² (about 1 s on one core).
+inline constexpr double kMaxPostedTf2Work = 1 << 28;
+/// Samples on the ray of /api/probe?x=&y= (each classified in double precision and kept).
+inline constexpr double kMaxProbeRaySamples = 1 << 20;
+/// seq of /api/render: JavaScript's largest exact integer, 2^53 − 1.
+inline constexpr std::uint64_t kMaxSeq = (std::uint64_t{1} << 53) - 1;
+/// Images the server keeps (the difference image reuses the model and truth frames).
+inline constexpr std::size_t kCachedFrames = 12;
+inline constexpr std::size_t kCachedFrameBytes = std::size_t{256} << 20;
 
 class Api {
   public:
@@ -94,6 +108,9 @@ class Api {
     ApiResponse postTf2(const ApiRequest& request);
     ApiResponse getTf2Row(const ApiRequest& request);
     ApiResponse getStatus();
+    /// Run heavy work in a turn of the render gate (no channel); throws RenderCancelled when its
+    /// client has gone before or while it ran.
+    void inGate(const ApiRequest& request, const std::function<void()>& work);
 
     /// The current 1D TF and its version (each POST /api/tf makes a new one).
     std::pair<std::shared_ptr<const TransferFunction1D>, std::uint64_t> currentTf() const;

@@ -23,7 +23,7 @@ using VD = detail::Lanes<kLanes>::D;
 using VL = detail::Lanes<kLanes>::L;
 using detail::lanesLess;
 using detail::selectBits;
-using detail::splat;
+using lanes::splat;
 constexpr double kHalfLog2Pi = 0.91893853320467274178;  // ½·log(2π)
 
 struct Component {

@@ -15,6 +15,7 @@
 // below give scalars the same vocabulary (select, anyOf, fma …), so one body serves all of them.
 #include <bit>
 #include <cmath>
+#include <concepts>
 #include <cstdint>
 #include <cstring>
 #include <tuple>
@@ -57,22 +58,35 @@ using Mask = Vi;                                                    // lanes −
 /// Whether T is a lane vector (else a scalar).
 template <class T>
 inline constexpr bool kIsVector = std::is_same_v<T, Vf>;
+/// Whether T is any GCC vector (Vf, or the wider float/double vectors of util/fast_math.h).
+template <class T>
+concept AnyVector = !std::is_arithmetic_v<T> && requires(T v) {
+    { v[0] + 0 } -> std::convertible_to<double>;
+};
+template <class T>
+struct ElementOf {
+    using type = T;
+};
+template <AnyVector T>
+struct ElementOf<T> {
+    using type = std::remove_cvref_t<decltype(std::declval<T>()[0])>;
+};
 
 /// The mask and integer types that go with a value type: bool and int for scalars.
 template <class T>
 using MaskOf = std::conditional_t<kIsVector<T>, Mask, bool>;
 template <class T>
 using IntOf = std::conditional_t<kIsVector<T>, Vi, int>;
-/// The scalar type of T (float for Vf).
+/// The scalar type of T (float for Vf, the element type of any vector, T for a scalar).
 template <class T>
-using ScalarOf = std::conditional_t<kIsVector<T>, float, T>;
+using ScalarOf = typename ElementOf<T>::type;
 
 // ---- construction --------------------------------------------------------------------------
-/// Every lane = s (scalars: s itself).
+/// Every lane = s (scalars: s itself); T is Vf, a scalar, or any vector of util/fast_math.h.
 template <class T>
 UDVR_CPU_GPU inline T splat(ScalarOf<T> s) {
-    if constexpr (kIsVector<T>)
-        return Vf{} + s;
+    if constexpr (AnyVector<T>)
+        return T{} + s;
     else
         return s;
 }
