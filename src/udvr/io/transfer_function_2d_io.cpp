@@ -303,6 +303,19 @@ Tf2WidgetFile parseTf2Widgets(const std::string& text, const std::string& what) 
     return out;
 }
 
+double tf2WidgetWork(const std::vector<Tf2Widget>& widgets, int width, int height) {
+    double perPoint = 0;  // widget evaluations per raster point
+    for (const Tf2Widget& w : widgets)
+        perPoint += std::visit(
+            [](const auto& s) -> double {
+                if constexpr (std::is_same_v<std::decay_t<decltype(s)>, Tf2Band>)
+                    return static_cast<double>(std::max<std::size_t>(s.points.size(), 2) - 1);
+                return 1.0;
+            },
+            w.shape);
+    return perPoint * width * height;
+}
+
 TransferFunction2D transferFunction2DFromWidgets(const std::string& text, const std::string& what,
                                                  const Tf2ReadOptions& options) {
     const Tf2WidgetFile file = parseTf2Widgets(text, what);
@@ -319,16 +332,7 @@ TransferFunction2D transferFunction2DFromWidgets(const std::string& text, const 
                                               : file.resolution.value_or(std::array<int, 2>{
                                                     kDefaultTf2Resolution, kDefaultTf2Resolution});
     checkResolution(resolution, what);
-    double perPoint = 0;  // widget evaluations per raster point
-    for (const Tf2Widget& w : file.widgets)
-        perPoint += std::visit(
-            [](const auto& s) -> double {
-                if constexpr (std::is_same_v<std::decay_t<decltype(s)>, Tf2Band>)
-                    return static_cast<double>(std::max<std::size_t>(s.points.size(), 2) - 1);
-                return 1.0;
-            },
-            w.shape);
-    const double work = perPoint * resolution[0] * resolution[1];
+    const double work = tf2WidgetWork(file.widgets, resolution[0], resolution[1]);
     if (work > kMaxTf2WidgetWorkWithoutForce && !options.force)
         UDVR_FAIL(what << ": rasterising " << file.widgets.size() << " widgets onto "
                        << resolution[0] << "x" << resolution[1] << " points takes " << work

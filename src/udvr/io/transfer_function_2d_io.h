@@ -44,6 +44,10 @@ struct Tf2WidgetFile {
 /// Widget raster per axis when neither the file nor the options give one.
 inline constexpr int kDefaultTf2Resolution = 256;
 
+/// The work of rasterising `widgets` onto width × height points: points × widgets, a band
+/// counting one per segment (what kMaxTf2WidgetWorkWithoutForce and the server's cap bound).
+double tf2WidgetWork(const std::vector<Tf2Widget>& widgets, int width, int height);
+
 /// Read any form by extension (.vti, .npy, .json, case-insensitive) and validate it; errors are
 /// one-line UdvrErrors naming the file.
 TransferFunction2D readTransferFunction2D(const std::filesystem::path& path,
