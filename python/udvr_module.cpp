@@ -62,6 +62,14 @@ std::vector<float> toVector(const FloatArray& a) {
     return std::vector<float>(a.data(), a.data() + a.size());
 }
 
+// An array's shape as "5, 0, 8, 8".
+std::string shapeText(const FloatArray& a) {
+    std::string shape;
+    for (py::ssize_t d = 0; d < a.ndim(); ++d)
+        shape += (d ? ", " : "") + std::to_string(a.shape(d));
+    return shape;
+}
+
 Grid3 gridFromShape(const FloatArray& a, int leadingDims) {
     if (a.ndim() != 3 + leadingDims)
         throw UdvrError("expected an array of " + std::to_string(3 + leadingDims) + " dimensions");
@@ -71,12 +79,24 @@ Grid3 gridFromShape(const FloatArray& a, int leadingDims) {
     return g;
 }
 
-// A field or an ensemble (T) from an array of (leadingDims axes, Z, Y, X), placed in the world.
+// A field or an ensemble (T) from an array of (leadingDims axes, Z, Y, X), placed in the world:
+// every axis at least one point, a finite origin, a positive finite spacing. `what` names it in
+// errors ("Field").
 template <class T>
 T gridded(const FloatArray& values, int leadingDims, const std::array<double, 3>& origin,
-          const std::array<double, 3>& spacing, std::string name) {
+          const std::array<double, 3>& spacing, std::string name, const char* what) {
     T t;
     t.grid = gridFromShape(values, leadingDims);
+    for (int a = 0; a < 3; ++a) {
+        if (t.grid.dims[a] < 1) {
+            UDVR_FAIL(what << ": every grid axis needs at least 1 point, got shape ("
+                           << shapeText(values) << ")");
+        }
+        if (!std::isfinite(origin[a]) || !(spacing[a] > 0.0) || !std::isfinite(spacing[a]))
+            UDVR_FAIL(what << ": spacing must be positive and origin finite, got origin ("
+                           << origin[0] << ", " << origin[1] << ", " << origin[2] << ") spacing ("
+                           << spacing[0] << ", " << spacing[1] << ", " << spacing[2] << ")");
+    }
     t.grid.origin = origin;
     t.grid.spacing = spacing;
     t.values = toVector(values);
@@ -179,6 +199,7 @@ ModelVolume modelFromArrays(
     mv.bandwidth = bandwidth;
     mv.bandwidthRule = bandwidthRule;
     mv.tailEps = tailEps;
+    checkModelArrays(mv, "Model");
     return mv;
 }
 
@@ -240,37 +261,50 @@ ImageRgba imageFromArray(const FloatArray& a, const char* name) {
     return img;
 }
 
-// Run `work` with the GIL released. With a `progress(done, total)` callable, the work runs on a
-// worker thread while this thread calls it about 10 times a second and once at the end when the
-// work succeeded (on the caller's thread, as notebook widgets want); an exception from it is
-// raised after the work.
-template <class Work>
-auto withProgress(Work work, const ProgressBar& bar, const py::object& progress) {
-    if (progress.is_none()) {
-        py::gil_scoped_release release;
-        return work();
-    }
+// Run `work` on a worker thread with the GIL released while this thread, about 10 times a
+// second, runs Python's signal handlers (PyErr_CheckSignals: Ctrl-C raises KeyboardInterrupt)
+// and then `poll()` (which may raise). When either raises, `stop()` asks the work to stop, this
+// thread waits for it (its arrays are borrowed from Python) and the Python exception propagates;
+// the work's own exception, if it ended with one, is dropped.
+template <class Work, class Stop, class Poll>
+auto interruptible(Work work, Stop stop, Poll poll) {
     auto future = std::async(std::launch::async, std::move(work));
-    const auto report = [&](std::size_t done) {
-        try {
-            progress(done, bar.total());
-        } catch (...) {
-            py::gil_scoped_release release;
-            future.wait();
-            throw;
-        }
+    const auto stopAndWait = [&] {
+        stop();
+        py::gil_scoped_release release;
+        future.wait();
     };
     for (;;) {
         {
             py::gil_scoped_release release;
             if (future.wait_for(std::chrono::milliseconds(100)) == std::future_status::ready) break;
         }
-        report(bar.done());
+        if (PyErr_CheckSignals() != 0) {
+            stopAndWait();
+            throw py::error_already_set();
+        }
+        try {
+            poll();
+        } catch (...) {
+            stopAndWait();
+            throw;
+        }
     }
-    auto result = [&] {
-        py::gil_scoped_release release;
-        return future.get();  // the work's exception, if any, before 100 % is reported
-    }();
+    py::gil_scoped_release release;
+    return future.get();  // the work's exception, if any
+}
+
+// Run `work` (which advances `bar`) interruptibly. With a `progress(done, total)` callable, it is
+// called about 10 times a second and once at the end when the work succeeded (on the caller's
+// thread, as notebook widgets want); an exception it raises cancels the work (the bar's next
+// advance throws) and propagates, as does Ctrl-C.
+template <class Work>
+auto withProgress(Work work, ProgressBar& bar, const py::object& progress) {
+    const auto report = [&](std::size_t done) {
+        if (!progress.is_none()) progress(done, bar.total());
+    };
+    auto result = interruptible(
+        std::move(work), [&] { bar.cancel(); }, [&] { report(bar.done()); });
     report(bar.total());
     return result;
 }
@@ -288,6 +322,12 @@ py::tuple buildFromArray(const FloatArray& values, std::array<double, 3> origin,
                          bool gmmGiven, bool quantilesGiven, const py::object& progress,
                          double valueStep, const std::string& valueType) {
     const bool bricks = downsample != 0;
+    const std::string shape = shapeText(values);
+    for (py::ssize_t d = 0; d < values.ndim(); ++d)
+        if (values.shape(d) < 1)
+            UDVR_FAIL("build: the (" << shape << ") array is empty along axis " << d
+                                     << "; expected at least one member and one grid point per "
+                                        "axis");
     const Grid3 grid = [&] {
         Grid3 g = gridFromShape(values, bricks ? 0 : 1);
         g.origin = origin;
@@ -351,16 +391,21 @@ py::tuple probeAt(const ModelVolume& model, const std::string& kind, const Tf& t
     return probeOutput(probeModel(model, parseModelKind(kind), tf, point, o));
 }
 
+// A render that Ctrl-C stops (RenderSettings::cancel) with KeyboardInterrupt.
+template <class Render>
+ImageRgba renderInterruptibly(const RenderSettings& s, Render render) {
+    std::atomic<bool> cancel{false};
+    RenderSettings settings = s;
+    settings.cancel = &cancel;
+    return interruptible([&] { return render(settings); }, [&] { cancel.store(true); }, [] {});
+}
+
 template <class Tf>
 py::array renderArray(const ModelVolume& model, const std::string& kind, const Tf& tf,
                       const RenderSettings& s) {
     const ModelKind k = parseModelKind(kind);
-    ImageRgba img;
-    {
-        py::gil_scoped_release release;
-        img = renderVolume(model, k, tf, s);
-    }
-    return imageArray(std::move(img));
+    return imageArray(renderInterruptibly(
+        s, [&](const RenderSettings& settings) { return renderVolume(model, k, tf, settings); }));
 }
 
 }  // namespace
@@ -391,8 +436,19 @@ PYBIND11_MODULE(_udvr, m) {
     py::class_<ScalarField>(m, "Field")
         .def(py::init([](const py::object& valuesIn, std::array<double, 3> origin,
                          std::array<double, 3> spacing, std::string name) {
-                 return gridded<ScalarField>(realArray(valuesIn, "Field: values"), 0, origin,
-                                             spacing, std::move(name));
+                 ScalarField f = gridded<ScalarField>(realArray(valuesIn, "Field: values"), 0,
+                                                      origin, spacing, std::move(name), "Field");
+                 // A field is a value per voxel: NaN/Inf would classify as NaN pixels.
+                 const auto nx = static_cast<std::size_t>(f.grid.dims[0]);
+                 const auto ny = static_cast<std::size_t>(f.grid.dims[1]);
+                 for (std::size_t v = 0; v < f.values.size(); ++v)
+                     if (!std::isfinite(f.values[v]))
+                         UDVR_FAIL("Field: values hold "
+                                   << (std::isnan(f.values[v]) ? "NaN" : "Inf") << " at voxel ("
+                                   << v % nx << ", " << v / nx % ny << ", " << v / (nx * ny)
+                                   << ") (array index [" << v / (nx * ny) << ", " << v / nx % ny
+                                   << ", " << v % nx << "])");
+                 return f;
              }),
              py::arg("values"), py::arg("origin") = std::array<double, 3>{0, 0, 0},
              py::arg("spacing") = std::array<double, 3>{1, 1, 1}, py::arg("name") = "value",
@@ -410,7 +466,8 @@ PYBIND11_MODULE(_udvr, m) {
         .def(py::init([](const py::object& valuesIn, std::array<double, 3> origin,
                          std::array<double, 3> spacing, std::string name) {
                  const FloatArray values = realArray(valuesIn, "Ensemble: values");
-                 Ensemble e = gridded<Ensemble>(values, 1, origin, spacing, std::move(name));
+                 Ensemble e =
+                     gridded<Ensemble>(values, 1, origin, spacing, std::move(name), "Ensemble");
                  e.members = static_cast<int>(values.shape(0));
                  return e;
              }),
@@ -583,24 +640,28 @@ PYBIND11_MODULE(_udvr, m) {
         .def_static(
             "read",
             [](const std::filesystem::path& path, std::optional<std::array<double, 4>> domain,
-               std::optional<std::array<int, 2>> resolution) {
+               std::optional<std::array<int, 2>> resolution, bool force) {
                 Tf2ReadOptions o;
                 o.domain = domain;
                 o.resolution = resolution;
+                o.force = force;
                 return readTransferFunction2D(path, o);
             },
             py::arg("path"), py::arg("domain") = py::none(), py::arg("resolution") = py::none(),
+            py::kw_only(), py::arg("force") = false,
             "a 2D TF (SPEC §9) from a raster .vti, an .npy with domain=(x0, x1, y0, y1), or a "
-            "widget .json (rasterised at resolution=(W, H))")
+            "widget .json (rasterised at resolution=(W, H); over 1e8 widget evaluations, points "
+            "x widgets, need force=True)")
         .def_static(
             "from_widgets",
-            [](const std::string& json, std::optional<std::array<int, 2>> resolution) {
+            [](const std::string& json, std::optional<std::array<int, 2>> resolution, bool force) {
                 Tf2ReadOptions o;
                 o.resolution = resolution;
+                o.force = force;
                 return transferFunction2DFromWidgets(json, "widget JSON", o);
             },
-            py::arg("json"), py::arg("resolution") = py::none(),
-            "a 2D TF from widget JSON text (docs/formats.md)")
+            py::arg("json"), py::arg("resolution") = py::none(), py::kw_only(),
+            py::arg("force") = false, "a 2D TF from widget JSON text (docs/formats.md)")
         .def_readonly("x0", &TransferFunction2D::x0)
         .def_readonly("x1", &TransferFunction2D::x1)
         .def_readonly("y0", &TransferFunction2D::y0)
@@ -623,7 +684,15 @@ PYBIND11_MODULE(_udvr, m) {
         .def("__iter__",
              [](const Rgba& c) { return py::iter(py::make_tuple(c.r, c.g, c.b, c.a)); });
 
-    m.def("set_threads", &setThreadCount, py::arg("threads"), "worker threads (0 = all cores)");
+    m.def(
+        "set_threads",
+        [](long long threads) {
+            if (threads < 0) UDVR_FAIL("threads must be >= 0 (0 = all cores), got " << threads);
+            return setThreadCount(static_cast<int>(std::min<long long>(threads, maxThreadCount())));
+        },
+        py::arg("threads"),
+        "worker threads (0 = all cores; more than 4x the hardware threads are clamped to that); "
+        "returns the count in use");
     m.def(
         "generate",
         [](const std::string& name, std::array<int, 3> dims) {
@@ -856,12 +925,9 @@ PYBIND11_MODULE(_udvr, m) {
         [](const ModelVolume& first, const ModelVolume& second, const std::string& kind,
            const TransferFunction2D& tf, const RenderSettings& s) {
             const ModelKind k = parseModelKind(kind);
-            ImageRgba img;
-            {
-                py::gil_scoped_release release;
-                img = renderBivariate(first, second, k, tf, s);
-            }
-            return imageArray(std::move(img));
+            return imageArray(renderInterruptibly(s, [&](const RenderSettings& settings) {
+                return renderBivariate(first, second, k, tf, settings);
+            }));
         },
         py::arg("first"), py::arg("second"), py::arg("kind"), py::arg("tf"), py::arg("settings"));
 

@@ -119,7 +119,8 @@ def build(data, quantiles=8, gmm=4, density=None, downsample=None, *,
     "error" (NaN/Inf samples are a ValueError naming the first voxel and member) or "skip" (each
     voxel's statistics over its finite samples, at least 2 per voxel; NetCDF fill values count as
     NaN), as --nan. The GIL is released while it
-    runs; progress: a callable(done, total), True for a tqdm bar, "auto" (a bar in notebooks).
+    runs; progress: a callable(done, total), True for a tqdm bar, "auto" (a bar in notebooks). An
+    exception the callable raises, and Ctrl-C (KeyboardInterrupt), stop the build and propagate.
     """
     if nan not in ("error", "skip"):
         raise ValueError(f"nan must be 'error' or 'skip', got {nan!r}")
@@ -457,7 +458,8 @@ def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, s
            tf_range=None, **options):
     """Ray-cast a model (or a field: a Field, (z, y, x) array, DataArray or path) with noise
     model `model_name`, as `udvr render` (SPEC §5): an (H, W, 4) float32 RGBA array (straight
-    colour over the background; the values `--float` writes). The GIL is released while it runs.
+    colour over the background; the values `--float` writes). The GIL is released while it runs;
+    Ctrl-C stops it with KeyboardInterrupt.
 
     size: N or (width, height). camera: a udvr.Camera; else, with a TF of your own, SPEC §5's
     default camera (azimuth 30, elevation 20, zoom), and without one (a preset) or with view=

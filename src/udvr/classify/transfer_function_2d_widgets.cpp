@@ -1,6 +1,7 @@
 #include "udvr/classify/transfer_function_2d_widgets.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -94,6 +95,10 @@ TransferFunction2D rasterizeWidgets(const std::vector<Tf2Widget>& widgets, int w
         UDVR_FAIL("2D transfer function: needs at least 2x2 points, got " << width << "x"
                                                                           << height);
     tf.rgba.assign(static_cast<std::size_t>(width) * height * 4, 0.f);
+    // The first (point, widget) whose opacity is NaN (numbers too large or small to compute
+    // with), so the error names the widget rather than the raster's colour check.
+    const std::size_t none = std::numeric_limits<std::size_t>::max();
+    std::atomic<std::size_t> firstNan{none};
     parallelForChunks(static_cast<std::size_t>(height), 8, [&](std::size_t jb, std::size_t je) {
         for (std::size_t j = jb; j < je; ++j) {
             const double y = tf.y0 + (tf.y1 - tf.y0) * static_cast<double>(j) / (height - 1);
@@ -103,6 +108,15 @@ TransferFunction2D rasterizeWidgets(const std::vector<Tf2Widget>& widgets, int w
                 for (const Tf2Widget& w : widgets) {
                     const double a = widgetOpacity(w, x, y);
                     if (a <= 0.0) continue;
+                    if (std::isnan(a)) {
+                        const std::size_t at =
+                            (j * static_cast<std::size_t>(width) + i) * widgets.size() +
+                            static_cast<std::size_t>(&w - widgets.data());
+                        std::size_t seen = firstNan.load();
+                        while (at < seen && !firstNan.compare_exchange_weak(seen, at)) {
+                        }
+                        continue;
+                    }
                     transmit *= 1.0 - a;
                     sumAlpha += a;
                     for (int ch = 0; ch < 3; ++ch) sumColor[ch] += a * w.rgba[ch];
@@ -116,6 +130,15 @@ TransferFunction2D rasterizeWidgets(const std::vector<Tf2Widget>& widgets, int w
             }
         }
     });
+    if (const std::size_t at = firstNan.load(); at != none) {
+        const std::size_t point = at / widgets.size();
+        UDVR_FAIL(
+            "widget " << at % widgets.size() << " has no opacity (NaN) at x = "
+                      << tf.x0 + (tf.x1 - tf.x0) * static_cast<double>(point % width) / (width - 1)
+                      << ", y = "
+                      << tf.y0 + (tf.y1 - tf.y0) * static_cast<double>(point / width) / (height - 1)
+                      << ": its numbers are too large or too small to compute with");
+    }
     tf.validate();
     return tf;
 }

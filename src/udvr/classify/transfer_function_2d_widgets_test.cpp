@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <numbers>
+#include <string>
+
+#include "udvr/util/check.h"
 
 namespace udvr {
 namespace {
@@ -221,6 +224,24 @@ TEST(TransferFunction2DLookup, BilinearInsideClampedOutside) {
     const Rgba r = tf.classify(3.0, 12.5);
     EXPECT_NEAR(r.r, v[0] * v[3], 1e-6);
     EXPECT_NEAR(r.a, v[3], 1e-6);
+}
+
+// A widget whose arithmetic gives NaN (an angle whose radians overflow; the JSON reader reduces
+// angles modulo 360, a C++ caller may not) is named, not reported as a colour out of [0, 1].
+TEST(Tf2Widgets, NanOpacityNamesTheWidget) {
+    Tf2Widget box{Tf2Box{}, {1, 0, 0, 1}};
+    Tf2Ellipse e;
+    e.center = {0.5, 0.5};
+    e.angleDeg = 1e308;
+    Tf2Widget ellipse{e, {0, 1, 0, 1}};
+    try {
+        rasterizeWidgets({box, ellipse}, 8, 8, {0, 1, 0, 1});
+        FAIL() << "no error";
+    } catch (const UdvrError& err) {
+        EXPECT_EQ(std::string(err.what()).rfind("widget 1 has no opacity (NaN) at x = 0, y = 0", 0),
+                  0u)
+            << err.what();
+    }
 }
 
 }  // namespace

@@ -348,6 +348,7 @@ void addBuildCommand(CLI::App& app) {
         for (const std::string& in : o->inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
         if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
 
+        requireOutputsNotInputs({{"-o", o->out}}, o->inputs);
         requireOutputDirectory(o->out, "-o");
         const MpiJob& job = mpiJob();
         if (job.launchedWithoutMpi)

@@ -26,6 +26,7 @@ void addCompareCommand(CLI::App& app) {
     sub->callback([o] {
         if (!o->diff.empty()) {
             requireOutputExtension(o->diff, "--diff", {".png"}, "");
+            requireOutputsNotInputs({{"--diff", o->diff}}, {o->model, o->truth});
             requireOutputDirectory(o->diff, "--diff");
         }
         const ImageRgba a = readImage(o->model);

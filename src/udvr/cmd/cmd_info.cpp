@@ -268,6 +268,9 @@ void run(const InfoOpts& o) {
         if (lowerExtension(o.histogram) != ".png")
             UDVR_FAIL("--histogram must name a .png file, got '" << o.histogram << "'");
         requireOutputDirectory(o.histogram, "--histogram");
+        std::vector<std::string> inputs = o.inputs;
+        inputs.push_back(o.tf.tf);
+        requireOutputsNotInputs({{"--histogram", o.histogram}}, inputs);
         if (o.inputs.size() != 1 && !o.ensemble)
             UDVR_FAIL("--histogram draws one input; got " << o.inputs.size()
                                                           << " (add --ensemble for a member list)");

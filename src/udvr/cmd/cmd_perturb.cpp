@@ -43,6 +43,7 @@ void addPerturbCommand(CLI::App& app) {
     sub->callback([o] {
         requireOutputExtension(o->out, "-o", {".nc"}, "perturb writes a NetCDF ensemble");
         o->p.kind = parseNoiseKind(o->noise);
+        requireOutputsNotInputs({{"-o", o->out}}, {o->input});
         requireOutputDirectory(o->out, "-o");
         FieldReadOptions ro;
         ro.var = o->var;

@@ -28,7 +28,7 @@ void addProbeCommand(CLI::App& app) {
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
-        bool json = false;
+        bool json = false, force = false;
     };
     auto o = std::make_shared<Opts>();
     sub->add_option(
@@ -48,6 +48,8 @@ void addProbeCommand(CLI::App& app) {
     sub->add_option("--second", o->second,
                     "bivariate fields: the model giving the TF2's y (same grid; SPEC 9)");
     sub->add_flag("--json", o->json, "print one JSON object");
+    sub->add_flag("--force", o->force,
+                  "--tf2: rasterise widgets even when that takes over 1e8 widget evaluations");
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
     addOptionFlags(sub, classificationOptionSpecs(), o->classify);
     sub->add_option("--var", o->var, "array/variable name in the input");
@@ -70,6 +72,11 @@ void addProbeCommand(CLI::App& app) {
                                                  plot.compare(plot.size() - 4, 4, ".PNG") == 0);
             if (!png) UDVR_FAIL("--plot must name a .png file, got '" << plot << "'");
         }
+        {
+            std::vector<std::string> inputs = o->inputs;
+            inputs.insert(inputs.end(), {o->second, o->tf.tf, o->tf2.file});
+            requireOutputsNotInputs({{"--plot", o->plot}}, inputs);
+        }
         requireOneTf(o->tf.tf, o->tf2);
         const bool twoD = !o->tf2.file.empty();
         if (members && twoD)
@@ -80,6 +87,7 @@ void addProbeCommand(CLI::App& app) {
             UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
         checkTfFlags(o->tf, twoD);
         const bool tfFile = !twoD && !tfIsPreset(o->tf);
+        const Tf2ReadOptions tf2Options = toTf2ReadOptions(o->tf2, o->force);
         TfChoice tfChoice;
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
         const ModelVolume model = members ? readMembersModel(o->inputs, o->var, o->raw, o->ensemble)
@@ -95,10 +103,8 @@ void addProbeCommand(CLI::App& app) {
         const ProbeResult r =
             !o->second.empty()
                 ? probeBivariate(model, readModelOrField(o->second, o->var, o->raw), kind,
-                                 readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
-                                 options)
-            : twoD ? probeModel(model, kind,
-                                readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2)), p,
+                                 readTransferFunction2D(o->tf2.file, tf2Options), p, options)
+            : twoD ? probeModel(model, kind, readTransferFunction2D(o->tf2.file, tf2Options), p,
                                 options)
                    : probeModel(model, kind, tf, p, options);
         finishTransferFunction(o->tf, tfChoice);  // --save-tf first: a bad one leaves no plot

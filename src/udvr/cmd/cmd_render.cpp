@@ -53,6 +53,11 @@ void run(const RenderOpts& o) {
         requireOutputDirectory(o.floatOut, "--float");
     }
     requireOutputDirectory(o.out, "-o");
+    {
+        std::vector<std::string> inputs = o.inputs;
+        inputs.insert(inputs.end(), {o.second, o.tf.tf, o.tf2.file});
+        requireOutputsNotInputs({{"-o", o.out}, {"--float", o.floatOut}}, inputs);
+    }
     const ModelKind kind = parseModelKind(o.model);
     requireOneTf(o.tf.tf, o.tf2);
     const bool twoD = !o.tf2.file.empty();
@@ -72,7 +77,8 @@ void run(const RenderOpts& o) {
     TfChoice tfChoice;
     if (!twoD && tfGiven) tfChoice.tf = readTransferFunctionFile(o.tf);
     const TransferFunction2D tf2 =
-        twoD ? readTransferFunction2D(o.tf2.file, toTf2ReadOptions(o.tf2)) : TransferFunction2D{};
+        twoD ? readTransferFunction2D(o.tf2.file, toTf2ReadOptions(o.tf2, o.render.force))
+             : TransferFunction2D{};
     if (!o.second.empty() && !twoD)
         UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
     const ModelVolume model = members ? readMembersModel(o.inputs, o.var, o.raw, o.ensemble)

@@ -26,6 +26,7 @@ void addServeCommand(CLI::App& app) {
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
+        bool force = false;
     };
     auto o = std::make_shared<Opts>();
     sub->add_option(
@@ -34,6 +35,9 @@ void addServeCommand(CLI::App& app) {
         ->required();
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
+    sub->add_flag("--force", o->force,
+                  "--tf2: rasterise a widget file even when that takes over 1e8 widget "
+                  "evaluations");
     sub->add_option("--truth", o->truth,
                     "ground-truth field: shown beside the model with the difference image and "
                     "the RMSE (SPEC 6)");
@@ -78,7 +82,8 @@ void addServeCommand(CLI::App& app) {
         serve::ServeData data;
         TfChoice tfChoice;  // a TF file is read before the volume, so a bad one costs nothing
         if (!twoD && !tfIsPreset(o->tf)) tfChoice.tf = readTransferFunctionFile(o->tf);
-        if (twoD) data.tf2 = readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2));
+        if (twoD)
+            data.tf2 = readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2, o->force));
         if (twoD && lowerExtension(o->tf2.file) == ".json") {  // the page edits the widgets
             std::ifstream in(o->tf2.file, std::ios::binary);
             data.tf2Widgets.assign(std::istreambuf_iterator<char>(in), {});

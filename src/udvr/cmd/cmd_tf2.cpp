@@ -27,7 +27,7 @@ namespace {
 struct Tf2Opts {
     Tf2Flags tf2;  // the file (positional), --tf2-domain, --resolution
     std::string out, volume, png, bins = "256", size = "720x600", var;
-    bool log = false;
+    bool log = false, force = false;
     RawLayoutFlags raw;  // headerless .raw volume
 };
 
@@ -44,7 +44,7 @@ std::string formatRanges(const std::vector<std::pair<double, double>>& ranges) {
 
 void run(const Tf2Opts& o) {
     // Check every flag and output folder before reading anything.
-    const Tf2ReadOptions ro = toTf2ReadOptions(o.tf2);
+    const Tf2ReadOptions ro = toTf2ReadOptions(o.tf2, o.force);
     if (!o.out.empty()) {
         const std::string e = lowerExtension(o.out);
         if (e != ".vti" && e != ".npy")
@@ -56,6 +56,7 @@ void run(const Tf2Opts& o) {
             UDVR_FAIL("--png must name a .png file, got '" << o.png << "'");
         requireOutputDirectory(o.png, "--png");
     }
+    requireOutputsNotInputs({{"-o", o.out}, {"--png", o.png}}, {o.tf2.file, o.volume});
     const auto bins = parseSize(o.bins, "--bins");
     const auto size = parseSize(o.size, "--size");
     if (size[0] < 160 || size[1] < 120)
@@ -126,6 +127,9 @@ void addTf2Command(CLI::App& app) {
     sub->add_option("--bins", o->bins,
                     "histogram bins N or NXxNY over the TF2's domain (default 256)");
     sub->add_flag("--log", o->log, "grey level by log(1 + count) instead of count");
+    sub->add_flag("--force", o->force,
+                  "rasterise widgets even when that takes over 1e8 widget evaluations (points x "
+                  "widgets, a band's segments each counting one)");
     sub->callback([o] { run(*o); });
 }
 

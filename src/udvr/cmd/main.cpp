@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
     // The version, the CPU target (UDVR_ARCH) and the vector registers in use.
     app.set_version_flag("--version", std::string(udvr::build::versionLine()));
     int threads = 0;
-    const char* threadsHelp = "worker threads (0 = all cores)";
+    const char* threadsHelp = "worker threads (0 = all cores; clamped to 4x the hardware threads)";
     app.add_option("--threads", threads, threadsHelp)->check(udvr::cmd::wholeNumberIn(0, 4096));
     app.parse_complete_callback([&] { udvr::setThreadCount(threads); });
 

@@ -178,8 +178,9 @@ void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags) {
                     "256x256)");
 }
 
-Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags) {
+Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags, bool force) {
     Tf2ReadOptions ro;
+    ro.force = force;
     if (!flags.domain.empty()) {
         const std::vector<double> d = parseDoubleList(flags.domain, "--tf2-domain");
         if (d.size() != 4)
@@ -212,6 +213,7 @@ void checkTfFlags(const TfFlags& flags, bool twoD) {
     if (!flags.save.empty()) {
         if (lowerExtension(flags.save) != ".json")
             UDVR_FAIL("--save-tf must name a .json file, got '" << flags.save << "'");
+        requireOutputsNotInputs({{"--save-tf", flags.save}}, {flags.tf});
         requireOutputDirectory(flags.save, "--save-tf");
         if (std::filesystem::is_directory(flags.save))
             UDVR_FAIL("--save-tf: cannot write " << flags.save << ": it is a directory");

@@ -10,6 +10,7 @@
 #include "udvr/classify/transfer_function.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/file_info.h"
+#include "udvr/io/output_path.h"
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/text_parse.h"
@@ -77,8 +78,9 @@ void addTf2Options(CLI::App* sub, Tf2Flags& flags);
 /// Register --tf2-domain and --tf2-resolution (the file option is the caller's: a positional or
 /// --tf2).
 void addTf2FormOptions(CLI::App* sub, Tf2Flags& flags);
-/// The read options the flags give (domain, widget resolution).
-Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags);
+/// The read options the flags give (domain, widget resolution); `force`: rasterise widgets past
+/// kMaxTf2WidgetWorkWithoutForce (the command's --force).
+Tf2ReadOptions toTf2ReadOptions(const Tf2Flags& flags, bool force = false);
 /// Fail when both --tf and --tf2 were given (neither: the default preset of
 /// chooseTransferFunction).
 void requireOneTf(const std::string& tf, const Tf2Flags& tf2);

@@ -64,7 +64,27 @@ struct Sizes {
     std::vector<int> sweepMembers{5, 10, 20, 50};
 };
 
+/// The sizes of experiment `name`: its own (full or --quick), with the test overrides of `o`,
+/// which may only make it smaller (an override over the full run's size is a UdvrError: a
+/// realizations=10**9 from Python would run for days, issue 34).
 inline Sizes resolveSizes(const std::string& name, const ExperimentOptions& o) {
+    if (o.dims != 0 || o.members != 0 || o.imageSize != 0 || o.realizations != 0) {
+        ExperimentOptions full = o;
+        full.quick = false;
+        full.dims = full.members = full.imageSize = full.realizations = 0;
+        const Sizes f = resolveSizes(name, full);
+        const std::pair<int, int> given[] = {{o.dims, f.dims},
+                                             {o.members, f.members},
+                                             {o.imageSize, f.image},
+                                             {o.realizations, f.realizations}};
+        const char* names[] = {"dims", "members", "image_size", "realizations"};
+        for (int i = 0; i < 4; ++i)
+            if (given[i].first < 0 || given[i].first > given[i].second)
+                UDVR_FAIL("experiment " << name << ": " << names[i] << " " << given[i].first
+                                        << " is out of range; the overrides make smaller runs "
+                                           "(1 to the full run's "
+                                        << given[i].second << ", or 0 for the experiment's own)");
+    }
     Sizes s;
     const bool q = o.quick;
     if (name == "tangle" || name == "quartiles") {

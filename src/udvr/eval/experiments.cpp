@@ -22,6 +22,7 @@
 #include "udvr/eval/report.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/image.h"
+#include "udvr/io/output_path.h"
 #include "udvr/io/transfer_function_io.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/build_model.h"
@@ -425,6 +426,15 @@ fs::path locateDataDir() {
 
 std::vector<ExperimentResult> runExperiments(const std::string& name, const fs::path& outDir,
                                              const ExperimentOptions& options) {
+    // Not the folder of the TFs or the data: the figures, tables and report would land among
+    // (and over) the inputs (issue 34).
+    std::vector<std::string> inputs = {options.tfDir.string(), options.dataDir.string()};
+    try {
+        if (options.tfDir.empty()) inputs[0] = locateTfDir().string();
+    } catch (const UdvrError&) {  // the experiment says so when it needs them
+    }
+    if (options.dataDir.empty()) inputs[1] = locateDataDir().string();
+    requireOutputsNotInputs({{"the output folder", outDir.string()}}, inputs);
     if (name != "all") return {runOne(name, outDir, options)};
     std::vector<ExperimentResult> results;
     std::vector<std::string> skipped;

@@ -18,8 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-bool isGlobPattern(const std::string& s) { return s.find_first_of("*?[") != std::string::npos; }
-
 /// Natural order: digit runs compare as numbers, so member_2 sorts before member_10.
 bool naturalLess(std::string_view a, std::string_view b) {
     std::size_t i = 0, j = 0;
@@ -46,21 +44,6 @@ bool naturalLess(std::string_view a, std::string_view b) {
     return a < b;  // equal up to leading zeros: fall back to plain order
 }
 
-std::vector<std::string> expandGlob(const std::string& pattern) {
-    glob_t g{};
-    int status = ::glob(pattern.c_str(), 0, nullptr, &g);
-    std::vector<std::string> out;
-    if (status == 0) {
-        for (std::size_t i = 0; i < g.gl_pathc; ++i) out.emplace_back(g.gl_pathv[i]);
-    }
-    globfree(&g);
-    if (status == GLOB_NOMATCH || (status == 0 && out.empty())) {
-        UDVR_FAIL("pattern '" << pattern << "' matches no files");
-    }
-    if (status != 0) UDVR_FAIL("cannot expand pattern '" << pattern << "'");
-    return out;
-}
-
 bool sameGrid(const Grid3& a, const Grid3& b) {
     if (a.dims != b.dims) return false;
     for (int i = 0; i < 3; ++i) {
@@ -80,6 +63,25 @@ std::string gridText(const Grid3& g) {
 }
 
 }  // namespace
+
+bool detail::isGlobPattern(const std::string& s) {
+    return s.find_first_of("*?[") != std::string::npos;
+}
+
+std::vector<std::string> detail::expandGlob(const std::string& pattern) {
+    glob_t g{};
+    int status = ::glob(pattern.c_str(), 0, nullptr, &g);
+    std::vector<std::string> out;
+    if (status == 0) {
+        for (std::size_t i = 0; i < g.gl_pathc; ++i) out.emplace_back(g.gl_pathv[i]);
+    }
+    globfree(&g);
+    if (status == GLOB_NOMATCH || (status == 0 && out.empty())) {
+        UDVR_FAIL("pattern '" << pattern << "' matches no files");
+    }
+    if (status != 0) UDVR_FAIL("cannot expand pattern '" << pattern << "'");
+    return out;
+}
 
 void detail::allocateEnsemble(Ensemble& e, const EnsembleReadOptions& options) {
     if (options.checkSize) options.checkSize(e.members, e.grid);
@@ -105,8 +107,8 @@ namespace {
 std::vector<std::string> ensembleFiles(const std::vector<std::string>& inputs) {
     std::vector<std::string> files;
     for (const auto& in : inputs) {
-        if (isGlobPattern(in) && !fs::exists(in)) {
-            auto matches = expandGlob(in);
+        if (detail::isGlobPattern(in) && !fs::exists(in)) {
+            auto matches = detail::expandGlob(in);
             files.insert(files.end(), matches.begin(), matches.end());
         } else {
             files.push_back(in);

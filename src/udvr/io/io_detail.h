@@ -21,6 +21,14 @@ namespace udvr::detail {
 void checkFinite(const std::filesystem::path& path, const Grid3& grid,
                  std::span<const float> values, int components = 1, const std::string& what = "");
 
+/// A model file whose arrays hold what no model may (NaN, a negative stddev, decreasing
+/// quantiles; checkModelArrays): readModelOrField says so instead of reading the file as a plain
+/// field (which misled as "a plain field, not a model", issue 34).
+class ModelContentError : public UdvrError {
+  public:
+    using UdvrError::UdvrError;
+};
+
 /// Throw a UdvrError unless `path` names an existing regular file.
 void requireFile(const std::filesystem::path& path);
 
@@ -28,6 +36,11 @@ void requireFile(const std::filesystem::path& path);
 /// is more than any file udvr reads can hold (2^56 bytes; the product cannot overflow then).
 std::size_t checkedDataBytes(const std::filesystem::path& path, const std::array<int, 3>& dims,
                              std::size_t valueSize);
+
+/// Whether an input names a glob pattern (has * ? or [); one that is itself a file is read as one.
+bool isGlobPattern(const std::string& s);
+/// The files a glob pattern matches, in glob(3)'s order; a UdvrError when none.
+std::vector<std::string> expandGlob(const std::string& pattern);
 
 /// Lower-case extension with the dot (".nhdr").
 std::string lowerExtension(const std::filesystem::path& path);

@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <type_traits>
+#include <variant>
 
 #include "udvr/io/io_detail.h"
 #include "udvr/io/npy.h"
@@ -154,7 +156,10 @@ Tf2Widget parseWidget(const json& w, const Context& c) {
         if (!(e.sigma[0] > 0.0 && e.sigma[1] > 0.0))
             UDVR_FAIL(wc.prefix() << ": 'sigma' values must be > 0, got [" << e.sigma[0] << ", "
                                   << e.sigma[1] << "]");
-        if (w.contains("angle")) e.angleDeg = finiteNumber(w["angle"], wc, "angle");
+        // Reduced to (-360, 360) exactly: the rasteriser's angle·π/180 overflows past 5.7e305
+        // (an angle of 1e308 drew NaN, reported as a colour out of [0, 1]; issue 34).
+        if (w.contains("angle"))
+            e.angleDeg = std::fmod(finiteNumber(w["angle"], wc, "angle"), 360.0);
         if (w.contains("cutoff")) e.cutoff = positive(w, wc, "cutoff");
         out.shape = e;
     } else if (type == "band") {
@@ -298,6 +303,19 @@ Tf2WidgetFile parseTf2Widgets(const std::string& text, const std::string& what) 
     return out;
 }
 
+double tf2WidgetWork(const std::vector<Tf2Widget>& widgets, int width, int height) {
+    double perPoint = 0;  // widget evaluations per raster point
+    for (const Tf2Widget& w : widgets)
+        perPoint += std::visit(
+            [](const auto& s) -> double {
+                if constexpr (std::is_same_v<std::decay_t<decltype(s)>, Tf2Band>)
+                    return static_cast<double>(std::max<std::size_t>(s.points.size(), 2) - 1);
+                return 1.0;
+            },
+            w.shape);
+    return perPoint * width * height;
+}
+
 TransferFunction2D transferFunction2DFromWidgets(const std::string& text, const std::string& what,
                                                  const Tf2ReadOptions& options) {
     const Tf2WidgetFile file = parseTf2Widgets(text, what);
@@ -314,6 +332,13 @@ TransferFunction2D transferFunction2DFromWidgets(const std::string& text, const 
                                               : file.resolution.value_or(std::array<int, 2>{
                                                     kDefaultTf2Resolution, kDefaultTf2Resolution});
     checkResolution(resolution, what);
+    const double work = tf2WidgetWork(file.widgets, resolution[0], resolution[1]);
+    if (work > kMaxTf2WidgetWorkWithoutForce && !options.force)
+        UDVR_FAIL(what << ": rasterising " << file.widgets.size() << " widgets onto "
+                       << resolution[0] << "x" << resolution[1] << " points takes " << work
+                       << " widget evaluations (band segments count one each), over "
+                       << kMaxTf2WidgetWorkWithoutForce
+                       << "; lower the resolution (--tf2-resolution) or add --force");
     try {
         return rasterizeWidgets(file.widgets, resolution[0], resolution[1], domain);
     } catch (const UdvrError& e) {

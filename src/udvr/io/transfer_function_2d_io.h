@@ -24,7 +24,15 @@ struct Tf2ReadOptions {
     /// W, H for widgets (.json): default the file's "resolution", else 256×256; an error for
     /// rasters.
     std::optional<std::array<int, 2>> resolution;
+    /// Rasterise widgets even when that takes over kMaxTf2WidgetWorkWithoutForce evaluations.
+    bool force = false;
 };
+
+/// Widget evaluations (points × widgets, a band counting one per segment) over which
+/// rasterising a widget file needs Tf2ReadOptions::force (`--force`). 256 ellipses at 1024²
+/// (2.7e8) took 41 s on 2 busy cores; a 26 KB file of 256 ellipses at 8192² is 1.7e10 (issue 34).
+/// The default 256² takes 1e8 / 65536 ≈ 1500 widgets.
+inline constexpr double kMaxTf2WidgetWorkWithoutForce = 1e8;
 
 /// A widget file as parsed, before rasterisation.
 struct Tf2WidgetFile {
@@ -35,6 +43,10 @@ struct Tf2WidgetFile {
 
 /// Widget raster per axis when neither the file nor the options give one.
 inline constexpr int kDefaultTf2Resolution = 256;
+
+/// The work of rasterising `widgets` onto width × height points: points × widgets, a band
+/// counting one per segment (what kMaxTf2WidgetWorkWithoutForce and the server's cap bound).
+double tf2WidgetWork(const std::vector<Tf2Widget>& widgets, int width, int height);
 
 /// Read any form by extension (.vti, .npy, .json, case-insensitive) and validate it; errors are
 /// one-line UdvrErrors naming the file.

@@ -12,7 +12,10 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <charconv>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -137,6 +140,7 @@ class Checker {
             layout_.appendedAt = parser_ != nullptr ? parser_->GetAppendedDataPosition() : -1;
         }
         const auto whole = extentAttribute(image, "WholeExtent", "ImageData");
+        geometry(image, whole);
         wholePoints_ = extentPoints(whole);
         wholeCells_ = extentCells(whole);
         // The pieces first: points of the whole extent that no piece holds would be undefined
@@ -172,6 +176,37 @@ class Checker {
     }
 
   private:
+    /// Origin and Spacing: 3 finite numbers each, the spacing positive, and the grid's corners
+    /// finite. VTK reads a value it cannot parse ("nan", "abc") as its default (0 0 0, 1 1 1)
+    /// without a word, so the text is checked here.
+    static void geometry(vtkXMLDataElement* image, const std::array<long long, 6>& whole) {
+        std::array<double, 3> origin{0, 0, 0}, spacing{1, 1, 1};
+        for (const bool isSpacing : {false, true}) {
+            const char* name = isSpacing ? "Spacing" : "Origin";
+            const char* text = image->GetAttribute(name);
+            if (text == nullptr) continue;
+            std::array<double, 3>& v = isSpacing ? spacing : origin;
+            const char* at = text;
+            bool ok = true;
+            for (double& x : v) {
+                char* end = nullptr;
+                x = std::strtod(at, &end);
+                ok = ok && end != at && std::isfinite(x) && (!isSpacing || x > 0.0);
+                at = end;
+            }
+            while (ok && *at != '\0') ok = std::isspace(static_cast<unsigned char>(*at++)) != 0;
+            if (!ok)
+                fail(std::string("ImageData ") + name + " '" + text + "' is not 3 finite" +
+                     (isSpacing ? " positive" : "") + " numbers");
+        }
+        for (int a = 0; a < 3; ++a)
+            for (const long long i : {whole[2 * a], whole[2 * a + 1]})
+                if (!std::isfinite(origin[a] + static_cast<double>(i) * spacing[a]))
+                    fail("ImageData Origin and Spacing put the grid's corner at index " +
+                         std::to_string(i) + " of axis " + std::to_string(a) +
+                         " beyond the largest number");
+    }
+
     static vtkXMLDataElement* nested(vtkXMLDataElement* e, const char* name) {
         for (int i = 0; i < e->GetNumberOfNestedElements(); ++i) {
             vtkXMLDataElement* n = e->GetNestedElement(i);
@@ -425,6 +460,93 @@ int CheckedVtiReader::ReadVTKFile(vtkXMLDataElement* root) {
         return 0;
     }
     return 1;
+}
+
+}  // namespace udvr::detail
+
+namespace udvr::detail {
+
+std::string xmlNestingProblem(const std::filesystem::path& path, int maxDepth) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return "";  // the reader says why it cannot open it
+    std::vector<char> buffer(1 << 16);
+    std::size_t size = 0, at = 0;  // bytes in the buffer, the next one to look at
+    std::uint64_t offset = 0;      // file offset of buffer[0]
+    const auto next = [&](char& c) {
+        if (at == size) {
+            offset += size;
+            in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+            size = static_cast<std::size_t>(in.gcount());
+            at = 0;
+            if (size == 0) return false;
+        }
+        c = buffer[at++];
+        return true;
+    };
+    // Skip to just after `end` (a comment's "-->", a PI's "?>", CDATA's "]]>").
+    const auto skipPast = [&](const char* end) {
+        const std::size_t n = std::strlen(end);
+        std::size_t matched = 0;
+        char c;
+        while (next(c)) {
+            matched = c == end[matched] ? matched + 1 : (c == end[0] ? 1 : 0);
+            if (matched == n) return;
+        }
+    };
+    int depth = 0;
+    char c;
+    while (next(c)) {
+        if (c != '<') continue;
+        const std::uint64_t tagAt = offset + at - 1;
+        if (!next(c)) break;
+        if (c == '?') {
+            skipPast("?>");
+            continue;
+        }
+        if (c == '!') {
+            char d = 0;
+            if (!next(d)) break;
+            if (d == '-') {
+                skipPast("-->");
+            } else if (d == '[') {
+                skipPast("]]>");
+            } else {  // <!DOCTYPE …>, with an internal subset in brackets
+                int brackets = 0;
+                while (next(d) && !(d == '>' && brackets == 0))
+                    brackets += d == '[' ? 1 : d == ']' ? -1 : 0;
+            }
+            continue;
+        }
+        const bool closing = c == '/';
+        std::string name;
+        char quote = 0, last = c;
+        if (!closing) name += c;
+        bool nameDone = false;
+        while (next(c)) {
+            if (quote != 0) {
+                if (c == quote) quote = 0;
+            } else if (c == '"' || c == '\'') {
+                quote = c;
+            } else if (c == '>') {
+                break;
+            }
+            if (!nameDone && quote == 0 &&
+                (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '/' || c == '>'))
+                nameDone = true;
+            if (!nameDone && name.size() < 64) name += c;
+            if (c != ' ' && c != '\t' && c != '\n' && c != '\r') last = c;
+        }
+        if (closing) {
+            --depth;
+            continue;
+        }
+        if (last == '/') continue;  // <empty/>
+        if (++depth > maxDepth)
+            return "XML elements nested deeper than " + std::to_string(maxDepth) + " (at byte " +
+                   std::to_string(tagAt) + ")";
+        if (name == "AppendedData") break;  // raw bytes follow, up to its end tag
+    }
+    return "";
 }
 
 }  // namespace udvr::detail

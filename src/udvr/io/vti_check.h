@@ -8,11 +8,24 @@
 #include <vtkXMLImageDataReader.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 
 class vtkXMLDataElement;
 
 namespace udvr::detail {
+
+/// How deep elements of a VTK XML file may nest. VTK's files nest 7 deep (VTKFile, ImageData,
+/// Piece, PointData, DataArray, InformationKey, Value); VTK's XML parser and element tree recurse
+/// per level, and 150,000 nested elements (a 1 MB file) overflowed the stack (issue 34).
+inline constexpr int kMaxXmlDepth = 256;
+
+/// What is wrong with the nesting of the XML in `path` ("" when nothing): deeper than maxDepth
+/// ("XML elements nested deeper than 256 (at byte 4242)"). A scan of the markup, without
+/// building anything: tags, comments, processing instructions, CDATA and quoted attribute values
+/// are told apart; it stops at <AppendedData> (raw bytes follow). Run before any XML parser sees
+/// the file.
+std::string xmlNestingProblem(const std::filesystem::path& path, int maxDepth = kMaxXmlDepth);
 
 class CheckedVtiReader : public vtkXMLImageDataReader {
   public:

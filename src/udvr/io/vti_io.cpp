@@ -88,10 +88,17 @@ void silenceVtk() {
     (void)silenced;
 }
 
+/// Fails for XML nested deeper than VTK's parser survives (vti_check.h), before it parses.
+void requireXmlNesting(const fs::path& path) {
+    if (const std::string problem = detail::xmlNestingProblem(path); !problem.empty())
+        UDVR_FAIL(path.string() << ": " << problem << "; not a VTK XML file udvr reads");
+}
+
 /// A reader of `path` with its errors collected; fails unless VTK says it can read the file.
 vtkSmartPointer<detail::CheckedVtiReader> newReader(const fs::path& path, ErrorCollector* errors) {
     silenceVtk();
     detail::requireFile(path);
+    requireXmlNesting(path);
     auto reader = vtkSmartPointer<detail::CheckedVtiReader>::New();
     reader->AddObserver(vtkCommand::ErrorEvent, errors);
     reader->AddObserver(vtkCommand::WarningEvent, errors);
@@ -205,6 +212,7 @@ PvtiHeader readPvtiHeader(const fs::path& path) {
     const auto bytes = fs::file_size(path, ec);
     if (!ec && bytes > (16u << 20))
         UDVR_FAIL(path.string() << ": " << bytes << " bytes is not a .pvti header (at most 16 MB)");
+    requireXmlNesting(path);
     vtkNew<vtkXMLDataParser> parser;
     const std::string name = path.string();
     parser->SetFileName(name.c_str());
@@ -816,7 +824,11 @@ ModelVolume detail::readModelVti(const fs::path& path, std::string* geometryNote
                       << a->GetNumberOfTuples() << " tuples, the grid " << n << " points");
         }
         std::vector<float> v = toFloat(path, a);
-        detail::checkFinite(path, m.grid, v, c, std::string("array '") + name + "'");
+        try {
+            detail::checkFinite(path, m.grid, v, c, std::string("array '") + name + "'");
+        } catch (const UdvrError& e) {
+            throw detail::ModelContentError(e.what());
+        }
         return v;
     };
     m.mean = get("mean", 1);
@@ -870,6 +882,11 @@ ModelVolume detail::readModelVti(const fs::path& path, std::string* geometryNote
         UDVR_FAIL(path.string() << ": field data 'full_res_min_spacing' must be positive");
     }
     m.source = getString(fd, "source", "");
+    try {
+        checkModelArrays(m, path.string());
+    } catch (const UdvrError& e) {
+        throw detail::ModelContentError(e.what());
+    }
     return m;
 }
 
@@ -1001,6 +1018,8 @@ ModelVolume readModelOrField(const fs::path& path, const FieldReadOptions& optio
                 return m;
             }
             modelError = path.string() + " has no 'mean' array";
+        } catch (const detail::ModelContentError&) {
+            throw;  // a model, with impossible values: not a field either
         } catch (const UdvrError& e) {
             modelError = e.what();
         }

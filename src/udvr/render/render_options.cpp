@@ -68,8 +68,8 @@ const OptionSpec kFrameOptions[] = {
     {.name = "force",
      .field = &O::force,
      .remote = false,
-     .help = "render even when --step gives over 1e9 samples, --size over 8192^2 rays or "
-             "--realizations over 10000"},
+     .help = "render even when --step gives over 1e9 samples, --size over 8192^2 rays, "
+             "--realizations over 10000 or a --tf2 widget file over 1e8 widget evaluations"},
     {.name = "step",
      .field = &O::step,
      .lo = 0.0,

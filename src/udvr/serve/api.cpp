@@ -651,7 +651,7 @@ ApiResponse Api::getHistogram2D(const ApiRequest& request) {
     std::array<int, 2> bins{128, 128};
     if (q.has("bins")) {
         const std::string text = q.text("bins");
-        bins = parseSize(text, "bins");  // N or NXxNY
+        bins = parseSize(text, "bins", kMaxHistogram2DBins);  // N or NXxNY
         if (bins[0] > kMaxHistogram2DBins || bins[1] > kMaxHistogram2DBins)
             UDVR_FAIL("bins must be N or NXxNY with 1 <= N <= " << kMaxHistogram2DBins << ", got '"
                                                                 << Query::clip(text) << "'");
@@ -733,28 +733,21 @@ ApiResponse Api::postTf2(const ApiRequest& request) {
         UDVR_FAIL(what << ": resolution " << (*file.resolution)[0] << "x" << (*file.resolution)[1]
                        << " is over " << kMaxPostedTf2Resolution << " points per axis");
     // The rasterisation's work: every raster point evaluates every widget (a band each segment).
-    double terms = 0.0;
-    for (const Tf2Widget& w : file.widgets)
-        terms += std::visit(
-            [](const auto& shape) -> double {
-                if constexpr (std::is_same_v<std::decay_t<decltype(shape)>, Tf2Band>)
-                    return static_cast<double>(std::max<std::size_t>(shape.points.size(), 2) - 1);
-                else
-                    return 1.0;
-            },
-            w.shape);
     const auto [width, height] =
         file.resolution.value_or(std::array<int, 2>{kDefaultTf2Resolution, kDefaultTf2Resolution});
-    const double work = static_cast<double>(width) * height * terms;
+    const double work = tf2WidgetWork(file.widgets, width, height);
+    const double terms = work / (static_cast<double>(width) * height);
     if (work > kMaxPostedTf2Work)
         UDVR_FAIL(what << ": " << width << "x" << height << " points x " << terms
                        << " widget terms (a band counts its segments) is over the limit of "
                        << kMaxPostedTf2Work << "; use fewer band points or a coarser resolution");
     // As `udvr render --tf2 FILE` reads the same text, in a turn of the gate (it is heavy work).
     std::shared_ptr<TransferFunction2D> tf;
+    Tf2ReadOptions ro;
+    ro.force = true;  // under the server's own cap, checked above
     inGate(request, [&] {
-        tf =
-            std::make_shared<TransferFunction2D>(transferFunction2DFromWidgets(request.body, what));
+        tf = std::make_shared<TransferFunction2D>(
+            transferFunction2DFromWidgets(request.body, what, ro));
     });
     auto widgets = std::make_shared<std::string>(completeWidgetJson(request.body, what, *tf));
     std::lock_guard lock(tfMutex_);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 #include <utility>
 
 #include "udvr/util/check.h"
@@ -26,6 +27,74 @@ std::vector<double> normalizedQuantileLevels(const std::vector<double>& levels, 
         even = even && std::abs(levels[j] - static_cast<double>(j) / q) <= 1e-9;
     }
     return even ? std::vector<double>{} : levels;
+}
+
+void checkModelArrays(const ModelVolume& m, const std::string& what) {
+    const std::size_t n = m.voxelCount();
+    const auto voxel = [&](std::size_t v) {
+        const auto nx = static_cast<std::size_t>(m.grid.dims[0]);
+        const auto ny = static_cast<std::size_t>(m.grid.dims[1]);
+        return "(" + std::to_string(v % nx) + ", " + std::to_string(v / nx % ny) + ", " +
+               std::to_string(v / (nx * ny)) + ")";
+    };
+    const auto fail = [&](const char* array, const std::string& problem, std::size_t v) {
+        UDVR_FAIL(what << ": array '" << array << "' " << problem << " at voxel " << voxel(v));
+    };
+    const auto number = [](double x) {
+        std::ostringstream s;
+        s << x;
+        return s.str();
+    };
+    for (const ModelFileArray& a : kModelFileArrays) {
+        const std::vector<float>& values = m.*a.values;
+        const int per = a.floatsPerVoxel(m);
+        if (values.empty() || per <= 0 || values.size() != n * static_cast<std::size_t>(per))
+            continue;
+        for (std::size_t i = 0; i < values.size(); ++i)
+            if (!std::isfinite(values[i]))
+                fail(a.name,
+                     std::string("holds ") + (std::isnan(values[i]) ? "NaN" : "Inf") +
+                         (per > 1 ? " (component " + std::to_string(i % per) + ")" : ""),
+                     i / per);
+    }
+    const auto sigma = [&](const char* array, float s, std::size_t v, const std::string& which) {
+        if (s < 0.f) fail(array, which + "is negative (" + number(s) + ")", v);
+        if (s > kMaxModelSigma)
+            fail(array, which + "is " + number(s) + ", over " + number(kMaxModelSigma), v);
+    };
+    if (m.stddev.size() == n)
+        for (std::size_t v = 0; v < n; ++v) sigma("stddev", m.stddev[v], v, "");
+    if (m.min.size() == n && m.max.size() == n)
+        for (std::size_t v = 0; v < n; ++v)
+            if (m.min[v] > m.max[v])
+                fail("min", "is " + number(m.min[v]) + ", over max " + number(m.max[v]), v);
+    // Increasing rows: quantile boundaries b_0 ≤ … ≤ b_q, the iqr pair.
+    const auto increasing = [&](const char* array, const std::vector<float>& values, int per) {
+        if (per < 2 || values.size() != n * static_cast<std::size_t>(per)) return;
+        for (std::size_t v = 0; v < n; ++v) {
+            const float* row = values.data() + v * static_cast<std::size_t>(per);
+            for (int j = 1; j < per; ++j)
+                if (row[j] < row[j - 1])
+                    fail(array,
+                         "decreases: boundary " + std::to_string(j) + " (" + number(row[j]) +
+                             ") is below boundary " + std::to_string(j - 1) + " (" +
+                             number(row[j - 1]) + ")",
+                         v);
+        }
+    };
+    if (m.quantileCount > 0) increasing("quantiles", m.quantiles, m.quantileCount + 1);
+    increasing("iqr", m.iqr, 2);
+    const int k = m.gmmComponents;
+    if (k > 0 && m.gmm.size() == n * 3 * static_cast<std::size_t>(k))
+        for (std::size_t v = 0; v < n; ++v) {
+            const float* g = m.gmmAt(v);
+            for (int c = 0; c < k; ++c) {
+                const std::string which = "component " + std::to_string(c) + " ";
+                if (!(g[c] >= 0.f && g[c] <= 1.f))
+                    fail("gmm", which + "weight is " + number(g[c]) + ", outside [0, 1]", v);
+                sigma("gmm", g[2 * k + c], v, which + "sigma ");
+            }
+        }
 }
 
 ModelVolume modelFromField(const ScalarField& field) {

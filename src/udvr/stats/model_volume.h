@@ -115,6 +115,19 @@ inline constexpr ModelFileArray kModelFileArrays[] = {
 std::vector<double> normalizedQuantileLevels(const std::vector<double>& levels, int q,
                                              const std::string& what);
 
+/// Largest standard deviation (stddev, a GMM component's σ) a model may hold: the kernels square
+/// σ in float (σ², Σ w²σ²), which overflows past 1.8e19; a stddev of 3e38 drew NaN pixels
+/// (issue 34).
+inline constexpr double kMaxModelSigma = 1e18;
+
+/// Throws UdvrError "WHAT: array 'stddev' is negative (-0.5) at voxel (3, 4, 5)" (voxel (i, j, k),
+/// i along x) for what no model built by `udvr build` holds and the kernels do not expect: NaN or
+/// Inf in any array, a negative stddev or one over kMaxModelSigma, min > max, quantile boundaries
+/// or an iqr pair that decrease, GMM weights outside [0, 1], negative or over-large GMM σ.
+/// Called where a model is read or made (the .vti/.pvti reader, Python's Model), so that no
+/// kernel sees such values. The arrays' sizes are the caller's to check.
+void checkModelArrays(const ModelVolume& m, const std::string& what);
+
 /// The ensemble as the `members` reference (no model, issue 12): its members voxel-major (a
 /// member-major ensemble is transposed, a voxel-major one moved), their mean per voxel (framing,
 /// TF presets, probe's "value"), its grid, bounds and spacing; samplesPerVoxel = n.

@@ -74,8 +74,11 @@ std::array<double, 2> robustRange(const ValueSummary& s) {
         hi = s.max;
     }
     if (!(hi > lo)) {
-        lo = s.min - 0.5;
-        hi = s.max + 0.5;
+        // A constant: ±0.5 around it, or a relative margin where ±0.5 would round away (a
+        // constant 1e17 gave an empty range and an internal check, issue 34).
+        const double half = std::max(0.5, 1e-6 * std::max(std::abs(s.min), std::abs(s.max)));
+        lo = s.min - half;
+        hi = s.max + half;
     }
     return {lo, hi};
 }

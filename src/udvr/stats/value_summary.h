@@ -30,7 +30,8 @@ std::vector<double> percentiles(std::span<const float> values, std::span<const d
 ValueSummary summarizeValues(std::span<const float> values);
 
 /// The robust range a default TF spans: [p0.5, p99.5], widened to [min, max] when that is
-/// empty (a volume with mostly one value), and to [v − 0.5, v + 0.5] for a constant volume.
+/// empty (a volume with mostly one value), and to [v − h, v + h] for a constant volume, h = 0.5 or
+/// 1e−6·|v| where that is larger.
 std::array<double, 2> robustRange(const ValueSummary& summary);
 
 struct Histogram {

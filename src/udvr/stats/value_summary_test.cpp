@@ -82,3 +82,22 @@ TEST(ValueSummary, HistogramCountsEveryValueOnce) {
 
 }  // namespace
 }  // namespace udvr
+
+namespace udvr {
+namespace {
+
+// A constant volume far from 0: ±0.5 rounds away at 1e17 (an empty range reached the preset's
+// internal check, issue 34); the margin grows with the value.
+TEST(ValueSummary, RobustRangeOfALargeConstantIsNotEmpty) {
+    for (float v : {0.f, 1.f, -3.f, 1e17f, -1e17f, 3e38f}) {
+        const std::vector<float> x(100, v);
+        const auto r = robustRange(summarizeValues(x));
+        EXPECT_LT(r[0], r[1]) << v;
+        EXPECT_LE(r[0], v);
+        EXPECT_GE(r[1], v);
+        EXPECT_TRUE(std::isfinite(r[0]) && std::isfinite(r[1])) << v;
+    }
+}
+
+}  // namespace
+}  // namespace udvr

@@ -5,6 +5,7 @@
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <memory>
 #include <mutex>
 
@@ -15,7 +16,12 @@ std::unique_ptr<tbb::global_control> gControl;  // process-wide limit; constant 
 int gThreads = 0;
 }  // namespace
 
-void setThreadCount(int threads) {
+int maxThreadCount() {
+    return kMaxThreadsPerHardwareThread * std::max(tbb::info::default_concurrency(), 1);
+}
+
+int setThreadCount(int threads) {
+    threads = std::clamp(threads, 0, maxThreadCount());
     std::lock_guard<std::mutex> lock(gControlMutex);
     gControl.reset();
     gThreads = threads;
@@ -23,6 +29,7 @@ void setThreadCount(int threads) {
         gControl = std::make_unique<tbb::global_control>(
             tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
     }
+    return threadCount();
 }
 
 int threadCount() {

@@ -6,8 +6,15 @@
 
 namespace udvr {
 
-/// Limit the worker threads for the rest of the process (0 = hardware concurrency).
-void setThreadCount(int threads);
+/// At most this many worker threads per hardware thread: more only cost memory (each thread a
+/// stack and TBB's arena slots; set_threads(10**9) held 7.9 GB, issue 34).
+inline constexpr int kMaxThreadsPerHardwareThread = 4;
+/// The most worker threads setThreadCount allows: kMaxThreadsPerHardwareThread × the hardware
+/// concurrency.
+int maxThreadCount();
+/// Limit the worker threads for the rest of the process (0 or less = hardware concurrency); a
+/// count over maxThreadCount() is clamped to it. Returns the count now in use (threadCount()).
+int setThreadCount(int threads);
 /// The number of threads parallel loops will use.
 int threadCount();
 

@@ -21,6 +21,7 @@ ProgressBar::ProgressBar(std::string label, std::size_t total, double showAfterS
 ProgressBar::~ProgressBar() { finish(); }
 
 void ProgressBar::advance(std::size_t units) {
+    if (cancelled_.load(std::memory_order_relaxed)) throw ProgressCancelled();
     std::size_t done = done_.fetch_add(units) + units;
     if (!enabled_) return;
     long long now = std::chrono::duration_cast<std::chrono::nanoseconds>(

@@ -5,9 +5,16 @@
 #include <chrono>
 #include <cstddef>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 
 namespace udvr {
+
+/// Thrown by ProgressBar::advance once the bar was cancelled: the work stops where it reports.
+class ProgressCancelled : public std::runtime_error {
+  public:
+    ProgressCancelled() : std::runtime_error("cancelled") {}
+};
 
 class ProgressBar {
   public:
@@ -21,8 +28,12 @@ class ProgressBar {
     ProgressBar(const ProgressBar&) = delete;
     ProgressBar& operator=(const ProgressBar&) = delete;
 
-    /// Add done units; redraws at most ~10 times per second.
+    /// Add done units; redraws at most ~10 times per second. Throws ProgressCancelled once
+    /// cancel() was called (from whichever thread advances: parallel loops pass it on).
     void advance(std::size_t units = 1);
+    /// Ask the work that advances this bar to stop (a front end running it on another thread:
+    /// Python's Ctrl-C, a progress callback that raised).
+    void cancel() { cancelled_.store(true, std::memory_order_relaxed); }
     /// Draw 100 % and end the line (also done by the destructor).
     void finish();
     /// Units done so far (any thread may read it while others advance).
@@ -37,6 +48,7 @@ class ProgressBar {
     std::string label_;
     std::size_t total_;
     std::atomic<std::size_t> done_{0};
+    std::atomic<bool> cancelled_{false};
     std::atomic<long long> lastDrawNs_{0};
     std::chrono::steady_clock::time_point start_;
     std::mutex drawMutex_;

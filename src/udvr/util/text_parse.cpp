@@ -86,15 +86,15 @@ std::array<double, 3> parseVec3(const std::string& text, const std::string& flag
     return {parseReal(parts[0], flag), parseReal(parts[1], flag), parseReal(parts[2], flag)};
 }
 
-std::array<int, 2> parseSize(const std::string& text, const std::string& flag) {
+std::array<int, 2> parseSize(const std::string& text, const std::string& flag, int maxSide) {
     auto parts = split(text, 'x');
     if (parts.size() != 1 && parts.size() != 2)
         UDVR_FAIL(flag << " expects WxH, got '" << clipForMessage(text) << "'");
     long w = toInt(parts[0], flag);
     long h = parts.size() == 2 ? toInt(parts[1], flag) : w;
-    if (w < 1 || h < 1 || w > kMaxImageSideAnywhere || h > kMaxImageSideAnywhere)
-        UDVR_FAIL(flag << " must be between 1x1 and " << kMaxImageSideAnywhere << "x"
-                       << kMaxImageSideAnywhere << ", got '" << clipForMessage(text) << "'");
+    if (w < 1 || h < 1 || w > maxSide || h > maxSide)
+        UDVR_FAIL(flag << " must be between 1x1 and " << maxSide << "x" << maxSide << ", got '"
+                       << clipForMessage(text) << "'");
     return {static_cast<int>(w), static_cast<int>(h)};
 }
 

@@ -17,8 +17,9 @@ inline constexpr int kMaxImageSideAnywhere = 16384;
 std::array<int, 3> parseDims(const std::string& text, const std::string& flag);
 /// "x,y,z" → three finite doubles.
 std::array<double, 3> parseVec3(const std::string& text, const std::string& flag);
-/// "WxH" (or "N" for N×N) → {W,H}, each in [1, kMaxImageSideAnywhere].
-std::array<int, 2> parseSize(const std::string& text, const std::string& flag);
+/// "WxH" (or "N" for N×N) → {W,H}, each in [1, maxSide] (the error names maxSide).
+std::array<int, 2> parseSize(const std::string& text, const std::string& flag,
+                             int maxSide = kMaxImageSideAnywhere);
 /// Comma-separated finite doubles.
 std::vector<double> parseDoubleList(const std::string& text, const std::string& flag);
 /// The whole text as one finite double.
