@@ -3,7 +3,7 @@
 #include <time.h>
 
 #include <algorithm>
-#include <atomic>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -25,13 +25,6 @@ double threadCpuSeconds() {
     timespec ts{};
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-/// Adds to a double shared by the tasks of a parallel loop.
-void atomicAdd(std::atomic<double>& sum, double v) {
-    double old = sum.load();
-    while (!sum.compare_exchange_weak(old, old + v)) {
-    }
 }
 
 // Voxels per gather buffer: 1024 voxels × 50 members of float = 200 KiB, inside L2; EM keeps
@@ -167,6 +160,163 @@ struct CoreTotals {
     std::vector<float> bandwidths;  // kde: h per voxel of the whole grid, NaN for constant voxels
 };
 
+/// m's arrays sized for `voxels` voxels of `grid` with the options' q, levels and K (SPEC §7).
+void sizeModelArrays(ModelVolume& m, const Grid3& grid, std::size_t voxels,
+                     const BuildOptions& opt) {
+    const int q = opt.quantiles, K = opt.gmmComponents;
+    m.grid = grid;
+    resizeLarge(m.mean, voxels);
+    resizeLarge(m.stddev, voxels);
+    resizeLarge(m.min, voxels);
+    resizeLarge(m.max, voxels);
+    resizeLarge(m.iqr, 2 * voxels);
+    m.quantileCount = q;
+    if (q > 0) resizeLarge(m.quantiles, voxels * static_cast<std::size_t>(q + 1));
+    m.quantileLevels = normalizedQuantileLevels(opt.quantileLevels, q, "--quantile-levels");
+    m.gmmComponents = K;
+    if (K > 0) resizeLarge(m.gmm, voxels * static_cast<std::size_t>(3 * K));
+}
+
+/// One voxel's quantile boundaries b_0 … b_q (qv, null when q = 0) and IQR [b(¼), b(¾)] from
+/// its sorted samples, by the build's estimator (SPEC §2): the dequantized mixture's exact
+/// quantiles, a point mass for a constant voxel, numpy's linear sample quantiles, or the KDE's.
+class VoxelQuantiles {
+  public:
+    VoxelQuantiles(const ModelVolume& m, const BuildOptions& opt, int n, double valueStep)
+        : m_(m),
+          opt_(opt),
+          q_(opt.quantiles),
+          kde_(opt.density == DensityEstimate::Kde),
+          dequantized_(opt.density == DensityEstimate::Dequantized),
+          valueStep_(valueStep),
+          eps_(opt.tailEps > 0.0 ? opt.tailEps : 0.5 / static_cast<double>(n)),
+          // b(0.25), b(0.75) among the boundaries (kde: the IQR is then read off them).
+          quarter_(q_ > 0 ? m.boundaryAtLevel(0.25) : -1),
+          threeQuarters_(q_ > 0 ? m.boundaryAtLevel(0.75) : -1),
+          boundaryLevels_(static_cast<std::size_t>(q_ + 1)) {
+        UDVR_CHECK(!dequantized_ || valueStep > 0.0);
+        for (int j = 0; j <= q_; ++j)
+            boundaryLevels_[static_cast<std::size_t>(j)] = m.quantileLevel(j);
+    }
+    /// Writes qv and iqr; returns the KDE bandwidth (NaN for a constant voxel, 0 without kde).
+    /// `scratch` holds q + 1 doubles (dequantized only).
+    float operator()(std::span<const float> sorted, const SampleMoments& mom, float* qv, float* iqr,
+                     std::vector<double>& scratch) const {
+        const bool constantVoxel = sorted.front() == sorted.back();
+        if (dequantized_) {
+            dequantizedBoundaries(sorted, qv, iqr, scratch);
+            return 0.f;
+        }
+        if (constantVoxel) {
+            // A point mass: every boundary is the common value (SPEC §2).
+            if (qv) std::fill(qv, qv + q_ + 1, sorted[0]);
+            iqr[0] = iqr[1] = sorted[0];
+            return kde_ ? std::numeric_limits<float>::quiet_NaN() : 0.f;
+        }
+        if (!kde_) {
+            // numpy's linear quantile at t_j; b_0 = min and b_q = max exactly.
+            for (int j = 0; qv && j <= q_; ++j)
+                qv[j] = static_cast<float>(empiricalQuantile(sorted, m_.quantileLevel(j)));
+            iqr[0] = static_cast<float>(empiricalQuantile(sorted, 0.25));
+            iqr[1] = static_cast<float>(empiricalQuantile(sorted, 0.75));
+            return 0.f;
+        }
+        return kdeBoundaries(sorted, mom, qv, iqr);
+    }
+
+  private:
+    // Every sample spread over its quantisation step, constant voxels too (a brick of v is
+    // U[v − s/2, v + s/2]); the mixture's exact quantiles.
+    void dequantizedBoundaries(std::span<const float> sorted, float* qv, float* iqr,
+                               std::vector<double>& dq) const {
+        if (qv) {
+            dq.resize(static_cast<std::size_t>(q_ + 1));
+            dequantizedQuantiles(sorted, valueStep_, boundaryLevels_, dq);
+            for (int j = 0; j <= q_; ++j)
+                qv[j] = static_cast<float>(dq[static_cast<std::size_t>(j)]);
+        }
+        std::array<double, 2> dqIqr{};
+        dequantizedQuantiles(sorted, valueStep_, kIqrLevels, dqIqr);
+        iqr[0] = static_cast<float>(dqIqr[0]);
+        iqr[1] = static_cast<float>(dqIqr[1]);
+    }
+    // b_j = F⁻¹(t_j), tails at ε and 1 − ε; Newton from the sample quantile.
+    float kdeBoundaries(std::span<const float> sorted, const SampleMoments& mom, float* qv,
+                        float* iqr) const {
+        const double h = kdeBandwidth(sorted, mom.stddev, opt_.bandwidth);
+        auto inv = [&](double p) {
+            return kdeQuantile(sorted, h, p, empiricalQuantile(sorted, p));
+        };
+        double prev = -std::numeric_limits<double>::infinity();
+        for (int j = 0; qv && j <= q_; ++j) {
+            const double p = j == 0 ? eps_ : j == q_ ? 1.0 - eps_ : m_.quantileLevel(j);
+            prev = std::max(prev, inv(p));  // monotone despite solver tolerance
+            qv[j] = static_cast<float>(prev);
+        }
+        if (qv && quarter_ > 0 && threeQuarters_ > 0) {
+            iqr[0] = qv[quarter_];
+            iqr[1] = qv[threeQuarters_];
+        } else {
+            iqr[0] = static_cast<float>(inv(0.25));
+            iqr[1] = static_cast<float>(std::max(inv(0.75), static_cast<double>(iqr[0])));
+        }
+        return static_cast<float>(h);
+    }
+
+    static constexpr std::array<double, 2> kIqrLevels = {0.25, 0.75};
+    const ModelVolume& m_;
+    const BuildOptions& opt_;
+    int q_;
+    bool kde_, dequantized_;
+    double valueStep_, eps_;
+    int quarter_, threeQuarters_;
+    std::vector<double> boundaryLevels_;
+};
+
+/// Counts of one thread's share of a build (CoreTotals' per-thread part).
+struct ChunkCounts {
+    std::size_t constant = 0, notConverged = 0, fewerDistinct = 0, iterations = 0;
+    double gatherCpu = 0.0, estimateCpu = 0.0, gmmCpu = 0.0;
+};
+
+/// The GMMs of one chunk's voxels c0 … c0 + count − 1 (global indices; `base` the slab's
+/// first) from their sorted samples buf (n per voxel; with `finite`, voxel i has finite[i]):
+/// EM 16 voxels at a time (one per vector lane) where all n samples are finite, alone (same
+/// random stream, bit for bit) otherwise.
+void fitChunkGmms(const float* buf, std::size_t count, std::size_t un, const std::size_t* finite,
+                  std::size_t c0, std::size_t base, int K, const GmmOptions& gmmOpt, ModelVolume& m,
+                  std::vector<GmmFitInfo>& infos, GmmWorkspace& ws, ChunkCounts& counts) {
+    const std::size_t stride = static_cast<std::size_t>(3 * K);
+    // Voxels i0..i1 of the chunk, all with n samples.
+    auto fitRun = [&](std::size_t i0, std::size_t i1) {
+        fitGmmMany(std::span<const float>(buf + i0 * un, (i1 - i0) * un), un, gmmOpt, c0 + i0,
+                   std::span<float>(m.gmm.data() + (c0 - base + i0) * stride, (i1 - i0) * stride),
+                   std::span<GmmFitInfo>(infos.data() + i0, i1 - i0), ws);
+    };
+    if (!finite) fitRun(0, count);
+    for (std::size_t i = 0; finite && i < count;) {
+        std::size_t j = i;
+        while (j < count && finite[j] == un) ++j;
+        if (j > i) {
+            fitRun(i, j);
+            i = j;
+            continue;
+        }
+        // Fewer samples than n: alone, same stream (as in a batch, bit for bit).
+        infos[i] = fitGmm(std::span<const float>(buf + i * un, finite[i]), gmmOpt, c0 + i,
+                          std::span<float>(m.gmm.data() + (c0 - base + i) * stride, stride), ws);
+        ++i;
+    }
+    for (std::size_t i = 0; i < count; ++i) {
+        const GmmFitInfo& fi = infos[i];
+        counts.iterations += static_cast<std::size_t>(fi.iterations);
+        if (!fi.converged) ++counts.notConverged;
+        const float* s = buf + i * un;
+        const std::size_t ni = finite ? finite[i] : un;
+        if (fi.distinctComponents < K && s[0] != s[ni - 1]) ++counts.fewerDistinct;
+    }
+}
+
 /// The statistics of SPEC §2 for voxels [first, first + count) of `grid` (all of them, or a
 /// slab of whole z-planes in an out-of-core build), into m's arrays, which are sized for those
 /// voxels (m.mean[v − first] …). gather(v0, v1, buf) writes voxel v's n samples to
@@ -183,33 +333,13 @@ void buildSlab(const Grid3& grid, std::size_t first, std::size_t count, int n, c
                const BuildOptions& opt, const InputScan& scan, double valueStep, ModelVolume& m,
                CoreTotals& t) {
     const bool skipNonFinite = opt.nan == NanPolicy::Skip && scan.nonFinite > 0;
-    const std::size_t voxels = count;
     const std::size_t un = static_cast<std::size_t>(n);
     const int q = opt.quantiles;
     const int K = opt.gmmComponents;
     const bool kde = opt.density == DensityEstimate::Kde;
-    const bool dequantized = opt.density == DensityEstimate::Dequantized;
-    UDVR_CHECK(!dequantized || valueStep > 0.0);
     UDVR_CHECK(!kde || t.bandwidths.size() == grid.pointCount());
-    const double eps = opt.tailEps > 0.0 ? opt.tailEps : 0.5 / static_cast<double>(n);
-
-    m.grid = grid;
-    resizeLarge(m.mean, voxels);
-    resizeLarge(m.stddev, voxels);
-    resizeLarge(m.min, voxels);
-    resizeLarge(m.max, voxels);
-    resizeLarge(m.iqr, 2 * voxels);
-    m.quantileCount = q;
-    if (q > 0) resizeLarge(m.quantiles, voxels * static_cast<std::size_t>(q + 1));
-    m.quantileLevels = normalizedQuantileLevels(opt.quantileLevels, q, "--quantile-levels");
-    // b(0.25), b(0.75) among the boundaries (kde: the IQR is then read off them).
-    const int quarter = q > 0 ? m.boundaryAtLevel(0.25) : -1;
-    const int threeQuarters = q > 0 ? m.boundaryAtLevel(0.75) : -1;
-    std::vector<double> boundaryLevels(static_cast<std::size_t>(q + 1));
-    for (int j = 0; j <= q; ++j) boundaryLevels[static_cast<std::size_t>(j)] = m.quantileLevel(j);
-    const std::array<double, 2> iqrLevels = {0.25, 0.75};
-    m.gmmComponents = K;
-    if (K > 0) resizeLarge(m.gmm, voxels * static_cast<std::size_t>(3 * K));
+    sizeModelArrays(m, grid, count, opt);
+    const VoxelQuantiles quantilesOf(m, opt, n, valueStep);
 
     GmmOptions gmmOpt;
     gmmOpt.components = std::max(K, 1);
@@ -218,8 +348,7 @@ void buildSlab(const Grid3& grid, std::size_t first, std::size_t count, int n, c
     const double range = scan.max - scan.min;
     gmmOpt.sigmaFloor = range > 0.0 ? 1e-3 * range : 1e-3;
 
-    std::atomic<std::size_t> constant{0}, notConverged{0}, fewerDistinct{0}, iterations{0};
-    std::atomic<double> gatherCpu{0.0}, estimateCpu{0.0}, gmmCpu{0.0};
+    std::mutex totalsMutex;
     const std::size_t base = first;
     // Finite samples are sorted a chunk at a time, one voxel per vector lane (a sorting
     // network); with --nan skip each voxel's finite ones alone.
@@ -230,16 +359,14 @@ void buildSlab(const Grid3& grid, std::size_t first, std::size_t count, int n, c
         std::vector<GmmFitInfo> infos(kChunkVoxels);
         std::vector<std::size_t> finite(skipNonFinite ? kChunkVoxels : 0);  // per voxel
         GmmWorkspace ws;
-        std::vector<double> dq(dequantized ? static_cast<std::size_t>(q + 1) : 0);
-        std::array<double, 2> dqIqr{};
-        std::size_t lConstant = 0, lNotConverged = 0, lFewer = 0, lIterations = 0;
-        double lGather = 0.0, lEstimate = 0.0, lGmm = 0.0;
+        std::vector<double> scratch;
+        ChunkCounts c;
         for (std::size_t c0 = b; c0 < e; c0 += kChunkVoxels) {
             const std::size_t c1 = std::min(e, c0 + kChunkVoxels);
             const double t0 = threadCpuSeconds();
             gather(c0, c1, buf.data());
             const double t1 = threadCpuSeconds();
-            lGather += t1 - t0;
+            c.gatherCpu += t1 - t0;
             if (!skipNonFinite) sortRuns(buf.data(), c1 - c0, un, network);
             for (std::size_t v = c0; v < c1; ++v) {
                 float* s = buf.data() + (v - c0) * un;
@@ -256,113 +383,32 @@ void buildSlab(const Grid3& grid, std::size_t first, std::size_t count, int n, c
                 m.stddev[v - base] = static_cast<float>(mom.stddev);
                 m.min[v - base] = s[0];
                 m.max[v - base] = s[nv - 1];
+                if (s[0] == s[nv - 1]) ++c.constant;
                 float* qv = q > 0
                                 ? m.quantiles.data() + (v - base) * static_cast<std::size_t>(q + 1)
                                 : nullptr;
-                float* iqr = m.iqr.data() + 2 * (v - base);
-                const bool constantVoxel = s[0] == s[nv - 1];
-                if (constantVoxel) ++lConstant;
-                if (dequantized) {
-                    // Every sample spread over its quantisation step, constant voxels too (a
-                    // brick of v is U[v − s/2, v + s/2]); the mixture's exact quantiles.
-                    if (qv) {
-                        dequantizedQuantiles(sorted, valueStep, boundaryLevels, dq);
-                        for (int j = 0; j <= q; ++j)
-                            qv[j] = static_cast<float>(dq[static_cast<std::size_t>(j)]);
-                    }
-                    dequantizedQuantiles(sorted, valueStep, iqrLevels, dqIqr);
-                    iqr[0] = static_cast<float>(dqIqr[0]);
-                    iqr[1] = static_cast<float>(dqIqr[1]);
-                } else if (constantVoxel) {
-                    // A point mass: every boundary is the common value (SPEC §2).
-                    if (qv) std::fill(qv, qv + q + 1, s[0]);
-                    iqr[0] = iqr[1] = s[0];
-                    if (kde) t.bandwidths[v] = std::numeric_limits<float>::quiet_NaN();
-                } else if (!kde) {
-                    // numpy's linear quantile at t_j; b_0 = min and b_q = max exactly.
-                    for (int j = 0; qv && j <= q; ++j)
-                        qv[j] = static_cast<float>(empiricalQuantile(sorted, m.quantileLevel(j)));
-                    iqr[0] = static_cast<float>(empiricalQuantile(sorted, 0.25));
-                    iqr[1] = static_cast<float>(empiricalQuantile(sorted, 0.75));
-                } else {
-                    // b_j = F⁻¹(t_j), tails at ε and 1 − ε; Newton from the sample quantile.
-                    const double h = kdeBandwidth(sorted, mom.stddev, opt.bandwidth);
-                    t.bandwidths[v] = static_cast<float>(h);
-                    auto inv = [&](double p) {
-                        return kdeQuantile(sorted, h, p, empiricalQuantile(sorted, p));
-                    };
-                    double prev = -std::numeric_limits<double>::infinity();
-                    for (int j = 0; qv && j <= q; ++j) {
-                        const double p = j == 0 ? eps : j == q ? 1.0 - eps : m.quantileLevel(j);
-                        prev = std::max(prev, inv(p));  // monotone despite solver tolerance
-                        qv[j] = static_cast<float>(prev);
-                    }
-                    if (qv && quarter > 0 && threeQuarters > 0) {
-                        iqr[0] = qv[quarter];
-                        iqr[1] = qv[threeQuarters];
-                    } else {
-                        iqr[0] = static_cast<float>(inv(0.25));
-                        iqr[1] =
-                            static_cast<float>(std::max(inv(0.75), static_cast<double>(iqr[0])));
-                    }
-                }
+                const float h =
+                    quantilesOf(sorted, mom, qv, m.iqr.data() + 2 * (v - base), scratch);
+                if (kde) t.bandwidths[v] = h;
             }
             const double t2 = threadCpuSeconds();
-            lEstimate += t2 - t1;
+            c.estimateCpu += t2 - t1;
             if (K > 0) {
-                // EM for the whole chunk, 16 voxels at a time (one per vector lane).
-                const std::size_t cnt = c1 - c0;
-                const std::size_t stride = static_cast<std::size_t>(3 * K);
-                // Voxels i0..i1 of the chunk, all with n samples.
-                auto fitRun = [&](std::size_t i0, std::size_t i1) {
-                    fitGmmMany(std::span<const float>(buf.data() + i0 * un, (i1 - i0) * un), un,
-                               gmmOpt, c0 + i0,
-                               std::span<float>(m.gmm.data() + (c0 - base + i0) * stride,
-                                                (i1 - i0) * stride),
-                               std::span<GmmFitInfo>(infos.data() + i0, i1 - i0), ws);
-                };
-                if (!skipNonFinite) fitRun(0, cnt);
-                for (std::size_t i = 0; skipNonFinite && i < cnt;) {
-                    std::size_t j = i;
-                    while (j < cnt && finite[j] == un) ++j;
-                    if (j > i) {
-                        fitRun(i, j);
-                        i = j;
-                        continue;
-                    }
-                    // Fewer samples than n: alone, same stream (as in a batch, bit for bit).
-                    infos[i] = fitGmm(
-                        std::span<const float>(buf.data() + i * un, finite[i]), gmmOpt, c0 + i,
-                        std::span<float>(m.gmm.data() + (c0 - base + i) * stride, stride), ws);
-                    ++i;
-                }
-                for (std::size_t i = 0; i < cnt; ++i) {
-                    const GmmFitInfo& fi = infos[i];
-                    lIterations += static_cast<std::size_t>(fi.iterations);
-                    if (!fi.converged) ++lNotConverged;
-                    const float* s = buf.data() + i * un;
-                    const std::size_t ni = skipNonFinite ? finite[i] : un;
-                    if (fi.distinctComponents < K && s[0] != s[ni - 1]) ++lFewer;
-                }
-                lGmm += threadCpuSeconds() - t2;
+                fitChunkGmms(buf.data(), c1 - c0, un, skipNonFinite ? finite.data() : nullptr, c0,
+                             base, K, gmmOpt, m, infos, ws, c);
+                c.gmmCpu += threadCpuSeconds() - t2;
             }
             if (opt.progress) opt.progress->advance(c1 - c0);
         }
-        atomicAdd(gatherCpu, lGather);
-        atomicAdd(estimateCpu, lEstimate);
-        atomicAdd(gmmCpu, lGmm);
-        constant += lConstant;
-        notConverged += lNotConverged;
-        fewerDistinct += lFewer;
-        iterations += lIterations;
+        const std::lock_guard<std::mutex> lock(totalsMutex);
+        t.constant += c.constant;
+        t.notConverged += c.notConverged;
+        t.fewerDistinct += c.fewerDistinct;
+        t.iterations += c.iterations;
+        t.gatherCpu += c.gatherCpu;
+        t.estimateCpu += c.estimateCpu;
+        t.gmmCpu += c.gmmCpu;
     });
-    t.constant += constant;
-    t.notConverged += notConverged;
-    t.fewerDistinct += fewerDistinct;
-    t.iterations += iterations;
-    t.gatherCpu += gatherCpu;
-    t.estimateCpu += estimateCpu;
-    t.gmmCpu += gmmCpu;
 }
 
 /// The field data of a model built from n samples per voxel over `voxels` voxels (the arrays
