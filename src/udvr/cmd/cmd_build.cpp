@@ -235,6 +235,304 @@ void buildOnRanks(const std::vector<std::string>& inputs, const std::string& out
                  pieces == 1 ? "" : "s");
 }
 
+/// The flags of `udvr build`.
+struct BuildFlags {
+    std::vector<std::string> inputs;
+    std::string out, density, bandwidth = "silverman", var, memberDim, levels, nan = "error";
+    int quantiles = 8, gmm = 4, downsample = 0, pieces = 0;
+    double tailEps = 0.0;
+    CLI::Option* downsampleOpt = nullptr;
+    CLI::Option* tailEpsOpt = nullptr;
+    CLI::Option* gmmOpt = nullptr;
+    CLI::Option* quantilesOpt = nullptr;
+    std::string memoryLimit = "auto";
+    int slabHeight = 0;
+    CLI::Option* slabHeightOpt = nullptr;
+    RawLayoutFlags raw;  // headerless .raw inputs
+};
+
+/// BuildOptions from the flags, with every check that needs no input.
+BuildOptions buildOptionsOf(const BuildFlags& f) {
+    BuildOptions opt;
+    opt.quantiles = f.quantiles;
+    if (!f.levels.empty()) {
+        opt.quantileLevels = parseDoubleList(f.levels, "--quantile-levels");
+        const int q = static_cast<int>(opt.quantileLevels.size()) - 1;
+        if (f.quantilesOpt->count() > 0 && f.quantiles != q)
+            UDVR_FAIL("--quantiles " << f.quantiles << " disagrees with the " << q + 1
+                                     << " values of --quantile-levels (q + 1 boundaries)");
+        opt.quantiles = q;
+    }
+    opt.gmmComponents = f.gmm;
+    opt.nan = parseNanPolicy(f.nan);
+    const bool bricks = f.downsampleOpt->count() > 0;
+    opt.density = f.density.empty() ? defaultDensity(bricks) : parseDensityEstimate(f.density);
+    opt.bandwidthText = f.bandwidth;
+    if (opt.density == DensityEstimate::Kde) opt.bandwidth = parseBandwidth(f.bandwidth);
+    if (f.tailEpsOpt->count() > 0) {
+        if (!(f.tailEps > 0.0))
+            UDVR_FAIL("--tail-eps " << f.tailEps << " is out of range; expected 0 < E < 0.5");
+        opt.tailEps = f.tailEps;
+    }
+    // What does not depend on the input is checked before it is read (the sample count
+    // is then assumed large enough; fitOptionsToSamples checks against the real one).
+    validateBuildOptions(opt, std::numeric_limits<int>::max());
+    if (f.slabHeightOpt->count() > 0 && f.slabHeight < 1)
+        UDVR_FAIL("--slab-height " << f.slabHeight
+                                   << " is out of range; expected a number of z-planes >= 1");
+    if (f.slabHeightOpt->count() > 0 && bricks && f.downsample >= 2 &&
+        f.slabHeight % f.downsample != 0)
+        UDVR_FAIL("--slab-height " << f.slabHeight << " is not a multiple of --downsample "
+                                   << f.downsample
+                                   << "; bricks need whole K-plane slabs, e.g. --slab-height "
+                                   << std::max(f.slabHeight / f.downsample, 1) * f.downsample);
+    for (const std::string& in : f.inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
+    if (bricks) opt.source += " --downsample " + std::to_string(f.downsample);
+    return opt;
+}
+
+/// One build on this process (no MPI): in memory, or out of core a slab at a time into a
+/// streamed .vti; then the report on stderr.
+class LocalBuild {
+  public:
+    LocalBuild(const BuildFlags& f, BuildOptions opt, MemoryLimit limit)
+        : f_(f),
+          opt_(std::move(opt)),
+          limit_(std::move(limit)),
+          forcedSlab_(f.slabHeightOpt->count() > 0 ? f.slabHeight : 0),
+          bricks_(f.downsampleOpt->count() > 0),
+          partitioned_(lowerExtension(f.out) == ".pvti"),
+          skipNan_(opt_.nan == NanPolicy::Skip) {}
+
+    void run() {
+        if (bricks_)
+            fromBricks();
+        else
+            fromEnsemble();
+        write();
+        report();
+    }
+
+  private:
+    // For stderr once the input has been read (or scanned) without error.
+    void sayNotes() {
+        std::fputs(notes_.c_str(), stderr);
+        notes_.clear();
+    }
+    SlabProgress progress() {
+        return [this](const char* pass, int slab, int slabs, std::size_t voxels) {
+            if (std::string(pass) == "build" && slab == 0) sayNotes();  // the scan passed
+            return bars_.next(pass, slab, slabs, voxels);
+        };
+    }
+    /// Out of core: the model's slabs go to the writer as they are built.
+    void streamTo(const Grid3& modelGrid, const SlabReader& r, int planes,
+                  const std::function<ModelVolume(const SlabInput&, const SlabSink&)>& run) {
+        if (partitioned_)
+            UDVR_FAIL("-o " << f_.out << ": this build runs out of core ("
+                            << (forcedSlab_ > 0 ? std::string("--slab-height")
+                                                : "its input and model exceed "
+                                                  "--memory-limit " +
+                                                      limit_.text)
+                            << "), which writes a .vti model; write -o with .vti, or "
+                               "give a larger --memory-limit");
+        if (!r.note.empty()) notes_ = r.note + "\n" + notes_;
+        const int slabPlanes = std::min(planes, modelGrid.dims[2]);
+        const int slabs = (modelGrid.dims[2] + slabPlanes - 1) / slabPlanes;
+        const int k = bricks_ ? f_.downsample : 1;
+        const BuildMemory mem =
+            buildMemory(r.grid, r.members, k, opt_, r.scratchPerPlane, r.scratchFixed);
+        const int lastPlanes = modelGrid.dims[2] - (slabs - 1) * slabPlanes;
+        const std::string last = lastPlanes != slabPlanes
+                                     ? " (the last " + std::to_string(lastPlanes * k) + ")"
+                                     : std::string();
+        const std::size_t bytes =
+            mem.fixed + residentBytes() + static_cast<std::size_t>(slabPlanes) * mem.perPlane;
+        char plan[512];
+        std::snprintf(plan, sizeof plan,
+                      "build: out of core: %d slab%s of %d z-plane%s%s, about %s in memory "
+                      "(limit %s)%s\n",
+                      slabs, slabs == 1 ? "" : "s", slabPlanes * k, slabPlanes * k == 1 ? "" : "s",
+                      last.c_str(), byteSizeText(bytes).c_str(), limit_.text.c_str(),
+                      r.wholeMembers ? "; VTI/NRRD members are read whole for every slab" : "");
+        notes_ += plan;
+        ModelVtiStreamWriter writer(f_.out, modelGrid, opt_.quantiles, opt_.gmmComponents);
+        const SlabInput in = slabInputOf(r);
+        auto sink = [&](const ModelVolume& slab, std::size_t) {
+            const auto ts = std::chrono::steady_clock::now();
+            writer.append(slab);
+            writeSeconds_ += secondsSince(ts);
+        };
+        model_ = run(in, sink);
+        bars_.bar.reset();
+        sayNotes();  // one pass (no GMM): only now is the whole input known to be finite
+        const auto tf = std::chrono::steady_clock::now();
+        writer.finish(model_);
+        writeSeconds_ += secondsSince(tf);
+        readSeconds_ = rep_.readSeconds;
+        written_ = true;
+    }
+    void fromBricks() {
+        FieldReadOptions ro;
+        ro.var = f_.var;
+        ro.raw = toRawLayout(f_.raw);
+        ro.allowMissing = skipNan_;  // build's own scan reports them by policy
+        SlabReader r = openBrickedField(f_.inputs, ro);
+        checkDensityForInput(opt_.density, r.valueStep, r.valueType);
+        const Grid3 reduced = downsampledGrid(r.grid, f_.downsample);
+        const long long k = f_.downsample;
+        fitOptionsToSamples(opt_, k * k * k, f_.gmmOpt->count() > 0, f_.quantilesOpt->count() > 0,
+                            notes_);
+        BuildMemory mem =
+            buildMemory(r.grid, 1, f_.downsample, opt_, r.scratchPerPlane, r.scratchFixed);
+        mem.fixed += residentBytes();
+        const Grid3 inputGrid = r.grid;
+        const std::string field =
+            std::to_string(r.grid.dims[0]) + "x" + std::to_string(r.grid.dims[1]) + " field values";
+        const int planes =
+            planSlabs(mem, limit_, reduced.dims[2], f_.downsample, forcedSlab_, field);
+        if (planes > 0) {
+            streamTo(reduced, r, planes, [&](const SlabInput& in, const SlabSink& sink) {
+                return buildModelDownsampledStreamed(in, f_.downsample, planes, opt_, sink,
+                                                     progress(), &rep_);
+            });
+        } else {
+            r = SlabReader{};  // what it read to open the field
+            // The file opened as a field above (openBrickedField).
+            const ScalarField f = readField(f_.inputs[0], ro);
+            readSeconds_ = secondsSince(t0_);
+            sayNotes();
+            ProgressBar bar("build", reduced.pointCount());
+            opt_.progress = &bar;
+            model_ = buildModelDownsampled(f, f_.downsample, opt_, &rep_);
+            bar.finish();
+        }
+        if (rep_.droppedPlanes != std::array<int, 3>{0, 0, 0})
+            std::fprintf(stderr,
+                         "build: %dx%dx%d is not a multiple of %d; left out the trailing "
+                         "%d,%d,%d planes in x,y,z\n",
+                         inputGrid.dims[0], inputGrid.dims[1], inputGrid.dims[2], f_.downsample,
+                         rep_.droppedPlanes[0], rep_.droppedPlanes[1], rep_.droppedPlanes[2]);
+        what_ = std::to_string(inputGrid.dims[0]) + "x" + std::to_string(inputGrid.dims[1]) + "x" +
+                std::to_string(inputGrid.dims[2]) + " field in " + std::to_string(f_.downsample) +
+                "^3 bricks";
+    }
+    void fromEnsemble() {
+        requireEnsembleInputs(f_.inputs);
+        EnsembleReadOptions ro;
+        ro.var = f_.var;
+        ro.memberDim = f_.memberDim;
+        ro.raw = toRawLayout(f_.raw);
+        ro.allowMissing = skipNan_;
+        SlabReader r = openEnsembleSlabs(f_.inputs, ro);
+        checkDensityForInput(opt_.density, r.valueStep, r.valueType);
+        // Checks the options before the bar is drawn.
+        fitOptionsToSamples(opt_, r.members, f_.gmmOpt->count() > 0, f_.quantilesOpt->count() > 0,
+                            notes_);
+        BuildMemory mem =
+            buildMemory(r.grid, r.members, 1, opt_, r.scratchPerPlane, r.scratchFixed);
+        mem.fixed += residentBytes();
+        const int planes =
+            planSlabs(mem, limit_, r.grid.dims[2], 1, forcedSlab_,
+                      std::to_string(r.members) + " members of " + std::to_string(r.grid.dims[0]) +
+                          "x" + std::to_string(r.grid.dims[1]) + " values");
+        if (planes > 0) {
+            streamTo(r.grid, r, planes, [&](const SlabInput& in, const SlabSink& sink) {
+                return buildModelStreamed(in, planes, opt_, sink, progress(), &rep_);
+            });
+        } else {
+            r = SlabReader{};
+            const Ensemble e = readEnsemble(f_.inputs, ro);
+            readSeconds_ = secondsSince(t0_);
+            sayNotes();
+            ProgressBar bar("build", e.grid.pointCount());
+            opt_.progress = &bar;
+            model_ = buildModel(e, opt_, &rep_);
+            bar.finish();
+        }
+        what_ = std::to_string(model_.samplesPerVoxel) + "-member ensemble";
+    }
+    void write() {
+        std::string writtenText = f_.out;
+        if (!written_) {
+            auto t1 = std::chrono::steady_clock::now();
+            if (partitioned_) {
+                const int pieces = f_.pieces > 0 ? f_.pieces : threadCount();
+                writeModelPvti(f_.out, model_, pieces);
+                const int n =
+                    static_cast<int>(pvtiPieceBoundaries(model_.grid.dims[2], pieces).size()) - 1;
+                writtenText += " (" + std::to_string(n) + (n == 1 ? " piece)" : " pieces)");
+            } else {
+                writeModelVti(f_.out, model_);
+            }
+            writeSeconds_ = secondsSince(t1);
+        }
+
+        writtenText_ = writtenText;
+    }
+    void report() const {
+        const std::string& writtenText = writtenText_;
+        const auto& d = model_.grid.dims;
+        std::fprintf(
+            stderr,
+            "build: %s -> %dx%dx%d voxels x %d samples; q=%d (%s%s%s), GMM K=%d; "
+            "%d threads\n",
+            what_.c_str(), d[0], d[1], d[2], rep_.samplesPerVoxel, opt_.quantiles,
+            model_.quantileLevels.empty() ? "" : "uneven levels, ", model_.density.c_str(),
+            opt_.density == DensityEstimate::Kde
+                ? (", h " + model_.bandwidthRule + " median " + std::to_string(model_.bandwidth))
+                      .c_str()
+            : opt_.density == DensityEstimate::Dequantized
+                ? (", step " + shortNumber(model_.bandwidth)).c_str()
+                : "",
+            opt_.gmmComponents, threadCount());
+        if (opt_.gmmComponents > 0)
+            std::fprintf(stderr,
+                         "build: EM %.1f iterations per voxel on average, %zu voxels stopped at "
+                         "100; %zu constant voxels, %zu with fewer distinct values than K\n",
+                         rep_.meanGmmIterations, rep_.gmmNotConverged, rep_.constantVoxels,
+                         rep_.gmmFewerDistinct);
+        if (rep_.nonFiniteSamples > 0)
+            std::fprintf(stderr,
+                         "build: --nan skip: left out %zu NaN/Inf samples at %zu voxels (the "
+                         "fewest finite samples at a voxel: %d of %d)\n",
+                         rep_.nonFiniteSamples, rep_.voxelsWithNonFinite, rep_.fewestFiniteSamples,
+                         rep_.samplesPerVoxel);
+        // Wall times of the three phases; the statistics' stages as CPU time over all threads.
+        std::fprintf(stderr,
+                     "build: read %.2f s, statistics %.2f s (CPU: scan %.2f, gather %.2f, "
+                     "sort+moments+quantiles %.2f, GMM %.2f s), write %.2f s -> %s\n",
+                     readSeconds_, rep_.seconds, rep_.scanCpu, rep_.gatherCpu, rep_.estimateCpu,
+                     rep_.gmmCpu, writeSeconds_, writtenText.c_str());
+        if (written_) {
+            const double total = secondsSince(t0_);
+            const double samples = static_cast<double>(rep_.voxels) * rep_.samplesPerVoxel;
+            std::fprintf(stderr,
+                         "build: out of core: %d slab(s), the input read %s; %.3g samples/s "
+                         "over %.1f s\n",
+                         rep_.slabs,
+                         rep_.inputPasses == 1   ? "once"
+                         : rep_.inputPasses == 2 ? "twice (the range scan, then the statistics)"
+                                                 : "three times (the range scan, finite counts, "
+                                                   "the statistics)",
+                         total > 0.0 ? samples / total : 0.0, total);
+        }
+    }
+
+    const BuildFlags& f_;
+    BuildOptions opt_;
+    MemoryLimit limit_;
+    int forcedSlab_;
+    bool bricks_, partitioned_, skipNan_;
+    std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
+    ModelVolume model_;
+    BuildReport rep_;
+    std::string what_, notes_, writtenText_;
+    double readSeconds_ = 0.0, writeSeconds_ = 0.0;
+    bool written_ = false;  // by the out-of-core build, slab by slab
+    SlabBars bars_;
+};
+
 }  // namespace
 
 void addBuildCommand(CLI::App& app) {
@@ -242,21 +540,7 @@ void addBuildCommand(CLI::App& app) {
         "build",
         "per-voxel distribution models (moments, quantiles, IQR, GMM) from an ensemble "
         "or from K^3 bricks of one field, written as a .vti model");
-    struct Opts {
-        std::vector<std::string> inputs;
-        std::string out, density, bandwidth = "silverman", var, memberDim, levels, nan = "error";
-        int quantiles = 8, gmm = 4, downsample = 0, pieces = 0;
-        double tailEps = 0.0;
-        CLI::Option* downsampleOpt = nullptr;
-        CLI::Option* tailEpsOpt = nullptr;
-        CLI::Option* gmmOpt = nullptr;
-        CLI::Option* quantilesOpt = nullptr;
-        std::string memoryLimit = "auto";
-        int slabHeight = 0;
-        CLI::Option* slabHeightOpt = nullptr;
-        RawLayoutFlags raw;  // headerless .raw inputs
-    };
-    auto o = std::make_shared<Opts>();
+    auto o = std::make_shared<BuildFlags>();
     sub->add_option("inputs", o->inputs,
                     "ensemble .nc, member files or quoted globs ('m_*.vti'), or one field with "
                     "--downsample")
@@ -309,45 +593,11 @@ void addBuildCommand(CLI::App& app) {
             UDVR_FAIL("--pieces " << o->pieces << " needs -o with a .pvti (partitioned) model");
         if (o->pieces < 0 || o->pieces > 65536)
             UDVR_FAIL("--pieces " << o->pieces << " is out of range; expected 1 to 65536");
-        BuildOptions opt;
-        opt.quantiles = o->quantiles;
-        if (!o->levels.empty()) {
-            opt.quantileLevels = parseDoubleList(o->levels, "--quantile-levels");
-            const int q = static_cast<int>(opt.quantileLevels.size()) - 1;
-            if (o->quantilesOpt->count() > 0 && o->quantiles != q)
-                UDVR_FAIL("--quantiles " << o->quantiles << " disagrees with the " << q + 1
-                                         << " values of --quantile-levels (q + 1 boundaries)");
-            opt.quantiles = q;
-        }
-        opt.gmmComponents = o->gmm;
-        opt.nan = parseNanPolicy(o->nan);
-        const bool skipNan = opt.nan == NanPolicy::Skip;
-        const bool bricks = o->downsampleOpt->count() > 0;
-        opt.density =
-            o->density.empty() ? defaultDensity(bricks) : parseDensityEstimate(o->density);
-        opt.bandwidthText = o->bandwidth;
-        if (opt.density == DensityEstimate::Kde) opt.bandwidth = parseBandwidth(o->bandwidth);
-        if (o->tailEpsOpt->count() > 0) {
-            if (!(o->tailEps > 0.0))
-                UDVR_FAIL("--tail-eps " << o->tailEps << " is out of range; expected 0 < E < 0.5");
-            opt.tailEps = o->tailEps;
-        }
-        // What does not depend on the input is checked before it is read (the sample count
-        // is then assumed large enough; fitOptionsToSamples checks against the real one).
-        validateBuildOptions(opt, std::numeric_limits<int>::max());
+        const BuildOptions opt = buildOptionsOf(*o);
         const MemoryLimit limit = parseMemoryLimit(o->memoryLimit);
         const int forcedSlab = o->slabHeightOpt->count() > 0 ? o->slabHeight : 0;
-        if (o->slabHeightOpt->count() > 0 && o->slabHeight < 1)
-            UDVR_FAIL("--slab-height " << o->slabHeight
-                                       << " is out of range; expected a number of z-planes >= 1");
-        if (forcedSlab > 0 && bricks && o->downsample >= 2 && forcedSlab % o->downsample != 0)
-            UDVR_FAIL("--slab-height " << forcedSlab << " is not a multiple of --downsample "
-                                       << o->downsample
-                                       << "; bricks need whole K-plane slabs, e.g. --slab-height "
-                                       << std::max(forcedSlab / o->downsample, 1) * o->downsample);
-        for (const std::string& in : o->inputs) opt.source += (opt.source.empty() ? "" : " ") + in;
-        if (bricks) opt.source += " --downsample " + std::to_string(o->downsample);
-
+        const bool bricks = o->downsampleOpt->count() > 0;
+        const bool skipNan = opt.nan == NanPolicy::Skip;
         requireOutputsNotInputs({{"-o", o->out}}, o->inputs);
         requireOutputDirectory(o->out, "-o");
         const MpiJob& job = mpiJob();
@@ -373,210 +623,7 @@ void addBuildCommand(CLI::App& app) {
                          o->gmmOpt->count() > 0, o->quantilesOpt->count() > 0);
             return;
         }
-        auto t0 = std::chrono::steady_clock::now();
-        ModelVolume model;
-        BuildReport rep;
-        std::string what;
-        double readSeconds = 0.0, writeSeconds = 0.0;
-        bool written = false;  // by the out-of-core build, slab by slab
-        SlabBars bars;
-        std::string notes;  // for stderr once the input has been read (or scanned) without error
-        auto sayNotes = [&notes] {
-            std::fputs(notes.c_str(), stderr);
-            notes.clear();
-        };
-        auto progress = [&](const char* pass, int slab, int slabs, std::size_t voxels) {
-            if (std::string(pass) == "build" && slab == 0) sayNotes();  // the scan passed
-            return bars.next(pass, slab, slabs, voxels);
-        };
-        // Out of core: the model's slabs go to the writer as they are built.
-        auto streamTo =
-            [&](const Grid3& modelGrid, const SlabReader& r, int planes,
-                const std::function<ModelVolume(const SlabInput&, const SlabSink&)>& run) {
-                if (partitioned)
-                    UDVR_FAIL("-o " << o->out << ": this build runs out of core ("
-                                    << (forcedSlab > 0 ? std::string("--slab-height")
-                                                       : "its input and model exceed "
-                                                         "--memory-limit " +
-                                                             limit.text)
-                                    << "), which writes a .vti model; write -o with .vti, or "
-                                       "give a larger --memory-limit");
-                if (!r.note.empty()) notes = r.note + "\n" + notes;
-                const int slabPlanes = std::min(planes, modelGrid.dims[2]);
-                const int slabs = (modelGrid.dims[2] + slabPlanes - 1) / slabPlanes;
-                const int k = bricks ? o->downsample : 1;
-                const BuildMemory mem =
-                    buildMemory(r.grid, r.members, k, opt, r.scratchPerPlane, r.scratchFixed);
-                const int lastPlanes = modelGrid.dims[2] - (slabs - 1) * slabPlanes;
-                const std::string last = lastPlanes != slabPlanes
-                                             ? " (the last " + std::to_string(lastPlanes * k) + ")"
-                                             : std::string();
-                const std::size_t bytes = mem.fixed + residentBytes() +
-                                          static_cast<std::size_t>(slabPlanes) * mem.perPlane;
-                char plan[512];
-                std::snprintf(
-                    plan, sizeof plan,
-                    "build: out of core: %d slab%s of %d z-plane%s%s, about %s in memory "
-                    "(limit %s)%s\n",
-                    slabs, slabs == 1 ? "" : "s", slabPlanes * k, slabPlanes * k == 1 ? "" : "s",
-                    last.c_str(), byteSizeText(bytes).c_str(), limit.text.c_str(),
-                    r.wholeMembers ? "; VTI/NRRD members are read whole for every slab" : "");
-                notes += plan;
-                ModelVtiStreamWriter writer(o->out, modelGrid, opt.quantiles, opt.gmmComponents);
-                const SlabInput in = slabInputOf(r);
-                auto sink = [&](const ModelVolume& slab, std::size_t) {
-                    const auto ts = std::chrono::steady_clock::now();
-                    writer.append(slab);
-                    writeSeconds += secondsSince(ts);
-                };
-                model = run(in, sink);
-                bars.bar.reset();
-                sayNotes();  // one pass (no GMM): only now is the whole input known to be finite
-                const auto tf = std::chrono::steady_clock::now();
-                writer.finish(model);
-                writeSeconds += secondsSince(tf);
-                readSeconds = rep.readSeconds;
-                written = true;
-            };
-        if (bricks) {
-            FieldReadOptions ro;
-            ro.var = o->var;
-            ro.raw = toRawLayout(o->raw);
-            ro.allowMissing = skipNan;  // build's own scan reports them by policy
-            SlabReader r = openBrickedField(o->inputs, ro);
-            checkDensityForInput(opt.density, r.valueStep, r.valueType);
-            const Grid3 reduced = downsampledGrid(r.grid, o->downsample);
-            const long long k = o->downsample;
-            fitOptionsToSamples(opt, k * k * k, o->gmmOpt->count() > 0,
-                                o->quantilesOpt->count() > 0, notes);
-            BuildMemory mem =
-                buildMemory(r.grid, 1, o->downsample, opt, r.scratchPerPlane, r.scratchFixed);
-            mem.fixed += residentBytes();
-            const Grid3 inputGrid = r.grid;
-            const std::string field = std::to_string(r.grid.dims[0]) + "x" +
-                                      std::to_string(r.grid.dims[1]) + " field values";
-            const int planes =
-                planSlabs(mem, limit, reduced.dims[2], o->downsample, forcedSlab, field);
-            if (planes > 0) {
-                streamTo(reduced, r, planes, [&](const SlabInput& in, const SlabSink& sink) {
-                    return buildModelDownsampledStreamed(in, o->downsample, planes, opt, sink,
-                                                         progress, &rep);
-                });
-            } else {
-                r = SlabReader{};  // what it read to open the field
-                // The file opened as a field above (openBrickedField).
-                const ScalarField f = readField(o->inputs[0], ro);
-                readSeconds = secondsSince(t0);
-                sayNotes();
-                ProgressBar bar("build", reduced.pointCount());
-                opt.progress = &bar;
-                model = buildModelDownsampled(f, o->downsample, opt, &rep);
-                bar.finish();
-            }
-            if (rep.droppedPlanes != std::array<int, 3>{0, 0, 0})
-                std::fprintf(stderr,
-                             "build: %dx%dx%d is not a multiple of %d; left out the trailing "
-                             "%d,%d,%d planes in x,y,z\n",
-                             inputGrid.dims[0], inputGrid.dims[1], inputGrid.dims[2], o->downsample,
-                             rep.droppedPlanes[0], rep.droppedPlanes[1], rep.droppedPlanes[2]);
-            what = std::to_string(inputGrid.dims[0]) + "x" + std::to_string(inputGrid.dims[1]) +
-                   "x" + std::to_string(inputGrid.dims[2]) + " field in " +
-                   std::to_string(o->downsample) + "^3 bricks";
-        } else {
-            requireEnsembleInputs(o->inputs);
-            EnsembleReadOptions ro;
-            ro.var = o->var;
-            ro.memberDim = o->memberDim;
-            ro.raw = toRawLayout(o->raw);
-            ro.allowMissing = skipNan;
-            SlabReader r = openEnsembleSlabs(o->inputs, ro);
-            checkDensityForInput(opt.density, r.valueStep, r.valueType);
-            // Checks the options before the bar is drawn.
-            fitOptionsToSamples(opt, r.members, o->gmmOpt->count() > 0,
-                                o->quantilesOpt->count() > 0, notes);
-            BuildMemory mem =
-                buildMemory(r.grid, r.members, 1, opt, r.scratchPerPlane, r.scratchFixed);
-            mem.fixed += residentBytes();
-            const int planes = planSlabs(mem, limit, r.grid.dims[2], 1, forcedSlab,
-                                         std::to_string(r.members) + " members of " +
-                                             std::to_string(r.grid.dims[0]) + "x" +
-                                             std::to_string(r.grid.dims[1]) + " values");
-            if (planes > 0) {
-                streamTo(r.grid, r, planes, [&](const SlabInput& in, const SlabSink& sink) {
-                    return buildModelStreamed(in, planes, opt, sink, progress, &rep);
-                });
-            } else {
-                r = SlabReader{};
-                const Ensemble e = readEnsemble(o->inputs, ro);
-                readSeconds = secondsSince(t0);
-                sayNotes();
-                ProgressBar bar("build", e.grid.pointCount());
-                opt.progress = &bar;
-                model = buildModel(e, opt, &rep);
-                bar.finish();
-            }
-            what = std::to_string(model.samplesPerVoxel) + "-member ensemble";
-        }
-        std::string writtenText = o->out;
-        if (!written) {
-            auto t1 = std::chrono::steady_clock::now();
-            if (partitioned) {
-                const int pieces = o->pieces > 0 ? o->pieces : threadCount();
-                writeModelPvti(o->out, model, pieces);
-                const int n =
-                    static_cast<int>(pvtiPieceBoundaries(model.grid.dims[2], pieces).size()) - 1;
-                writtenText += " (" + std::to_string(n) + (n == 1 ? " piece)" : " pieces)");
-            } else {
-                writeModelVti(o->out, model);
-            }
-            writeSeconds = secondsSince(t1);
-        }
-
-        const auto& d = model.grid.dims;
-        std::fprintf(
-            stderr,
-            "build: %s -> %dx%dx%d voxels x %d samples; q=%d (%s%s%s), GMM K=%d; "
-            "%d threads\n",
-            what.c_str(), d[0], d[1], d[2], rep.samplesPerVoxel, opt.quantiles,
-            model.quantileLevels.empty() ? "" : "uneven levels, ", model.density.c_str(),
-            opt.density == DensityEstimate::Kde
-                ? (", h " + model.bandwidthRule + " median " + std::to_string(model.bandwidth))
-                      .c_str()
-            : opt.density == DensityEstimate::Dequantized
-                ? (", step " + shortNumber(model.bandwidth)).c_str()
-                : "",
-            opt.gmmComponents, threadCount());
-        if (opt.gmmComponents > 0)
-            std::fprintf(stderr,
-                         "build: EM %.1f iterations per voxel on average, %zu voxels stopped at "
-                         "100; %zu constant voxels, %zu with fewer distinct values than K\n",
-                         rep.meanGmmIterations, rep.gmmNotConverged, rep.constantVoxels,
-                         rep.gmmFewerDistinct);
-        if (rep.nonFiniteSamples > 0)
-            std::fprintf(stderr,
-                         "build: --nan skip: left out %zu NaN/Inf samples at %zu voxels (the "
-                         "fewest finite samples at a voxel: %d of %d)\n",
-                         rep.nonFiniteSamples, rep.voxelsWithNonFinite, rep.fewestFiniteSamples,
-                         rep.samplesPerVoxel);
-        // Wall times of the three phases; the statistics' stages as CPU time over all threads.
-        std::fprintf(stderr,
-                     "build: read %.2f s, statistics %.2f s (CPU: scan %.2f, gather %.2f, "
-                     "sort+moments+quantiles %.2f, GMM %.2f s), write %.2f s -> %s\n",
-                     readSeconds, rep.seconds, rep.scanCpu, rep.gatherCpu, rep.estimateCpu,
-                     rep.gmmCpu, writeSeconds, writtenText.c_str());
-        if (written) {
-            const double total = secondsSince(t0);
-            const double samples = static_cast<double>(rep.voxels) * rep.samplesPerVoxel;
-            std::fprintf(stderr,
-                         "build: out of core: %d slab(s), the input read %s; %.3g samples/s "
-                         "over %.1f s\n",
-                         rep.slabs,
-                         rep.inputPasses == 1   ? "once"
-                         : rep.inputPasses == 2 ? "twice (the range scan, then the statistics)"
-                                                : "three times (the range scan, finite counts, "
-                                                  "the statistics)",
-                         total > 0.0 ? samples / total : 0.0, total);
-        }
+        LocalBuild(*o, opt, limit).run();
     });
 }
 
