@@ -186,6 +186,14 @@ def test_origin_so_large_the_grid_overflows_is_an_error(tmp_path):
     assert_one_line_error(run_udvr("info", f), "corner")
 
 
+def test_nrrd_whose_far_corner_overflows_is_an_error(tmp_path):
+    (tmp_path / "n.raw").write_bytes(struct.pack("<27f", *range(27)))
+    f = tmp_path / "n.nhdr"
+    f.write_text("NRRD0004\ntype: float\ndimension: 3\nsizes: 3 3 3\n"
+                 "spacings: 1e308 1 1\nendian: little\nencoding: raw\ndata file: n.raw\n")
+    assert_one_line_error(run_udvr("info", f), "far corner")
+
+
 def model_arrays(**change):
     """A valid 2x2x2 model (q = 2, K = 1) as ascii_vti arrays, with `change` applied."""
     n = 8

@@ -4,6 +4,7 @@ callback that raises, Ctrl-C in a long render, unbounded thread counts and exper
 """
 import os
 import pathlib
+import shutil
 import signal
 import subprocess
 import sys
@@ -161,7 +162,9 @@ def test_experiment_sizes_may_only_shrink(tmp_path):
 
 
 def test_experiment_output_folder_is_not_the_tf_folder(tmp_path):
-    tfs = pathlib.Path(__file__).resolve().parents[2] / "data" / "tf"
+    # A copy of the TFs: where the check is missing the experiment writes into the folder.
+    tfs = tmp_path / "tf"
+    shutil.copytree(pathlib.Path(__file__).resolve().parents[2] / "data" / "tf", tfs)
     before = sorted(p.name for p in tfs.iterdir())
     with pytest.raises(ValueError, match="is also an input"):
         udvr.experiment("tangle", quick=True, out=tfs, tf_dir=tfs)

@@ -765,6 +765,13 @@ ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
         UDVR_FAIL("cannot read " << path.string() << ": unknown field format '" << ext
                                  << "' (expected .raw .nrrd .nhdr .vti .pvti .nc)");
     }
+    // Every format's origin and spacing are finite; their far corner must be too (an origin of
+    // 1.7e308 and a spacing of 1e308 put it at Inf).
+    const std::array<double, 6> box = f.grid.bounds();
+    for (double b : box)
+        if (!std::isfinite(b))
+            UDVR_FAIL(path.string() << ": the grid's origin and spacing put its far corner beyond "
+                                       "the largest number");
     if (!options.allowMissing) checkFinite(path, f.grid, f.values);
     return f;
 }

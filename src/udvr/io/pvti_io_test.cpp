@@ -7,6 +7,8 @@
 #include <vtkPointData.h>
 #include <vtkXMLPImageDataReader.h>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 #include <regex>
 
@@ -23,7 +25,8 @@ using testing::readBytes;
 using testing::TempDir;
 using testing::writeBytes;
 
-/// A model of random values on a 5×4×`nz` grid with every array.
+/// A model of random values on a 5×4×`nz` grid with every array, arranged as a model holds them
+/// (checkModelArrays): stddev and σ ≥ 0, min ≤ max, boundaries increasing, weights in [0, 1].
 ModelVolume randomModel(int nz, unsigned seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> u(-3.f, 7.f);
@@ -45,6 +48,16 @@ ModelVolume randomModel(int nz, unsigned seed) {
     fill(m.iqr, 2);
     m.gmmComponents = 2;
     fill(m.gmm, 6);
+    for (std::size_t v = 0; v < n; ++v) {
+        m.stddev[v] = std::abs(m.stddev[v]);
+        if (m.min[v] > m.max[v]) std::swap(m.min[v], m.max[v]);
+        std::sort(m.quantiles.begin() + 5 * v, m.quantiles.begin() + 5 * (v + 1));
+        std::sort(m.iqr.begin() + 2 * v, m.iqr.begin() + 2 * (v + 1));
+        for (int c : {0, 1, 4, 5}) {  // weights in [0, 1], σ ≥ 0
+            float& g = m.gmm[6 * v + c];
+            g = c < 2 ? (g + 3.f) / 10.f : std::abs(g);
+        }
+    }
     m.samplesPerVoxel = 12;
     m.bounds = m.grid.bounds();
     m.fullResMinSpacing = 1.0 / 3.0;

@@ -209,7 +209,7 @@ ModelVolume sampleModel() {
         for (int j = 0; j <= 4; ++j) m.quantiles.push_back(x - 1 + 0.5f * float(j));
         m.iqr.push_back(x - 0.5f);
         m.iqr.push_back(x + 0.5f);
-        for (int c = 0; c < 6; ++c) m.gmm.push_back(x + 0.25f * float(c));
+        m.gmm.insert(m.gmm.end(), {0.25f, 0.75f, x - 0.5f, x + 0.5f, 0.5f, 0.25f + 0.01f * x});
     }
     m.quantileCount = 4;
     m.gmmComponents = 2;
