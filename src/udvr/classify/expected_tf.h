@@ -174,7 +174,8 @@ UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const
         valueAt(j, v);
         const S mass = static_cast<S>(levels.mass(j + 1));  // 1 for even levels: exact
         const T w = densityWeights ? width(j) : T{};
-        const T weight = quantileMeanWeight<T>(mass, w, densityWeights, lanes::MaskOf<T>{}, zeroWidth);
+        const T weight =
+            quantileMeanWeight<T>(mass, w, densityWeights, lanes::MaskOf<T>{}, zeroWidth);
         for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
         weightSum += weight;
         if (densityWeights) anyZero = anyZero | (live & (w <= zeroWidth));
