@@ -302,6 +302,16 @@ const ModelFamily& modelFamily(ModelKind kind) {
     UDVR_FAIL("unknown model kind " << static_cast<int>(kind));
 }
 
+const ModelFamily& familyWithKernel(const ModelVolume& model, ModelKind kind,
+                                    const ClassifyOptions& options, const char* what) {
+    checkModelHasArrays(model, kind, options);
+    const ModelFamily& family = modelFamily(kind);
+    if (!family.makeKernel)
+        UDVR_FAIL("model '" << family.name << "' has no " << what
+                            << ": it is rendered as the average of mean-field realizations");
+    return family;
+}
+
 std::pair<int, int> quantilePopulation(ModelKind kind, const ModelVolume& model,
                                        const ClassifyOptions& options) {
     const ModelFamily& f = modelFamily(kind);

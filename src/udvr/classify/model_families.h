@@ -106,18 +106,19 @@ std::span<const ModelFamily> modelFamilies();
 /// The row of a model.
 const ModelFamily& modelFamily(ModelKind kind);
 
+/// The row of `kind` after checking that `model` has the arrays it needs and that it has a
+/// per-sample kernel; else UdvrError (gmm-mc: "has no <what>: it is rendered as the average of
+/// mean-field realizations").
+const ModelFamily& familyWithKernel(const ModelVolume& model, ModelKind kind,
+                                    const ClassifyOptions& options, const char* what);
+
 /// Call f(kernel) with the kernel for `kind` built over `model` and `tf` (the TF pieces live
 /// for the call). Throws UdvrError when the model lacks an array the kind needs, or for gmm-mc,
 /// which has no per-sample kernel (render only: its realizations are mean fields).
 template <class F>
 void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
                 const ClassifyOptions& options, F&& f) {
-    checkModelHasArrays(model, kind, options);
-    const ModelFamily& family = modelFamily(kind);
-    if (!family.makeKernel)
-        UDVR_FAIL("model '" << family.name
-                            << "' has no per-sample kernel: it is rendered as the average of "
-                               "mean-field realizations");
+    const ModelFamily& family = familyWithKernel(model, kind, options, "per-sample kernel");
     const TfPiecesStorage pieces(tf);
     std::visit(f, family.makeKernel(model, pieces, options, family));
 }
@@ -158,13 +159,8 @@ template <class F>
 void withKernelBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
                          const TransferFunction2D& tf, const ClassifyOptions& options, F&& f) {
     checkSameGrid(first, second);
-    checkModelHasArrays(first, kind, options);
+    const ModelFamily& family = familyWithKernel(first, kind, options, "bivariate classification");
     checkModelHasArrays(second, kind, options);
-    const ModelFamily& family = modelFamily(kind);
-    if (!family.makeKernel)
-        UDVR_FAIL("model '" << family.name
-                            << "' has no bivariate classification: it is rendered as the average "
-                               "of mean-field realizations");
     const Tf2Rasters rasters(tf);
     if (kind == ModelKind::Mean) {
         f(BivariateMean2DKernel(first.grid, first.mean.data(), second.mean.data(), rasters.exact,

@@ -26,33 +26,8 @@
 namespace udvr {
 namespace {
 
-Grid3 randomGrid(CounterRng& rng, std::array<int, 3> dims) {
-    Grid3 g;
-    g.dims = dims;
-    for (int a = 0; a < 3; ++a) {
-        g.origin[a] = 4.0 * rng.uniform() - 2.0;
-        g.spacing[a] = 0.3 + 1.5 * rng.uniform();
-    }
-    return g;
-}
-
-// A random raster TF2 of w×h points over [x0, x1] × [y0, y1], some α exactly 0.
-TransferFunction2D randomTf2(CounterRng& rng, int w, int h, double x0, double x1, double y0,
-                             double y1) {
-    TransferFunction2D t;
-    t.width = w;
-    t.height = h;
-    t.x0 = x0;
-    t.x1 = x1;
-    t.y0 = y0;
-    t.y1 = y1;
-    for (int k = 0; k < w * h; ++k) {
-        for (int ch = 0; ch < 3; ++ch) t.rgba.push_back(static_cast<float>(rng.uniform()));
-        t.rgba.push_back(rng.uniform() < 0.25 ? 0.f : static_cast<float>(rng.uniform()));
-    }
-    t.validate();
-    return t;
-}
+using testing::randomGrid;
+using testing::randomTf2;
 
 TEST(Gradient, LinearFieldsAreDifferentiatedExactlyEverywhere) {
     CounterRng rng(3, 0, 0);

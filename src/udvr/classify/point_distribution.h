@@ -35,6 +35,24 @@ concept DistributionSink = requires(S& s, double x, const UniformSum& u) {
     s.boxSpline(u, x);
 };
 
+/// Eq. 5's masses of quantiles 0 … q − 1 (`width(j)` the width of quantile j, data units):
+/// emit(j, p_j) with p_j = quantileMeanWeight / Σ of them, every j in order (mass 0 included).
+/// The one normalisation of Eq. 5 for the distributions (1D and 2D).
+template <class Width, class Emit>
+void quantileMeanMasses(const QuantileLevels& levels, int q, bool densityWeights, double zeroWidth,
+                        const Width& width, const Emit& emit) {
+    bool pointMasses = false;
+    for (int j = 0; densityWeights && j < q; ++j)
+        pointMasses = pointMasses || width(j) <= zeroWidth;
+    const auto weight = [&](int j) {
+        return quantileMeanWeight<double>(levels.mass(j + 1), width(j), densityWeights, pointMasses,
+                                          zeroWidth);
+    };
+    double total = 0.0;
+    for (int j = 0; j < q; ++j) total += weight(j);
+    for (int j = 0; j < q; ++j) emit(j, weight(j) / total);
+}
+
 /// A model's distribution at a cell (SPEC §3), model by model, as pieces into `sink`.
 template <DistributionSink Sink>
 struct DistributionAt {
@@ -81,25 +99,19 @@ struct DistributionAt {
     /// Eq. 5: a point mass at each quantile's midpoint with quantileMeanWeight's share, every one
     /// of the q emitted (mass 0 included), in order.
     void operator()(const QuantileMeanKernel& k) const {
-        const int q = k.q, stride = q + 1;
-        const auto width = [&](int j) {
-            return widthAt<double>(k.geometry, k.quantiles, stride, j, cell, true);
+        const int stride = k.q + 1;
+        const auto boundary = [&](int j) {
+            return boundaryAt<double>(k.geometry, k.quantiles, stride, j, cell, true);
         };
-        bool pointMasses = false;
-        for (int j = 0; k.densityWeights && j < q; ++j)
-            pointMasses = pointMasses || width(j) <= k.zeroWidth;
-        const auto weight = [&](int j) {
-            return quantileMeanWeight<double>(k.levels.mass(j + 1), width(j), k.densityWeights,
-                                              pointMasses, k.zeroWidth);
-        };
-        double total = 0.0;
-        for (int j = 0; j < q; ++j) total += weight(j);
-        double a = boundaryAt<double>(k.geometry, k.quantiles, stride, 0, cell, true);
-        for (int j = 0; j < q; ++j) {
-            const double b = boundaryAt<double>(k.geometry, k.quantiles, stride, j + 1, cell, true);
-            sink.point(0.5 * (a + b), weight(j) / total);
-            a = b;
-        }
+        double a = boundary(0);  // quantile j's lower boundary: masses come in order
+        quantileMeanMasses(
+            k.levels, k.q, k.densityWeights, k.zeroWidth,
+            [&](int j) { return widthAt<double>(k.geometry, k.quantiles, stride, j, cell, true); },
+            [&](int j, double mass) {
+                const double b = boundary(j + 1);
+                sink.point(0.5 * (a + b), mass);
+                a = b;
+            });
     }
     /// The ensemble itself: a point mass 1/n at each member's interpolated value.
     void operator()(const MembersKernel& k) const {
@@ -115,14 +127,29 @@ struct DistributionAt {
     }
 };
 
+/// visitor(kernel) for a kernel, or for the kernel a variant of kernels holds.
+template <class Kernel, class Visitor>
+void visitKernel(const Kernel& kernel, const Visitor& visitor) {
+    if constexpr (requires { kernel.index(); })
+        std::visit(visitor, kernel);
+    else
+        visitor(kernel);
+}
+
 /// The distribution of `kernel` (any 1D model kernel, or an AnyKernel) at a cell into `sink`.
 template <class Kernel, DistributionSink Sink>
 void distributionAt(const Kernel& kernel, const Cell<double>& cell, Sink& sink) {
-    if constexpr (requires { kernel.index(); })
-        std::visit(DistributionAt<Sink>{cell, sink}, kernel);
-    else
-        DistributionAt<Sink>{cell, sink}(kernel);
+    visitKernel(kernel, DistributionAt<Sink>{cell, sink});
 }
+
+/// Σ mass × (E[α·r], E[α·g], E[α·b], E[α]) over the pieces of a distribution.
+struct ExpectationSum {
+    double sum[4] = {0.0, 0.0, 0.0, 0.0};
+
+    void add(double mass, const double e[4]) {
+        for (int ch = 0; ch < 4; ++ch) sum[ch] += mass * e[ch];
+    }
+};
 
 /// Mean and variance of a distribution given as pieces.
 struct DistributionMoments {
@@ -152,6 +179,13 @@ struct DistributionMoments {
     }
 };
 
+/// A piece of a distribution with its probability mass.
+template <class Piece>
+struct Weighted {
+    Piece piece;
+    double mass;
+};
+
 /// A distribution at a point as its pieces, in the order they came (a DistributionSink that
 /// can replay itself into another).
 struct PointDistribution {
@@ -164,10 +198,7 @@ struct PointDistribution {
     struct Normal {
         double mu, sigma, mass;
     };
-    struct BoxSpline {
-        UniformSum sum;
-        double mass;
-    };
+    using BoxSpline = Weighted<UniformSum>;
     std::vector<Atom> atoms;
     std::vector<Uniform> uniforms;
     std::vector<Normal> normals;
@@ -184,7 +215,7 @@ struct PointDistribution {
         for (const Atom& p : atoms) s.point(p.x, p.mass);
         for (const Uniform& p : uniforms) s.uniform(p.a, p.b, p.mass);
         for (const Normal& p : normals) s.normal(p.mu, p.sigma, p.mass);
-        for (const BoxSpline& p : boxSplines) s.boxSpline(p.sum, p.mass);
+        for (const BoxSpline& p : boxSplines) s.boxSpline(p.piece, p.mass);
     }
     /// Mass of the pieces that are not point masses.
     double continuousMass() const;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <tuple>
 
+#include "udvr/classify/joint_distribution.h"
 #include "udvr/classify/point_distribution.h"
 
 namespace udvr {
@@ -182,53 +183,37 @@ void setExpected(ProbeResult& r, const double v[4]) {
     r.json["expected_rgba"] = {r.expected.r, r.expected.g, r.expected.b, r.expected.a};
 }
 
-// G's mean and standard deviation at a cell (SPEC §9), and the polyline of the quantile models.
-struct DescribeGradient {
-    const Cell<double>& cell;
-    json& j;
-
-    void operator()(const Mean2DKernel& k) const {
-        double y[3];
-        k.meanGradientAt<double>(cell, true, y);
-        j["gradient_magnitude"] = {{"mean", std::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])},
-                                   {"stddev", 0.0}};
-    }
-    void operator()(const Gaussian2DKernel& k) const {
-        double m[5];
-        k.momentsAt(cell, m);
-        j["gradient_magnitude"] = {{"mean", m[1]}, {"stddev", std::sqrt(std::max(0.0, m[4]))}};
-        j["covariance"] = {{m[2], m[3]}, {m[3], m[4]}};
-    }
-    void operator()(const Uniform2DKernel& k) const {
-        double cx, cy, vxx = 0, vxy = 0, vyy = 0;
-        BoxDirection2 d[32];
-        const int n = k.directionsAt(cell, cx, cy, d);
-        for (int i = 0; i < n; ++i) {  // var(t) = 1/3, t ~ U[−1, 1]
-            vxx += d[i].a * d[i].a / 3;
-            vxy += d[i].a * d[i].b / 3;
-            vyy += d[i].b * d[i].b / 3;
+// G's mean and standard deviation at a cell (SPEC §9) from the kernel's joint distribution
+// (JointMoments); the covariance of (X, G) where the distribution is a bivariate normal or box
+// spline; the polyline of the quantile models, whose G SPEC §9 describes by the quantile
+// population (uniform within each quantile, Eq. 2) for quantile-mean too.
+template <class Kernel2D>
+void describeGradient(const Kernel2D& k, const Cell<double>& cell, json& j) {
+    JointMoments m;
+    if constexpr (std::is_same_v<Kernel2D, Quantile2DKernel>) {
+        Quantile2DKernel population = k;
+        population.quantileMean = false;
+        JointPointDistribution d;
+        jointDistributionAt(population, cell, d);
+        std::vector<double> x, g;
+        for (const auto& s : d.segments) {
+            if (x.empty()) {
+                x.push_back(s.xa);
+                g.push_back(s.ga);
+            }
+            x.push_back(s.xb);
+            g.push_back(s.gb);
+            m.segment(s.xa, s.ga, s.xb, s.gb, s.mass);
         }
-        j["gradient_magnitude"] = {{"mean", cy}, {"stddev", std::sqrt(vyy)}};
-        j["covariance"] = {{vxx, vxy}, {vxy, vyy}};
+        j["polyline"] = {{"x", x}, {"g", g}};
+    } else {
+        jointDistributionAt(k, cell, m);
     }
-    void operator()(const Quantile2DKernel& k) const {
-        double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
-        const int n = k.polylineAt<double>(cell, true, x, g);
-        // G(t) linear on each of the n − 1 segments, each with its probability (equal for
-        // even levels).
-        double m1 = 0, m2 = 0;
-        const double inv = k.levels.inverseTotal<double>(n);
-        for (int i = 1; i < n; ++i) {
-            const double p = k.levels.mass(i) * inv;
-            m1 += p * 0.5 * (g[i - 1] + g[i]);
-            m2 += p * (g[i - 1] * g[i - 1] + g[i - 1] * g[i] + g[i] * g[i]) / 3.0;
-        }
-        j["gradient_magnitude"] = {{"mean", m1},
-                                   {"stddev", std::sqrt(std::max(0.0, m2 - m1 * m1))}};
-        j["polyline"] = {{"x", std::vector<double>(x, x + n)},
-                         {"g", std::vector<double>(g, g + n)}};
-    }
-};
+    j["gradient_magnitude"] = {{"mean", m.mg}, {"stddev", std::sqrt(m.varG())}};
+    if constexpr (std::is_same_v<Kernel2D, Gaussian2DKernel> ||
+                  std::is_same_v<Kernel2D, Uniform2DKernel>)
+        j["covariance"] = {{m.varX(), m.covXG()}, {m.covXG(), m.varG()}};
+}
 
 }  // namespace
 
@@ -318,7 +303,7 @@ ProbeResult probeModel(const ModelVolume& model, ModelKind kind, const TransferF
         double y[3];
         k.template meanGradientAt<double>(localCell, true, y);
         r.json["gradient"] = {y[0], y[1], y[2]};
-        DescribeGradient{localCell, r.json}(k);
+        describeGradient(k, localCell, r.json);
     });
     // The value's distribution is the 1D model's (the TF plays no part in it).
     withKernel(model, kind, reconstructionOnlyTf(), options,

@@ -4,16 +4,18 @@
 #include <cmath>
 
 #include "udvr/util/check.h"
+#include "udvr/util/choice.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/random.h"
 
 namespace udvr {
 
 NoiseKind parseNoiseKind(const std::string& name) {
-    if (name == "bimodal") return NoiseKind::Bimodal;
-    if (name == "gaussian") return NoiseKind::Gaussian;
-    if (name == "uniform") return NoiseKind::Uniform;
-    UDVR_FAIL("unknown noise '" << name << "'; expected bimodal, gaussian or uniform");
+    return parseChoice<NoiseKind>(name,
+                                  {{"bimodal", NoiseKind::Bimodal},
+                                   {"gaussian", NoiseKind::Gaussian},
+                                   {"uniform", NoiseKind::Uniform}},
+                                  "--noise");
 }
 
 Ensemble perturbField(const ScalarField& truth, int members, const NoiseParams& p) {

@@ -15,6 +15,7 @@
 // Widths ≤ `tinyWidth` are folded into the shift at their mean (error ≤ their width × the TF's
 // Lipschitz bound on the mean); exact zeros (w_c = 0 or σ_c = 0) are exact.
 #include <cstddef>
+#include <utility>
 
 #include "udvr/util/check.h"
 #include "udvr/util/lanes.h"
@@ -92,35 +93,12 @@ class BoxSplineTail {
     }
     /// out[d] = E[(y + Z)_+^d], d = 0, 1, 2 (out[0] = P(Z ≥ −y)).
     UDVR_CPU_GPU void at(double y, double out[3]) const {
-        switch (u_.n) {  // the level is a template argument: the recursion compiles to plain code
-            case 0:
-                tail<0>(0, y, out);
-                break;
-            case 1:
-                tail<1>(1, y, out);
-                break;
-            case 2:
-                tail<2>(2, y, out);
-                break;
-            case 3:
-                tail<3>(3, y, out);
-                break;
-            case 4:
-                tail<4>(4, y, out);
-                break;
-            case 5:
-                tail<5>(5, y, out);
-                break;
-            case 6:
-                tail<6>(6, y, out);
-                break;
-            case 7:
-                tail<7>(7, y, out);
-                break;
-            default:
-                tail<8>(8, y, out);
-                break;
+        // The level is a template argument (the recursion compiles to plain code): K = n for
+        // n < 8, else 8.
+        [&]<int... K>(std::integer_sequence<int, K...>) {
+            if (!((u_.n == K ? (tail<K>(K, y, out), true) : false) || ...)) tail<8>(8, y, out);
         }
+        (std::make_integer_sequence<int, 8>{});
         out[2] *= 2.0;  // S → T: ×d!
     }
 

@@ -211,87 +211,96 @@ ImageRgba timedFrame(const ModelVolume& model, const RenderSettings& settings, R
 
 }  // namespace
 
-ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
-                       const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
+namespace {
+
+// One frame's classification context: the TF's value ranges with α > 0, the skip-table cache
+// and its key, the classify options of the settings.
+struct FrameContext {
+    const detail::MarchParams& p;
+    ImageRgba& image;
+    detail::MarchCounters& counters;
+    std::vector<std::pair<double, double>> ranges;
+    RenderCache::Impl* cacheImpl;
+    CacheKey key;
+    ClassifyOptions options;
+
+    template <class Kernel>
+    void render(const Kernel& kernel) const {
+        renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
+    }
+};
+
+// A timed frame of `model` (second: a bivariate field's y) under a 1D or 2D TF: body(context)
+// makes the kernels and renders.
+template <class Tf, class Body>
+ImageRgba renderFrame(const ModelVolume& model, const ModelVolume* second, ModelKind kind,
+                      const Tf& tf, const RenderSettings& settings, RenderStats* stats,
+                      RenderCache* cache, const Body& body) {
+    constexpr bool twoD = std::is_same_v<Tf, TransferFunction2D>;
     return timedFrame(
         model, settings, stats,
         [&](const detail::MarchParams& p, ImageRgba& image, detail::MarchCounters& counters) {
             tf.validate();
-            const auto ranges = tf.nonZeroOpacityRanges();
-            RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
-            const CacheKey key =
-                cache ? makeKey(model, kind, false, ranges, settings.uniformMinMax) : CacheKey{};
-            if (!modelFamily(kind).realizations) {
-                ClassifyOptions options;
-                options.uniformMinMax = settings.uniformMinMax;
-                withKernel(model, kind, tf, options, [&](const auto& kernel) {
-                    renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
-                });
-                return;
-            }
-            checkModelHasArrays(model, kind);
-            if (settings.realizations < 1)
-                UDVR_FAIL("--realizations must be >= 1, got " << settings.realizations);
-            const TfPiecesStorage pieces(tf);
-            std::vector<double> sum(image.rgba.size(), 0.0);
-            std::vector<float> values;
-            ImageRgba frame = blankImage(settings.width, settings.height);
-            ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
-            for (int r = 0; r < settings.realizations; ++r) {
-                if (p.cancel && p.cancel->load()) return;  // timedFrame throws RenderCancelled
-                drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
-                renderKernel(MeanKernel(model.grid, values.data(), pieces), p, ranges, frame,
-                             counters);
-                for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += frame.rgba[i];
-                bar.advance();
-            }
-            bar.finish();
-            // Screen-space average of the realizations' images (Liu et al. 2012).
-            const double inv = 1.0 / settings.realizations;
-            for (std::size_t i = 0; i < sum.size(); ++i)
-                image.rgba[i] = static_cast<float>(sum[i] * inv);
+            FrameContext c{p, image, counters, {}, cache ? &cache->impl() : nullptr, {}, {}};
+            if constexpr (twoD)
+                c.ranges = tf.nonZeroOpacityXRanges();
+            else
+                c.ranges = tf.nonZeroOpacityRanges();
+            if (cache) c.key = makeKey(model, kind, twoD, c.ranges, settings.uniformMinMax, second);
+            c.options.uniformMinMax = settings.uniformMinMax;
+            body(c);
         });
+}
+
+}  // namespace
+
+ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+                       const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
+    return renderFrame(model, nullptr, kind, tf, settings, stats, cache, [&](FrameContext& c) {
+        if (!modelFamily(kind).realizations) {
+            withKernel(model, kind, tf, c.options, [&](const auto& kernel) { c.render(kernel); });
+            return;
+        }
+        checkModelHasArrays(model, kind);
+        if (settings.realizations < 1)
+            UDVR_FAIL("--realizations must be >= 1, got " << settings.realizations);
+        const TfPiecesStorage pieces(tf);
+        std::vector<double> sum(c.image.rgba.size(), 0.0);
+        std::vector<float> values;
+        ImageRgba frame = blankImage(settings.width, settings.height);
+        ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
+        for (int r = 0; r < settings.realizations; ++r) {
+            if (c.p.cancel && c.p.cancel->load()) return;  // timedFrame throws RenderCancelled
+            drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
+            renderKernel(MeanKernel(model.grid, values.data(), pieces), c.p, c.ranges, frame,
+                         c.counters);
+            for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += frame.rgba[i];
+            bar.advance();
+        }
+        bar.finish();
+        // Screen-space average of the realizations' images (Liu et al. 2012).
+        const double inv = 1.0 / settings.realizations;
+        for (std::size_t i = 0; i < sum.size(); ++i)
+            c.image.rgba[i] = static_cast<float>(sum[i] * inv);
+    });
 }
 
 ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
                        const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
-    return timedFrame(
-        model, settings, stats,
-        [&](const detail::MarchParams& p, ImageRgba& image, detail::MarchCounters& counters) {
-            tf.validate();
-            const auto ranges = tf.nonZeroOpacityXRanges();
-            RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
-            const CacheKey key =
-                cache ? makeKey(model, kind, true, ranges, settings.uniformMinMax) : CacheKey{};
-            ClassifyOptions options;
-            options.uniformMinMax = settings.uniformMinMax;
-            withKernel2D(
-                model, kind, tf, options,
-                [&](const auto& kernel) {
-                    renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
-                },
-                cacheImpl ? &cacheImpl->gradients : nullptr);
-        });
+    return renderFrame(model, nullptr, kind, tf, settings, stats, cache, [&](FrameContext& c) {
+        withKernel2D(
+            model, kind, tf, c.options, [&](const auto& kernel) { c.render(kernel); },
+            c.cacheImpl ? &c.cacheImpl->gradients : nullptr);
+    });
 }
 
 ImageRgba renderBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
                           const TransferFunction2D& tf, const RenderSettings& settings,
                           RenderStats* stats, RenderCache* cache) {
-    return timedFrame(
-        first, settings, stats,
-        [&](const detail::MarchParams& p, ImageRgba& image, detail::MarchCounters& counters) {
-            tf.validate();
-            const auto ranges = tf.nonZeroOpacityXRanges();
-            RenderCache::Impl* cacheImpl = cache ? &cache->impl() : nullptr;
-            const CacheKey key =
-                cache ? makeKey(first, kind, true, ranges, settings.uniformMinMax, &second)
-                      : CacheKey{};
-            ClassifyOptions options;
-            options.uniformMinMax = settings.uniformMinMax;
-            withKernelBivariate(first, second, kind, tf, options, [&](const auto& kernel) {
-                renderKernel(kernel, p, ranges, image, counters, cacheImpl, &key);
-            });
-        });
+    return renderFrame(first, &second, kind, tf, settings, stats, cache, [&](FrameContext& c) {
+        withKernelBivariate(first, second, kind, tf, c.options,
+                            [&](const auto& kernel) { c.render(kernel); });
+    });
 }
 
 namespace {

@@ -13,6 +13,7 @@
 
 #include "udvr/stats/sort_runs.h"
 #include "udvr/util/check.h"
+#include "udvr/util/choice.h"
 #include "udvr/util/large_vector.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/progress.h"
@@ -75,6 +76,62 @@ struct InputScan {
                                << j << "," << k
                                << ")); build needs finite values and never averages NaN "
                                   "(--nan skip: each brick's finite values only)");
+}
+
+/// Scans [0, count) in chunks of at least `grain` on the threads: scanChunk(local, b, end) adds
+/// to each thread's own InputScan, merged into `scan` at the end. Returns the threads' CPU
+/// seconds.
+template <class ScanChunk>
+double scanParallel(std::size_t count, std::size_t grain, InputScan& scan,
+                    const ScanChunk& scanChunk) {
+    std::mutex mutex;
+    double cpu = 0.0;
+    parallelForChunks(count, grain, [&](std::size_t b, std::size_t end) {
+        const double t0 = threadCpuSeconds();
+        InputScan local;
+        scanChunk(local, b, end);
+        std::lock_guard<std::mutex> lock(mutex);
+        scan.merge(local);
+        cpu += threadCpuSeconds() - t0;
+    });
+    return cpu;
+}
+
+/// Adds voxels [b, end) of n member rows, member i's at rows + i·count, voxel v at linear index
+/// first + v.
+void scanMemberRows(InputScan& local, const float* rows, std::size_t count, int n,
+                    std::size_t first, std::size_t b, std::size_t end) {
+    for (int mIdx = 0; mIdx < n; ++mIdx) {
+        const float* row = rows + static_cast<std::size_t>(mIdx) * count;
+        for (std::size_t v = b; v < end; ++v) local.add(row[v], first + v, mIdx);
+    }
+}
+
+/// Adds the samples inside whole bricks (x < usedX, y < usedY) of planes [p0, p1) of `planes`,
+/// planes of the full grid `f` from its plane z0 on.
+void scanBrickPlanes(InputScan& local, const float* planes, const Grid3& f, int z0, int usedX,
+                     int usedY, std::size_t p0, std::size_t p1) {
+    const std::size_t plane = static_cast<std::size_t>(f.dims[0]) * f.dims[1];
+    for (std::size_t zl = p0; zl < p1; ++zl)
+        for (int y = 0; y < usedY; ++y) {
+            const std::size_t row = zl * plane + static_cast<std::size_t>(y) * f.dims[0];
+            const std::size_t global = f.index(0, y, z0 + static_cast<int>(zl));
+            for (int x = 0; x < usedX; ++x)
+                local.add(planes[row + static_cast<std::size_t>(x)],
+                          global + static_cast<std::size_t>(x), -1);
+        }
+}
+
+/// After an in-memory build's scan: fails on NaN/Inf under NanPolicy::Error, else starts the
+/// report (wall seconds since `start`, the scan's CPU seconds).
+void finishScan(const InputScan& scan, const BuildOptions& opt, const Grid3& grid, bool ensemble,
+                std::chrono::steady_clock::time_point start, double scanCpu, BuildReport* report) {
+    if (scan.nonFinite > 0 && opt.nan == NanPolicy::Error) failNonFinite(scan, grid, ensemble);
+    if (!report) return;
+    *report = BuildReport{};
+    report->seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    report->scanCpu = scanCpu;
 }
 
 /// Finite samples per voxel (--nan skip), over one slab or the whole grid.
@@ -521,9 +578,8 @@ void validateBuildOptions(const BuildOptions& o, int n) {
 }
 
 NanPolicy parseNanPolicy(const std::string& name) {
-    if (name == "error") return NanPolicy::Error;
-    if (name == "skip") return NanPolicy::Skip;
-    UDVR_FAIL("--nan '" << name << "' is not a policy; expected error or skip");
+    return parseChoice<NanPolicy>(name, {{"error", NanPolicy::Error}, {"skip", NanPolicy::Skip}},
+                                  "--nan");
 }
 
 DensityEstimate defaultDensity(bool bricks) {
@@ -582,26 +638,11 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
 
     // Non-finite check and data range, member rows scanned in voxel chunks.
     InputScan scan;
-    std::mutex scanMutex;
-    double scanCpu = 0.0;
-    parallelForChunks(P, 1 << 16, [&](std::size_t b, std::size_t end) {
-        const double t0 = threadCpuSeconds();
-        InputScan local;
-        for (int mIdx = 0; mIdx < e.members; ++mIdx) {
-            const float* row = e.member(mIdx);
-            for (std::size_t v = b; v < end; ++v) local.add(row[v], v, mIdx);
-        }
-        std::lock_guard<std::mutex> lock(scanMutex);
-        scan.merge(local);
-        scanCpu += threadCpuSeconds() - t0;
-    });
-    if (scan.nonFinite > 0 && opt.nan == NanPolicy::Error) failNonFinite(scan, e.grid, true);
-    if (report) {
-        *report = BuildReport{};
-        report->seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        report->scanCpu = scanCpu;
-    }
+    const double scanCpu =
+        scanParallel(P, 1 << 16, scan, [&](InputScan& local, std::size_t b, std::size_t end) {
+            scanMemberRows(local, e.values.data(), P, e.members, 0, b, end);
+        });
+    finishScan(scan, opt, e.grid, true, start, scanCpu, report);
 
     const int n = e.members;
     // Transpose member-major rows into voxel-major sample runs: contiguous reads per member.
@@ -614,9 +655,7 @@ ModelVolume buildModel(const Ensemble& e, const BuildOptions& opt, BuildReport* 
         }
     };
     ModelVolume m = buildCore(e.grid, n, gather, opt, scan, e.valueStep, false, report);
-    m.downsample = 0;
-    m.bounds = e.grid.bounds();
-    m.fullResMinSpacing = e.grid.minSpacing();
+    m.setFullResolution(e.grid, 0);
     return m;
 }
 
@@ -648,30 +687,14 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
     // Scan only the points inside whole bricks (the trailing planes are left out).
     const int usedX = g.dims[0] * k, usedY = g.dims[1] * k, usedZ = g.dims[2] * k;
     InputScan scan;
-    std::mutex scanMutex;
-    double scanCpu = 0.0;
-    parallelForChunks(static_cast<std::size_t>(usedZ), 1, [&](std::size_t z0, std::size_t z1) {
-        const double t0 = threadCpuSeconds();
-        InputScan local;
-        for (auto z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
-            for (int y = 0; y < usedY; ++y) {
-                const std::size_t base = f.grid.index(0, y, z);
-                for (int x = 0; x < usedX; ++x)
-                    local.add(f.values[base + static_cast<std::size_t>(x)],
-                              base + static_cast<std::size_t>(x), -1);
-            }
-        std::lock_guard<std::mutex> lock(scanMutex);
-        scan.merge(local);
-        scanCpu += threadCpuSeconds() - t0;
-    });
-    if (scan.nonFinite > 0 && opt.nan == NanPolicy::Error) failNonFinite(scan, f.grid, false);
-    if (report) {
-        *report = BuildReport{};
-        report->seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        report->scanCpu = scanCpu;
+    const double scanCpu =
+        scanParallel(static_cast<std::size_t>(usedZ), 1, scan,
+                     [&](InputScan& local, std::size_t z0, std::size_t z1) {
+                         scanBrickPlanes(local, f.values.data(), f.grid, 0, usedX, usedY, z0, z1);
+                     });
+    finishScan(scan, opt, f.grid, false, start, scanCpu, report);
+    if (report)
         for (int a = 0; a < 3; ++a) report->droppedPlanes[a] = f.grid.dims[a] % k;
-    }
 
     const auto X = static_cast<std::size_t>(g.dims[0]);
     const auto Y = static_cast<std::size_t>(g.dims[1]);
@@ -691,9 +714,7 @@ ModelVolume buildModelDownsampled(const ScalarField& f, int k, const BuildOption
         }
     };
     ModelVolume m = buildCore(g, n, gather, opt, scan, f.valueStep, true, report);
-    m.downsample = k;
-    m.bounds = f.grid.bounds();
-    m.fullResMinSpacing = f.grid.minSpacing();
+    m.setFullResolution(f.grid, k);
     return m;
 }
 
@@ -905,15 +926,8 @@ ModelVolume buildModelStreamed(const SlabInput& in, int slabPlanes, const BuildO
     auto scanSlab = [&](std::span<const float> data, int z0, int z1, InputScan& scan) {
         const std::size_t first = static_cast<std::size_t>(z0) * plane;
         const std::size_t count = static_cast<std::size_t>(z1 - z0) * plane;
-        std::mutex mutex;
-        parallelForChunks(count, 1 << 16, [&](std::size_t b, std::size_t end) {
-            InputScan local;
-            for (int mIdx = 0; mIdx < n; ++mIdx) {
-                const float* row = data.data() + static_cast<std::size_t>(mIdx) * count;
-                for (std::size_t v = b; v < end; ++v) local.add(row[v], first + v, mIdx);
-            }
-            std::lock_guard<std::mutex> lock(mutex);
-            scan.merge(local);
+        scanParallel(count, 1 << 16, scan, [&](InputScan& local, std::size_t b, std::size_t end) {
+            scanMemberRows(local, data.data(), count, n, first, b, end);
         });
     };
     auto gatherFor = [&](std::span<const float> data, int z0, int z1) -> GatherFn {
@@ -931,9 +945,7 @@ ModelVolume buildModelStreamed(const SlabInput& in, int slabPlanes, const BuildO
     };
     ModelVolume m = streamBuild(in, in.grid, 1, slabPlanes, n, false, opt, sink, progress, report,
                                 scanSlab, gatherFor);
-    m.downsample = 0;
-    m.bounds = in.grid.bounds();
-    m.fullResMinSpacing = in.grid.minSpacing();
+    m.setFullResolution(in.grid, 0);
     return m;
 }
 
@@ -951,22 +963,10 @@ ModelVolume buildModelDownsampledStreamed(const SlabInput& in, int k, int slabBr
     const auto Yin = static_cast<std::size_t>(f.dims[1]);
     const std::size_t inPlane = Xin * Yin;
     auto scanSlab = [&](std::span<const float> data, int mz0, int mz1, InputScan& scan) {
-        const int z0 = mz0 * k, z1 = mz1 * k;
-        std::mutex mutex;
-        parallelForChunks(static_cast<std::size_t>(z1 - z0), 1, [&](std::size_t b, std::size_t e) {
-            InputScan local;
-            for (auto zl = static_cast<int>(b); zl < static_cast<int>(e); ++zl)
-                for (int y = 0; y < usedY; ++y) {
-                    const std::size_t row =
-                        static_cast<std::size_t>(zl) * inPlane + static_cast<std::size_t>(y) * Xin;
-                    const std::size_t global = f.index(0, y, z0 + zl);
-                    for (int x = 0; x < usedX; ++x)
-                        local.add(data[row + static_cast<std::size_t>(x)],
-                                  global + static_cast<std::size_t>(x), -1);
-                }
-            std::lock_guard<std::mutex> lock(mutex);
-            scan.merge(local);
-        });
+        scanParallel(static_cast<std::size_t>(mz1 - mz0) * k, 1, scan,
+                     [&](InputScan& local, std::size_t p0, std::size_t p1) {
+                         scanBrickPlanes(local, data.data(), f, mz0 * k, usedX, usedY, p0, p1);
+                     });
     };
     const auto X = static_cast<std::size_t>(g.dims[0]);
     const auto Y = static_cast<std::size_t>(g.dims[1]);
@@ -991,9 +991,7 @@ ModelVolume buildModelDownsampledStreamed(const SlabInput& in, int k, int slabBr
                                 scanSlab, gatherFor);
     if (report)
         for (int a = 0; a < 3; ++a) report->droppedPlanes[a] = f.dims[a] % k;
-    m.downsample = k;
-    m.bounds = f.bounds();
-    m.fullResMinSpacing = f.minSpacing();
+    m.setFullResolution(f, k);
     return m;
 }
 

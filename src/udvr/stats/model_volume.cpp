@@ -105,9 +105,7 @@ ModelVolume modelFromField(const ScalarField& field) {
     m.max = field.values;
     m.stddev.assign(field.values.size(), 0.f);
     m.samplesPerVoxel = 1;
-    m.downsample = 0;
-    m.bounds = field.grid.bounds();
-    m.fullResMinSpacing = field.grid.minSpacing();
+    m.setFullResolution(field.grid, 0);
     m.source = field.name;
     return m;
 }
@@ -141,9 +139,7 @@ ModelVolume membersModel(Ensemble ensemble) {
         }
     });
     m.samplesPerVoxel = n;
-    m.downsample = 0;
-    m.bounds = ensemble.grid.bounds();
-    m.fullResMinSpacing = ensemble.grid.minSpacing();
+    m.setFullResolution(ensemble.grid, 0);
     m.source = ensemble.name;
     return m;
 }

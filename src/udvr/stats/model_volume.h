@@ -44,6 +44,13 @@ struct ModelVolume {
     double fullResMinSpacing = 1.0;  // smallest spacing of the full-resolution grid
     std::string source;              // input description
 
+    /// Records the input's full-resolution grid: its bounds and smallest spacing, and the brick
+    /// size K of a downsampled build (0: an ensemble or a field on its own grid).
+    void setFullResolution(const Grid3& full, int brick) {
+        downsample = brick;
+        bounds = full.bounds();
+        fullResMinSpacing = full.minSpacing();
+    }
     std::size_t voxelCount() const { return grid.pointCount(); }
     bool hasQuantiles() const { return quantileCount > 0 && !quantiles.empty(); }
     /// t_j of boundary j (j/q for even levels).

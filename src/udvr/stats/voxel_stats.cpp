@@ -7,15 +7,17 @@
 #include <cstring>
 
 #include "udvr/util/check.h"
+#include "udvr/util/choice.h"
 #include "udvr/util/fast_math.h"
 
 namespace udvr {
 
 DensityEstimate parseDensityEstimate(const std::string& name) {
-    if (name == "empirical") return DensityEstimate::Empirical;
-    if (name == "kde") return DensityEstimate::Kde;
-    if (name == "dequantized") return DensityEstimate::Dequantized;
-    UDVR_FAIL("--density '" << name << "' is not known; expected empirical, kde or dequantized");
+    return parseChoice<DensityEstimate>(name,
+                                        {{"empirical", DensityEstimate::Empirical},
+                                         {"kde", DensityEstimate::Kde},
+                                         {"dequantized", DensityEstimate::Dequantized}},
+                                        "--density");
 }
 
 std::string densityEstimateName(DensityEstimate d) {

@@ -111,21 +111,19 @@ namespace detail {
     } while (0)
 #endif
 
-/// Throw a UdvrError built with stream syntax: UDVR_FAIL("dims " << n << " do not match").
-#define UDVR_FAIL(stream_expr)                        \
-    do {                                              \
-        std::ostringstream udvr_fail_os_;             \
-        udvr_fail_os_ << stream_expr;                 \
-        throw ::udvr::UdvrError(udvr_fail_os_.str()); \
+/// Throw an exception of type `type` (constructed from a string) built with stream syntax.
+#define UDVR_THROW(type, stream_expr)     \
+    do {                                  \
+        std::ostringstream udvr_fail_os_; \
+        udvr_fail_os_ << stream_expr;     \
+        throw type(udvr_fail_os_.str());  \
     } while (0)
 
+/// Throw a UdvrError built with stream syntax: UDVR_FAIL("dims " << n << " do not match").
+#define UDVR_FAIL(stream_expr) UDVR_THROW(::udvr::UdvrError, stream_expr)
+
 /// Throw a FileError built with stream syntax (as UDVR_FAIL).
-#define UDVR_FILE_FAIL(stream_expr)                   \
-    do {                                              \
-        std::ostringstream udvr_fail_os_;             \
-        udvr_fail_os_ << stream_expr;                 \
-        throw ::udvr::FileError(udvr_fail_os_.str()); \
-    } while (0)
+#define UDVR_FILE_FAIL(stream_expr) UDVR_THROW(::udvr::FileError, stream_expr)
 
 #ifdef __CUDACC__
 #define UDVR_CPU_GPU __host__ __device__

@@ -89,6 +89,15 @@ inline V selectBits(M mask, V a, V b) {
         return std::bit_cast<V>((std::bit_cast<M>(a) & mask) | (std::bit_cast<M>(b) & ~mask));
 }
 
+/// c₀xⁿ + c₁xⁿ⁻¹ + … + cₙ by Horner's scheme, highest degree first (p ← p·x + cᵢ, in that
+/// order of operations).
+template <class V, class S, class... C>
+inline V horner(V x, S first, C... rest) {
+    V p = splat<V>(first);
+    ((p = p * x + rest), ...);
+    return p;
+}
+
 /// expNonPositive clamps its argument here: e^−87 ≈ 1.6e−38 is nothing next to a row maximum
 /// of e^0 = 1 (and keeps a dead mixture component, log π = −∞, dead: its responsibilities sum to
 /// < n·2e−38, far below the 1e−6 at which EM declares a component empty).
@@ -98,12 +107,7 @@ inline constexpr float kExpClampBelow = -87.f;
 /// degree-6 one, truncation r⁷/7! < 1.2e−7); e^r − 1 = r·expm1OverX(r) without cancellation.
 template <class VF>
 inline VF expm1OverX(VF r) {
-    VF p = splat<VF>(1.f / 720.f);
-    p = p * r + (1.f / 120.f);
-    p = p * r + (1.f / 24.f);
-    p = p * r + (1.f / 6.f);
-    p = p * r + 0.5f;
-    return p * r + 1.f;
+    return horner(r, 1.f / 720.f, 1.f / 120.f, 1.f / 24.f, 1.f / 6.f, 0.5f, 1.f);
 }
 
 /// e^max(x, −87) for float lanes x ≤ 0 (−∞ allowed): relative error < 2.5e−7.
@@ -139,13 +143,7 @@ inline VF splitExponent(VF s, VI& expo) {
 /// < 4e−9). With t = −a/(2 − a) it is log(1 − a) without forming 1 − a.
 template <class VF>
 inline VF logOfAtanhArg(VF t) {
-    const VF t2 = t * t;
-    VF p = splat<VF>(1.f / 9.f);
-    p = p * t2 + (1.f / 7.f);
-    p = p * t2 + (1.f / 5.f);
-    p = p * t2 + (1.f / 3.f);
-    p = p * t2 + 1.f;
-    return 2.f * t * p;
+    return 2.f * t * horner(t * t, 1.f / 9.f, 1.f / 7.f, 1.f / 5.f, 1.f / 3.f, 1.f);
 }
 
 /// log(s) for positive normal float lanes; absolute error < 1.5e−7 + 6e−8·|log s| (the float
@@ -177,16 +175,8 @@ inline VD logPositiveD(VD s) {
     e = selectBits(big, e + 1.0, e);
     const VD t = (f - 1.0) / (f + 1.0);
     const VD t2 = t * t;
-    VD p = splat<VD>(1.0 / 19);
-    p = p * t2 + 1.0 / 17;
-    p = p * t2 + 1.0 / 15;
-    p = p * t2 + 1.0 / 13;
-    p = p * t2 + 1.0 / 11;
-    p = p * t2 + 1.0 / 9;
-    p = p * t2 + 1.0 / 7;
-    p = p * t2 + 1.0 / 5;
-    p = p * t2 + 1.0 / 3;
-    p = p * t2 + 1.0;
+    const VD p = horner(t2, 1.0 / 19, 1.0 / 17, 1.0 / 15, 1.0 / 13, 1.0 / 11, 1.0 / 9, 1.0 / 7,
+                        1.0 / 5, 1.0 / 3, 1.0);
     return e * 0.69314718055994531 + 2.0 * t * p;
 }
 
@@ -203,17 +193,8 @@ inline VD expNonPositiveD(VD x) {
     const VD n = t - shifter;
     // ln2 = hi + lo with n·hi exact (hi has 21 trailing zero bits; fdlibm's split).
     const VD r = (xc - n * 6.93147180369123816490e-01) - n * 1.90821492927058770002e-10;
-    VD p = splat<VD>(1.0 / 3628800.0);
-    p = p * r + 1.0 / 362880.0;
-    p = p * r + 1.0 / 40320.0;
-    p = p * r + 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
+    const VD p = horner(r, 1.0 / 3628800.0, 1.0 / 362880.0, 1.0 / 40320.0, 1.0 / 5040.0,
+                        1.0 / 720.0, 1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0);
     // (2^51 + n + 1023) << 52 keeps the low 12 bits, n + 1023 ∈ [1, 1023]: the exponent of 2^n.
     const VL bits = (std::bit_cast<VL>(t) + 1023) << 52;
     const VD v = p * std::bit_cast<VD>(bits);
