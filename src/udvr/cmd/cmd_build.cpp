@@ -100,13 +100,7 @@ struct SlabBars {
 
 /// What the streamed builds read from an opened input.
 SlabInput slabInputOf(const SlabReader& r) {
-    SlabInput in;
-    in.grid = r.grid;
-    in.members = r.members;
-    in.valueStep = r.valueStep;
-    in.valueType = r.valueType;
-    in.read = r.read;
-    return in;
+    return SlabInput{r.grid, r.members, r.valueStep, r.valueType, r.read};
 }
 
 /// The one field that --downsample K reduces, as slabs; an ensemble file is a one-line error.

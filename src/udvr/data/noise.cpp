@@ -11,11 +11,10 @@
 namespace udvr {
 
 NoiseKind parseNoiseKind(const std::string& name) {
-    return parseChoice<NoiseKind>(name,
-                                  {{"bimodal", NoiseKind::Bimodal},
-                                   {"gaussian", NoiseKind::Gaussian},
-                                   {"uniform", NoiseKind::Uniform}},
-                                  "--noise");
+    constexpr std::pair<std::string_view, NoiseKind> kNames[] = {{"bimodal", NoiseKind::Bimodal},
+                                                                 {"gaussian", NoiseKind::Gaussian},
+                                                                 {"uniform", NoiseKind::Uniform}};
+    return parseChoice(name, kNames, "--noise");
 }
 
 Ensemble perturbField(const ScalarField& truth, int members, const NoiseParams& p) {

@@ -578,8 +578,9 @@ void validateBuildOptions(const BuildOptions& o, int n) {
 }
 
 NanPolicy parseNanPolicy(const std::string& name) {
-    return parseChoice<NanPolicy>(name, {{"error", NanPolicy::Error}, {"skip", NanPolicy::Skip}},
-                                  "--nan");
+    constexpr std::pair<std::string_view, NanPolicy> kNames[] = {{"error", NanPolicy::Error},
+                                                                 {"skip", NanPolicy::Skip}};
+    return parseChoice(name, kNames, "--nan");
 }
 
 DensityEstimate defaultDensity(bool bricks) {
@@ -823,22 +824,27 @@ ModelVolume streamBuild(
         scanSlab(data, sl.mz0, sl.mz1, scan);
         scanCpu += threadCpuSeconds() - t0;
     };
-    if (options.gmmComponents == 0 && options.nan == NanPolicy::Error && allPlanes) {
-        // One pass: without a GMM nothing needs the whole input's range, and NaN/Inf are an
-        // error (a slab that has any ends the build: the rest is only scanned, for the count).
-        if (report) *report = BuildReport{};
+    // A statistics pass over slabs 0 … count − 1 (slabOf): each built and handed to the sink;
+    // with scanFirst each is scanned first (the one-pass build: a slab with NaN/Inf ends it once
+    // the rest is scanned, for the count). The model's header over `built` voxels.
+    auto buildPass = [&](int count, const auto& slabOf, const char* pass, bool scanFirst,
+                         std::size_t built) {
         CoreTotals totals;
-        if (options.density == DensityEstimate::Kde) totals.bandwidths.resize(voxels);
+        // NaN: no bandwidth (constant voxels, and those of other ranks), left out of the median.
+        if (options.density == DensityEstimate::Kde)
+            totals.bandwidths.resize(voxels, std::numeric_limits<float>::quiet_NaN());
         BuildOptions opt = options;
         ModelVolume slabModel;
-        for (int s = 0; s < slabs; ++s) {
-            const Slab sl = slabAt(s);
-            opt.progress = barFor("scan+build", s, sl, slabs);
+        for (int s = 0; s < count; ++s) {
+            const Slab sl = slabOf(s);
+            opt.progress = barFor(pass, s, sl, count);
             const std::span<const float> data = read(sl);
-            scanOne(sl, data);
-            if (scan.nonFinite > 0) {
-                for (int r = s + 1; r < slabs; ++r) scanOne(slabAt(r), read(slabAt(r)));
-                failNonFinite(scan, in.grid, !bricks);
+            if (scanFirst) {
+                scanOne(sl, data);
+                if (scan.nonFinite > 0) {
+                    for (int r = s + 1; r < count; ++r) scanOne(slabOf(r), read(slabOf(r)));
+                    failNonFinite(scan, in.grid, !bricks);
+                }
             }
             buildSlab(grid, sl.first, sl.count, n, gatherFor(data, sl.mz0, sl.mz1), opt, scan,
                       in.valueStep, slabModel, totals);
@@ -846,13 +852,22 @@ ModelVolume streamBuild(
         }
         ModelVolume m;
         m.grid = grid;
-        finishModel(m, n, voxels, options, scan, in.valueStep, totals, report, start);
+        finishModel(m, n, built, options, scan, in.valueStep, totals, report, start);
+        if (report) {
+            report->readSeconds = readSeconds;
+            report->seconds -= readSeconds;
+        }
+        return m;
+    };
+    if (options.gmmComponents == 0 && options.nan == NanPolicy::Error && allPlanes) {
+        // One pass: without a GMM nothing needs the whole input's range, and NaN/Inf are an
+        // error.
+        if (report) *report = BuildReport{};
+        ModelVolume m = buildPass(slabs, slabAt, "scan+build", true, voxels);
         if (report) {
             report->scanCpu = scanCpu;
             report->slabs = slabs;
             report->inputPasses = 1;
-            report->readSeconds = readSeconds;
-            report->seconds -= readSeconds;
         }
         return m;
     }
@@ -886,28 +901,7 @@ ModelVolume streamBuild(
     }
 
     // Pass 2: the statistics, slab by slab, each handed to the sink.
-    CoreTotals totals;
-    // NaN: no bandwidth (constant voxels, and those of other ranks), left out of the median.
-    if (options.density == DensityEstimate::Kde)
-        totals.bandwidths.resize(voxels, std::numeric_limits<float>::quiet_NaN());
-    BuildOptions opt = options;
-    ModelVolume slabModel;
-    for (int s = 0; s < buildSlabs; ++s) {
-        const Slab sl = buildSlabAt(s);
-        opt.progress = barFor("build", s, sl, buildSlabs);
-        const std::span<const float> data = read(sl);
-        buildSlab(grid, sl.first, sl.count, n, gatherFor(data, sl.mz0, sl.mz1), opt, scan,
-                  in.valueStep, slabModel, totals);
-        sink(slabModel, sl.first);
-    }
-    ModelVolume m;
-    m.grid = grid;
-    finishModel(m, n, builtVoxels, options, scan, in.valueStep, totals, report, start);
-    if (report) {
-        report->readSeconds = readSeconds;
-        report->seconds -= readSeconds;
-    }
-    return m;
+    return buildPass(buildSlabs, buildSlabAt, "build", false, builtVoxels);
 }
 
 }  // namespace

@@ -13,11 +13,11 @@
 namespace udvr {
 
 DensityEstimate parseDensityEstimate(const std::string& name) {
-    return parseChoice<DensityEstimate>(name,
-                                        {{"empirical", DensityEstimate::Empirical},
-                                         {"kde", DensityEstimate::Kde},
-                                         {"dequantized", DensityEstimate::Dequantized}},
-                                        "--density");
+    constexpr std::pair<std::string_view, DensityEstimate> kNames[] = {
+        {"empirical", DensityEstimate::Empirical},
+        {"kde", DensityEstimate::Kde},
+        {"dequantized", DensityEstimate::Dequantized}};
+    return parseChoice(name, kNames, "--density");
 }
 
 std::string densityEstimateName(DensityEstimate d) {

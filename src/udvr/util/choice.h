@@ -1,6 +1,6 @@
 #pragma once
 // Names of a small closed set of choices (CLI words such as `--noise bimodal`) and their values.
-#include <initializer_list>
+#include <cstddef>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -12,18 +12,14 @@ namespace udvr {
 
 /// The value named `name` among `choices`; else UdvrError "<what> '<name>' is not known;
 /// expected a, b or c" (`what`: how the user gave it, e.g. "--density").
-template <class E>
-E parseChoice(std::string_view name, std::initializer_list<std::pair<std::string_view, E>> choices,
+template <class E, std::size_t N>
+E parseChoice(std::string_view name, const std::pair<std::string_view, E> (&choices)[N],
               std::string_view what) {
     for (const auto& [word, value] : choices)
         if (name == word) return value;
     std::ostringstream expected;
-    std::size_t i = 0;
-    for (const auto& choice : choices) {
-        if (i > 0) expected << (i + 1 == choices.size() ? " or " : ", ");
-        expected << choice.first;
-        ++i;
-    }
+    for (std::size_t i = 0; i < N; ++i)
+        expected << (i == 0 ? "" : i + 1 == N ? " or " : ", ") << choices[i].first;
     UDVR_FAIL(what << " '" << name << "' is not known; expected " << expected.str());
 }
 

@@ -20,21 +20,14 @@ namespace udvr::detail {
 
 /// Vector types of W lanes: float, int32, double, int64.
 template <int W>
-struct Lanes;
-template <>
-struct Lanes<8> {
-    using F = float __attribute__((vector_size(32)));
-    using I = std::int32_t __attribute__((vector_size(32)));
-    using D = double __attribute__((vector_size(64)));
-    using L = std::int64_t __attribute__((vector_size(64)));
+struct Lanes {
+    // typedef, not using: GCC drops a value-dependent vector_size on an alias declaration.
+    typedef float F __attribute__((vector_size(4 * W)));
+    typedef std::int32_t I __attribute__((vector_size(4 * W)));
+    typedef double D __attribute__((vector_size(8 * W)));
+    typedef std::int64_t L __attribute__((vector_size(8 * W)));
 };
-template <>
-struct Lanes<16> {
-    using F = float __attribute__((vector_size(64)));
-    using I = std::int32_t __attribute__((vector_size(64)));
-    using D = double __attribute__((vector_size(128)));
-    using L = std::int64_t __attribute__((vector_size(128)));
-};
+static_assert(sizeof(Lanes<16>::F) == 64 && sizeof(Lanes<8>::L) == 64);
 
 using V8f = Lanes<8>::F;
 using V8i = Lanes<8>::I;

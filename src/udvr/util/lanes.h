@@ -452,20 +452,38 @@ inline Mask testBits(const std::uint32_t* table, Vi v, Mask live) {
 #endif
 }
 
+namespace detail {
+/// The two in-lane stages of a register transpose of n rows r: t[i], t[i + 1] = the 32-bit
+/// interleaves lo32/hi32 of rows i, i + 1; then u = the 64-bit interleaves lo64/hi64 of t[i + h]
+/// and t[i + 2 + h] for each group of four rows.
+template <int N, class V, class R, class Lo32, class Hi32, class Lo64, class Hi64>
+UDVR_INLINE void interleaveStages(const R* r, V* t, V* u, Lo32 lo32, Hi32 hi32, Lo64 lo64,
+                                  Hi64 hi64) {
+    for (int i = 0; i < N; i += 2) {
+        t[i] = lo32(r[i], r[i + 1]);
+        t[i + 1] = hi32(r[i], r[i + 1]);
+    }
+    for (int i = 0; i < N; i += 4)
+        for (int h = 0; h < 2; ++h) {
+            u[i + 2 * h] = lo64(t[i + h], t[i + 2 + h]);
+            u[i + 2 * h + 1] = hi64(t[i + h], t[i + 2 + h]);
+        }
+}
+}  // namespace detail
+
 /// In-place transpose of the kWidth×kWidth matrix whose row i is r[i].
 inline void transpose(Vf r[kWidth]) {
 #if defined(__AVX512F__)
     __m512 t[16], u[16];
-    for (int i = 0; i < 16; i += 2) {
-        t[i] = _mm512_unpacklo_ps(r[i], r[i + 1]);
-        t[i + 1] = _mm512_unpackhi_ps(r[i], r[i + 1]);
-    }
-    for (int i = 0; i < 16; i += 4)
-        for (int h = 0; h < 2; ++h) {
-            const __m512d a = _mm512_castps_pd(t[i + h]), b = _mm512_castps_pd(t[i + 2 + h]);
-            u[i + 2 * h] = _mm512_castpd_ps(_mm512_unpacklo_pd(a, b));
-            u[i + 2 * h + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(a, b));
-        }
+    detail::interleaveStages<16>(
+        r, t, u, [](__m512 a, __m512 b) { return _mm512_unpacklo_ps(a, b); },
+        [](__m512 a, __m512 b) { return _mm512_unpackhi_ps(a, b); },
+        [](__m512 a, __m512 b) {
+            return _mm512_castpd_ps(_mm512_unpacklo_pd(_mm512_castps_pd(a), _mm512_castps_pd(b)));
+        },
+        [](__m512 a, __m512 b) {
+            return _mm512_castpd_ps(_mm512_unpackhi_pd(_mm512_castps_pd(a), _mm512_castps_pd(b)));
+        });
     for (int c = 0; c < 4; ++c) {
         const __m512 v0 = _mm512_shuffle_f32x4(u[c], u[4 + c], 0x88);
         const __m512 v1 = _mm512_shuffle_f32x4(u[8 + c], u[12 + c], 0x88);
@@ -480,15 +498,11 @@ inline void transpose(Vf r[kWidth]) {
     // In-lane unpacks and shuffles, then 128-bit halves across rows (24 single-cycle shuffles;
     // the generic rounds below take two-source cross-lane permutes, 2 to 3 instructions each).
     __m256 t[8], u[8];
-    for (int i = 0; i < 8; i += 2) {
-        t[i] = _mm256_unpacklo_ps(r[i], r[i + 1]);
-        t[i + 1] = _mm256_unpackhi_ps(r[i], r[i + 1]);
-    }
-    for (int i = 0; i < 8; i += 4)
-        for (int h = 0; h < 2; ++h) {
-            u[i + 2 * h] = _mm256_shuffle_ps(t[i + h], t[i + 2 + h], 0x44);
-            u[i + 2 * h + 1] = _mm256_shuffle_ps(t[i + h], t[i + 2 + h], 0xEE);
-        }
+    detail::interleaveStages<8>(
+        r, t, u, [](__m256 a, __m256 b) { return _mm256_unpacklo_ps(a, b); },
+        [](__m256 a, __m256 b) { return _mm256_unpackhi_ps(a, b); },
+        [](__m256 a, __m256 b) { return _mm256_shuffle_ps(a, b, 0x44); },
+        [](__m256 a, __m256 b) { return _mm256_shuffle_ps(a, b, 0xEE); });
     for (int c = 0; c < 4; ++c) {
         r[c] = _mm256_permute2f128_ps(u[c], u[4 + c], 0x20);
         r[c + 4] = _mm256_permute2f128_ps(u[c], u[4 + c], 0x31);
