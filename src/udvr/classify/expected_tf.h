@@ -150,6 +150,24 @@ UDVR_CPU_GPU UDVR_INLINE T quantileMeanWeight(lanes::ScalarOf<T> mass, T width, 
     return lanes::select(pointMasses, lanes::select(width <= zeroWidth, m, T{}), mass / width);
 }
 
+/// Eq. 5's masses of quantiles 0 … q − 1 (`width(j)` the width of quantile j, data units):
+/// emit(j, p_j) with p_j = quantileMeanWeight / Σ of them, every j in order (mass 0 included).
+/// The one normalisation of Eq. 5 for the distributions (1D and 2D).
+template <class Width, class Emit>
+void quantileMeanMasses(const QuantileLevels& levels, int q, bool densityWeights, double zeroWidth,
+                        const Width& width, const Emit& emit) {
+    bool pointMasses = false;
+    for (int j = 0; densityWeights && j < q; ++j)
+        pointMasses = pointMasses || width(j) <= zeroWidth;
+    const auto weight = [&](int j) {
+        return quantileMeanWeight<double>(levels.mass(j + 1), width(j), densityWeights, pointMasses,
+                                          zeroWidth);
+    };
+    double total = 0.0;
+    for (int j = 0; j < q; ++j) total += weight(j);
+    for (int j = 0; j < q; ++j) emit(j, weight(j) / total);
+}
+
 /// Eq. 5's weighting, for any classification of the quantiles (1D TF or TF2): Σ_j v_j·p_j / Σ p_j
 /// over quantiles j = 0 … q − 1, valueAt(j, v) writing v_j (the TF at quantile j's midpoint),
 /// p_j = m_j/w_j (densityWeights; m_j the quantile's mass, levels.mass(j + 1), 1 for even levels

@@ -13,6 +13,11 @@
 
 namespace udvr {
 
+/// A bivariate normal of (X, G): means and covariance (data units).
+struct Normal2 {
+    double mx = 0.0, mg = 0.0, vxx = 0.0, vxg = 0.0, vgg = 0.0;
+};
+
 /// E[(α·c, α)(X, Y)] for (X, Y) ~ N((mx, my), [[vxx, vxy], [vxy, vyy]]) over a raster TF2.
 void expectedTf2Gaussian(const Tf2Raster<double>& r, double mx, double my, double vxx, double vxy,
                          double vyy, double out[4]);

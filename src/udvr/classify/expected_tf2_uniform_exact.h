@@ -44,6 +44,15 @@ struct BoxDirection2 {
     double a = 0.0, b = 0.0;
 };
 
+/// The law of (cx, cg) + Σ_i t_i·d_i, t_i ~ U[−1, 1] independent (the bivariate box spline of
+/// SPEC §9's uniform model); directions with |a| ≤ tinyWidth are taken as G-only.
+struct BoxSpline2 {
+    double cx = 0.0, cg = 0.0;
+    int n = 0;
+    BoxDirection2 d[32];
+    double tinyWidth = 0.0;
+};
+
 /// Accuracy controls of expectedTf2UniformExact (defaults: error ≤ 1e−6, docs/models.md).
 struct Tf2UniformExactOptions {
     int xCells = 384;  // nodes across the non-widest corners' support (Δx = 2A'/xCells; also 2×)

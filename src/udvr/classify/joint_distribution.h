@@ -2,10 +2,10 @@
 // A 2D-TF model's joint distribution of (X, G) at a point (SPEC §9: X the value, G the gradient
 // magnitude along the mean gradient), apart from the expectation of a TF2 over it — the 2D
 // counterpart of point_distribution.h (docs/architecture.md, "Distributions and
-// expectations"). JointDistributionAt reconstructs each 2D kernel's random vector once, in
-// double, as pieces of probability mass into a JointDistributionSink: points (the mean field,
-// Eq. 5's midpoints), segments (the rank-coupled quantile population, Eq. 4), bivariate normals
-// and bivariate box splines. Its consumers are the sinks:
+// expectations"). Each 2D kernel's `jointDistribution` member reconstructs its random vector
+// once, in double, as pieces of probability mass into a JointDistributionSink: points (the mean
+// field, Eq. 5's midpoints), segments (the rank-coupled quantile population, Eq. 4), bivariate
+// normals and bivariate box splines. Its consumers are the sinks:
 //   - JointPointDistribution stores the pieces: expectedTf2Over, the expectation of a TF2 over
 //     any joint distribution, which every 2D kernel's classification is held to
 //     (joint_distribution_test.cpp);
@@ -19,20 +19,6 @@
 
 namespace udvr {
 
-/// A bivariate normal of (X, G): means and covariance (data units).
-struct Normal2 {
-    double mx = 0.0, mg = 0.0, vxx = 0.0, vxg = 0.0, vgg = 0.0;
-};
-
-/// The law of (cx, cg) + Σ_i t_i·d_i, t_i ~ U[−1, 1] independent (the bivariate box spline of
-/// SPEC §9's uniform model); directions with |a| ≤ tinyWidth are taken as G-only.
-struct BoxSpline2 {
-    double cx = 0.0, cg = 0.0;
-    int n = 0;
-    BoxDirection2 d[32];
-    double tinyWidth = 0.0;
-};
-
 /// What receives a joint distribution of (X, G) (data units; masses sum to 1 over the pieces of
 /// one point): point(x, g, m): mass m at (x, g); segment(xa, ga, xb, gb, m): m spread evenly
 /// along the segment from (xa, ga) to (xb, gb); normal(n, m): m × a bivariate normal;
@@ -45,62 +31,11 @@ concept JointDistributionSink = requires(S& s, double v, const Normal2& n, const
     s.boxSpline(b, v);
 };
 
-/// A 2D kernel's joint distribution at a cell (SPEC §9), kernel by kernel, into `sink`.
-template <JointDistributionSink Sink>
-struct JointDistributionAt {
-    const Cell<double>& cell;
-    Sink& sink;
-
-    /// TF2(x̄, |μ_Y|): a point.
-    void operator()(const Mean2DKernel& k) const {
-        double y[3], n[3];
-        k.meanGradientAt<double>(cell, true, y);
-        sink.point(trilinear(k.geometry, k.rows, 4, cell, true), k.directionOf(y, n), 1.0);
-    }
-    /// The bivariate normal of the 32-voxel form (a point where it has no variance).
-    void operator()(const Gaussian2DKernel& k) const {
-        double m[5];
-        k.momentsAt(cell, m);
-        if (m[2] > 0.0 || m[4] > 0.0)
-            sink.normal(Normal2{m[0], m[1], m[2], m[3], m[4]}, 1.0);
-        else
-            sink.point(m[0], m[1], 1.0);
-    }
-    /// The bivariate box spline of the 32-voxel form.
-    void operator()(const Uniform2DKernel& k) const {
-        BoxSpline2 b;
-        b.n = k.directionsAt(cell, b.cx, b.cg, b.d);
-        b.tinyWidth = k.tinyWidth;
-        sink.boxSpline(b, 1.0);
-    }
-    /// quantile-range (and the quartile views, iqr): the polyline's segments, each with its
-    /// quantile's share of the population (Eq. 4); quantile-mean(-mass): a point at each
-    /// segment's midpoint with Eq. 5's weight.
-    void operator()(const Quantile2DKernel& k) const {
-        double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
-        const int count = k.polylineAt<double>(cell, true, x, g);
-        if (k.quantileMean) {
-            quantileMeanMasses(
-                k.levels, count - 1, k.densityWeights, k.zeroWidth,
-                [&](int j) {
-                    return widthAt<double>(k.geometry, k.boundaries, k.stride, k.j0 + j, cell,
-                                           true);
-                },
-                [&](int j, double mass) {
-                    sink.point(0.5 * (x[j] + x[j + 1]), 0.5 * (g[j] + g[j + 1]), mass);
-                });
-            return;
-        }
-        const double inv = k.levels.inverseTotal<double>(count);
-        for (int j = 1; j < count; ++j)
-            sink.segment(x[j - 1], g[j - 1], x[j], g[j], k.levels.mass(j) * inv);
-    }
-};
-
-/// The joint distribution of `kernel` (any 2D kernel, or an AnyKernel2D) at a cell into `sink`.
+/// The joint distribution of `kernel` (any 2D kernel, or an AnyKernel2D) at a cell into `sink`:
+/// the kernel's own `jointDistribution` (model_kernels_2d.h).
 template <class Kernel, JointDistributionSink Sink>
 void jointDistributionAt(const Kernel& kernel, const Cell<double>& cell, Sink& sink) {
-    visitKernel(kernel, JointDistributionAt<Sink>{cell, sink});
+    visitKernel(kernel, [&](const auto& k) { k.jointDistribution(cell, sink); });
 }
 
 /// Means and covariance of (X, G) over a joint distribution given as pieces. Each piece comes

@@ -19,6 +19,10 @@
 //       corners' supports (supports interpolate linearly: Σ w(μ ± kσ) ⊇ μ(p) ± kσ(p) since
 //       sqrt(Σw²σ²) ≤ Σwσ), so a cell whose hull has α = 0 everywhere can be skipped;
 //   void prefetch(int voxel) const;   the cache lines of the cell based at a voxel;
+//   template <class Sink> void distribution(const Cell<double>&, Sink&) const;
+//       the model's random variable at a cell as pieces of probability mass into a
+//       DistributionSink (point_distribution.h): what probe describes and expectedTfOver checks
+//       the classification against;
 //   static constexpr bool kLoadDeadLanes;   whether the ray loop loads lanes in empty cells too
 //       (cheap loads need not wait for the emptiness test).
 // Kernels are plain structs of sizes and pointers into storage that outlives them (a
@@ -229,6 +233,15 @@ UDVR_CPU_GPU UDVR_INLINE Classified<T> quantileLoad(const K& k, const float* dat
     keepLive<T>(live, r.v);
     return r;
 }
+/// A normal piece N(μ, σ²) with `mass` into a distribution sink (point_distribution.h), a point
+/// mass where σ = 0.
+template <class Sink>
+void normalOrPoint(Sink& sink, double mu, double sigma, double mass) {
+    if (sigma > 0.0)
+        sink.normal(mu, sigma, mass);
+    else
+        sink.point(mu, mass);
+}
 }  // namespace detail
 
 /// Classify at an index-space point (clamped into the grid) with the body over T.
@@ -262,6 +275,11 @@ struct MeanKernel : KernelBase {
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE void finish(T value, T out[4]) const {
         withTf<T>([&](const auto& t) { tfAt<T>(t, value, out); });
+    }
+    /// Its distribution at a cell (point_distribution.h): the interpolated value, a point.
+    template <class Sink>
+    void distribution(const Cell<double>& c, Sink& sink) const {
+        sink.point(load<double>(c, true), 1.0);
     }
     void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = values[v]; }
     void prefetch(int v) const { prefetchRows(values, v, 1); }
@@ -372,6 +390,16 @@ struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {
         detail::keepLive<T>(live, r.v);
         return r;
     }
+    /// Its distribution at a cell: the box spline of the corners' intervals (SPEC §3 uniform;
+    /// `uniform-fast` approximates the expectation over this same distribution).
+    template <class Sink>
+    void distribution(const Cell<double>& c, Sink& sink) const {
+        const UniformSum u = sumAt(c);
+        if (u.n == 0)
+            sink.point(u.shift, 1.0);
+        else
+            sink.boxSpline(u, 1.0);
+    }
     using UniformVoxels::voxelSupport;
     void prefetch(int v) const {
         if (exact) return;
@@ -406,6 +434,13 @@ struct GaussianKernel : KernelBase, detail::ClassifyInLoad {
         detail::exactWhere(*this, c, wide, r.v);
         detail::keepLive<T>(live, r.v);
         return r;
+    }
+    /// Its distribution at a cell: N(μ, σ²), a point where σ = 0.
+    template <class Sink>
+    void distribution(const Cell<double>& c, Sink& sink) const {
+        double mu, sigma;
+        paramsAt<double>(c, true, mu, sigma);
+        detail::normalOrPoint(sink, mu, sigma, 1.0);
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);
@@ -471,6 +506,16 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
         detail::exactWhere(*this, c, expectation(c, live, r.v), r.v);
         return r;
     }
+    /// Its distribution at a cell: the mixture's components with their normalised weights (none
+    /// where every weight is 0).
+    template <class Sink>
+    void distribution(const Cell<double>& c, Sink& sink) const {
+        double pi[kMaxKernelGmmComponents], mu[kMaxKernelGmmComponents],
+            sigma[kMaxKernelGmmComponents];
+        componentsAt<double>(c, true, pi, mu, sigma);
+        for (int i = 0; i < components; ++i)
+            if (pi[i] != 0.0) detail::normalOrPoint(sink, mu[i], sigma[i], pi[i]);
+    }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* g = gmm + voxel * 3 * static_cast<std::size_t>(components);
         double l = INFINITY, h = -INFINITY;
@@ -509,6 +554,23 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
                 expectedTfQuantileRange<T>(t, boundary, count, levels, out);
             });
     }
+    /// Its distribution at a cell (Eq. 2 and 4): the rank population j0 … j1, each quantile
+    /// uniform between its boundaries with its share of the population's mass (a point mass where
+    /// its width is 0).
+    template <class Sink>
+    void distribution(const Cell<double>& c, Sink& sink) const {
+        const double inv = levels.inverseTotal<double>(j1 - j0 + 1);
+        double a = boundaryAt<double>(geometry, boundaries, stride, j0, c, true);
+        for (int j = j0 + 1; j <= j1; ++j) {
+            const double b = boundaryAt<double>(geometry, boundaries, stride, j, c, true);
+            const double mass = levels.mass(j - j0) * inv;
+            if (b > a)
+                sink.uniform(a, b, mass);
+            else
+                sink.point(a, mass);
+            a = b;
+        }
+    }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
         lo = b[j0];
@@ -543,6 +605,23 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
             [&](const auto& t, const auto& boundary, const auto& width, T* out) {
                 expectedTfQuantileMean<T>(t, boundary, width, q, levels, densityWeights, zero, live,
                                           out);
+            });
+    }
+    /// Its distribution at a cell (Eq. 5): a point mass at each quantile's midpoint with
+    /// quantileMeanMasses' share, every one of the q emitted (mass 0 included), in order.
+    template <class Sink>
+    void distribution(const Cell<double>& c, Sink& sink) const {
+        const auto boundary = [&](int j) {
+            return boundaryAt<double>(geometry, quantiles, q + 1, j, c, true);
+        };
+        double a = boundary(0);  // quantile j's lower boundary: masses come in order
+        quantileMeanMasses(
+            levels, q, densityWeights, zeroWidth,
+            [&](int j) { return widthAt<double>(geometry, quantiles, q + 1, j, c, true); },
+            [&](int j, double mass) {
+                const double b = boundary(j + 1);
+                sink.point(0.5 * (a + b), mass);
+                a = b;
             });
     }
     /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
@@ -595,6 +674,11 @@ struct MembersKernel : KernelBase, detail::ClassifyInLoad {
         for (int ch = 0; ch < 4; ++ch) r.v[ch] *= inv;
         detail::keepLive<T>(live, r.v);
         return r;
+    }
+    /// Its distribution at a cell: a point mass 1/n at each member's interpolated value.
+    template <class Sink>
+    void distribution(const Cell<double>& c, Sink& sink) const {
+        for (int i = 0; i < n; ++i) sink.point(memberAt<double>(i, c, true), 1.0 / n);
     }
     /// [min, max] over the voxel's members: each f_i(p) is a convex blend of its corners.
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {

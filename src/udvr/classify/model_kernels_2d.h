@@ -1,7 +1,9 @@
 #pragma once
 // Kernels for 2D transfer functions (SPEC §9): x the value at the sample, y the gradient
 // magnitude G = n̂·Y along the mean gradient n̂ = μ_Y/|μ_Y| (+x where μ_Y = 0). The same
-// interface as the 1D kernels (model_kernels.h), so the same ray loop and probe serve them.
+// interface as the 1D kernels (model_kernels.h), so the same ray loop and probe serve them;
+// instead of `distribution` each has `jointDistribution`: its (X, G) at a cell as pieces into a
+// JointDistributionSink (joint_distribution.h).
 //
 // Gradients come from grid gradients computed once per model (reconstruct/gradient_field.h):
 // the sample's gradient is their trilinear blend, which is SPEC §9's 32-voxel form exactly.
@@ -121,6 +123,13 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         detail::keepLive<T>(live, r.v);
         return r;
     }
+    /// Its joint distribution at a cell (joint_distribution.h): the point (x̄, |μ_Y|).
+    template <class Sink>
+    void jointDistribution(const Cell<double>& c, Sink& sink) const {
+        double y[3], n[3];
+        meanGradientAt<double>(c, true, y);
+        sink.point(trilinear(geometry, rows, 4, c, true), directionOf(y, n), 1.0);
+    }
     void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = rows[4 * v]; }
     void prefetch(int v) const { prefetchRows(rows, v, 4); }
 };
@@ -164,6 +173,17 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             detail::exactWhere(*this, c, live, r.v);
         }
         return r;
+    }
+    /// Its joint distribution at a cell: the bivariate normal of the 32-voxel form (a point
+    /// where it has no variance).
+    template <class Sink>
+    void jointDistribution(const Cell<double>& c, Sink& sink) const {
+        double m[5];
+        momentsAt(c, m);
+        if (m[2] > 0.0 || m[4] > 0.0)
+            sink.normal(Normal2{m[0], m[1], m[2], m[3], m[4]}, 1.0);
+        else
+            sink.point(m[0], m[1], 1.0);
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);
@@ -221,6 +241,14 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
             detail::exactWhere(*this, c, live, r.v);
         }
         return r;
+    }
+    /// Its joint distribution at a cell: the bivariate box spline of the 32-voxel form.
+    template <class Sink>
+    void jointDistribution(const Cell<double>& c, Sink& sink) const {
+        BoxSpline2 b;
+        b.n = directionsAt(c, b.cx, b.cg, b.d);
+        b.tinyWidth = tinyWidth;
+        sink.boxSpline(b, 1.0);
     }
     using UniformVoxels::voxelSupport;
     void prefetch(int) const {}
@@ -353,6 +381,28 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             r.v);
         detail::keepLive<T>(live, r.v);
         return r;
+    }
+    /// Its joint distribution at a cell: quantile-range (the quartile views, iqr) the polyline's
+    /// segments, each with its quantile's share of the population (Eq. 4); quantile-mean(-mass)
+    /// a point at each segment's midpoint with Eq. 5's weight (quantileMeanMasses).
+    template <class Sink>
+    void jointDistribution(const Cell<double>& c, Sink& sink) const {
+        double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
+        const int count = polylineAt<double>(c, true, x, g);
+        if (quantileMean) {
+            quantileMeanMasses(
+                levels, count - 1, densityWeights, zeroWidth,
+                [&](int j) {
+                    return widthAt<double>(geometry, boundaries, stride, j0 + j, c, true);
+                },
+                [&](int j, double mass) {
+                    sink.point(0.5 * (x[j] + x[j + 1]), 0.5 * (g[j] + g[j + 1]), mass);
+                });
+            return;
+        }
+        const double inv = levels.inverseTotal<double>(count);
+        for (int j = 1; j < count; ++j)
+            sink.segment(x[j - 1], g[j - 1], x[j], g[j], levels.mass(j) * inv);
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);

@@ -1,8 +1,9 @@
 #pragma once
 // A model's distribution at a point (SPEC §3), apart from the expectation of any TF over it
-// (docs/architecture.md, "Distributions and expectations"). DistributionAt reconstructs the
-// random variable of each 1D model's kernel once, in double, as pieces of probability mass into
-// a DistributionSink: point masses, uniform pieces (Eq. 2's quantiles), normals and box splines.
+// (docs/architecture.md, "Distributions and expectations"). Each 1D kernel's `distribution`
+// member (model_kernels.h) reconstructs its model's random variable once, in double, as pieces
+// of probability mass into a DistributionSink: point masses, uniform pieces (Eq. 2's quantiles),
+// normals and box splines.
 // Its consumers are the sinks:
 //   - PointDistribution stores the pieces: probe's JSON and plot (probe.cpp) and expectedTfOver,
 //     the expectation of a 1D TF over any distribution (Eq. 3);
@@ -35,98 +36,6 @@ concept DistributionSink = requires(S& s, double x, const UniformSum& u) {
     s.boxSpline(u, x);
 };
 
-/// Eq. 5's masses of quantiles 0 … q − 1 (`width(j)` the width of quantile j, data units):
-/// emit(j, p_j) with p_j = quantileMeanWeight / Σ of them, every j in order (mass 0 included).
-/// The one normalisation of Eq. 5 for the distributions (1D and 2D).
-template <class Width, class Emit>
-void quantileMeanMasses(const QuantileLevels& levels, int q, bool densityWeights, double zeroWidth,
-                        const Width& width, const Emit& emit) {
-    bool pointMasses = false;
-    for (int j = 0; densityWeights && j < q; ++j)
-        pointMasses = pointMasses || width(j) <= zeroWidth;
-    const auto weight = [&](int j) {
-        return quantileMeanWeight<double>(levels.mass(j + 1), width(j), densityWeights, pointMasses,
-                                          zeroWidth);
-    };
-    double total = 0.0;
-    for (int j = 0; j < q; ++j) total += weight(j);
-    for (int j = 0; j < q; ++j) emit(j, weight(j) / total);
-}
-
-/// A model's distribution at a cell (SPEC §3), model by model, as pieces into `sink`.
-template <DistributionSink Sink>
-struct DistributionAt {
-    const Cell<double>& cell;
-    Sink& sink;
-
-    void operator()(const MeanKernel& k) const { sink.point(k.load<double>(cell, true), 1.0); }
-    /// The box spline of the corners' intervals (SPEC §3 uniform; `uniform-fast` approximates
-    /// the expectation over this same distribution).
-    void operator()(const UniformKernel& k) const {
-        const UniformSum u = k.sumAt(cell);
-        if (u.n == 0)
-            sink.point(u.shift, 1.0);
-        else
-            sink.boxSpline(u, 1.0);
-    }
-    void operator()(const GaussianKernel& k) const {
-        double mu, sigma;
-        k.paramsAt<double>(cell, true, mu, sigma);
-        normalOrPoint(mu, sigma, 1.0);
-    }
-    void operator()(const GmmOrderedKernel& k) const {
-        double pi[kMaxKernelGmmComponents], mu[kMaxKernelGmmComponents],
-            sigma[kMaxKernelGmmComponents];
-        k.componentsAt<double>(cell, true, pi, mu, sigma);  // π normalised (all 0: no mass)
-        for (int i = 0; i < k.components; ++i)
-            if (pi[i] != 0.0) normalOrPoint(mu[i], sigma[i], pi[i]);
-    }
-    /// Eq. 2 and 4: the rank population j0 … j1, each quantile uniform between its boundaries
-    /// with its share of the population's mass (a point mass where its width is 0).
-    void operator()(const QuantileRangeKernel& k) const {
-        const double inv = k.levels.inverseTotal<double>(k.j1 - k.j0 + 1);
-        double a = boundaryAt<double>(k.geometry, k.boundaries, k.stride, k.j0, cell, true);
-        for (int j = k.j0 + 1; j <= k.j1; ++j) {
-            const double b = boundaryAt<double>(k.geometry, k.boundaries, k.stride, j, cell, true);
-            const double mass = k.levels.mass(j - k.j0) * inv;
-            if (b > a)
-                sink.uniform(a, b, mass);
-            else
-                sink.point(a, mass);
-            a = b;
-        }
-    }
-    /// Eq. 5: a point mass at each quantile's midpoint with quantileMeanWeight's share, every one
-    /// of the q emitted (mass 0 included), in order.
-    void operator()(const QuantileMeanKernel& k) const {
-        const int stride = k.q + 1;
-        const auto boundary = [&](int j) {
-            return boundaryAt<double>(k.geometry, k.quantiles, stride, j, cell, true);
-        };
-        double a = boundary(0);  // quantile j's lower boundary: masses come in order
-        quantileMeanMasses(
-            k.levels, k.q, k.densityWeights, k.zeroWidth,
-            [&](int j) { return widthAt<double>(k.geometry, k.quantiles, stride, j, cell, true); },
-            [&](int j, double mass) {
-                const double b = boundary(j + 1);
-                sink.point(0.5 * (a + b), mass);
-                a = b;
-            });
-    }
-    /// The ensemble itself: a point mass 1/n at each member's interpolated value.
-    void operator()(const MembersKernel& k) const {
-        for (int i = 0; i < k.n; ++i) sink.point(k.memberAt<double>(i, cell, true), 1.0 / k.n);
-    }
-
-  private:
-    void normalOrPoint(double mu, double sigma, double mass) const {
-        if (sigma > 0.0)
-            sink.normal(mu, sigma, mass);
-        else
-            sink.point(mu, mass);
-    }
-};
-
 /// visitor(kernel) for a kernel, or for the kernel a variant of kernels holds.
 template <class Kernel, class Visitor>
 void visitKernel(const Kernel& kernel, const Visitor& visitor) {
@@ -136,10 +45,11 @@ void visitKernel(const Kernel& kernel, const Visitor& visitor) {
         visitor(kernel);
 }
 
-/// The distribution of `kernel` (any 1D model kernel, or an AnyKernel) at a cell into `sink`.
+/// The distribution of `kernel` (any 1D model kernel, or an AnyKernel) at a cell into `sink`:
+/// the kernel's own `distribution` (model_kernels.h).
 template <class Kernel, DistributionSink Sink>
 void distributionAt(const Kernel& kernel, const Cell<double>& cell, Sink& sink) {
-    visitKernel(kernel, DistributionAt<Sink>{cell, sink});
+    visitKernel(kernel, [&](const auto& k) { k.distribution(cell, sink); });
 }
 
 /// Σ mass × (E[α·r], E[α·g], E[α·b], E[α]) over the pieces of a distribution.

@@ -46,15 +46,19 @@ std::vector<double> levelsOf(const QuantileLevels& levels, int count) {
 }
 
 // What probe reports of each model's parameters at a cell (SPEC §8), next to its distribution
-// (DistributionAt, which the plot and the point masses listed here come from). One overload
-// per kernel type; `family` tells models that share a kernel apart.
+// (the kernel's `distribution`, which the plot and the point masses listed here come from). One
+// overload per kernel type that has parameters to print; `family` tells models that share a kernel
+// apart.
 struct Describe {
     const ModelFamily& family;
     const Cell<double>& cell;
     const PointDistribution& dist;
     json& j;
 
-    void operator()(const MeanKernel&) const {}
+    /// A kernel without parameters of its own to print (the mean field; a new model until it
+    /// has an overload): its distribution says it all.
+    template <class Kernel>
+    void operator()(const Kernel&) const {}
     void operator()(const GaussianKernel& k) const {
         double mu, sigma;
         k.paramsAt<double>(cell, true, mu, sigma);

@@ -82,8 +82,8 @@ TEST(Probe, PlainFieldNamesTheModelsItLacksArraysFor) {
 }
 
 TEST(PointDistribution, EveryKernelClassifiesAsTheExpectationOverItsDistribution) {
-    // One distribution object per model (DistributionAt) and one 1D expectation over any
-    // distribution (expectedTfOver, Eq. 3 piece by piece): every kernel's own classification
+    // One distribution object per model (each kernel's `distribution`) and one 1D expectation over
+    // any distribution (expectedTfOver, Eq. 3 piece by piece): every kernel's own classification
     // (the double body the renderer's lanes are checked against) equals it. Exact models to
     // 1e−9 (summation order); uniform-fast approximates the box spline's expectation, within
     // its stated 1e−3. Random models (members included), random TFs, and
