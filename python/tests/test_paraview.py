@@ -1,0 +1,204 @@
+"""The ParaView plugin (issue 32, docs/paraview.md): it loads in pvbatch, links ParaView's VTK and
+never Debian's, and examples/paraview/render.py's images match `udvr render`'s with the same
+flags (RMSE of SPEC §6 ≤ 2/255) for every 1D model and a 2D TF, on one process and on two MPI
+ranks that each render their piece of a 2-piece .pvti; bad inputs give ParaView errors, not
+crashes. pvbatch runs under xvfb-run (Debian's ParaView is GLX only) and inside `timeout`.
+
+Skipped where the build has no plugin (build/paraview_plugin.txt, written by CMake) unless
+UDVR_PARAVIEW=ON (CI), where a missing plugin fails. UDVR_PARAVIEW_TEST_SEED picks the model's
+noise (default 7)."""
+import json
+import os
+import pathlib
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from conftest import BUILD, ROOT, run_ok
+
+PLUGIN_TXT = BUILD / "paraview_plugin.txt"
+PVBATCH = BUILD / "paraview" / "udvr-pvbatch"
+RENDER = ROOT / "examples" / "paraview" / "render.py"
+BATCH = pathlib.Path(__file__).with_name("paraview_batch.py")
+SEED = int(os.environ.get("UDVR_PARAVIEW_TEST_SEED", "7"))
+SIZE = "96x96"
+TOLERANCE = 2.0 / 255.0
+# Every model with a 1D classification (members needs an ensemble, not a model file).
+MODELS_1D = ["mean", "uniform", "uniform-fast", "gaussian", "gmm-ordered", "gmm-mc",
+             "quantile-range", "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower",
+             "quartile-middle", "quartile-upper"]
+
+if not PLUGIN_TXT.is_file():
+    if os.environ.get("UDVR_PARAVIEW") == "ON":
+        raise RuntimeError("UDVR_PARAVIEW=ON but the build has no ParaView plugin "
+                           "(%s is missing)" % PLUGIN_TXT)
+    pytest.skip("the build has no ParaView plugin (see CMake's line on it)",
+                allow_module_level=True)
+PLUGIN = pathlib.Path(PLUGIN_TXT.read_text().strip())
+for tool in ("xvfb-run", "timeout"):
+    if shutil.which(tool) is None:
+        raise RuntimeError("the ParaView tests need %s (scripts/setup.sh installs xvfb)" % tool)
+
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+
+
+def pvbatch(*args, ranks=1, timeout=300, env=None):
+    """pvbatch (udvr's launcher) under xvfb-run and `timeout`; ranks > 1 through mpirun."""
+    cmd = ["timeout", str(timeout), "xvfb-run", "-a", "-s", "-screen 0 640x480x24"]
+    if ranks > 1:
+        cmd += ["mpirun", "-np", str(ranks), "-x", "UDVR_PARAVIEW_VERBOSE"]
+    cmd += [str(PVBATCH), *map(str, args)]
+    e = dict(os.environ, UDVR_NO_PROGRESS="1", UDVR_PARAVIEW_VERBOSE="1", **MPI_ENV, **(env or {}))
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout + 30, env=e,
+                          stdin=subprocess.DEVNULL)
+
+
+def rmse(a, b):
+    """SPEC §6's RMSE, from `udvr compare`."""
+    return float(run_ok("compare", a, b).stdout.split()[0])
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    """A random model (tangle with bimodal noise, seed SEED) as .vti and as a 2-piece .pvti, a TF
+    and a 2D TF raster."""
+    d = tmp_path_factory.mktemp("paraview")
+    run_ok("generate", "tangle", "--dims", "24", "-o", d / "field.vti")
+    run_ok("perturb", d / "field.vti", "--members", "16", "--noise", "bimodal", "--seed", SEED,
+           "-o", d / "ensemble.nc")
+    run_ok("build", d / "ensemble.nc", "--gmm", "3", "-o", d / "model.vti")
+    run_ok("build", d / "ensemble.nc", "--gmm", "3", "-o", d / "model.pvti", "--pieces", "2")
+    # The preset over the data's percentiles, saved as ParaView JSON (both sides read the file).
+    run_ok("render", d / "model.vti", "--tf", "cool-to-warm", "--save-tf", d / "tf.json",
+           "--size", "8x8", "-o", d / "tf.png")
+    # Opacity in a band (a fuzzy isosurface), where the models' images differ by 5/255 or more.
+    tf = json.loads((d / "tf.json").read_text())
+    xs = tf[0]["Points"][0::4]
+    lo, span = xs[0], xs[-1] - xs[0]
+    band = [(lo, 0.0), (lo + 0.3 * span, 0.0), (lo + 0.35 * span, 0.8), (lo + 0.4 * span, 0.0),
+            (lo + span, 0.0)]
+    tf[0]["Points"] = [v for x, a in band for v in (x, a, 0.5, 0.0)]
+    (d / "tf.json").write_text(json.dumps(tf))
+    run_ok("tf2", ROOT / "data" / "tf2" / "tangle.json", "--over", d / "model.vti",
+           "-o", d / "tf2.vti")
+    return d
+
+
+def test_plugin_links_paraviews_vtk_and_not_debians():
+    libs = subprocess.run(["ldd", str(PLUGIN)], capture_output=True, text=True,
+                          check=True).stdout
+    vtk = re.findall(r"libvtk\S+", libs)
+    assert vtk, libs
+    assert all("-pv5." in name for name in vtk), [n for n in vtk if "-pv5." not in n]
+
+
+def test_plugin_loads_in_pvbatch(tmp_path):
+    script = tmp_path / "load.py"
+    script.write_text(
+        "import os\n"
+        "from paraview import servermanager\n"
+        "from paraview.simple import LoadPlugin\n"
+        "defs = servermanager.ProxyManager().SMProxyManager.GetProxyDefinitionManager()\n"
+        "if not defs.HasDefinition('representations', 'UncertainVolumeRepresentation'):\n"
+        "    LoadPlugin(os.environ['UDVR_PARAVIEW_PLUGIN'], remote=False, ns=globals())\n"
+        "print('loaded', defs.HasDefinition('representations', 'UncertainVolumeRepresentation'))\n")
+    r = pvbatch(script, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "loaded True" in r.stdout, r.stdout + r.stderr
+
+
+def cli_and_paraview_jobs(d, kinds, source, tag, extra=()):
+    """(cli image, paraview image, cli args, render.py args) per model."""
+    jobs = []
+    for kind in kinds:
+        cli, pv = d / f"cli_{tag}_{kind}.png", d / f"pv_{tag}_{kind}.png"
+        args = [str(source), "--model", kind, *extra, "--size", SIZE, "--realizations", "20"]
+        jobs.append((cli, pv, args))
+    return jobs
+
+
+def check_against_cli(d, jobs, ranks, log):
+    (d / "jobs.json").write_text(json.dumps([[*a, "-o", str(pv)] for _, pv, a in jobs]))
+    r = pvbatch(BATCH, d / "jobs.json", ranks=ranks, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "ERR|" not in r.stderr, r.stderr
+    worst = 0.0
+    for cli, pv, args in jobs:
+        run_ok("render", *args, "-o", cli, timeout=300)
+        e = rmse(pv, cli)
+        log.append("%s %s: RMSE %.5f (%.2f/255)" % (ranks, args[2], e, 255 * e))
+        worst = max(worst, e)
+        assert e <= TOLERANCE, "%s on %d rank(s): RMSE %.5f > 2/255" % (args[2], ranks, e)
+    print("\n".join(log))
+    return r
+
+
+def test_every_1d_model_matches_the_cli_on_one_process(models):
+    check_against_cli(models, cli_and_paraview_jobs(
+        models, MODELS_1D, models / "model.vti", "1", ["--tf", str(models / "tf.json")]), 1, [])
+    # The model property reaches the ray caster: the models' images differ far more than 2/255.
+    for kind in ("gaussian", "quantile-range", "gmm-mc", "quartile-upper"):
+        assert rmse(models / f"pv_1_{kind}.png", models / "pv_1_mean.png") > 2 * TOLERANCE, kind
+
+
+def test_a_2d_tf_matches_the_cli(models):
+    check_against_cli(models, cli_and_paraview_jobs(
+        models, ["quantile-range", "mean"], models / "model.vti", "2d",
+        ["--tf2", str(models / "tf2.vti")]), 1, [])
+
+
+def test_two_ranks_render_their_pieces_and_match_the_cli(models):
+    kinds = ["mean", "gaussian", "quantile-range", "gmm-ordered"]
+    r = check_against_cli(models, cli_and_paraview_jobs(
+        models, kinds, models / "model.pvti", "mpi", ["--tf", str(models / "tf.json")]), 2, [])
+    # Each rank rendered its own piece (z 0..11 and 11..23 of the 24 planes), not the whole.
+    extents = set(re.findall(r"udvr: rendering extent (\S+ \S+ \S+) of", r.stderr))
+    assert extents == {"0..23 0..23 0..11", "0..23 0..23 11..23"}, r.stderr
+
+
+def bad_input_script(tmp_path, source, array, kind="mean"):
+    script = tmp_path / "bad.py"
+    script.write_text(
+        "import os\n"
+        "from paraview import servermanager\n"
+        "from paraview.simple import *\n"
+        "defs = servermanager.ProxyManager().SMProxyManager.GetProxyDefinitionManager()\n"
+        "if not defs.HasDefinition('representations', 'UncertainVolumeRepresentation'):\n"
+        "    LoadPlugin(os.environ['UDVR_PARAVIEW_PLUGIN'], remote=False, ns=globals())\n"
+        f"r = OpenDataFile({str(source)!r})\n"
+        "v = CreateView('RenderView')\n"
+        "v.ViewSize = [64, 64]\n"
+        "d = Show(r, v)\n"
+        "d.SetRepresentationType('Uncertain Volume')\n"
+        f"ColorBy(d, ('POINTS', {array!r}))\n"
+        f"d.UncertainModel = {kind!r}\n"
+        "Render(v)\n"
+        "print('rendered')\n")
+    return script
+
+
+def test_a_non_model_array_is_a_paraview_error_not_a_crash(models, tmp_path):
+    r = pvbatch(bad_input_script(tmp_path, models / "field.vti", "tangle"), timeout=120)
+    assert r.returncode == 0 and "rendered" in r.stdout, r.stdout + r.stderr
+    assert "ERR|" in r.stderr and "colour by one of its arrays" in r.stderr, r.stderr
+
+
+def test_a_model_without_the_arrays_of_its_model_is_a_paraview_error(models, tmp_path):
+    run_ok("build", models / "ensemble.nc", "--gmm", "0", "-o", tmp_path / "nogmm.vti")
+    r = pvbatch(bad_input_script(tmp_path, tmp_path / "nogmm.vti", "mean", "gmm-ordered"),
+                timeout=120)
+    assert r.returncode == 0 and "rendered" in r.stdout, r.stdout + r.stderr
+    assert "ERR|" in r.stderr and "gmm" in r.stderr.split("ERR|", 1)[1], r.stderr
+
+
+def test_render_py_errors_are_one_line(models, tmp_path):
+    r = pvbatch(RENDER, tmp_path / "missing.vti", "-o", tmp_path / "x.png", timeout=120)
+    assert r.returncode == 1 and "render.py: cannot read" in r.stderr and "missing.vti" in r.stderr
+    assert not (tmp_path / "x.png").exists()
+    r = pvbatch(RENDER, models / "field.vti", "--tf", models / "tf.json", "-o",
+                tmp_path / "x.png", timeout=120)
+    assert r.returncode == 1 and "is not a udvr model" in r.stderr, r.stderr
+    assert not (tmp_path / "x.png").exists()
