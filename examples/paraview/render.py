@@ -43,7 +43,8 @@ def parse_args(argv):
     p.add_argument("--uniform-width", default="variance", choices=["variance", "std", "minmax"])
     p.add_argument("--background", default="1,1,1", help="r,g,b in [0,1] (default white)")
     p.add_argument("--frames", type=int, default=0,
-                   help="also render this many more frames and print the mean frame time")
+                   help="also render this many more frames; print the mean frame time and the "
+                        "peak RSS of each rank")
     p.add_argument("--plugin", default=os.environ.get("UDVR_PARAVIEW_PLUGIN", ""),
                    help="udvr.so (default: $UDVR_PARAVIEW_PLUGIN, which udvr-pvbatch sets)")
     p.add_argument("-o", "--output", required=True, help="PNG to write")
@@ -103,7 +104,7 @@ def main(argv):
     from paraview import servermanager
     from paraview.simple import (ColorBy, CreateView, GetColorTransferFunction,
                                  GetOpacityTransferFunction, LoadPlugin, OpenDataFile,
-                                 PassArrays, Render, SaveScreenshot, Show)
+                                 ExtractSubset, Render, SaveScreenshot, Show)
     definitions = servermanager.ProxyManager().SMProxyManager.GetProxyDefinitionManager()
     if not definitions.HasDefinition("representations", "UncertainVolumeRepresentation"):
         # Not loaded at start-up from PV_PLUGIN_PATH (which udvr-pvbatch sets).
@@ -127,8 +128,9 @@ def main(argv):
 
     # The full-resolution bounds (field data `bounds`, SPEC §7), else the grid's box.
     bounds = list(info.GetBounds())
-    field = servermanager.Fetch(PassArrays(Input=reader, PointDataArrays=[], CellDataArrays=[],
-                                           FieldDataArrays=["bounds"]))
+    # Fetched from one voxel: the field data travels with it, the arrays stay on their ranks.
+    corner = ExtractSubset(Input=reader, VOI=[0, 0, 0, 0, 0, 0])
+    field = servermanager.Fetch(corner)
     fb = field.GetFieldData().GetArray("bounds") if field else None
     if fb is not None and fb.GetNumberOfTuples() * fb.GetNumberOfComponents() == 6:
         bounds = [fb.GetComponent(i // fb.GetNumberOfComponents(), i % fb.GetNumberOfComponents())
@@ -182,12 +184,18 @@ def main(argv):
     view.CameraParallelProjection = 0
 
     Render(view)
-    if a.frames > 0:
-        start = time.perf_counter()
+    if a.frames > 0:  # the render above was the warm-up (it read the data)
+        times = []
         for _ in range(a.frames):
+            start = time.perf_counter()
             view.StillRender()
-        ms = 1000.0 * (time.perf_counter() - start) / a.frames
-        print("render.py: %d frames of %dx%d, %.1f ms per frame" % (a.frames, a.width, a.height, ms))
+            times.append(1000.0 * (time.perf_counter() - start))
+        times.sort()
+        import resource
+        rank = servermanager.vtkProcessModule.GetProcessModule().GetPartitionId()
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        print("render.py: rank %d: %d frames of %dx%d: median %.1f ms, min %.1f ms; peak RSS %.0f MiB"
+              % (rank, a.frames, a.width, a.height, times[len(times) // 2], times[0], peak))
     out = os.path.abspath(a.output)
     tmp = out + ".tmp.png"
     SaveScreenshot(tmp, view, ImageResolution=[a.width, a.height], TransparentBackground=0)

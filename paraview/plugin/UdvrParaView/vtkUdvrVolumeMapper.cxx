@@ -20,11 +20,14 @@
 #include "vtkXMLImageDataReader.h"
 #include "vtk_glew.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <sstream>
@@ -303,6 +306,30 @@ udvr::TransferFunction2D tf2Of(const std::string& path)
   return tf;
 }
 
+std::size_t modelBytes(const udvr::ModelVolume& m)
+{
+  std::size_t bytes = 0;
+  for (const udvr::ModelFileArray& a : udvr::kModelFileArrays)
+    bytes += (m.*a.values).size() * sizeof(float);
+  return bytes;
+}
+
+// "VmRSS" or "VmHWM" of this process in MiB (Linux), or -1.
+long statusMiB(const char* key)
+{
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f)
+    return -1;
+  char line[256];
+  long kib = -1;
+  const std::size_t n = std::strlen(key);
+  while (std::fgets(line, sizeof line, f))
+    if (std::strncmp(line, key, n) == 0 && line[n] == ':')
+      kib = std::strtol(line + n + 1, nullptr, 10);
+  std::fclose(f);
+  return kib < 0 ? -1 : kib / 1024;
+}
+
 } // namespace
 
 struct vtkUdvrVolumeMapper::Internals
@@ -436,6 +463,11 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       frame = udvr::renderVolume(m, kind, tf, s, &stats, &in.cache);
     }
     this->LastFrameMilliseconds = stats.milliseconds;
+    if (std::getenv("UDVR_PARAVIEW_VERBOSE"))
+      std::fprintf(stderr,
+        "udvr: pid %ld frame %dx%d %.1f ms; model %.0f MiB; VmRSS %ld MiB, VmHWM %ld MiB\n",
+        static_cast<long>(getpid()), width, height, stats.milliseconds,
+        static_cast<double>(modelBytes(m)) / (1 << 20), statusMiB("VmRSS"), statusMiB("VmHWM"));
 
     // Rows top to bottom (udvr) → bottom to top (OpenGL); colour over black is premultiplied.
     in.pixels.resize(frame.rgba.size());
