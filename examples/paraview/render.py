@@ -9,8 +9,10 @@ model's full-resolution bounds, on +z looking -z with up +y at the distance wher
 sphere fits the 30° view angle, divided by the zoom, then VTK's Azimuth and Elevation), so the
 image compares with `udvr render MODEL ... -o cli.png` (docs/paraview.md). The TF JSON's colour
 points and opacity points become ParaView's lookup table and scalar opacity function for the
-`mean` array, in RGB. Run it under xvfb-run where there is no display (Debian's ParaView is GLX
-only), inside `timeout` (pvbatch without a display can spin). Errors: one line, exit status 1.
+`mean` array, in RGB. Run it under `xvfb-run -a -s '-screen 0 1280x1024x24 -noreset'` where
+there is no display (Debian's ParaView is GLX only; without -noreset Xvfb resets between
+pvbatch's connections and pvbatch may abort), inside `timeout` (pvbatch without a display can
+spin). Errors: one line, exit status 1.
 """
 import argparse
 import json
@@ -102,6 +104,7 @@ def separate_steps(values, stride):
 def main(argv):
     a = parse_args(argv)
     from paraview import servermanager
+    import paraview.simple
     from paraview.simple import (ColorBy, CreateView, GetColorTransferFunction,
                                  GetOpacityTransferFunction, LoadPlugin, OpenDataFile,
                                  ExtractSubset, Render, SaveScreenshot, Show)
@@ -136,6 +139,9 @@ def main(argv):
         bounds = [fb.GetComponent(i // fb.GetNumberOfComponents(), i % fb.GetNumberOfComponents())
                   for i in range(6)]
 
+    # paraview.simple resets the camera to the data's box at a view's first render; the camera
+    # below is SPEC §5's over the full-resolution bounds, which differ for a downsampled model.
+    paraview.simple._DisableFirstRenderCameraReset()
     view = CreateView("RenderView")
     view.ViewSize = [a.width, a.height]
     view.OrientationAxesVisibility = 0

@@ -394,6 +394,14 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
           "udvr: rendering extent %d..%d %d..%d %d..%d of %d..%d %d..%d %d..%d (%zu voxels)\n",
           e[0], e[1], e[2], e[3], e[4], e[5], in.whole[0], in.whole[1], in.whole[2], in.whole[3],
           in.whole[4], in.whole[5], in.model.voxelCount());
+        const udvr::ModelVolume& v = in.model;
+        std::fprintf(stderr,
+          "udvr: grid origin %g %g %g spacing %g %g %g; bounds %g %g %g %g %g %g; full-res "
+          "spacing %g; q %d, K %d\n",
+          v.grid.origin[0], v.grid.origin[1], v.grid.origin[2], v.grid.spacing[0],
+          v.grid.spacing[1], v.grid.spacing[2], v.bounds[0], v.bounds[1], v.bounds[2],
+          v.bounds[3], v.bounds[4], v.bounds[5], v.fullResMinSpacing, v.quantileCount,
+          v.gmmComponents);
       }
     }
     const udvr::ModelVolume& m = in.model;
