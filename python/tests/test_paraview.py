@@ -67,6 +67,18 @@ def rmse(a, b):
     return float(run_ok("compare", a, b).stdout.split()[0])
 
 
+def write_tf(model, path, opacity):
+    """The cool-to-warm preset over `model`'s percentiles as ParaView JSON (both sides read the
+    file), its opacity replaced by `opacity`: (fraction of the preset's range, α) pairs."""
+    run_ok("render", model, "--tf", "cool-to-warm", "--save-tf", path, "--size", "8x8",
+           "-o", path.with_suffix(".png"))
+    tf = json.loads(path.read_text())
+    xs = tf[0]["Points"][0::4]
+    lo, span = xs[0], xs[-1] - xs[0]
+    tf[0]["Points"] = [v for f, a in opacity for v in (lo + f * span, a, 0.5, 0.0)]
+    path.write_text(json.dumps(tf))
+
+
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
     """A random model (tangle with bimodal noise, seed SEED) as .vti and as a 2-piece .pvti, a TF
@@ -77,17 +89,9 @@ def models(tmp_path_factory):
            "-o", d / "ensemble.nc")
     run_ok("build", d / "ensemble.nc", "--gmm", "3", "-o", d / "model.vti")
     run_ok("build", d / "ensemble.nc", "--gmm", "3", "-o", d / "model.pvti", "--pieces", "2")
-    # The preset over the data's percentiles, saved as ParaView JSON (both sides read the file).
-    run_ok("render", d / "model.vti", "--tf", "cool-to-warm", "--save-tf", d / "tf.json",
-           "--size", "8x8", "-o", d / "tf.png")
     # Opacity in a band (a fuzzy isosurface), where the models' images differ by 5/255 or more.
-    tf = json.loads((d / "tf.json").read_text())
-    xs = tf[0]["Points"][0::4]
-    lo, span = xs[0], xs[-1] - xs[0]
-    band = [(lo, 0.0), (lo + 0.3 * span, 0.0), (lo + 0.35 * span, 0.8), (lo + 0.4 * span, 0.0),
-            (lo + span, 0.0)]
-    tf[0]["Points"] = [v for x, a in band for v in (x, a, 0.5, 0.0)]
-    (d / "tf.json").write_text(json.dumps(tf))
+    write_tf(d / "model.vti", d / "tf.json",
+             [(0.0, 0.0), (0.3, 0.0), (0.35, 0.8), (0.4, 0.0), (1.0, 0.0)])
     run_ok("tf2", ROOT / "data" / "tf2" / "tangle.json", "--over", d / "model.vti",
            "-o", d / "tf2.vti")
     return d
@@ -175,15 +179,8 @@ def test_a_real_ct_reduced_by_bricks_matches_the_cli(tmp_path):
     run_ok("build", CT, "--downsample", "4", "--gmm", "0", "-o", tmp_path / "ct.vti", timeout=300)
     run_ok("build", CT, "--downsample", "4", "--gmm", "0", "--pieces", "2",
            "-o", tmp_path / "ct.pvti", timeout=300)
-    run_ok("render", tmp_path / "ct.vti", "--tf", "cool-to-warm", "--save-tf",
-           tmp_path / "tf.json", "--size", "8x8", "-o", tmp_path / "tf.png")
-    tf = json.loads((tmp_path / "tf.json").read_text())
-    xs = tf[0]["Points"][0::4]
-    lo, span = xs[0], xs[-1] - xs[0]
-    ramp = [(lo, 0.0), (lo + 0.45 * span, 0.0), (lo + 0.6 * span, 0.5), (lo + 0.75 * span, 0.0),
-            (lo + span, 0.9)]
-    tf[0]["Points"] = [v for x, a in ramp for v in (x, a, 0.5, 0.0)]
-    (tmp_path / "tf.json").write_text(json.dumps(tf))
+    write_tf(tmp_path / "ct.vti", tmp_path / "tf.json",
+             [(0.0, 0.0), (0.45, 0.0), (0.6, 0.5), (0.75, 0.0), (1.0, 0.9)])
     extra = ["--tf", str(tmp_path / "tf.json")]
     check_against_cli(tmp_path, cli_and_paraview_jobs(
         tmp_path, ["mean", "gaussian", "quantile-range"], tmp_path / "ct.vti", "ct1", extra), 1, [])
