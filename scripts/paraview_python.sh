@@ -18,6 +18,7 @@ trap 'rm -rf "$work" "$dest.tmp"' EXIT
 # apt-get download fetches as the user _apt where it is run as root: let it write there.
 if [ "$(id -u)" -eq 0 ] && id _apt >/dev/null 2>&1; then chown _apt "$work"; fi
 (cd "$work" && apt-get download -qq "python3-paraview=$version" >&2)
+mkdir -p "$(dirname "$dest")"
 rm -rf "$dest.tmp"
 dpkg-deb -x "$work"/python3-paraview_*.deb "$dest.tmp"
 echo "$version" > "$dest.tmp/.version"
