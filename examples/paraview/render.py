@@ -102,6 +102,7 @@ def separate_steps(values, stride):
 
 
 def main(argv):
+    """Render as the module docstring says; returns (view, display) for scripts that go on."""
     a = parse_args(argv)
     from paraview import servermanager
     import paraview.simple
@@ -208,6 +209,7 @@ def main(argv):
     if not os.path.isfile(tmp):
         fail("ParaView wrote no image to %s" % tmp)
     os.replace(tmp, out)
+    return view, display
 
 
 if __name__ == "__main__":

@@ -193,6 +193,50 @@ def test_a_real_ct_reduced_by_bricks_matches_the_cli(tmp_path):
         tmp_path, ["mean", "quantile-range"], tmp_path / "ct.pvti", "ct2", extra), 2, [])
 
 
+def test_paraviews_own_2d_tf_is_udvrs_2d_classification(models, tmp_path):
+    """ParaView 5.11's 2D TF (a box over value x gradient magnitude, UseTransfer2D) classifies
+    with udvr's 2D kernels: the image equals `udvr render --tf2` with ParaView's raster (written
+    out by the script, texel centres as VTK's GPU mapper samples them)."""
+    script = tmp_path / "tf2.py"
+    script.write_text(
+        "import sys\n"
+        f"sys.path.insert(0, {str(RENDER.parent)!r})\n"
+        "import render\n"
+        "from paraview.simple import *\n"
+        "from vtkmodules.vtkCommonDataModel import vtkImageData\n"
+        "from vtkmodules.vtkIOXML import vtkXMLImageDataWriter\n"
+        f"view, d = render.main([{str(models / 'model.vti')!r}, '--model', 'quantile-range', '--tf',\n"
+        f"             {str(models / 'tf.json')!r}, '--size', '{SIZE}', '-o', {str(tmp_path / 'pv1d.png')!r}])\n"
+        "tf2 = GetTransferFunction2D('mean')\n"
+        "tf2.AutomaticRescaleRangeMode = 'Never'\n"
+        "tf2.Range = [-7.0, 40.0, 0.0, 90.0]\n"
+        "tf2.OutputDimensions = [48, 40]\n"
+        "tf2.Boxes = [4.0, 0.0, 12.0, 45.0, 0.9, 0.2, 0.1, 0.4]\n"
+        "d.TransferFunction2D = tf2\n"
+        "d.UseTransfer2D = 1\n"
+        f"SaveScreenshot({str(tmp_path / 'pv.png')!r}, view, ImageResolution=[{SIZE.replace('x', ', ')}])\n"
+        "img = tf2.GetClientSideObject().GetFunction()\n"
+        "rg = tf2.GetClientSideObject().GetRange()\n"
+        "dims = img.GetDimensions()\n"
+        "out = vtkImageData()\n"
+        "out.DeepCopy(img)\n"
+        "dx, dy = (rg[1] - rg[0]) / dims[0], (rg[3] - rg[2]) / dims[1]\n"
+        "out.SetOrigin(rg[0] + dx / 2, rg[2] + dy / 2, 0)\n"
+        "out.SetSpacing(dx, dy, 1)\n"
+        "w = vtkXMLImageDataWriter()\n"
+        f"w.SetFileName({str(tmp_path / 'raster.vti')!r})\n"
+        "w.SetInputData(out)\n"
+        "w.Write()\n")
+    r = pvbatch(script, timeout=180)
+    assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
+    run_ok("render", models / "model.vti", "--model", "quantile-range", "--tf2",
+           tmp_path / "raster.vti", "--size", SIZE, "-o", tmp_path / "cli.png", timeout=300)
+    e = rmse(tmp_path / "pv.png", tmp_path / "cli.png")
+    print("ParaView's 2D TF: RMSE %.5f (%.2f/255)" % (e, 255 * e))
+    assert e <= TOLERANCE
+    assert rmse(tmp_path / "pv.png", tmp_path / "pv1d.png") > 10 * TOLERANCE  # not the 1D TF
+
+
 def test_build_model_filter_matches_udvr_build(tmp_path):
     """udvr Build Model over member files (NRRD) joined by ParaView's Append Attributes gives
     `udvr build`'s model of the same files, array for array, bit for bit."""

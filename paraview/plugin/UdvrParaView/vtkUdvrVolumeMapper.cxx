@@ -249,6 +249,51 @@ udvr::TransferFunction1D tfOf(vtkColorTransferFunction* ctf, vtkPiecewiseFunctio
   return tf;
 }
 
+// A 2D TF from a raster image: W×H×1 points of RGBA `a`; the domain from `range` (x0, x1, y0,
+// y1: ParaView's 2D TF, texel centres) or else from the image's origin and spacing, or field data tf2_domain
+// (udvr tf2's exact domain).
+udvr::TransferFunction2D tf2OfRaster(vtkImageData* img, vtkDataArray* a, const double* range)
+{
+  int dims[3];
+  img->GetDimensions(dims);
+  udvr::TransferFunction2D tf;
+  tf.width = dims[0];
+  tf.height = dims[1];
+  const double* o = img->GetOrigin();
+  const double* s = img->GetSpacing();
+  int ext[6];
+  img->GetExtent(ext);
+  tf.x0 = o[0] + ext[0] * s[0];
+  tf.x1 = tf.x0 + (dims[0] - 1) * s[0];
+  tf.y0 = o[1] + ext[2] * s[1];
+  tf.y1 = tf.y0 + (dims[1] - 1) * s[1];
+  vtkDataArray* exact = img->GetFieldData()->GetArray("tf2_domain");
+  if (range)
+  {
+    // ParaView's raster spans its range texel by texel, as VTK's GPU mapper samples it: texel i
+    // at its centre, range[0] + (i + ½)·(range[1] − range[0])/W, clamped beyond the outer ones.
+    const double dx = (range[1] - range[0]) / tf.width, dy = (range[3] - range[2]) / tf.height;
+    tf.x0 = range[0] + 0.5 * dx;
+    tf.x1 = range[1] - 0.5 * dx;
+    tf.y0 = range[2] + 0.5 * dy;
+    tf.y1 = range[3] - 0.5 * dy;
+  }
+  else if (exact && exact->GetNumberOfTuples() * exact->GetNumberOfComponents() == 4)
+  {
+    tf.x0 = exact->GetComponent(0, 0);
+    tf.x1 = exact->GetComponent(1, 0);
+    tf.y0 = exact->GetComponent(2, 0);
+    tf.y1 = exact->GetComponent(3, 0);
+  }
+  tf.rgba.resize(static_cast<std::size_t>(tf.width) * tf.height * 4);
+  const double scale = a->GetDataType() == VTK_UNSIGNED_CHAR ? 1.0 / 255.0 : 1.0;
+  for (std::size_t i = 0; i < tf.rgba.size(); ++i)
+    tf.rgba[i] = static_cast<float>(
+      scale * a->GetComponent(static_cast<vtkIdType>(i / 4), static_cast<int>(i % 4)));
+  tf.validate();
+  return tf;
+}
+
 // A 2D TF raster .vti (SPEC §9: W×H×1 points, a 4-component array r, g, b, α; x along i, y along
 // j, the domain from origin and spacing), read with ParaView's own VTK. Widget JSON files become
 // such a raster with `udvr tf2 widgets.json -o tf2.vti`.
@@ -280,30 +325,7 @@ udvr::TransferFunction2D tf2Of(const std::string& path)
   if (!a || dims[2] != 1)
     UDVR_FAIL("2D transfer function '" << path
               << "': expected W x H x 1 points with a 4-component array (r, g, b, alpha)");
-  udvr::TransferFunction2D tf;
-  tf.width = dims[0];
-  tf.height = dims[1];
-  const double* o = img->GetOrigin();
-  const double* s = img->GetSpacing();
-  int ext[6];
-  img->GetExtent(ext);
-  tf.x0 = o[0] + ext[0] * s[0];
-  tf.x1 = tf.x0 + (dims[0] - 1) * s[0];
-  tf.y0 = o[1] + ext[2] * s[1];
-  tf.y1 = tf.y0 + (dims[1] - 1) * s[1];
-  vtkDataArray* exact = img->GetFieldData()->GetArray("tf2_domain");  // udvr tf2's exact domain
-  if (exact && exact->GetNumberOfTuples() * exact->GetNumberOfComponents() == 4)
-  {
-    tf.x0 = exact->GetComponent(0, 0);
-    tf.x1 = exact->GetComponent(1, 0);
-    tf.y0 = exact->GetComponent(2, 0);
-    tf.y1 = exact->GetComponent(3, 0);
-  }
-  tf.rgba.resize(static_cast<std::size_t>(tf.width) * tf.height * 4);
-  for (std::size_t i = 0; i < tf.rgba.size(); ++i)
-    tf.rgba[i] = static_cast<float>(a->GetComponent(static_cast<vtkIdType>(i / 4), static_cast<int>(i % 4)));
-  tf.validate();
-  return tf;
+  return tf2OfRaster(img, a, nullptr);
 }
 
 std::size_t modelBytes(const udvr::ModelVolume& m)
@@ -342,6 +364,10 @@ struct vtkUdvrVolumeMapper::Internals
   std::string tf2Path;
   std::filesystem::file_time_type tf2Time{};
   udvr::TransferFunction2D tf2;
+  vtkSmartPointer<vtkImageData> pvTf2;  // ParaView's 2D TF raster, and its range
+  double pvTf2Range[4] = { 0, 0, 0, 0 };
+  vtkMTimeType pvTf2Time = 0;  // when `pvTf2Built` was made from it
+  udvr::TransferFunction2D pvTf2Built;
   std::vector<float> pixels;  // the frame, rows bottom to top (OpenGL's order)
   std::string lastError;
 };
@@ -463,6 +489,21 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       }
       frame = udvr::renderVolume(m, kind, in.tf2, s, &stats, &in.cache);
     }
+    else if (in.pvTf2)
+    {
+      const vtkMTimeType t = in.pvTf2->GetMTime();
+      if (t != in.pvTf2Time || in.pvTf2Built.rgba.empty())
+      {
+        vtkDataArray* a = in.pvTf2->GetPointData()->GetScalars();
+        int dims[3];
+        in.pvTf2->GetDimensions(dims);
+        if (!a || a->GetNumberOfComponents() != 4 || dims[2] != 1)
+          UDVR_FAIL("ParaView's 2D transfer function is not an RGBA raster");
+        in.pvTf2Built = tf2OfRaster(in.pvTf2, a, in.pvTf2Range);
+        in.pvTf2Time = t;
+      }
+      frame = udvr::renderVolume(m, kind, in.pvTf2Built, s, &stats, &in.cache);
+    }
     else
     {
       vtkVolumeProperty* property = vol->GetProperty();
@@ -506,6 +547,19 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol)
       vtkErrorMacro(<< "udvr: " << e.what());
     }
   }
+}
+
+void vtkUdvrVolumeMapper::SetParaViewTransferFunction2D(vtkImageData* raster, const double range[4])
+{
+  Internals& in = *this->Impl;
+  const bool sameRange = raster && std::equal(range, range + 4, in.pvTf2Range);
+  if (in.pvTf2.GetPointer() == raster && (sameRange || !raster))
+    return;
+  in.pvTf2 = raster;
+  if (raster)
+    std::copy(range, range + 4, in.pvTf2Range);
+  in.pvTf2Built = udvr::TransferFunction2D{};
+  this->Modified();
 }
 
 void vtkUdvrVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)

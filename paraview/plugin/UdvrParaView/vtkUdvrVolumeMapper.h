@@ -9,6 +9,8 @@
 #include "UdvrParaViewModule.h"  // for export macro
 #include "vtkVolumeMapper.h"
 
+class vtkImageData;
+
 class UDVRPARAVIEW_EXPORT vtkUdvrVolumeMapper : public vtkVolumeMapper
 {
 public:
@@ -38,6 +40,11 @@ public:
   /// A 2D TF file (widget JSON, .vti raster); empty: the 1D TF of the volume property.
   vtkSetStringMacro(TransferFunction2DFile);
   vtkGetStringMacro(TransferFunction2DFile);
+  /// ParaView's own 2D TF (the representation's TransferFunction2D with UseTransfer2D and the
+  /// gradient as y): its RGBA raster over range = (x0, x1, y0, y1); null: none. A file
+  /// (TransferFunction2DFile) takes precedence.
+  void SetParaViewTransferFunction2D(vtkImageData* raster, const double range[4]);
+
   /// The whole extent of the data this rank holds a piece of (the representation passes it).
   vtkSetVector6Macro(WholeExtent, int);
   vtkGetVector6Macro(WholeExtent, int);

@@ -1,6 +1,7 @@
 #include "vtkUdvrVolumeRepresentation.h"
 
 #include "vtkObjectFactory.h"
+#include "vtkPVTransferFunction2D.h"
 #include "vtkUdvrVolumeMapper.h"
 
 vtkStandardNewMacro(vtkUdvrVolumeRepresentation);
@@ -21,6 +22,15 @@ void vtkUdvrVolumeRepresentation::UpdateMapperParameters()
 {
   this->Superclass::UpdateMapperParameters();
   this->UdvrMapper()->SetWholeExtent(this->WholeExtent);
+  // ParaView's own 2D TF editor (value x gradient magnitude): used where it is switched on.
+  if (this->UseTransfer2D && this->UseGradientForTransfer2D && this->TransferFunction2D)
+  {
+    double range[4];
+    this->TransferFunction2D->GetRange(range);
+    this->UdvrMapper()->SetParaViewTransferFunction2D(this->TransferFunction2D->GetFunction(), range);
+  }
+  else
+    this->UdvrMapper()->SetParaViewTransferFunction2D(nullptr, nullptr);
 }
 
 void vtkUdvrVolumeRepresentation::SetUncertainModel(int model)
