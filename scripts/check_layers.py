@@ -6,6 +6,8 @@
    through other headers, no header under io/, eval/, cmd/, serve/ and no foreign library
    header (VTK, NetCDF, HDF5, libpng, zlib, Cairo, cpp-httplib, CLI11, pybind11, MPI).
 2. No two directories include each other, directly or around a longer cycle.
+3. The ParaView plugin (paraview/) includes only core headers of udvr: ParaView's process
+   carries ParaView's own VTK, and io/ links Debian's (two VTKs in one process clash).
 
 Prints each violation with the chain of includes that makes it, and exits 1 if there is any.
     python3 scripts/check_layers.py [SRC_ROOT]      (default: src/ beside this script's folder)
@@ -73,6 +75,19 @@ def core_violations(graph):
     return out
 
 
+def plugin_violations(repo):
+    """(file, include) for each udvr header outside the core that paraview/ includes."""
+    out = []
+    for path in sorted((repo / "paraview").rglob("*")):
+        if path.suffix not in (".h", ".cxx", ".cpp") or not path.is_file():
+            continue
+        for m in INCLUDE.finditer(path.read_text(errors="replace")):
+            target = m.group(2)
+            if target.startswith("udvr/") and directory(target) not in CORE:
+                out.append((path.relative_to(repo).as_posix(), target))
+    return out
+
+
 def directory_cycles(graph):
     """Each cycle of the directory graph (as a list of directories), with one include per edge."""
     edges = {}
@@ -127,6 +142,9 @@ def main():
     for chain in core_violations(graph):
         print("core reaches a forbidden header: " + " -> ".join(chain))
         bad += 1
+    for rel, target in plugin_violations(src.parent):
+        print("the ParaView plugin includes a header above the core: %s -> %s" % (rel, target))
+        bad += 1
     cycles, edges = directory_cycles(graph)
     for comp in cycles:
         print("directory cycle among %s:" % ", ".join(comp))
@@ -139,7 +157,7 @@ def main():
         print("check_layers: %d violation(s) in %d files" % (bad, len(graph)))
         return 1
     print("check_layers: %d files; the core (%s) reaches no io/eval/cmd/serve or foreign header; "
-          "no directory cycle" % (len(graph), ", ".join(CORE)))
+          "no directory cycle; paraview/ includes only the core" % (len(graph), ", ".join(CORE)))
     return 0
 
 

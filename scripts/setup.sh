@@ -21,20 +21,52 @@ packages=(build-essential cmake pkg-config libvtk9-dev libnetcdf-dev libtbb-dev 
           clang libclang-rt-14-dev
           # `mpirun -np N udvr build -o m.pvti` (VTK's packages pull these in too)
           libopenmpi-dev openmpi-bin)
+installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "install ok installed"; }
+if [ "$(id -u)" -eq 0 ]; then SUDO=; else SUDO=sudo; fi
 missing=()
 for p in "${packages[@]}"; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    installed "$p" || missing+=("$p")
 done
+apt_updated=no
 if [ ${#missing[@]} -gt 0 ]; then
     echo "setup: installing ${missing[*]}" >&2
-    if [ "$(id -u)" -eq 0 ]; then SUDO=; else SUDO=sudo; fi
     $SUDO apt-get update -qq >&2
+    apt_updated=yes
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
         "${missing[@]}" >&2
 fi
 
 build_dir=${UDVR_BUILD_DIR:-build}
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DUDVR_WERROR="${UDVR_WERROR:-OFF}" >&2
+
+# The ParaView plugin (docs/paraview.md; UDVR_PARAVIEW=ON|OFF|AUTO, default AUTO): ParaView, its
+# headers and Xvfb (Debian's ParaView draws with GLX only; the tests run pvbatch under
+# xvfb-run), where apt installs them without removing any package (--no-remove). ParaView's
+# Python (python3-paraview, for pvbatch's paraview.simple and the plugin's wrapping) Conflicts
+# with python3-vtk9, which udvr needs: it is unpacked from apt's archive into the build tree
+# (scripts/paraview_python.sh), never installed over it. Where any of that fails the plugin is
+# skipped, said in one line (CMake says why too).
+paraview=${UDVR_PARAVIEW:-AUTO}
+if [ "$paraview" != OFF ]; then
+    pv_missing=()
+    for p in paraview paraview-dev xvfb xauth; do
+        installed "$p" || pv_missing+=("$p")
+    done
+    if [ ${#pv_missing[@]} -gt 0 ]; then
+        echo "setup: installing ${pv_missing[*]} (the ParaView plugin)" >&2
+        [ $apt_updated = yes ] || $SUDO apt-get update -qq >&2
+        if ! DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
+            --no-remove "${pv_missing[@]}" >&2; then
+            echo "setup: the ParaView plugin is skipped: apt cannot install ${pv_missing[*]} without removing packages" >&2
+        fi
+    fi
+    if installed paraview && ! installed python3-paraview; then
+        bash scripts/paraview_python.sh "$build_dir/paraview-python" ||
+            echo "setup: the ParaView plugin is skipped: python3-paraview could not be unpacked from apt's archive" >&2
+    fi
+fi
+
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DUDVR_WERROR="${UDVR_WERROR:-OFF}" \
+    -DUDVR_PARAVIEW="$paraview" >&2
 cmake --build "$build_dir" -j "$(nproc)" >&2
 
 # `import udvr` from /usr/bin/python3: a .pth line naming this build's package folder.

@@ -69,7 +69,7 @@ for arch in "${arches[@]}"; do
     [ "$arch" != generic ] || mpi=(-DUDVR_MPI=OFF)
     cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DUDVR_ARCH="$arch" \
         -DUDVR_WERROR="${UDVR_WERROR:-OFF}" -DUDVR_BUILD_TESTS=ON -DUDVR_BUILD_BENCH=OFF \
-        "${mpi[@]}" >&2
+        -DUDVR_PARAVIEW=OFF "${mpi[@]}" >&2
     targets=(udvr udvr_test udvr_core_only_test)
     python_module=no
     if grep -q '/udvr_python\.dir$' "$dir/CMakeFiles/TargetDirectories.txt"; then

@@ -165,6 +165,8 @@ struct MarchParams {
     bool skipEmpty = true;
     bool jitter = false;
     std::uint64_t jitterSeed = 0;
+    bool clip = false;                          // composite only the samples inside clipBox
+    std::array<double, 6> clipBox{};            // RenderPiece::box
     const std::atomic<bool>* cancel = nullptr;  // when true, the remaining tiles are left undone
 };
 
@@ -298,7 +300,19 @@ inline RaySamples raySamples(const MarchParams& p, int px, int py) {
     const double span = (tFar - tNear) / p.step;  // path length in steps
     if (!(span >= offset)) return r;
     r.n = static_cast<std::int64_t>(std::floor(span - offset)) + 1;
-    const double t = tNear + offset * p.step;
+    double first = 0.0;  // index of the first sample taken
+    if (p.clip) {
+        // The samples s with t_s = tNear + (s + offset)Δ in [enter, leave) of the piece's box.
+        double enter, leave;
+        if (!intersectBox(p.clipBox, o, d, enter, leave)) return RaySamples{};
+        const double lo = std::max(0.0, std::ceil((enter - tNear) / p.step - offset));
+        const double hi =
+            std::min(static_cast<double>(r.n), std::ceil((leave - tNear) / p.step - offset));
+        if (!(hi > lo)) return RaySamples{};
+        first = lo;
+        r.n = static_cast<std::int64_t>(hi - lo);
+    }
+    const double t = tNear + (first + offset) * p.step;
     for (int ax = 0; ax < 3; ++ax) {
         const double inv = 1.0 / p.grid.spacing[ax];
         r.a[ax] = static_cast<float>((o[ax] + t * d[ax] - p.grid.origin[ax]) * inv);

@@ -63,6 +63,21 @@ detail::MarchParams makeParams(const ModelVolume& model, const RenderSettings& s
     p.skipEmpty = s.skipEmpty;
     p.jitter = s.jitterSeed.has_value();
     p.jitterSeed = s.jitterSeed.value_or(0);
+    if (s.piece) {
+        p.clip = true;
+        p.clipBox = s.piece->box;
+        for (int a = 0; a < 3; ++a)
+            if (!(p.clipBox[2 * a] <= p.clipBox[2 * a + 1]) || !std::isfinite(p.clipBox[2 * a]) ||
+                !std::isfinite(p.clipBox[2 * a + 1]))
+                UDVR_FAIL("the piece's box must be finite with min <= max on every axis");
+        for (int a = 0; a < 3; ++a)
+            if (s.piece->offset[a] < 0 ||
+                s.piece->offset[a] + model.grid.dims[a] > s.piece->wholeDims[a])
+                UDVR_FAIL("the piece's grid (offset "
+                          << s.piece->offset[a] << ", " << model.grid.dims[a]
+                          << " points) must lie in the whole grid (" << s.piece->wholeDims[a]
+                          << " points)");
+    }
     p.cancel = s.cancel;
     return p;
 }
@@ -161,15 +176,28 @@ void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
 
 // Draw one gmm-mc realization: every voxel independently from its own mixture (SPEC §3),
 // keyed by (seed, realization, voxel) so the field does not depend on the thread count.
+// A piece (RenderSettings::piece) keys its voxels by their index in the whole grid.
 void drawRealization(const ModelVolume& model, std::uint64_t seed, std::uint64_t realization,
-                     std::vector<float>& out) {
+                     const std::optional<RenderPiece>& piece, std::vector<float>& out) {
     const int k = model.gmmComponents;
     const std::size_t n = model.voxelCount();
+    const auto& dims = model.grid.dims;
     out.resize(n);
     parallelForChunks(n, 4096, [&](std::size_t begin, std::size_t end) {
         for (std::size_t v = begin; v < end; ++v) {
             const float* g = model.gmmAt(v);  // π_1..π_K, μ_1..μ_K, σ_1..σ_K
-            CounterRng rng(seed, realization, v);
+            std::size_t key = v;
+            if (piece) {
+                const std::size_t x = static_cast<std::size_t>(dims[0]),
+                                  y = static_cast<std::size_t>(dims[1]);
+                const std::size_t i = v % x + static_cast<std::size_t>(piece->offset[0]);
+                const std::size_t j = v / x % y + static_cast<std::size_t>(piece->offset[1]);
+                const std::size_t kk = v / (x * y) + static_cast<std::size_t>(piece->offset[2]);
+                key = (kk * static_cast<std::size_t>(piece->wholeDims[1]) + j) *
+                          static_cast<std::size_t>(piece->wholeDims[0]) +
+                      i;
+            }
+            CounterRng rng(seed, realization, key);
             double total = 0.0;
             for (int c = 0; c < k; ++c) total += std::max(0.0, static_cast<double>(g[c]));
             const double u = rng.uniform() * total;
@@ -271,7 +299,8 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
         ProgressBar bar("gmm-mc", static_cast<std::size_t>(settings.realizations));
         for (int r = 0; r < settings.realizations; ++r) {
             if (c.p.cancel && c.p.cancel->load()) return;  // timedFrame throws RenderCancelled
-            drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), values);
+            drawRealization(model, settings.seed, static_cast<std::uint64_t>(r), settings.piece,
+                            values);
             renderKernel(MeanKernel(model.grid, values.data(), pieces), c.p, c.ranges, frame,
                          c.counters);
             for (std::size_t i = 0; i < sum.size(); ++i) sum[i] += frame.rgba[i];

@@ -32,6 +32,19 @@ struct Camera {
 Camera defaultCamera(const std::array<double, 6>& bounds, double azimuthDeg, double elevationDeg,
                      double zoom = 1.0, double viewAngleDeg = 30.0);
 
+/// A piece of a volume split across processes (the ParaView plugin under MPI, where each rank
+/// renders its own piece and ParaView composites the pieces in visibility order). The rays still
+/// place their samples along the whole volume's box (the model's `bounds`) as SPEC §5 says, but
+/// only the samples inside `box` — from where a ray enters it up to, not including, where it
+/// leaves — are composited, so pieces that tile the volume take every sample exactly once.
+/// `offset` is the piece's first grid point in the whole grid and `wholeDims` the whole grid's
+/// points: gmm-mc draws each voxel as the whole model would (its key is the whole grid's index).
+struct RenderPiece {
+    std::array<double, 6> box{};  // xmin,xmax,ymin,ymax,zmin,zmax, world units
+    std::array<int, 3> offset{0, 0, 0};
+    std::array<int, 3> wholeDims{0, 0, 0};
+};
+
 struct RenderSettings {
     int width = 512, height = 512;
     Camera camera;
@@ -43,7 +56,8 @@ struct RenderSettings {
     int realizations = 200;                   // gmm-mc: realizations averaged in screen space
     std::uint64_t seed = 1;                   // gmm-mc realization seed
     std::optional<std::uint64_t> jitterSeed;  // per-ray start jitter in [0, Δ) when set
-    bool uniformMinMax = false;  // model `uniform`: U[min, max] (`--uniform-width minmax`)
+    bool uniformMinMax = false;        // model `uniform`: U[min, max] (`--uniform-width minmax`)
+    std::optional<RenderPiece> piece;  // composite only this piece's samples (see RenderPiece)
     /// When set and it turns true, the frame stops between tiles (and gmm-mc realizations) and
     /// the render throws RenderCancelled (`udvr serve`: a newer request supersedes this one).
     const std::atomic<bool>* cancel = nullptr;

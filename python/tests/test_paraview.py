@@ -1,0 +1,326 @@
+"""The ParaView plugin (issue 32, docs/paraview.md): it loads in pvbatch, links ParaView's VTK and
+never Debian's, and examples/paraview/render.py's images match `udvr render`'s with the same
+flags (RMSE of SPEC §6 ≤ 2/255) for every 1D model and a 2D TF, on one process and on two MPI
+ranks that each render their piece of a 2-piece .pvti; bad inputs give ParaView errors, not
+crashes. pvbatch runs under xvfb-run (Debian's ParaView is GLX only) and inside `timeout`.
+
+Skipped where the build has no plugin (build/paraview_plugin.txt, written by CMake) unless
+UDVR_PARAVIEW=ON (CI), where a missing plugin fails. UDVR_PARAVIEW_TEST_SEED picks the model's
+noise (default 7)."""
+import json
+import os
+import pathlib
+import random
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from conftest import BUILD, ROOT, run_ok
+
+PLUGIN_TXT = BUILD / "paraview_plugin.txt"
+PVBATCH = BUILD / "paraview" / "udvr-pvbatch"
+RENDER = ROOT / "examples" / "paraview" / "render.py"
+BATCH = pathlib.Path(__file__).with_name("paraview_batch.py")
+SEED = int(os.environ.get("UDVR_PARAVIEW_TEST_SEED", "7"))
+SIZE = "96x96"
+TOLERANCE = 2.0 / 255.0
+# Every model with a 1D classification (members needs an ensemble, not a model file).
+MODELS_1D = ["mean", "uniform", "uniform-fast", "gaussian", "gmm-ordered", "gmm-mc",
+             "quantile-range", "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower",
+             "quartile-middle", "quartile-upper"]
+
+if not PLUGIN_TXT.is_file():
+    if os.environ.get("UDVR_PARAVIEW") == "ON":
+        raise RuntimeError("UDVR_PARAVIEW=ON but the build has no ParaView plugin "
+                           "(%s is missing)" % PLUGIN_TXT)
+    pytest.skip("the build has no ParaView plugin (see CMake's line on it)",
+                allow_module_level=True)
+PLUGIN = pathlib.Path(PLUGIN_TXT.read_text().strip())
+for tool in ("xvfb-run", "timeout"):
+    if shutil.which(tool) is None:
+        raise RuntimeError("the ParaView tests need %s (scripts/setup.sh installs xvfb)" % tool)
+
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+
+
+def pvbatch(*args, ranks=1, timeout=300, env=None):
+    """pvbatch (udvr's launcher) under xvfb-run and `timeout`; ranks > 1 through mpirun. Xvfb runs
+    with -noreset: by default it resets when its last client disconnects, and pvbatch, which
+    closes its first connection and opens another, then sometimes finds no server ("bad X server
+    connection", abort; 2 of 8 runs under load, 0 of 10 with -noreset). xvfb-run -a searches for
+    a free display from a random number: runs on one machine share /tmp/.X*-lock."""
+    cmd = ["timeout", str(timeout), "xvfb-run", "-a", "-n", str(random.randint(100, 30000)),
+           "-s", "-screen 0 640x480x24 -noreset"]
+    if ranks > 1:
+        cmd += ["mpirun", "-np", str(ranks), "-x", "UDVR_PARAVIEW_VERBOSE"]
+    cmd += [str(PVBATCH), *map(str, args)]
+    e = dict(os.environ, UDVR_NO_PROGRESS="1", UDVR_PARAVIEW_VERBOSE="1", **MPI_ENV, **(env or {}))
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout + 30, env=e,
+                          stdin=subprocess.DEVNULL)
+
+
+def rmse(a, b):
+    """SPEC §6's RMSE, from `udvr compare`."""
+    return float(run_ok("compare", a, b).stdout.split()[0])
+
+
+def write_tf(model, path, opacity):
+    """The cool-to-warm preset over `model`'s percentiles as ParaView JSON (both sides read the
+    file), its opacity replaced by `opacity`: (fraction of the preset's range, α) pairs."""
+    run_ok("render", model, "--tf", "cool-to-warm", "--save-tf", path, "--size", "8x8",
+           "-o", path.with_suffix(".png"))
+    tf = json.loads(path.read_text())
+    xs = tf[0]["Points"][0::4]
+    lo, span = xs[0], xs[-1] - xs[0]
+    tf[0]["Points"] = [v for f, a in opacity for v in (lo + f * span, a, 0.5, 0.0)]
+    path.write_text(json.dumps(tf))
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    """A random model (tangle with bimodal noise, seed SEED) as .vti and as a 2-piece .pvti, a TF
+    and a 2D TF raster."""
+    d = tmp_path_factory.mktemp("paraview")
+    run_ok("generate", "tangle", "--dims", "24", "-o", d / "field.vti")
+    run_ok("perturb", d / "field.vti", "--members", "16", "--noise", "bimodal", "--seed", SEED,
+           "-o", d / "ensemble.nc")
+    run_ok("build", d / "ensemble.nc", "--gmm", "3", "-o", d / "model.vti")
+    run_ok("build", d / "ensemble.nc", "--gmm", "3", "-o", d / "model.pvti", "--pieces", "2")
+    # Opacity in a band (a fuzzy isosurface), where the models' images differ by 5/255 or more.
+    write_tf(d / "model.vti", d / "tf.json",
+             [(0.0, 0.0), (0.3, 0.0), (0.35, 0.8), (0.4, 0.0), (1.0, 0.0)])
+    run_ok("tf2", ROOT / "data" / "tf2" / "tangle.json", "--over", d / "model.vti",
+           "-o", d / "tf2.vti")
+    return d
+
+
+def test_plugin_links_paraviews_vtk_and_not_debians():
+    libs = subprocess.run(["ldd", str(PLUGIN)], capture_output=True, text=True,
+                          check=True).stdout
+    vtk = re.findall(r"libvtk\S+", libs)
+    assert vtk, libs
+    assert all("-pv5." in name for name in vtk), [n for n in vtk if "-pv5." not in n]
+
+
+def test_plugin_loads_in_pvbatch(tmp_path):
+    script = tmp_path / "load.py"
+    script.write_text(
+        "import os\n"
+        "from paraview import servermanager\n"
+        "from paraview.simple import LoadPlugin\n"
+        "defs = servermanager.ProxyManager().SMProxyManager.GetProxyDefinitionManager()\n"
+        "if not defs.HasDefinition('representations', 'UncertainVolumeRepresentation'):\n"
+        "    LoadPlugin(os.environ['UDVR_PARAVIEW_PLUGIN'], remote=False, ns=globals())\n"
+        "print('loaded', defs.HasDefinition('representations', 'UncertainVolumeRepresentation'))\n")
+    r = pvbatch(script, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "loaded True" in r.stdout, r.stdout + r.stderr
+
+
+def cli_and_paraview_jobs(d, kinds, source, tag, extra=()):
+    """(cli image, paraview image, cli args, render.py args) per model."""
+    jobs = []
+    for kind in kinds:
+        cli, pv = d / f"cli_{tag}_{kind}.png", d / f"pv_{tag}_{kind}.png"
+        args = [str(source), "--model", kind, *extra, "--size", SIZE, "--realizations", "20"]
+        jobs.append((cli, pv, args))
+    return jobs
+
+
+def check_against_cli(d, jobs, ranks, log):
+    (d / "jobs.json").write_text(json.dumps([[*a, "-o", str(pv)] for _, pv, a in jobs]))
+    r = pvbatch(BATCH, d / "jobs.json", ranks=ranks, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "ERR|" not in r.stderr, r.stderr
+    worst = 0.0
+    for cli, pv, args in jobs:
+        run_ok("render", *args, "-o", cli, timeout=300)
+        e = rmse(pv, cli)
+        log.append("%s %s: RMSE %.5f (%.2f/255)" % (ranks, args[2], e, 255 * e))
+        worst = max(worst, e)
+        assert e <= TOLERANCE, "%s on %d rank(s): RMSE %.5f > 2/255" % (args[2], ranks, e)
+    print("\n".join(log))
+    return r
+
+
+def test_every_1d_model_matches_the_cli_on_one_process(models):
+    check_against_cli(models, cli_and_paraview_jobs(
+        models, MODELS_1D, models / "model.vti", "1", ["--tf", str(models / "tf.json")]), 1, [])
+    # The model property reaches the ray caster: the models' images differ far more than 2/255.
+    for kind in ("gaussian", "quantile-range", "gmm-mc", "quartile-upper"):
+        assert rmse(models / f"pv_1_{kind}.png", models / "pv_1_mean.png") > 2 * TOLERANCE, kind
+
+
+def test_a_2d_tf_matches_the_cli(models):
+    check_against_cli(models, cli_and_paraview_jobs(
+        models, ["quantile-range", "mean"], models / "model.vti", "2d",
+        ["--tf2", str(models / "tf2.vti")]), 1, [])
+
+
+def test_two_ranks_render_their_pieces_and_match_the_cli(models):
+    # Every 1D model and a 2D TF in one mpirun. gmm-mc across ranks is an approximation (each
+    # rank averages its realizations before compositing) and 2D TFs differentiate each piece's
+    # own grid (one-sided at the shared plane); both stay well within 2/255 here.
+    jobs = cli_and_paraview_jobs(models, MODELS_1D, models / "model.pvti", "mpi",
+                                 ["--tf", str(models / "tf.json")])
+    jobs += cli_and_paraview_jobs(models, ["quantile-range"], models / "model.pvti", "mpi2d",
+                                  ["--tf2", str(models / "tf2.vti")])
+    r = check_against_cli(models, jobs, 2, [])
+    # Each rank rendered its own piece (z 0..11 and 11..23 of the 24 planes), not the whole.
+    extents = set(re.findall(r"udvr: rendering extent (\S+ \S+ \S+) of", r.stderr))
+    assert extents == {"0..23 0..23 0..11", "0..23 0..23 11..23"}, r.stderr
+
+
+CT = ROOT.parent / "shared" / "data" / "chest-ct" / "chest.nhdr"
+
+
+@pytest.mark.skipif(not CT.is_file(), reason="../shared/data/chest-ct is absent")
+def test_a_real_ct_reduced_by_bricks_matches_the_cli(tmp_path):
+    """The chest CT reduced by 4³ bricks: a model whose full-resolution bounds exceed its grid's
+    box (the camera and the pieces' outer faces use the bounds), anisotropic spacing."""
+    run_ok("build", CT, "--downsample", "4", "--gmm", "0", "-o", tmp_path / "ct.vti", timeout=300)
+    run_ok("build", CT, "--downsample", "4", "--gmm", "0", "--pieces", "2",
+           "-o", tmp_path / "ct.pvti", timeout=300)
+    write_tf(tmp_path / "ct.vti", tmp_path / "tf.json",
+             [(0.0, 0.0), (0.45, 0.0), (0.6, 0.5), (0.75, 0.0), (1.0, 0.9)])
+    extra = ["--tf", str(tmp_path / "tf.json")]
+    check_against_cli(tmp_path, cli_and_paraview_jobs(
+        tmp_path, ["mean", "gaussian", "quantile-range"], tmp_path / "ct.vti", "ct1", extra), 1, [])
+    check_against_cli(tmp_path, cli_and_paraview_jobs(
+        tmp_path, ["mean", "quantile-range"], tmp_path / "ct.pvti", "ct2", extra), 2, [])
+
+
+def test_paraviews_own_2d_tf_is_udvrs_2d_classification(models, tmp_path):
+    """ParaView 5.11's 2D TF (a box over value x gradient magnitude, UseTransfer2D) classifies
+    with udvr's 2D kernels: the image equals `udvr render --tf2` with ParaView's raster (written
+    out by the script, texel centres as VTK's GPU mapper samples them)."""
+    script = tmp_path / "tf2.py"
+    script.write_text(
+        "import sys\n"
+        f"sys.path.insert(0, {str(RENDER.parent)!r})\n"
+        "import render\n"
+        "from paraview.simple import *\n"
+        "from vtkmodules.vtkCommonDataModel import vtkImageData\n"
+        "from vtkmodules.vtkIOXML import vtkXMLImageDataWriter\n"
+        f"view, d = render.main([{str(models / 'model.vti')!r}, '--model', 'quantile-range', '--tf',\n"
+        f"             {str(models / 'tf.json')!r}, '--size', '{SIZE}', '-o', {str(tmp_path / 'pv1d.png')!r}])\n"
+        "tf2 = GetTransferFunction2D('mean')\n"
+        "tf2.AutomaticRescaleRangeMode = 'Never'\n"
+        "tf2.Range = [-7.0, 40.0, 0.0, 90.0]\n"
+        "tf2.OutputDimensions = [48, 40]\n"
+        "tf2.Boxes = [4.0, 0.0, 12.0, 45.0, 0.9, 0.2, 0.1, 0.4]\n"
+        "d.TransferFunction2D = tf2\n"
+        "d.UseTransfer2D = 1\n"
+        f"SaveScreenshot({str(tmp_path / 'pv.png')!r}, view, ImageResolution=[{SIZE.replace('x', ', ')}])\n"
+        "img = tf2.GetClientSideObject().GetFunction()\n"
+        "rg = tf2.GetClientSideObject().GetRange()\n"
+        "dims = img.GetDimensions()\n"
+        "out = vtkImageData()\n"
+        "out.DeepCopy(img)\n"
+        "dx, dy = (rg[1] - rg[0]) / dims[0], (rg[3] - rg[2]) / dims[1]\n"
+        "out.SetOrigin(rg[0] + dx / 2, rg[2] + dy / 2, 0)\n"
+        "out.SetSpacing(dx, dy, 1)\n"
+        "w = vtkXMLImageDataWriter()\n"
+        f"w.SetFileName({str(tmp_path / 'raster.vti')!r})\n"
+        "w.SetInputData(out)\n"
+        "w.Write()\n")
+    r = pvbatch(script, timeout=180)
+    assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
+    run_ok("render", models / "model.vti", "--model", "quantile-range", "--tf2",
+           tmp_path / "raster.vti", "--size", SIZE, "-o", tmp_path / "cli.png", timeout=300)
+    e = rmse(tmp_path / "pv.png", tmp_path / "cli.png")
+    print("ParaView's 2D TF: RMSE %.5f (%.2f/255)" % (e, 255 * e))
+    assert e <= TOLERANCE
+    assert rmse(tmp_path / "pv.png", tmp_path / "pv1d.png") > 10 * TOLERANCE  # not the 1D TF
+
+
+def test_build_model_filter_matches_udvr_build(tmp_path):
+    """udvr Build Model over member files (NRRD) joined by ParaView's Append Attributes gives
+    `udvr build`'s model of the same files, array for array, bit for bit."""
+    import numpy as np
+    import udvr
+    rng = np.random.default_rng(SEED)
+    z, y, x = np.mgrid[0:9, 0:10, 0:12].astype(np.float32)
+    base = np.sin(x / 3) + np.cos(y / 4) * z / 5
+    (tmp_path / "members").mkdir()
+    for i in range(8):
+        member = base + rng.normal(0, 0.3, base.shape) + (rng.random(base.shape) < 0.2) * 1.5
+        member.astype("<f4").tofile(tmp_path / "members" / f"m_{i}.raw")
+        (tmp_path / "members" / f"m_{i}.nhdr").write_text(
+            "NRRD0004\ntype: float\ndimension: 3\nsizes: 12 10 9\nendian: little\n"
+            "encoding: raw\nspace origin: (1,2,3)\n"
+            f"space directions: (0.5,0,0) (0,0.5,0) (0,0,0.7)\ndata file: m_{i}.raw\n")
+    run_ok("build", tmp_path / "members" / "m_*.nhdr", "-o", tmp_path / "cli.vti")
+    script = tmp_path / "build.py"
+    script.write_text(
+        "import glob\n"
+        "from paraview.simple import *\n"
+        f"files = sorted(glob.glob({str(tmp_path / 'members' / 'm_*.nhdr')!r}))\n"
+        "joined = AppendAttributes(Input=[OpenDataFile(f) for f in files])\n"
+        "model = udvrBuildModel(Input=joined)\n"
+        f"SaveData({str(tmp_path / 'pv.vti')!r}, proxy=model)\n")
+    r = pvbatch(script, timeout=120)
+    assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
+    pv, cli = udvr.load(tmp_path / "pv.vti"), udvr.load(tmp_path / "cli.vti")
+    for name in ("mean", "stddev", "min", "max", "quantiles", "iqr", "gmm"):
+        a, b = np.asarray(getattr(pv, name)), np.asarray(getattr(cli, name))
+        assert a.shape == b.shape and a.size > 0, name
+        assert np.array_equal(a, b), (name, float(np.max(np.abs(a - b))))
+    assert list(pv.bounds) == list(cli.bounds) and pv.samples_per_voxel == 8
+    # Too few members: a ParaView error, not a crash.
+    script.write_text(
+        "from paraview.simple import *\n"
+        f"model = udvrBuildModel(Input=OpenDataFile({str(tmp_path / 'members' / 'm_0.nhdr')!r}))\n"
+        "model.UpdatePipeline()\n"
+        "print('updated')\n")
+    r = pvbatch(script, timeout=120)
+    assert r.returncode == 0 and "updated" in r.stdout, r.stdout + r.stderr
+    assert "at least 2 members" in r.stderr, r.stderr
+
+
+def bad_input_script(tmp_path, source, array, kind="mean"):
+    script = tmp_path / "bad.py"
+    script.write_text(
+        "import os\n"
+        "from paraview import servermanager\n"
+        "from paraview.simple import *\n"
+        "defs = servermanager.ProxyManager().SMProxyManager.GetProxyDefinitionManager()\n"
+        "if not defs.HasDefinition('representations', 'UncertainVolumeRepresentation'):\n"
+        "    LoadPlugin(os.environ['UDVR_PARAVIEW_PLUGIN'], remote=False, ns=globals())\n"
+        f"r = OpenDataFile({str(source)!r})\n"
+        "v = CreateView('RenderView')\n"
+        "v.ViewSize = [64, 64]\n"
+        "d = Show(r, v)\n"
+        "d.SetRepresentationType('Uncertain Volume')\n"
+        f"ColorBy(d, ('POINTS', {array!r}))\n"
+        f"d.UncertainModel = {kind!r}\n"
+        "Render(v)\n"
+        "print('rendered')\n")
+    return script
+
+
+def test_a_non_model_array_is_a_paraview_error_not_a_crash(models, tmp_path):
+    r = pvbatch(bad_input_script(tmp_path, models / "field.vti", "tangle"), timeout=120)
+    assert r.returncode == 0 and "rendered" in r.stdout, r.stdout + r.stderr
+    assert "ERR|" in r.stderr and "colour by one of its arrays" in r.stderr, r.stderr
+
+
+def test_a_model_without_the_arrays_of_its_model_is_a_paraview_error(models, tmp_path):
+    run_ok("build", models / "ensemble.nc", "--gmm", "0", "-o", tmp_path / "nogmm.vti")
+    r = pvbatch(bad_input_script(tmp_path, tmp_path / "nogmm.vti", "mean", "gmm-ordered"),
+                timeout=120)
+    assert r.returncode == 0 and "rendered" in r.stdout, r.stdout + r.stderr
+    assert "ERR|" in r.stderr and "gmm" in r.stderr.split("ERR|", 1)[1], r.stderr
+
+
+def test_render_py_errors_are_one_line(models, tmp_path):
+    r = pvbatch(RENDER, tmp_path / "missing.vti", "-o", tmp_path / "x.png", timeout=120)
+    assert r.returncode == 1 and "render.py: cannot read" in r.stderr and "missing.vti" in r.stderr
+    assert not (tmp_path / "x.png").exists()
+    r = pvbatch(RENDER, models / "field.vti", "--tf", models / "tf.json", "-o",
+                tmp_path / "x.png", timeout=120)
+    assert r.returncode == 1 and "is not a udvr model" in r.stderr, r.stderr
+    assert not (tmp_path / "x.png").exists()
