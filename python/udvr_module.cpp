@@ -524,6 +524,9 @@ PYBIND11_MODULE(_udvr, m) {
         .def_readonly("gmm_components", &ModelVolume::gmmComponents)
         .def_readonly("density", &ModelVolume::density)
         .def_readonly("samples_per_voxel", &ModelVolume::samplesPerVoxel)
+        .def_readonly("member_count", &ModelVolume::memberCount,
+                      "members held for model 'members' (0: none; udvr.render(ensemble, "
+                      "'members') holds them)")
         .def_readonly("downsample", &ModelVolume::downsample)
         .def_readonly("bounds", &ModelVolume::bounds)
         .def_readonly("full_res_min_spacing", &ModelVolume::fullResMinSpacing)
@@ -766,6 +769,9 @@ PYBIND11_MODULE(_udvr, m) {
         "raises ValueError (the CLI's message) unless `name` is a model");
     m.def("write_model", &writeModelVti, py::arg("path"), py::arg("model"));
     m.def("model_from_field", &modelFromField, py::arg("field"));
+    m.def("members_model", &membersModel, py::arg("ensemble"),
+          "the ensemble as the `members` reference (render/probe model 'members'): its values "
+          "held voxel-major, the mean, min and max as a model's");
     m.def("read_transfer_function", &readTransferFunction, py::arg("path"));
     m.def("model_names", [] {
         std::vector<std::string> names;

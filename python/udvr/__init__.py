@@ -22,8 +22,9 @@ import numpy as np
 from . import _arrays, _udvr
 from ._udvr import (Camera, Ensemble, Field, FileError, Grid, Model, RenderSettings,  # noqa: F401
                     TransferFunction, TransferFunction2D, UdvrError, experiment_names, generate,
-                    model_from_field, model_names, perturb, read_ensemble, read_field,
-                    read_image, read_model, read_transfer_function, render_options, set_threads,
+                    members_model, model_from_field, model_names, perturb, read_ensemble,
+                    read_field, read_image, read_model, read_transfer_function, render_options,
+                    set_threads,
                     visible_bounds, write_ensemble, write_field, write_model)
 from ._udvr import __version__  # the release, as `udvr --version` prints it
 
@@ -31,7 +32,7 @@ __build__ = _udvr.__build__  # CPU target and vector width, as `udvr --version`
 
 __all__ = ["Camera", "Ensemble", "Field", "Grid", "Model", "TransferFunction",
            "TransferFunction2D", "build", "difference_image", "experiment", "generate", "load",
-           "model_names", "perturb", "render", "render_options", "rmse", "__version__"]
+           "members_model", "model_names", "perturb", "render", "render_options", "rmse", "__version__"]
 
 
 # ---- progress ------------------------------------------------------------------------------
@@ -212,11 +213,42 @@ def _save(self, path):
     write_model(path, self)
 
 
-def _as_model(x, name="model"):
+def _as_members(x, name="model"):
+    """The ensemble x for model 'members' (the TF averaged over the members, as `udvr render
+    --model members`): a udvr.Ensemble, a (members, z, y, x) array or DataArray, an ensemble's
+    path (a .nc with a member dimension, a quoted glob) or a list of member paths."""
+    if isinstance(x, Model):
+        if x.member_count == 0:
+            raise ValueError(f"model 'members' averages the TF over an ensemble's members; {name} "
+                             "is a model or field without them: pass the ensemble (a "
+                             "udvr.Ensemble, a (members, z, y, x) array or DataArray, or its "
+                             "path)")
+        return x
+    if isinstance(x, Ensemble):
+        return members_model(x)
+    if _arrays.is_path(x):
+        return members_model(read_ensemble([os.fspath(x)]))
+    if isinstance(x, (list, tuple)) and x and all(_arrays.is_path(p) for p in x):
+        return members_model(read_ensemble([os.fspath(p) for p in x]))
+    if _arrays.is_dataarray(x):
+        values, origin, spacing = _arrays.split_dataarray(x, field=False)
+        return members_model(Ensemble(values, origin, spacing))
+    if isinstance(x, np.ndarray):
+        return members_model(Ensemble(x))
+    raise TypeError(f"model 'members' needs an ensemble: a udvr.Ensemble, a (members, z, y, x) "
+                    f"array or DataArray, or its path; {name} is a {type(x).__name__}")
+
+
+def _as_model(x, name="model", model_name="mean"):
     """A Model; a Field, a (z, y, x) array or a 3-dim DataArray as a mean-only model (ground
-    truth); a path as load()."""
+    truth); a path as load(); for model_name 'members' an ensemble (_as_members)."""
+    if model_name == "members":
+        return _as_members(x, name)
     if isinstance(x, Model):
         return x
+    if isinstance(x, Ensemble):
+        raise TypeError(f"{name} is a udvr.Ensemble: model 'members' renders its members' TF "
+                        f"average; udvr.build(ensemble) models it")
     if isinstance(x, Field):
         return model_from_field(x)
     if _arrays.is_path(x):
@@ -470,7 +502,7 @@ def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, s
     them with their help); the same code parses and checks them as the CLI's flags.
     """
     _udvr._check_model(model_name)
-    model = _as_model(model)
+    model = _as_model(model, model_name=model_name)
     tf, given = _resolve_tf(tf, model, tf_range)
     s = _udvr._render_settings(model, tf, given,
                                _render_options(dict(options, size=size)))

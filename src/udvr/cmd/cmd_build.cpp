@@ -586,6 +586,7 @@ void addBuildCommand(CLI::App& app) {
     addRawLayoutOptions(sub, o->raw);
 
     sub->callback([o] {
+        o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
         requireOutputExtension(o->out, "-o", {".vti", ".pvti"},
                                "build writes a model as VTK ImageData");
         const bool partitioned = lowerExtension(o->out) == ".pvti";

@@ -10,6 +10,7 @@
 #include "udvr/cmd/option_flags.h"
 #include "udvr/cmd/parse_util.h"
 #include "udvr/eval/probe_plot.h"
+#include "udvr/io/field_io.h"
 #include "udvr/io/image.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_io.h"
@@ -56,6 +57,7 @@ void addProbeCommand(CLI::App& app) {
     addRawLayoutOptions(sub, o->raw);
     addEnsembleOptions(sub, o->ensemble);
     sub->callback([o] {
+        o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
         const ModelKind kind = parseModelKind(o->kind);
         const bool members = kind == ModelKind::Members;
         if (!members && o->inputs.size() != 1)

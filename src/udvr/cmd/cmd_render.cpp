@@ -202,7 +202,10 @@ void addRenderCommand(CLI::App& app) {
     addRawLayoutOptions(sub, o->raw);
     sub->add_option("--var", o->var, "array/variable name in the input");
     addEnsembleOptions(sub, o->ensemble);
-    sub->callback([o] { run(*o); });
+    sub->callback([o] {
+        o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
+        run(*o);
+    });
 }
 
 }  // namespace udvr::cmd
