@@ -94,7 +94,7 @@ void addProbeCommand(CLI::App& app) {
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
         const ModelVolume model = members ? readMembersModel(o->inputs, o->var, o->raw, o->ensemble)
                                           : readModelOrField(o->inputs.front(), o->var, o->raw);
-        if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model.mean, "probe");
+        if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model, "probe");
         const TransferFunction1D& tf = tfChoice.tf;
         const Grid3& g = model.grid;
         const std::array<double, 3> p =

@@ -42,6 +42,40 @@ struct RenderOpts {
     EnsembleFlags ensemble;         // --model members
 };
 
+/// The settings an image was made with, as PNG text chunks (issue 35): `udvr compare` refuses
+/// two images whose TF, camera or size differ. 1D TFs as ParaView JSON; a 2D TF by its file and
+/// the flags that shape it.
+PngText renderSettingsText(const RenderOpts& o, ModelKind kind, const TransferFunction1D* tf,
+                           const RenderSettings& s) {
+    char text[512];
+    PngText out;
+    out.emplace_back("Software", "udvr render");
+    out.emplace_back("udvr:model", std::string(modelName(kind)));
+    std::string source;
+    for (const std::string& in : o.inputs) source += (source.empty() ? "" : " ") + in;
+    out.emplace_back("udvr:source", source);
+    if (tf != nullptr) {
+        out.emplace_back("udvr:tf",
+                         transferFunctionToJson(*tf, o.tf.tf.empty() ? "udvr" : o.tf.tf));
+        std::snprintf(text, sizeof text, "%.9g,%.9g", tf->colorX.front(), tf->colorX.back());
+        out.emplace_back("udvr:tf-range", text);
+    } else {
+        out.emplace_back("udvr:tf", "tf2 " + o.tf2.file + " domain " + o.tf2.domain +
+                                        " resolution " + o.tf2.resolution + " second " + o.second);
+    }
+    const Camera& c = s.camera;
+    std::snprintf(text, sizeof text,
+                  "position %.9g,%.9g,%.9g focal-point %.9g,%.9g,%.9g view-up %.9g,%.9g,%.9g %s "
+                  "%.9g",
+                  c.position[0], c.position[1], c.position[2], c.focalPoint[0], c.focalPoint[1],
+                  c.focalPoint[2], c.viewUp[0], c.viewUp[1], c.viewUp[2],
+                  c.parallel ? "parallel-scale" : "view-angle",
+                  c.parallel ? c.parallelScale : c.viewAngleDeg);
+    out.emplace_back("udvr:camera", text);
+    out.emplace_back("udvr:size", std::to_string(s.width) + "x" + std::to_string(s.height));
+    return out;
+}
+
 void run(const RenderOpts& o) {
     if (o.frames < 0) UDVR_FAIL("--frames must be >= 0, got " << o.frames);
     const std::string outExt = lowerExtension(o.out);
@@ -83,7 +117,7 @@ void run(const RenderOpts& o) {
         UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
     const ModelVolume model = members ? readMembersModel(o.inputs, o.var, o.raw, o.ensemble)
                                       : readModelOrField(input, o.var, o.raw);
-    if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model.mean, "render");
+    if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model, "render");
     const TransferFunction1D& tf = tfChoice.tf;
     const ModelVolume second =
         o.second.empty()
@@ -98,8 +132,7 @@ void run(const RenderOpts& o) {
         return framedBox;
     };
     std::string cameraNote;
-    const RenderSettings s =
-        renderSettingsFromOptions(o.render, model, tfGiven, visibleBox, cameraNote);
+    const RenderSettings s = renderSettingsFromOptions(o.render, model, visibleBox, cameraNote);
 
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
@@ -133,9 +166,11 @@ void run(const RenderOpts& o) {
     }
     finishTransferFunction(o.tf, tfChoice);  // --save-tf first: a bad one leaves no image
     if (!o.floatOut.empty()) writeFloatImage(o.floatOut, image);
-    writePng(o.out, image);
+    writePng(o.out, image, renderSettingsText(o, kind, twoD ? nullptr : &tf, s));
+    // What the TF shows, whatever the camera: the framed camera computed it already.
+    if (cameraNote.empty()) visibleBox();
+    const bool wholeBox = anyVisible && framedBox == model.bounds;
     if (!cameraNote.empty()) {
-        const bool wholeBox = anyVisible && framedBox == model.bounds;
         if (!anyVisible) {
             const std::string visible = "the visible voxels";
             const auto at = cameraNote.find(visible);
@@ -143,19 +178,19 @@ void run(const RenderOpts& o) {
                 cameraNote.replace(at, visible.size(), "the whole volume (nothing is visible)");
         }
         std::fprintf(stderr, "%s\n", cameraNote.c_str());
-        if (!anyVisible)
-            std::fprintf(stderr,
-                         "udvr: warning: the TF gives no voxel an opacity of 10 %% of its largest: "
-                         "the image shows little or nothing (udvr info %s --histogram h.png "
-                         "shows the values)\n",
-                         input.c_str());
-        else if (wholeBox && !tfGiven)
-            std::fprintf(stderr,
-                         "render: the preset shows voxels out to the volume's faces, which may "
-                         "hide the inside: --tf-range lo,hi or a TF file with opacity 0 at their "
-                         "values shows it (udvr info %s --histogram h.png shows the values)\n",
-                         input.c_str());
     }
+    if (!anyVisible)
+        std::fprintf(stderr,
+                     "udvr: warning: the TF gives no voxel an opacity of 10 %% of its largest: "
+                     "the image shows little or nothing (udvr info %s --histogram h.png "
+                     "shows the values)\n",
+                     input.c_str());
+    else if (wholeBox && !tfGiven)
+        std::fprintf(stderr,
+                     "render: the preset shows voxels out to the volume's faces, which may "
+                     "hide the inside: --tf-range lo,hi or a TF file with opacity 0 at their "
+                     "values shows it (udvr info %s --histogram h.png shows the values)\n",
+                     input.c_str());
     const auto& cam = s.camera;
     std::fprintf(stderr,
                  "render: camera pos %.6g %.6g %.6g  focal %.6g %.6g %.6g  up %.6g %.6g %.6g  %s "

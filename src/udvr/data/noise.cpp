@@ -6,6 +6,7 @@
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
 #include "udvr/util/random.h"
+#include "udvr/util/text_parse.h"
 
 namespace udvr {
 
@@ -13,7 +14,9 @@ NoiseKind parseNoiseKind(const std::string& name) {
     if (name == "bimodal") return NoiseKind::Bimodal;
     if (name == "gaussian") return NoiseKind::Gaussian;
     if (name == "uniform") return NoiseKind::Uniform;
-    UDVR_FAIL("unknown noise '" << name << "'; expected bimodal, gaussian or uniform");
+    UDVR_FAIL("unknown noise '" << clipForMessage(name) << "'"
+                                << didYouMean(name, {"bimodal", "gaussian", "uniform"})
+                                << "; expected bimodal, gaussian or uniform");
 }
 
 Ensemble perturbField(const ScalarField& truth, int members, const NoiseParams& p) {
