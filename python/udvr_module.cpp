@@ -524,6 +524,9 @@ PYBIND11_MODULE(_udvr, m) {
         .def_readonly("gmm_components", &ModelVolume::gmmComponents)
         .def_readonly("density", &ModelVolume::density)
         .def_readonly("samples_per_voxel", &ModelVolume::samplesPerVoxel)
+        .def_readonly("member_count", &ModelVolume::memberCount,
+                      "members held for model 'members' (0: none; udvr.render(ensemble, "
+                      "'members') holds them)")
         .def_readonly("downsample", &ModelVolume::downsample)
         .def_readonly("bounds", &ModelVolume::bounds)
         .def_readonly("full_res_min_spacing", &ModelVolume::fullResMinSpacing)
@@ -593,6 +596,17 @@ PYBIND11_MODULE(_udvr, m) {
             py::arg("name"), py::arg("values"), py::arg("range") = py::none(),
             "the preset `udvr render` uses without --tf: over the values' 0.5-99.5th "
             "percentiles (or `range`), opacity rising from their median")
+        .def_static(
+            "preset_for",
+            [](const std::string& name, const ModelVolume& model,
+               std::optional<std::array<double, 2>> range) {
+                if (range && !((*range)[0] < (*range)[1])) throw UdvrError("range expects lo < hi");
+                return transferFunctionPresetOver(name, defaultTfBasisOf(model), range).tf;
+            },
+            py::arg("name"), py::arg("model"), py::arg("range") = py::none(),
+            "the preset `udvr render MODEL` uses without --tf: colours over the 0.5-99.5th "
+            "percentiles of the model's source (or `range`), the default opacity of "
+            "docs/rendering.md")
         .def_static("preset_names", &transferFunctionPresetNames)
         .def("to_json", &transferFunctionToJson, py::arg("name") = "udvr",
              "ParaView JSON text (as `--save-tf` writes)")
@@ -764,8 +778,12 @@ PYBIND11_MODULE(_udvr, m) {
     m.def(
         "_check_model", [](const std::string& name) { parseModelKind(name); }, py::arg("name"),
         "raises ValueError (the CLI's message) unless `name` is a model");
-    m.def("write_model", &writeModelVti, py::arg("path"), py::arg("model"));
+    m.def("write_model", &writeModelVti, py::arg("path"), py::arg("model"),
+          py::arg("compress") = true);
     m.def("model_from_field", &modelFromField, py::arg("field"));
+    m.def("members_model", &membersModel, py::arg("ensemble"),
+          "the ensemble as the `members` reference (render/probe model 'members'): its values "
+          "held voxel-major, the mean, min and max as a model's");
     m.def("read_transfer_function", &readTransferFunction, py::arg("path"));
     m.def("model_names", [] {
         std::vector<std::string> names;
@@ -884,7 +902,7 @@ PYBIND11_MODULE(_udvr, m) {
         py::arg("text"));
     m.def(
         "_render_settings",
-        [](const ModelVolume& model, const py::object& tf, bool tfGiven,
+        [](const ModelVolume& model, const py::object& tf,
            const std::vector<std::pair<std::string, std::string>>& given) {
             RenderOptions options;
             for (const auto& [key, value] : given) {
@@ -898,9 +916,9 @@ PYBIND11_MODULE(_udvr, m) {
                 return visibleBounds(model, tf.cast<const TransferFunction1D&>());
             };
             std::string note;
-            return renderSettingsFromOptions(options, model, tfGiven, visibleBox, note);
+            return renderSettingsFromOptions(options, model, visibleBox, note);
         },
-        py::arg("model"), py::arg("tf"), py::arg("tf_given"), py::arg("options"));
+        py::arg("model"), py::arg("tf"), py::arg("options"));
 
     py::class_<RenderSettings>(m, "RenderSettings")
         .def(py::init<>())
@@ -1000,6 +1018,16 @@ PYBIND11_MODULE(_udvr, m) {
         py::arg("model"), py::arg("truth"),
         "SPEC §6: sqrt(mean over pixels of |mean(RGB) - mean(RGB of truth)|^2), as `udvr "
         "compare`");
+    m.def(
+        "read_png_text",
+        [](const std::filesystem::path& path) {
+            py::dict out;
+            for (const auto& [key, value] : readPngText(path)) out[py::str(key)] = value;
+            return out;
+        },
+        py::arg("path"),
+        "a PNG's text chunks as a dict: `udvr render` records its model, TF, camera, size and "
+        "source (keys udvr:model, udvr:tf, udvr:tf-range, udvr:camera, udvr:size, udvr:source)");
     m.def(
         "read_image", [](const std::filesystem::path& path) { return imageArray(readImage(path)); },
         py::arg("path"), "a .png, .npy or .pfm image as an (H, W, 4) float32 array in [0, 1]");

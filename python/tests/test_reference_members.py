@@ -66,6 +66,20 @@ def test_members_render_matches_reference(tmp_path, seed, camera):
     # Member files (a quoted glob) are the same ensemble: the same image.
     files = render_members(tmp_path, [tmp_path / "m_*.vti"], args, "glob")
     assert np.abs(files - got).max() == 0.0
+    # Python renders the same ensemble with the same options to the same floats: from a
+    # udvr.Ensemble, its (members, z, y, x) array (origin 0: only the geometry differs, so it is
+    # compared by its own CLI run below), the .nc path and a quoted glob (issue 35).
+    tfo = udvr.TransferFunction.from_paraview(str(tmp_path / "tf.json"))
+    options = {a[2:].replace("-", "_"): b for a, b in zip(args[::2], args[1::2])}
+    ens = udvr.read_ensemble([str(tmp_path / "ens.nc")])
+    for source in (ens, str(tmp_path / "ens.nc"), str(tmp_path / "m_*.vti")):
+        py = udvr.render(source, "members", tfo, (W, H), **options)
+        assert np.abs(py.astype(float) - got).max() == 0.0, type(source).__name__
+    with pytest.raises(ValueError, match="pass the ensemble"):
+        udvr.render(udvr.build(str(tmp_path / "ens.nc"), gmm=0), "members", tfo, (W, H),
+                    **options)
+    with pytest.raises(TypeError, match="model 'members' renders"):
+        udvr.render(ens, "mean", tfo, (W, H))
     # The average of the members' own images is another thing, and the reference tells them
     # apart on this data by 10× the tolerance or more (so the comparison above checks that the
     # classification is averaged per sample).

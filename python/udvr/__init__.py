@@ -12,6 +12,7 @@ no algorithm of its own. The pipeline mirrors the CLI (SPEC §8):
 Errors from the library carry the CLI's message: OSError for files, ValueError for values,
 TypeError for the wrong kind of argument.
 """
+import difflib
 import json
 import os
 import tempfile
@@ -22,16 +23,18 @@ import numpy as np
 from . import _arrays, _udvr
 from ._udvr import (Camera, Ensemble, Field, FileError, Grid, Model, RenderSettings,  # noqa: F401
                     TransferFunction, TransferFunction2D, UdvrError, experiment_names, generate,
-                    model_from_field, model_names, perturb, read_ensemble, read_field,
-                    read_image, read_model, read_transfer_function, render_options, set_threads,
-                    visible_bounds, write_ensemble, write_field, write_model)
+                    members_model, model_from_field, model_names, perturb, read_ensemble,
+                    read_field, read_image, read_model, read_png_text, read_transfer_function,
+                    render_options, set_threads, visible_bounds, write_ensemble, write_field,
+                    write_model)
 from ._udvr import __version__  # the release, as `udvr --version` prints it
 
 __build__ = _udvr.__build__  # CPU target and vector width, as `udvr --version`
 
 __all__ = ["Camera", "Ensemble", "Field", "Grid", "Model", "TransferFunction",
            "TransferFunction2D", "build", "difference_image", "experiment", "generate", "load",
-           "model_names", "perturb", "render", "render_options", "rmse", "__version__"]
+           "members_model", "model_names", "perturb", "read_png_text", "render", "render_options",
+           "rmse", "__version__"]
 
 
 # ---- progress ------------------------------------------------------------------------------
@@ -212,11 +215,42 @@ def _save(self, path):
     write_model(path, self)
 
 
-def _as_model(x, name="model"):
+def _as_members(x, name="model"):
+    """The ensemble x for model 'members' (the TF averaged over the members, as `udvr render
+    --model members`): a udvr.Ensemble, a (members, z, y, x) array or DataArray, an ensemble's
+    path (a .nc with a member dimension, a quoted glob) or a list of member paths."""
+    if isinstance(x, Model):
+        if x.member_count == 0:
+            raise ValueError(f"model 'members' averages the TF over an ensemble's members; {name} "
+                             "is a model or field without them: pass the ensemble (a "
+                             "udvr.Ensemble, a (members, z, y, x) array or DataArray, or its "
+                             "path)")
+        return x
+    if isinstance(x, Ensemble):
+        return members_model(x)
+    if _arrays.is_path(x):
+        return members_model(read_ensemble([os.fspath(x)]))
+    if isinstance(x, (list, tuple)) and x and all(_arrays.is_path(p) for p in x):
+        return members_model(read_ensemble([os.fspath(p) for p in x]))
+    if _arrays.is_dataarray(x):
+        values, origin, spacing = _arrays.split_dataarray(x, field=False)
+        return members_model(Ensemble(values, origin, spacing))
+    if isinstance(x, np.ndarray):
+        return members_model(Ensemble(x))
+    raise TypeError(f"model 'members' needs an ensemble: a udvr.Ensemble, a (members, z, y, x) "
+                    f"array or DataArray, or its path; {name} is a {type(x).__name__}")
+
+
+def _as_model(x, name="model", model_name="mean"):
     """A Model; a Field, a (z, y, x) array or a 3-dim DataArray as a mean-only model (ground
-    truth); a path as load()."""
+    truth); a path as load(); for model_name 'members' an ensemble (_as_members)."""
+    if model_name == "members":
+        return _as_members(x, name)
     if isinstance(x, Model):
         return x
+    if isinstance(x, Ensemble):
+        raise TypeError(f"{name} is a udvr.Ensemble: model 'members' renders its members' TF "
+                        f"average; udvr.build(ensemble) models it")
     if isinstance(x, Field):
         return model_from_field(x)
     if _arrays.is_path(x):
@@ -343,7 +377,7 @@ def _resolve_tf(tf, model, tf_range=None):
     model's means as the CLI without --tf (0.5–99.5th percentiles, or tf_range)."""
     presets = TransferFunction.preset_names()
     if tf is None or (isinstance(tf, str) and tf in presets and not os.path.exists(tf)):
-        return TransferFunction.preset_over(tf or presets[0], model.mean, tf_range), False
+        return TransferFunction.preset_for(tf or presets[0], model, tf_range), False
     if tf_range is not None:
         raise ValueError("tf_range spreads a preset; the TF given is not one")
     if isinstance(tf, (TransferFunction, TransferFunction2D)):
@@ -447,8 +481,10 @@ def _render_options(options):
     out = []
     for name, value in options.items():
         if name not in known:
-            raise TypeError(f"render() got an unexpected keyword argument '{name}' (the options "
-                            f"are udvr.render_options(): {', '.join(sorted(known))})")
+            near = difflib.get_close_matches(name, sorted(known), n=1)
+            hint = f" (did you mean '{near[0]}'?)" if near else ""
+            raise TypeError(f"render() got an unexpected keyword argument '{name}'{hint} (the "
+                            f"options are udvr.render_options(): {', '.join(sorted(known))})")
         if value is not None:
             out.append((name, _option_text(name, value)))
     return out
@@ -461,19 +497,18 @@ def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, s
     colour over the background; the values `--float` writes). The GIL is released while it runs;
     Ctrl-C stops it with KeyboardInterrupt.
 
-    size: N or (width, height). camera: a udvr.Camera; else, with a TF of your own, SPEC §5's
-    default camera (azimuth 30, elevation 20, zoom), and without one (a preset) or with view=
-    (+x|-x|+y|-y|+z|-z), a camera framing the visible voxels, as the CLI.
+    size: N or (width, height). camera: a udvr.Camera; else SPEC §5's default camera (azimuth 30,
+    elevation 20, zoom) whatever the TF, and with view=(+x|-x|+y|-y|+z|-z) or frame="visible"
+    a camera framing the visible voxels, as the CLI.
     options: every option of `udvr render` by its name with '_' for '-' — view, azimuth,
     elevation, zoom, view_angle, parallel_scale, step, unit_distance, early_exit, background,
     no_skip, uniform_width, realizations, seed, jitter, force, … (udvr.render_options() lists
     them with their help); the same code parses and checks them as the CLI's flags.
     """
     _udvr._check_model(model_name)
-    model = _as_model(model)
-    tf, given = _resolve_tf(tf, model, tf_range)
-    s = _udvr._render_settings(model, tf, given,
-                               _render_options(dict(options, size=size)))
+    model = _as_model(model, model_name=model_name)
+    tf, _ = _resolve_tf(tf, model, tf_range)
+    s = _udvr._render_settings(model, tf, _render_options(dict(options, size=size)))
     if camera is not None:
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a udvr.Camera, got {type(camera).__name__}")

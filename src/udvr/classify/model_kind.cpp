@@ -2,13 +2,17 @@
 
 #include "udvr/classify/model_families.h"
 #include "udvr/util/check.h"
+#include "udvr/util/text_parse.h"
 
 namespace udvr {
 
 ModelKind parseModelKind(std::string_view name) {
     for (const ModelFamily& f : modelFamilies())
         if (f.name == name) return f.kind;
-    UDVR_FAIL("unknown model '" << name << "'; expected one of: " << modelNames());
+    std::vector<std::string> names;
+    for (const ModelFamily& f : modelFamilies()) names.emplace_back(f.name);
+    UDVR_FAIL("unknown model '" << clipForMessage(name) << "'" << didYouMean(name, names)
+                                << "; expected one of: " << modelNames());
 }
 
 std::string modelNames(bool twoD) {

@@ -1,9 +1,11 @@
 #include "udvr/classify/tf_presets.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "udvr/stats/value_summary.h"
 #include "udvr/util/check.h"
+#include "udvr/util/text_parse.h"
 
 namespace udvr {
 namespace {
@@ -78,7 +80,8 @@ TransferFunction1D transferFunctionPreset(std::string_view name, std::array<doub
     const Preset* preset = findPreset(name);
     if (preset == nullptr)
         UDVR_FAIL("no transfer-function preset '"
-                  << name << "' (presets: " << transferFunctionPresetList() << ")");
+                  << clipForMessage(name) << "'" << didYouMean(name, transferFunctionPresetNames())
+                  << " (presets: " << transferFunctionPresetList() << ")");
     const double lo = range[0], hi = range[1];
     UDVR_CHECK_MSG(lo < hi, "a preset needs a non-empty range");
     TransferFunction1D tf;
@@ -101,11 +104,75 @@ TransferFunction1D transferFunctionPreset(std::string_view name, std::array<doub
 PresetOverValues transferFunctionPresetOver(std::string_view name, std::span<const float> values,
                                             const std::optional<std::array<double, 2>>& range) {
     const ValueSummary summary = summarizeValues(values);
+    DefaultTfBasis basis;
+    basis.range = robustRange(summary);
+    basis.constant = !(summary.max > summary.min);
+    basis.median = summary.percentile(50);
+    return transferFunctionPresetOver(name, basis, range);
+}
+
+DefaultTfBasis defaultTfBasis(const Grid3& grid, std::span<const float> values) {
+    UDVR_CHECK(values.size() == grid.pointCount());
+    const ValueSummary summary = summarizeValues(values);
+    DefaultTfBasis basis;
+    basis.range = robustRange(summary);
+    basis.constant = !(summary.max > summary.min);
+    basis.median = summary.percentile(50);
+    return basis;
+}
+
+DefaultTfBasis defaultTfBasisOf(const ModelVolume& model) {
+    if (model.defaultTf.empty()) return defaultTfBasis(model.grid, model.mean);
+    DefaultTfBasis b = decodeDefaultTfBasis(model.defaultTf, "the model");
+    if (!b.opacityX.empty()) b.rule = "the full-resolution field's boundaries (recorded by build)";
+    return b;
+}
+
+std::vector<double> encodeDefaultTfBasis(const DefaultTfBasis& b) {
+    std::vector<double> out{1.0, b.range[0], b.range[1], b.median, b.constant ? 1.0 : 0.0};
+    for (std::size_t i = 0; i < b.opacityX.size(); ++i) {
+        out.push_back(b.opacityX[i]);
+        out.push_back(b.opacity[i]);
+    }
+    return out;
+}
+
+DefaultTfBasis decodeDefaultTfBasis(std::span<const double> e, const std::string& what) {
+    const bool sized = e.size() >= 5 && (e.size() - 5) % 2 == 0 && e[0] == 1.0;
+    bool ok = sized;
+    for (double v : e) ok = ok && std::isfinite(v);
+    DefaultTfBasis b;
+    if (ok) {
+        b.range = {e[1], e[2]};
+        b.median = e[3];
+        b.constant = e[4] != 0.0;
+        ok = b.range[0] < b.range[1];
+        for (std::size_t i = 5; ok && i < e.size(); i += 2) {
+            ok = e[i + 1] >= 0.0 && e[i + 1] <= 1.0 &&
+                 (b.opacityX.empty() || e[i] >= b.opacityX.back());
+            b.opacityX.push_back(e[i]);
+            b.opacity.push_back(e[i + 1]);
+        }
+    }
+    if (!ok)
+        UDVR_FAIL(what << ": field data 'default_tf' is malformed (expected 1, lo < hi, median, "
+                          "constant, then (x, alpha) pairs with x rising and alpha in [0, 1])");
+    return b;
+}
+
+PresetOverValues transferFunctionPresetOver(std::string_view name, const DefaultTfBasis& basis,
+                                            const std::optional<std::array<double, 2>>& range) {
     PresetOverValues p;
-    p.range = range ? *range : robustRange(summary);
-    p.constant = !(summary.max > summary.min);
-    p.rampStart = p.constant ? p.range[0] : summary.percentile(50);
+    p.range = range ? *range : basis.range;
+    p.constant = basis.constant;
+    p.rampStart = p.constant ? p.range[0] : basis.median;
     p.tf = transferFunctionPreset(name, p.range, p.rampStart);
+    if (!range && basis.opacityX.size() >= 2) {  // the basis's own opacity curve
+        p.tf.opacityX = basis.opacityX;
+        p.tf.opacity = basis.opacity;
+        p.tf.validate();
+        p.opacityRule = basis.rule;
+    }
     return p;
 }
 

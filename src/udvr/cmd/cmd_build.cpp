@@ -4,12 +4,15 @@
 //   [--memory-limit BYTES|auto] [--slab-height N] -o model.vti          (SPEC §2, §7, §8; issue 15)
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "udvr/classify/tf_presets.h"
 #include "udvr/cmd/commands.h"
 #include "udvr/cmd/mpi_job.h"
 #include "udvr/cmd/parse_util.h"
@@ -243,7 +246,43 @@ struct BuildFlags {
     int slabHeight = 0;
     CLI::Option* slabHeightOpt = nullptr;
     RawLayoutFlags raw;  // headerless .raw inputs
+    bool noCompress = false;
 };
+
+/// "build: the model: 64x64x64 voxels x 27 floats = 28.3 MB uncompressed; written LZ4-compressed
+/// (--no-compress: raw)": what the file will take, before it is written (issue 35).
+std::string modelSizeNote(const Grid3& grid, int q, int k, bool compress) {
+    const std::size_t bytes = modelArrayBytes(grid, q, k);
+    const std::size_t floats = grid.pointCount() > 0 ? bytes / 4 / grid.pointCount() : 0;
+    char note[320];
+    std::snprintf(note, sizeof note,
+                  "build: the model: %dx%dx%d voxels x %zu floats = %s uncompressed; %s\n",
+                  grid.dims[0], grid.dims[1], grid.dims[2], floats, byteSizeText(bytes).c_str(),
+                  compress ? "writing it LZ4-compressed (ParaView reads it; --no-compress: raw)"
+                           : "writing it raw (--no-compress)");
+    return note;
+}
+
+/// "12.3 MB on disk (44 % of the arrays)" for the written file(s).
+std::string diskSizeText(const std::string& path, std::size_t arrayBytes) {
+    std::error_code ec;
+    std::size_t bytes = 0;
+    const std::filesystem::path p(path);
+    if (lowerExtension(path) == ".pvti") {  // the pieces sit in <stem>/ beside the header
+        const std::filesystem::path dir = p.parent_path() / p.stem();
+        for (std::filesystem::recursive_directory_iterator it(dir, ec), end; !ec && it != end;
+             it.increment(ec))
+            if (it->is_regular_file(ec)) bytes += static_cast<std::size_t>(it->file_size(ec));
+    }
+    bytes += static_cast<std::size_t>(std::filesystem::file_size(p, ec));
+    if (ec || bytes == 0) return "";
+    char text[96];
+    std::snprintf(
+        text, sizeof text, " (%s on disk, %.0f %% of the arrays)", byteSizeText(bytes).c_str(),
+        arrayBytes > 0 ? 100.0 * static_cast<double>(bytes) / static_cast<double>(arrayBytes)
+                       : 0.0);
+    return text;
+}
 
 /// BuildOptions from the flags, with every check that needs no input.
 BuildOptions buildOptionsOf(const BuildFlags& f) {
@@ -350,6 +389,13 @@ class LocalBuild {
                       last.c_str(), byteSizeText(bytes).c_str(), limit_.text.c_str(),
                       r.wholeMembers ? "; VTI/NRRD members are read whole for every slab" : "");
         notes_ += plan;
+        if (f_.noCompress)
+            UDVR_FAIL(
+                "--no-compress writes a model built in memory; this build runs out of core "
+                "(about "
+                << byteSizeText(bytes) << " at a time): drop --no-compress or raise "
+                << "--memory-limit");
+        notes_ += modelSizeNote(modelGrid, opt_.quantiles, opt_.gmmComponents, true);
         ModelVtiStreamWriter writer(f_.out, modelGrid, opt_.quantiles, opt_.gmmComponents);
         const SlabInput in = slabInputOf(r);
         auto sink = [&](const ModelVolume& slab, std::size_t) {
@@ -390,6 +436,10 @@ class LocalBuild {
                 return buildModelDownsampledStreamed(in, f_.downsample, planes, opt_, sink,
                                                      progress(), &rep_);
             });
+            std::fprintf(stderr,
+                         "build: out of core, the model records no default TF of the whole "
+                         "field: render without --tf spreads it over the brick means (--tf-range "
+                         "or a TF file matches the field's rendering)\n");
         } else {
             r = SlabReader{};  // what it read to open the field
             // The file opened as a field above (openBrickedField).
@@ -400,6 +450,11 @@ class LocalBuild {
             opt_.progress = &bar;
             model_ = buildModelDownsampled(f, f_.downsample, opt_, &rep_);
             bar.finish();
+            // The full-resolution field's default TF, so that the model and the field rendered
+            // without --tf get the same one (a field with NaN/Inf left out: the model's own).
+            if (std::all_of(f.values.begin(), f.values.end(),
+                            [](float v) { return std::isfinite(v); }))
+                model_.defaultTf = encodeDefaultTfBasis(defaultTfBasis(f.grid, f.values));
         }
         if (rep_.droppedPlanes != std::array<int, 3>{0, 0, 0})
             std::fprintf(stderr,
@@ -449,6 +504,10 @@ class LocalBuild {
     void write() {
         std::string writtenText = f_.out;
         if (!written_) {
+            std::fputs(modelSizeNote(model_.grid, model_.quantileCount, model_.gmmComponents,
+                                     !f_.noCompress)
+                           .c_str(),
+                       stderr);
             auto t1 = std::chrono::steady_clock::now();
             if (partitioned_) {
                 const int pieces = f_.pieces > 0 ? f_.pieces : threadCount();
@@ -457,12 +516,14 @@ class LocalBuild {
                     static_cast<int>(pvtiPieceBoundaries(model_.grid.dims[2], pieces).size()) - 1;
                 writtenText += " (" + std::to_string(n) + (n == 1 ? " piece)" : " pieces)");
             } else {
-                writeModelVti(f_.out, model_);
+                writeModelVti(f_.out, model_, !f_.noCompress);
             }
             writeSeconds_ = secondsSince(t1);
         }
 
-        writtenText_ = writtenText;
+        writtenText_ =
+            writtenText + diskSizeText(f_.out, modelArrayBytes(model_.grid, model_.quantileCount,
+                                                               model_.gmmComponents));
     }
     void report() const {
         const std::string& writtenText = writtenText_;
@@ -570,6 +631,9 @@ void addBuildCommand(CLI::App& app) {
         "--slab-height", o->slabHeight,
         "N: build out of core in slabs of N input z-planes (a multiple of K with --downsample) "
         "whatever the memory (for tests)");
+    sub->add_flag("--no-compress", o->noCompress,
+                  "write the model's arrays raw (.vti, built in memory); default: LZ4-compressed, "
+                  "as ParaView writes and reads");
     sub->add_option("-o,--output", o->out,
                     "output model: .vti, or .pvti (VTK's parallel ImageData: the model in "
                     "z-pieces <stem>/<stem>_<i>.vti, which ParaView opens in parallel)")
@@ -580,6 +644,7 @@ void addBuildCommand(CLI::App& app) {
     addRawLayoutOptions(sub, o->raw);
 
     sub->callback([o] {
+        o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
         requireOutputExtension(o->out, "-o", {".vti", ".pvti"},
                                "build writes a model as VTK ImageData");
         const bool partitioned = lowerExtension(o->out) == ".pvti";
@@ -593,6 +658,8 @@ void addBuildCommand(CLI::App& app) {
         const bool bricks = o->downsampleOpt->count() > 0;
         const bool skipNan = opt.nan == NanPolicy::Skip;
         requireOutputsNotInputs({{"-o", o->out}}, o->inputs);
+        if (o->noCompress && partitioned)
+            UDVR_FAIL("--no-compress writes a .vti; a .pvti's pieces are LZ4-compressed");
         requireOutputDirectory(o->out, "-o");
         const MpiJob& job = mpiJob();
         if (job.launchedWithoutMpi)

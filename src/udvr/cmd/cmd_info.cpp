@@ -353,6 +353,7 @@ void addInfoCommand(CLI::App& app) {
     sub->add_option("--member-dim", o->memberDim, "NetCDF member dimension name");
     addRawLayoutOptions(sub, o->raw);
     sub->callback([o, bins] {
+        o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
         o->binsGiven = bins->count() > 0;
         run(*o);
     });

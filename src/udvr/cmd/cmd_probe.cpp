@@ -10,6 +10,7 @@
 #include "udvr/cmd/option_flags.h"
 #include "udvr/cmd/parse_util.h"
 #include "udvr/eval/probe_plot.h"
+#include "udvr/io/field_io.h"
 #include "udvr/io/image.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_io.h"
@@ -56,6 +57,7 @@ void addProbeCommand(CLI::App& app) {
     addRawLayoutOptions(sub, o->raw);
     addEnsembleOptions(sub, o->ensemble);
     sub->callback([o] {
+        o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
         const ModelKind kind = parseModelKind(o->kind);
         const bool members = kind == ModelKind::Members;
         if (!members && o->inputs.size() != 1)
@@ -92,7 +94,7 @@ void addProbeCommand(CLI::App& app) {
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
         const ModelVolume model = members ? readMembersModel(o->inputs, o->var, o->raw, o->ensemble)
                                           : readModelOrField(o->inputs.front(), o->var, o->raw);
-        if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model.mean, "probe");
+        if (!twoD && !tfFile) tfChoice = chooseTransferFunction(o->tf, model, "probe");
         const TransferFunction1D& tf = tfChoice.tf;
         const Grid3& g = model.grid;
         const std::array<double, 3> p =

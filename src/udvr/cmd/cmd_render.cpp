@@ -42,6 +42,118 @@ struct RenderOpts {
     EnsembleFlags ensemble;         // --model members
 };
 
+/// A frame's time estimated before it is rendered (issue 35): the same model, TF and camera at
+/// 1/32 of the size along each axis (at least 2 pixels), then twice and four times that,
+/// stopping where the next probe would take over a second, so the probes stay short even where
+/// a frame takes minutes; the time fitted as a + b·pixels through the last two probes (a: what a
+/// frame costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or b·pixels from
+/// one. gmm-mc probes 4 realizations and scales by the count. The first probe runs twice when it is
+/// quick (it builds the skipping tables the real frame reuses). No probe where none is smaller.
+struct FrameEstimate {
+    double ms = 0.0;            // the estimated frame time (0: not estimated)
+    int width = 0, height = 0;  // the last probe's size
+    double probeMs = 0.0;       // the probes' time in all
+};
+constexpr double kWarnAboveMs = 10'000.0;
+
+FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
+                            const std::function<ImageRgba(const RenderSettings&)>& frameWith,
+                            const RenderStats& stats) {
+    FrameEstimate e;
+    RenderSettings probe = s;
+    double perFrame = 1.0;  // gmm-mc: the frame's realizations per probe realization
+    if (monteCarlo && s.realizations > 4) {
+        probe.realizations = 4;
+        perFrame = s.realizations / 4.0;
+    }
+    std::vector<std::array<double, 2>> runs;  // (pixels, ms)
+    // Sides: 1/32 of the frame's (at least 2 pixels), then twice and four times that.
+    const int w0 = std::max(2, s.width / 32), h0 = std::max(2, s.height / 32);
+    for (int k : {1, 2, 4}) {
+        probe.width = w0 * k;
+        probe.height = h0 * k;
+        if (probe.width >= s.width || probe.height >= s.height) break;
+        frameWith(probe);
+        if (runs.empty() && stats.milliseconds < 100.0) frameWith(probe);  // tables built
+        runs.push_back({static_cast<double>(probe.width) * probe.height, stats.milliseconds});
+        e.width = probe.width;
+        e.height = probe.height;
+        e.probeMs += stats.milliseconds;
+        if (4.0 * stats.milliseconds > 1000.0) break;  // the next would take over a second
+    }
+    if (runs.empty()) return e;
+    const double full = static_cast<double>(s.width) * s.height;
+    const auto& [p2, t2] = runs.back();
+    double ms = t2 * full / p2;
+    if (runs.size() >= 2) {
+        const auto& [p1, t1] = runs[runs.size() - 2];
+        const double b = std::max(0.0, (t2 - t1) / (p2 - p1));
+        const double a = std::max(0.0, t2 - b * p2);
+        ms = a + b * full;
+    }
+    e.ms = ms * perFrame;
+    return e;
+}
+
+/// "render: this frame will take about 390 s (a 64x64 probe took 6.1 s); shorter: …".
+std::string estimateWarning(const RenderOpts& o, const RenderSettings& s, const FrameEstimate& e) {
+    const double seconds = e.ms / 1000.0;
+    // The side that brings the frame under ~10 s (time goes with the pixel count).
+    const double shrink = std::sqrt(kWarnAboveMs / e.ms);
+    const int w = std::max(8, static_cast<int>(s.width * shrink));
+    const int h = std::max(8, static_cast<int>(s.height * shrink));
+    std::string cheaper;
+    if (o.model == "gmm-mc")
+        cheaper = ", fewer --realizations (time goes with them), or --model gmm-ordered";
+    else if (o.model == "uniform" || o.model == "uniform-exact" || o.model == "gaussian" ||
+             o.model == "gaussian-exact")
+        cheaper = !o.tf2.file.empty()
+                      ? ", a quantile model (quantile-range, quantile-mean: a polyline per "
+                        "sample, not a 2D integral) or a 1D --tf"
+                      : ", or uniform-fast / gaussian (the fast forms)";
+    char text[512];
+    std::snprintf(
+        text, sizeof text,
+        "render: this frame will take about %.0f s (probes of it up to %dx%d took %.2f s); "
+        "shorter: --size %dx%d (about 10 s)%s; progress is shown as it runs",
+        seconds, e.width, e.height, e.probeMs / 1000.0, w, h, cheaper.c_str());
+    return text;
+}
+
+/// The settings an image was made with, as PNG text chunks (issue 35): `udvr compare` refuses
+/// two images whose TF, camera or size differ. 1D TFs as ParaView JSON; a 2D TF by its file and
+/// the flags that shape it.
+PngText renderSettingsText(const RenderOpts& o, ModelKind kind, const TransferFunction1D* tf,
+                           const RenderSettings& s) {
+    char text[512];
+    PngText out;
+    out.emplace_back("Software", "udvr render");
+    out.emplace_back("udvr:model", std::string(modelName(kind)));
+    std::string source;
+    for (const std::string& in : o.inputs) source += (source.empty() ? "" : " ") + in;
+    out.emplace_back("udvr:source", source);
+    if (tf != nullptr) {
+        out.emplace_back("udvr:tf",
+                         transferFunctionToJson(*tf, o.tf.tf.empty() ? "udvr" : o.tf.tf));
+        std::snprintf(text, sizeof text, "%.9g,%.9g", tf->colorX.front(), tf->colorX.back());
+        out.emplace_back("udvr:tf-range", text);
+    } else {
+        out.emplace_back("udvr:tf", "tf2 " + o.tf2.file + " domain " + o.tf2.domain +
+                                        " resolution " + o.tf2.resolution + " second " + o.second);
+    }
+    const Camera& c = s.camera;
+    std::snprintf(text, sizeof text,
+                  "position %.9g,%.9g,%.9g focal-point %.9g,%.9g,%.9g view-up %.9g,%.9g,%.9g %s "
+                  "%.9g",
+                  c.position[0], c.position[1], c.position[2], c.focalPoint[0], c.focalPoint[1],
+                  c.focalPoint[2], c.viewUp[0], c.viewUp[1], c.viewUp[2],
+                  c.parallel ? "parallel-scale" : "view-angle",
+                  c.parallel ? c.parallelScale : c.viewAngleDeg);
+    out.emplace_back("udvr:camera", text);
+    out.emplace_back("udvr:size", std::to_string(s.width) + "x" + std::to_string(s.height));
+    return out;
+}
+
 void run(const RenderOpts& o) {
     if (o.frames < 0) UDVR_FAIL("--frames must be >= 0, got " << o.frames);
     const std::string outExt = lowerExtension(o.out);
@@ -83,7 +195,7 @@ void run(const RenderOpts& o) {
         UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
     const ModelVolume model = members ? readMembersModel(o.inputs, o.var, o.raw, o.ensemble)
                                       : readModelOrField(input, o.var, o.raw);
-    if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model.mean, "render");
+    if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model, "render");
     const TransferFunction1D& tf = tfChoice.tf;
     const ModelVolume second =
         o.second.empty()
@@ -98,16 +210,19 @@ void run(const RenderOpts& o) {
         return framedBox;
     };
     std::string cameraNote;
-    const RenderSettings s =
-        renderSettingsFromOptions(o.render, model, tfGiven, visibleBox, cameraNote);
+    const RenderSettings s = renderSettingsFromOptions(o.render, model, visibleBox, cameraNote);
 
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
-    const auto frame = [&] {
-        if (!o.second.empty()) return renderBivariate(model, second, kind, tf2, s, &stats, &cache);
-        return twoD ? renderVolume(model, kind, tf2, s, &stats, &cache)
-                    : renderVolume(model, kind, tf, s, &stats, &cache);
+    const auto frameWith = [&](const RenderSettings& at) {
+        if (!o.second.empty()) return renderBivariate(model, second, kind, tf2, at, &stats, &cache);
+        return twoD ? renderVolume(model, kind, tf2, at, &stats, &cache)
+                    : renderVolume(model, kind, tf, at, &stats, &cache);
     };
+    const auto frame = [&] { return frameWith(s); };
+    const FrameEstimate estimate = estimateFrame(s, kind == ModelKind::GmmMc, frameWith, stats);
+    if (estimate.ms > kWarnAboveMs)
+        std::fprintf(stderr, "%s\n", estimateWarning(o, s, estimate).c_str());
     ImageRgba image = frame();
     if (o.frames > 0) {
         // The render above was the warm-up; time N more frames (loading is not counted).
@@ -133,9 +248,11 @@ void run(const RenderOpts& o) {
     }
     finishTransferFunction(o.tf, tfChoice);  // --save-tf first: a bad one leaves no image
     if (!o.floatOut.empty()) writeFloatImage(o.floatOut, image);
-    writePng(o.out, image);
+    writePng(o.out, image, renderSettingsText(o, kind, twoD ? nullptr : &tf, s));
+    // What the TF shows, whatever the camera: the framed camera computed it already.
+    if (cameraNote.empty()) visibleBox();
+    const bool wholeBox = anyVisible && framedBox == model.bounds;
     if (!cameraNote.empty()) {
-        const bool wholeBox = anyVisible && framedBox == model.bounds;
         if (!anyVisible) {
             const std::string visible = "the visible voxels";
             const auto at = cameraNote.find(visible);
@@ -143,19 +260,19 @@ void run(const RenderOpts& o) {
                 cameraNote.replace(at, visible.size(), "the whole volume (nothing is visible)");
         }
         std::fprintf(stderr, "%s\n", cameraNote.c_str());
-        if (!anyVisible)
-            std::fprintf(stderr,
-                         "udvr: warning: the TF gives no voxel an opacity of 10 %% of its largest: "
-                         "the image shows little or nothing (udvr info %s --histogram h.png "
-                         "shows the values)\n",
-                         input.c_str());
-        else if (wholeBox && !tfGiven)
-            std::fprintf(stderr,
-                         "render: the preset shows voxels out to the volume's faces, which may "
-                         "hide the inside: --tf-range lo,hi or a TF file with opacity 0 at their "
-                         "values shows it (udvr info %s --histogram h.png shows the values)\n",
-                         input.c_str());
     }
+    if (!anyVisible)
+        std::fprintf(stderr,
+                     "udvr: warning: the TF gives no voxel an opacity of 10 %% of its largest: "
+                     "the image shows little or nothing (udvr info %s --histogram h.png "
+                     "shows the values)\n",
+                     input.c_str());
+    else if (wholeBox && !tfGiven)
+        std::fprintf(stderr,
+                     "render: the preset shows voxels out to the volume's faces, which may "
+                     "hide the inside: --tf-range lo,hi or a TF file with opacity 0 at their "
+                     "values shows it (udvr info %s --histogram h.png shows the values)\n",
+                     input.c_str());
     const auto& cam = s.camera;
     std::fprintf(stderr,
                  "render: camera pos %.6g %.6g %.6g  focal %.6g %.6g %.6g  up %.6g %.6g %.6g  %s "
@@ -165,9 +282,11 @@ void run(const RenderOpts& o) {
                  cam.parallel ? "parallel-scale" : "view-angle",
                  cam.parallel ? cam.parallelScale : cam.viewAngleDeg);
 
-    std::fprintf(stderr, "render: %s %dx%d in %.1f ms, %llu samples (%llu skipped) -> %s\n",
+    std::fprintf(stderr,
+                 "render: %s %dx%d in %.1f ms (estimated %.0f ms), %llu samples (%llu skipped) "
+                 "-> %s\n",
                  std::string(modelName(kind)).c_str(), s.width, s.height, stats.milliseconds,
-                 static_cast<unsigned long long>(stats.samples),
+                 estimate.ms, static_cast<unsigned long long>(stats.samples),
                  static_cast<unsigned long long>(stats.skippedSamples), o.out.c_str());
 }
 
@@ -202,7 +321,10 @@ void addRenderCommand(CLI::App& app) {
     addRawLayoutOptions(sub, o->raw);
     sub->add_option("--var", o->var, "array/variable name in the input");
     addEnsembleOptions(sub, o->ensemble);
-    sub->callback([o] { run(*o); });
+    sub->callback([o] {
+        o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
+        run(*o);
+    });
 }
 
 }  // namespace udvr::cmd

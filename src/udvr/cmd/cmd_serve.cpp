@@ -94,7 +94,7 @@ void addServeCommand(CLI::App& app) {
         data.modelFile = o->model;
         // With --tf2 the 1D TF is the default preset, for the page's editor only.
         if (twoD || tfIsPreset(o->tf))
-            tfChoice = chooseTransferFunction(twoD ? TfFlags{} : o->tf, data.model.mean, "serve");
+            tfChoice = chooseTransferFunction(twoD ? TfFlags{} : o->tf, data.model, "serve");
         data.tf = tfChoice.tf;
         if (!o->truth.empty()) {
             data.truth = readModelOrField(o->truth, o->var, o->raw);

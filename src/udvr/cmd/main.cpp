@@ -10,6 +10,7 @@
 #include "udvr/util/build_info.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
+#include "udvr/util/text_parse.h"
 
 namespace {
 
@@ -92,12 +93,25 @@ int main(int argc, char** argv) {
                 known = known || sub->get_name() == word;
             }
             if (!word.empty() && !known) {
-                std::fprintf(stderr, "udvr: error: unknown command '%s' (expected one of %s)\n",
-                             word.c_str(), names.c_str());
+                std::vector<std::string> all;
+                for (const CLI::App* sub : app.get_subcommands({})) all.push_back(sub->get_name());
+                std::fprintf(stderr, "udvr: error: unknown command '%s'%s (expected one of %s)\n",
+                             word.c_str(), udvr::didYouMean(word, all).c_str(), names.c_str());
                 return 2;
             }
         }
         std::string msg = e.what();
+        // An option misspelt: name the nearest option of the command (issue 35).
+        if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr &&
+            !app.get_subcommands().empty()) {
+            const CLI::App* sub = app.get_subcommands().back();
+            std::vector<std::string> flags;
+            for (const CLI::Option* opt : sub->get_options())
+                for (const std::string& l : opt->get_lnames()) flags.push_back("--" + l);
+            for (const std::string& extra : sub->remaining())
+                if (extra.rfind("--", 0) == 0)
+                    msg += udvr::didYouMean(extra.substr(0, extra.find('=')), flags);
+        }
         for (char& c : msg)
             if (c == '\n') c = ' ';
         std::fprintf(stderr, "udvr: error: %s (see 'udvr --help')\n", msg.c_str());

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <optional>
 
 #include "udvr/classify/tf_presets.h"
@@ -234,13 +235,16 @@ bool tfIsPreset(const TfFlags& flags) {
 
 TransferFunction1D readTransferFunctionFile(const TfFlags& flags) {
     if (!std::filesystem::exists(flags.tf) && lowerExtension(flags.tf) != ".json")
-        UDVR_FAIL("--tf '" << flags.tf << "' is neither a file nor a preset (presets: "
-                           << transferFunctionPresetList() << ")");
+        UDVR_FAIL("--tf '" << flags.tf << "' is neither a file nor a preset"
+                           << didYouMean(flags.tf, transferFunctionPresetNames())
+                           << " (presets: " << transferFunctionPresetList() << ")");
     return readTransferFunction(flags.tf);
 }
 
-TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> values,
-                                const std::string& command) {
+namespace {
+
+TfChoice chooseOverBasis(const TfFlags& flags, const std::function<DefaultTfBasis()>& basisOf,
+                         const std::string& command) {
     TfChoice choice;
     if (!tfIsPreset(flags)) {
         choice.tf = readTransferFunctionFile(flags);
@@ -254,15 +258,17 @@ TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> val
         given = std::array<double, 2>{r[0], r[1]};
         rangeText = "--tf-range";
     }
-    const PresetOverValues preset = transferFunctionPresetOver(name, values, given);
+    const PresetOverValues preset = transferFunctionPresetOver(name, basisOf(), given);
     const std::array<double, 2>& range = preset.range;
     const bool constant = preset.constant;
     const double median = preset.rampStart;
     choice.tf = preset.tf;
     // What the opacity does, as built (the start is clamped into the range).
-    char ramp[128];
+    char ramp[256];
     if (constant)
         std::snprintf(ramp, sizeof ramp, "the volume is constant: opacity rising over the range");
+    else if (!preset.opacityRule.empty())
+        std::snprintf(ramp, sizeof ramp, "opacity on %s", preset.opacityRule.c_str());
     else if (median > range[0] && median < range[1])
         std::snprintf(ramp, sizeof ramp, "opacity 0 up to the median %.6g, then rising to 0.5",
                       median);
@@ -273,12 +279,34 @@ TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> val
                   command.c_str(), flags.tf.empty() ? "no --tf: the" : "the", name.c_str(),
                   range[0], range[1], constant ? "widened around the one value" : rangeText, ramp,
                   flags.save.empty() ? "--save-tf tf.json writes it to edit"
-                                     : ("saved to " + flags.save +
-                                        " (render --tf FILE uses SPEC 5's camera: add --frame "
-                                        "visible for this view)")
-                                           .c_str());
+                                     : ("saved to " + flags.save).c_str());
     choice.note = note;
     return choice;
+}
+
+}  // namespace
+
+TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> values,
+                                const std::string& command) {
+    return chooseOverBasis(
+        flags,
+        [&] {
+            DefaultTfBasis b;
+            b.range = {};
+            const PresetOverValues p = transferFunctionPresetOver(
+                transferFunctionPresetNames().front(), values, std::nullopt);
+            b.range = p.range;
+            b.median = p.rampStart;
+            b.constant = p.constant;
+            return b;
+        },
+        command);
+}
+
+TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
+                                const std::string& command) {
+    return chooseOverBasis(
+        flags, [&] { return defaultTfBasisOf(model); }, command);
 }
 
 void finishTransferFunction(const TfFlags& flags, const TfChoice& choice) {

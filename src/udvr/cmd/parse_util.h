@@ -110,6 +110,10 @@ struct TfChoice {
 };
 TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> values,
                                 const std::string& command);
+/// The same over a model: its default-TF basis (defaultTfBasisOf: the full-resolution field's
+/// for a downsampled model), so a model and its ground truth get the same default TF.
+TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,
+                                const std::string& command);
 /// After the command's work succeeded: write --save-tf (atomically) and print the note, so a
 /// failing command prints only its error line.
 void finishTransferFunction(const TfFlags& flags, const TfChoice& choice);

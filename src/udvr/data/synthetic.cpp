@@ -4,6 +4,7 @@
 
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
+#include "udvr/util/text_parse.h"
 
 namespace udvr {
 namespace {
@@ -89,8 +90,10 @@ ScalarField makeSyntheticField(std::string_view name, int nx, int ny, int nz) {
     if (name == "teardrop") return makeTeardrop(nx, ny, nz);
     if (name == "spheres" || name == "nested-spheres") return makeNestedSpheres(nx, ny, nz);
     if (name == "marschner-lobb") return makeMarschnerLobb(nx, ny, nz);
-    UDVR_FAIL("unknown field '" << name
-                                << "'; expected one of: tangle, teardrop, spheres, marschner-lobb");
+    UDVR_FAIL(
+        "unknown field '" << clipForMessage(name) << "'"
+                          << didYouMean(name, {"tangle", "teardrop", "spheres", "marschner-lobb"})
+                          << "; expected one of: tangle, teardrop, spheres, marschner-lobb");
 }
 
 }  // namespace udvr

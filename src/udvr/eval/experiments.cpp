@@ -28,6 +28,7 @@
 #include "udvr/stats/build_model.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
+#include "udvr/util/text_parse.h"
 
 namespace udvr {
 namespace fs = std::filesystem;
@@ -361,7 +362,9 @@ ExperimentResult runOne(const std::string& name, const fs::path& dir,
     if (name == "downsample-estimators") return runDownsampleEstimators(dir, options);
     std::string names;
     for (const std::string& n : experimentNames()) names += n + ", ";
-    UDVR_FAIL("unknown experiment '" << name << "' (expected one of " << names << "all)");
+    UDVR_FAIL("unknown experiment '" << clipForMessage(name) << "'"
+                                     << didYouMean(name, experimentNames()) << " (expected one of "
+                                     << names << "all)");
 }
 
 fs::path executableDir() {

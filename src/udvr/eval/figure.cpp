@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "udvr/eval/cairo_draw.h"
+#include "udvr/eval/image_metrics.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
 
@@ -370,6 +371,43 @@ void writeFigurePng(const std::filesystem::path& path, const ImageRgba& image) {
     if (st != CAIRO_STATUS_SUCCESS)
         UDVR_FAIL("cannot encode PNG " << path.string() << ": " << cairo_status_to_string(st));
     writeFileAtomically(path, bytes);
+}
+
+ImageRgba withDifferenceScale(const ImageRgba& image, double maxValue, const std::string& label) {
+    const int w = image.width + kColourScaleWidth, h = std::max(image.height, 64);
+    SurfacePtr surface = makeSurface(CAIRO_FORMAT_ARGB32, w, h);
+    ContextPtr cr(cairo_create(surface.get()));
+    cairo_set_source_rgb(cr.get(), 1, 1, 1);
+    cairo_paint(cr.get());
+    pasteImage(surface.get(), image, 0, 0);
+    cairo_surface_flush(surface.get());
+    // The bar: 12 px wide, from 18 px below the top (room for the label) to 8 px above the
+    // bottom; each row the map's colour at its height.
+    const double font = 10.0, x0 = image.width + 8.0, barW = 12.0;
+    const double top = 18.0, bottom = h - 8.0;
+    for (int y = static_cast<int>(top); y < static_cast<int>(bottom); ++y) {
+        const double t = (bottom - (y + 0.5)) / (bottom - top);
+        float rgb[3];
+        differenceColor(t, rgb);
+        cairo_set_source_rgb(cr.get(), rgb[0], rgb[1], rgb[2]);
+        cairo_rectangle(cr.get(), x0, y, barW, 1.0);
+        cairo_fill(cr.get());
+    }
+    cairo_set_source_rgb(cr.get(), 0, 0, 0);
+    cairo_set_line_width(cr.get(), 1.0);
+    cairo_rectangle(cr.get(), x0 - 0.5, top - 0.5, barW + 1.0, bottom - top + 1.0);
+    cairo_stroke(cr.get());
+    textAt(cr.get(), label, image.width + 4.0, 12.0, font, false);
+    const double step = maxValue > 0.0 ? maxValue / 4.0 : 1.0;
+    for (int k = 0; k <= 4; ++k) {
+        const double v = k * step, y = bottom - (bottom - top) * k / 4.0;
+        cairo_move_to(cr.get(), x0 + barW, y);
+        cairo_line_to(cr.get(), x0 + barW + 3.0, y);
+        cairo_stroke(cr.get());
+        textAt(cr.get(), formatTick(maxValue > 0.0 ? v : 0.0, step), x0 + barW + 5.0,
+               y + font / 2.5, font, false);
+    }
+    return surfaceToImage(surface.get());
 }
 
 }  // namespace udvr

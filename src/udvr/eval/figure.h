@@ -76,4 +76,11 @@ ImageRgba renderTransferFunction(const TransferFunction1D& tf, int width, int he
 /// "Nice" axis ticks (1, 2, 5 × 10^k) covering [lo, hi], at most about `maxTicks`.
 std::vector<double> niceTicks(double lo, double hi, int maxTicks);
 
+/// `image` with a vertical colour scale to its right: the difference map (differenceColor)
+/// from 0 at the bottom to `maxValue` at the top, with tick labels and `label` above it — what
+/// `udvr compare --diff` writes, so a reader knows what yellow means. The image is unchanged
+/// in the left `image.width` columns; the scale adds kColourScaleWidth columns (white).
+ImageRgba withDifferenceScale(const ImageRgba& image, double maxValue, const std::string& label);
+inline constexpr int kColourScaleWidth = 72;
+
 }  // namespace udvr

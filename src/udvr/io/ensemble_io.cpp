@@ -131,6 +131,20 @@ std::vector<std::string> ensembleFiles(const std::vector<std::string>& inputs) {
     return files;
 }
 
+/// Members whose arrays are named (.vti, .pvti, .nc) must name the array alike unless --var
+/// picks it: `ImageFile` in one member and `density` in another are likely different
+/// quantities, not one ensemble (issue 35).
+void requireSameArrayName(const std::string& file, const std::string& name,
+                          const std::string& first, const std::string& firstName,
+                          const std::string& var) {
+    const std::string ext = detail::lowerExtension(file);
+    const bool named = ext == ".vti" || ext == ".pvti" || ext == ".nc" || ext == ".nc4";
+    if (!var.empty() || !named || name == firstName) return;
+    UDVR_FAIL("ensemble members name their arrays differently: "
+              << file << " holds '" << name << "', " << first << " holds '" << firstName
+              << "'; --var NAME reads the array NAME from every member");
+}
+
 }  // namespace
 
 Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleReadOptions& options) {
@@ -156,7 +170,9 @@ Ensemble readEnsemble(const std::vector<std::string>& inputs, const EnsembleRead
             UDVR_FAIL("ensemble members on different grids: "
                       << files[m] << " is " << gridText(f.grid) << ", " << files[0] << " is "
                       << gridText(e.grid));
-        } else if (f.valueType != e.valueType || f.valueStep != e.valueStep) {
+        }
+        if (m > 0) requireSameArrayName(files[m], f.name, files[0], e.name, options.var);
+        if (m > 0 && (f.valueType != e.valueType || f.valueStep != e.valueStep)) {
             e.valueType = "mixed";  // members of different types: no one quantisation step
             e.valueStep = 0.0;
         }
@@ -185,14 +201,16 @@ SlabReader openEnsembleSlabs(const std::vector<std::string>& inputs,
             detail::requireFile(files[m]);
             SlabReader lazy;
             lazy.wholeMembers = true;
-            const std::string file = files[m], first = files[0];
+            const std::string file = files[m], first = files[0], firstName = e.name;
             const Grid3 grid = e.grid;
-            lazy.read = [file, first, grid, fieldOptions](int z0, int z1, std::span<float> out) {
+            lazy.read = [file, first, firstName, grid, fieldOptions](int z0, int z1,
+                                                                     std::span<float> out) {
                 SlabReader f = openFieldSlabs(file, fieldOptions);
                 if (!sameGrid(f.grid, grid))
                     UDVR_FAIL("ensemble members on different grids: "
                               << file << " is " << gridText(f.grid) << ", " << first << " is "
                               << gridText(grid));
+                requireSameArrayName(file, f.name, first, firstName, fieldOptions.var);
                 f.read(z0, z1, out);
             };
             members->push_back(std::move(lazy));
@@ -209,7 +227,9 @@ SlabReader openEnsembleSlabs(const std::vector<std::string>& inputs,
             UDVR_FAIL("ensemble members on different grids: "
                       << files[m] << " is " << gridText(f.grid) << ", " << files[0] << " is "
                       << gridText(e.grid));
-        } else if (f.valueType != e.valueType || f.valueStep != e.valueStep) {
+        }
+        if (m > 0) requireSameArrayName(files[m], f.name, files[0], e.name, options.var);
+        if (m > 0 && (f.valueType != e.valueType || f.valueStep != e.valueStep)) {
             e.valueType = "mixed";
             e.valueStep = 0.0;
         }

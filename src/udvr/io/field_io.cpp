@@ -81,6 +81,26 @@ std::size_t checkedDataBytes(const fs::path& path, const std::array<int, 3>& dim
 
 }  // namespace detail
 
+fs::path singleFileOf(const fs::path& path) {
+    const std::string text = path.string();
+    std::error_code ec;
+    if (!detail::isGlobPattern(text) || fs::exists(path, ec)) return path;
+    const std::vector<std::string> matches = detail::expandGlob(text);  // none: an error
+    if (matches.size() == 1) return matches.front();
+    UDVR_FAIL("pattern '" << text << "' matches " << matches.size() << " files (" << matches[0]
+                          << ", " << matches[1] << (matches.size() > 2 ? ", ..." : "")
+                          << ") where one field or model is read; an ensemble of them is built "
+                             "with `udvr build` or rendered with --model members");
+}
+
+std::vector<std::string> withOneMatchResolved(const std::vector<std::string>& inputs) {
+    std::error_code ec;
+    if (inputs.size() != 1 || !detail::isGlobPattern(inputs[0]) || fs::exists(inputs[0], ec))
+        return inputs;
+    const std::vector<std::string> matches = detail::expandGlob(inputs[0]);
+    return matches.size() == 1 ? matches : inputs;
+}
+
 namespace {
 
 enum class ScalarType { kUint8, kInt8, kUint16, kInt16, kUint32, kInt32, kFloat32, kFloat64 };
@@ -748,8 +768,9 @@ void printNote(const std::string& note) {
     if (!note.empty()) std::fprintf(stderr, "%s\n", note.c_str());
 }
 
-ScalarField readFieldImpl(const fs::path& path, const FieldReadOptions& options,
+ScalarField readFieldImpl(const fs::path& given, const FieldReadOptions& options,
                           std::string* geometryNote) {
+    const fs::path path = singleFileOf(given);
     requireFile(path);
     std::string ext = lowerExtension(path);
     ScalarField f;
@@ -875,7 +896,8 @@ SlabReader openWholeSlabs(const fs::path& path, const FieldReadOptions& options)
 
 }  // namespace
 
-SlabReader openFieldSlabs(const fs::path& path, const FieldReadOptions& options) {
+SlabReader openFieldSlabs(const fs::path& given, const FieldReadOptions& options) {
+    const fs::path path = singleFileOf(given);
     detail::requireFile(path);
     const std::string ext = detail::lowerExtension(path);
     if (ext == ".nc" || ext == ".nc4" || ext == ".cdf")

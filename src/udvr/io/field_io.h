@@ -50,6 +50,16 @@ class EnsembleNotFieldError : public UdvrError {
 /// Read one scalar field; the format is chosen by extension (.raw .nrrd .nhdr .vti .nc).
 ScalarField readField(const std::filesystem::path& path, const FieldReadOptions& options = {});
 
+/// The one file a quoted glob names where one field or model is read (render, probe, info,
+/// build --downsample, Python's load): a path that exists, or is no pattern (* ? [), as given;
+/// else the pattern's one match. A UdvrError when it matches no file or several (naming the
+/// first two and saying that an ensemble is built or rendered with --model members).
+std::filesystem::path singleFileOf(const std::filesystem::path& path);
+/// The inputs of a command that takes one field or an ensemble (build, info): one quoted glob
+/// that matches exactly one file becomes that file (so it is read as one field); anything else
+/// is returned as given.
+std::vector<std::string> withOneMatchResolved(const std::vector<std::string>& inputs);
+
 /// Write a field as VTK XML ImageData (point array named field.name or "scalars"), atomically.
 void writeFieldVti(const std::filesystem::path& path, const ScalarField& field);
 /// Write a field as NetCDF with dims z,y,x and CF coordinate variables x,y,z, atomically.

@@ -1,11 +1,13 @@
 #include "udvr/io/file_info.h"
 
+#include "udvr/io/field_io.h"
 #include "udvr/io/io_detail.h"
 #include "udvr/util/check.h"
 
 namespace udvr {
 
-std::vector<ArrayInfo> listArrays(const std::filesystem::path& path, const RawLayout& raw) {
+std::vector<ArrayInfo> listArrays(const std::filesystem::path& given, const RawLayout& raw) {
+    const std::filesystem::path path = singleFileOf(given);
     detail::requireFile(path);
     const std::string ext = detail::lowerExtension(path);
     if (ext == ".vti" || ext == ".pvti") return detail::listArraysVti(path);

@@ -52,7 +52,8 @@ void pngFlushNothing(png_structp) {}
 /// To `fp`, or with fp null to `*memory`; zlib `level` (-1: libpng's default). Returns false
 /// (with err->message) on a libpng error.
 bool pngWriteRgba8(FILE* fp, std::vector<unsigned char>* memory, int level,
-                   const unsigned char* rgba, int width, int height, PngErrorState* err) {
+                   const unsigned char* rgba, int width, int height, PngErrorState* err,
+                   const PngText* text = nullptr) {
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, err, pngError, pngWarning);
     if (png == nullptr) return false;
     png_infop info = png_create_info_struct(png);
@@ -68,6 +69,17 @@ bool pngWriteRgba8(FILE* fp, std::vector<unsigned char>* memory, int level,
     png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8,
                  PNG_COLOR_TYPE_RGBA, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                  PNG_FILTER_TYPE_DEFAULT);
+    std::vector<png_text> chunks;
+    if (text != nullptr)
+        for (const auto& [key, value] : *text) {
+            png_text t{};
+            t.compression = PNG_TEXT_COMPRESSION_NONE;
+            t.key = const_cast<char*>(key.c_str());
+            t.text = const_cast<char*>(value.c_str());
+            t.text_length = value.size();
+            chunks.push_back(t);
+        }
+    if (!chunks.empty()) png_set_text(png, info, chunks.data(), static_cast<int>(chunks.size()));
     png_write_info(png, info);
     for (int y = 0; y < height; ++y) {
         png_write_row(png,
@@ -403,14 +415,15 @@ std::vector<unsigned char> encodePng(const ImageRgba& image, int level) {
     return png;
 }
 
-void writePng(const fs::path& path, const ImageRgba& image) {
+void writePng(const fs::path& path, const ImageRgba& image, const PngText& text) {
     const std::vector<unsigned char> bytes = pngBytes8(image);
     writeAtomically(path, [&](const fs::path& tmp) {
         errno = 0;
         std::unique_ptr<FILE, FileCloser> fp(std::fopen(tmp.c_str(), "wb"));
         if (!fp) UDVR_FILE_FAIL("cannot write " << path.string() << ": " << writeErrorText(errno));
         PngErrorState err;
-        if (!pngWriteRgba8(fp.get(), nullptr, -1, bytes.data(), image.width, image.height, &err)) {
+        if (!pngWriteRgba8(fp.get(), nullptr, -1, bytes.data(), image.width, image.height, &err,
+                           &text)) {
             // libpng says "Write Error" for a failed fwrite; errno says why.
             const std::string why = writeErrorText(errno);
             UDVR_FILE_FAIL("cannot write " << path.string() << ": "
@@ -421,6 +434,34 @@ void writePng(const fs::path& path, const ImageRgba& image) {
             UDVR_FILE_FAIL("cannot write " << path.string() << ": " << writeErrorText(errno));
         }
     });
+}
+
+PngText readPngText(const fs::path& path) {
+    detail::requireFile(path);
+    std::unique_ptr<FILE, FileCloser> fp(std::fopen(path.c_str(), "rb"));
+    if (!fp) UDVR_FILE_FAIL("cannot open " << path.string());
+    unsigned char sig[8] = {};
+    if (std::fread(sig, 1, 8, fp.get()) != 8 || png_sig_cmp(sig, 0, 8) != 0)
+        UDVR_FAIL(path.string() << ": not a PNG file (bad signature)");
+    std::rewind(fp.get());
+    PngErrorState err;
+    PngText out;
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, pngError, pngWarning);
+    if (png == nullptr) UDVR_FAIL(path.string() << ": cannot read PNG");
+    png_infop info = png_create_info_struct(png);
+    if (info == nullptr || setjmp(png_jmpbuf(png))) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        UDVR_FAIL(path.string() << ": cannot read PNG: " << err.message);
+    }
+    png_init_io(png, fp.get());
+    png_read_info(png, info);
+    png_textp chunks = nullptr;
+    int count = 0;
+    png_get_text(png, info, &chunks, &count);
+    for (int i = 0; i < count; ++i)
+        out.emplace_back(chunks[i].key, std::string(chunks[i].text, chunks[i].text_length));
+    png_destroy_read_struct(&png, &info, nullptr);
+    return out;
 }
 
 ImageRgba readPng(const fs::path& path) {

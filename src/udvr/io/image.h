@@ -2,14 +2,24 @@
 // Float RGBA images and their files (SPEC §5): PNG (8-bit, straight values), PFM and NPY
 // (float32 RGBA). Pixel (0,0) is the top-left; rows top to bottom.
 #include <filesystem>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "udvr/render/image_rgba.h"
 
 namespace udvr {
 
-/// PNG, 8 bits per channel RGBA, values clamped to [0,1] and rounded; atomically.
-void writePng(const std::filesystem::path& path, const ImageRgba& image);
+/// Text chunks of a PNG (tEXt, Latin-1 keys of 1–79 characters): `udvr render` records its
+/// settings in them (keys "udvr:model", "udvr:tf", …), which `udvr compare` reads.
+using PngText = std::vector<std::pair<std::string, std::string>>;
+
+/// PNG, 8 bits per channel RGBA, values clamped to [0,1] and rounded, with `text` as tEXt
+/// chunks before the pixels; atomically.
+void writePng(const std::filesystem::path& path, const ImageRgba& image, const PngText& text = {});
+/// The tEXt/zTXt/iTXt chunks before a PNG's pixels (empty for a PNG without them); a
+/// UdvrError for a file that is not a PNG.
+PngText readPngText(const std::filesystem::path& path);
 /// The PNG file writePng writes, in memory; zlib `level` 0–9 (-1: libpng's default; the pixels
 /// are the same at every level).
 std::vector<unsigned char> encodePng(const ImageRgba& image, int level = -1);

@@ -10,8 +10,13 @@
 
 namespace udvr {
 
-/// Write atomically; only non-empty arrays are written.
-void writeModelVti(const std::filesystem::path& path, const ModelVolume& model);
+/// Write atomically; only non-empty arrays are written, LZ4-compressed (ParaView reads it) or,
+/// with compress = false, raw (`build --no-compress`).
+void writeModelVti(const std::filesystem::path& path, const ModelVolume& model,
+                   bool compress = true);
+/// The bytes the model's arrays take uncompressed (what `build` announces before writing):
+/// voxels × (4 + (q + 1) + 2 + 3K) floats for a built model, 4 bytes each.
+std::size_t modelArrayBytes(const Grid3& grid, int quantileCount, int gmmComponents);
 /// A model partitioned along z as VTK's parallel ImageData, which ParaView opens in parallel:
 /// `path` (.pvti) names `pieces` piece files <stem>/<stem>_<i>.vti beside it; neighbouring
 /// pieces share their boundary plane (every cell lies in one piece, so trilinear reconstruction

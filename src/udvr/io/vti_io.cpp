@@ -199,7 +199,8 @@ std::vector<ArrayInfo> detail::listArraysVti(const fs::path& path) {
     return arrays;
 }
 
-ModelVolume readModelOrField(const fs::path& path, const FieldReadOptions& options) {
+ModelVolume readModelOrField(const fs::path& given, const FieldReadOptions& options) {
+    const fs::path path = singleFileOf(given);
     const std::string ext = detail::lowerExtension(path);
     if ((ext == ".vti" || ext == ".pvti") && options.var.empty()) {
         std::string modelError;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "udvr/classify/tf_presets.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/io_detail.h"
 #include "udvr/io/model_io.h"
@@ -55,6 +56,7 @@ void vtkio::addModelFieldData(vtkFieldData* fd, const ModelVolume& model, bool h
     addDouble(fd, "full_res_min_spacing", {model.fullResMinSpacing});
     addInt(fd, "gmm_components", hasGmm ? model.gmmComponents : 0);
     addString(fd, "source", model.source);
+    if (!model.defaultTf.empty()) addDouble(fd, "default_tf", model.defaultTf);
 }
 
 namespace {
@@ -105,8 +107,16 @@ vtkSmartPointer<vtkImageData> modelImage(const ModelVolume& model, int k0, int k
 
 }  // namespace
 
-void writeModelVti(const fs::path& path, const ModelVolume& model) {
-    writeImageData(path, modelImage(model, 0, model.grid.dims[2] - 1), Compression::Lz4);
+void writeModelVti(const fs::path& path, const ModelVolume& model, bool compress) {
+    writeImageData(path, modelImage(model, 0, model.grid.dims[2] - 1),
+                   compress ? Compression::Lz4 : Compression::None);
+}
+
+std::size_t modelArrayBytes(const Grid3& grid, int quantileCount, int gmmComponents) {
+    std::size_t floats = 0;
+    for (const ModelFileArray& a : kModelFileArrays)
+        floats += static_cast<std::size_t>(a.floatsPerVoxel(quantileCount, gmmComponents));
+    return grid.pointCount() * floats * sizeof(float);
 }
 
 std::vector<int> pvtiPieceBoundaries(int planes, int pieces) {
@@ -278,8 +288,10 @@ ModelVolume detail::readModelVti(const fs::path& path, std::string* geometryNote
         UDVR_FAIL(path.string() << ": field data 'full_res_min_spacing' must be positive");
     }
     m.source = getString(fd, "source", "");
+    m.defaultTf = getDoubles(fd, "default_tf");
     try {
         checkModelArrays(m, path.string());
+        if (!m.defaultTf.empty()) decodeDefaultTfBasis(m.defaultTf, path.string());
     } catch (const UdvrError& e) {
         throw detail::ModelContentError(e.what());
     }

@@ -451,6 +451,8 @@ void configureWriter(vtkXMLImageDataWriter* writer, Compression compression) {
     writer->EncodeAppendedDataOff();
     if (compression == Compression::Lz4)
         writer->SetCompressorTypeToLZ4();
+    else if (compression == Compression::None)
+        writer->SetCompressorTypeToNone();
     else
         writer->SetCompressorTypeToZLib();
     writer->SetHeaderTypeToUInt64();

@@ -124,6 +124,7 @@ enum class Compression {
     Zlib,  // ParaView's default; best ratio on smooth fields
     Lz4,   // model files: on float statistics zlib (level 5) saves ~10 % of the size at ~20×
            // the time (64³ model, 26 MB: 0.62 s vs 0.03 s to write; 0.11 s vs 0.01 s to read)
+    None,  // `build --no-compress`: raw appended data
 };
 
 /// Binary appended, block-compressed, 64-bit headers: ParaView's default kind of .vti.

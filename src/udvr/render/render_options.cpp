@@ -63,8 +63,9 @@ const OptionSpec kFrameOptions[] = {
              "shows"},
     {.name = "frame",
      .field = &O::frame,
-     .help = "visible | box: what the default camera frames (default: visible without --tf, else "
-             "SPEC 5's camera, which fits the box's bounding sphere)"},
+     .help = "visible | box: frame the voxels the TF shows, or the whole box, z up, from the "
+             "front (default: SPEC 5's camera, which fits the box's bounding sphere, whatever "
+             "the TF)"},
     {.name = "force",
      .field = &O::force,
      .remote = false,
@@ -117,10 +118,11 @@ bool sameName(std::string_view a, std::string_view b) {
     return true;
 }
 
-// The camera: --position (SPEC §5) as given; else SPEC §5's default camera when a TF was given
-// and neither --view nor --frame was; else a camera framing the visible part of the volume
-// (or, --frame box, all of it) from --view or the z-up front view.
-Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m, bool tfGiven,
+// The camera: --position (SPEC §5) as given; else SPEC §5's default camera unless --view or
+// --frame was given — whatever the TF and wherever it came from, so a model and its ground
+// truth rendered with defaults are seen alike (issue 35); else a camera framing the visible part
+// of the volume (or, --frame box, all of it) from --view or the z-up front view.
+Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
                          const std::function<std::array<double, 6>()>& visibleBox, double aspect,
                          std::string& note) {
     const auto& b = m.bounds;
@@ -129,7 +131,7 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m, bool tfGi
     if (o.position.empty()) {
         if (!o.focal.empty() || !o.up.empty())
             UDVR_FAIL("--focal-point/--view-up need --position (or use --azimuth/--elevation)");
-        const bool framed = !o.view.empty() || !o.frame.empty() || !tfGiven;
+        const bool framed = !o.view.empty() || !o.frame.empty();
         Camera c;
         if (!framed) {
             c = defaultCamera(b, o.azimuth, o.elevation, o.zoom, o.viewAngle);
@@ -233,7 +235,6 @@ std::array<int, 2> checkRenderOptions(const RenderOptions& o) {
 }
 
 RenderSettings renderSettingsFromOptions(const RenderOptions& o, const ModelVolume& model,
-                                         bool tfGiven,
                                          const std::function<std::array<double, 6>()>& visibleBox,
                                          std::string& cameraNote) {
     const auto size = checkRenderOptions(o);
@@ -250,8 +251,8 @@ RenderSettings renderSettingsFromOptions(const RenderOptions& o, const ModelVolu
                                 << diagonal / o.step
                                 << " samples each); add --force to render anyway");
     }
-    s.camera = cameraFromOptions(o, model, tfGiven, visibleBox,
-                                 static_cast<double>(s.width) / s.height, cameraNote);
+    s.camera = cameraFromOptions(o, model, visibleBox, static_cast<double>(s.width) / s.height,
+                                 cameraNote);
     s.step = o.step;
     s.unitDistance = o.unit;
     s.earlyExit = o.earlyExit;

@@ -79,12 +79,11 @@ bool uniformWidthIsMinMax(const RenderOptions& options);
 std::array<int, 2> checkRenderOptions(const RenderOptions& options);
 
 /// The frame's settings for `model`: size, camera (--position as given; else SPEC §5's default
-/// camera when a TF was given and neither --view nor --frame was; else a camera framing
+/// camera unless --view or --frame was given, whatever the TF; else a camera framing
 /// visibleBox(), or with --frame box the whole volume), step, unit distance, early exit,
 /// background, skipping, uniform width, gmm-mc realizations and seed, jitter. `cameraNote` gets
 /// what the framed camera frames (empty for the others).
 RenderSettings renderSettingsFromOptions(const RenderOptions& options, const ModelVolume& model,
-                                         bool tfGiven,
                                          const std::function<std::array<double, 6>()>& visibleBox,
                                          std::string& cameraNote);
 

@@ -73,7 +73,7 @@ TEST(RenderOptions, GivenFlagsAndSettings) {
     m.bounds = {0, 3, 0, 3, 0, 3};
     std::string note;
     const RenderSettings s = renderSettingsFromOptions(
-        o, m, true, [] { return std::array<double, 6>{}; }, note);
+        o, m, [] { return std::array<double, 6>{}; }, note);
     EXPECT_EQ(s.width, 40);
     EXPECT_EQ(s.height, 30);
     EXPECT_EQ(s.jitterSeed, std::optional<std::uint64_t>(7));

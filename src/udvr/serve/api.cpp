@@ -393,7 +393,7 @@ std::shared_ptr<const Api::Frame> Api::frame(const RenderRequest& r, const std::
                         : visibleBounds(volume, *r.tf, &anyVisible);
         };
         std::string note;
-        RenderSettings s = renderSettingsFromOptions(r.flags, volume, true, visibleBox, note);
+        RenderSettings s = renderSettingsFromOptions(r.flags, volume, visibleBox, note);
         s.cancel = &cancel;
         auto& cache = renderCaches_[{source, kind}];
         if (!cache) cache = std::make_unique<RenderCache>();
@@ -517,8 +517,7 @@ ApiResponse Api::getProbe(const ApiRequest& request) {
                           : visibleBounds(data_.model, *tf, &anyVisible);
         };
         std::string note;
-        const RenderSettings s =
-            renderSettingsFromOptions(flags, data_.model, true, visibleBox, note);
+        const RenderSettings s = renderSettingsFromOptions(flags, data_.model, visibleBox, note);
         const int x = static_cast<int>(*q.whole("x", 0, static_cast<std::uint64_t>(s.width - 1)));
         const int y = static_cast<int>(*q.whole("y", 0, static_cast<std::uint64_t>(s.height - 1)));
         // The ray's samples are classified in double precision and kept: bounded before the work
@@ -641,7 +640,7 @@ ApiResponse Api::getPreset(const ApiRequest& request) {
     ApiResponse out;
     inGate(request, [&] {  // percentiles of every voxel
         out.body = transferFunctionToJson(
-            transferFunctionPresetOver(name, data_.model.mean, range).tf, name);
+            transferFunctionPresetOver(name, defaultTfBasisOf(data_.model), range).tf, name);
     });
     return out;
 }

@@ -43,6 +43,9 @@ struct ModelVolume {
     std::array<double, 6> bounds{};  // full-resolution world bounds
     double fullResMinSpacing = 1.0;  // smallest spacing of the full-resolution grid
     std::string source;              // input description
+    /// Field data `default_tf`: the full-resolution field's default-TF basis, recorded by
+    /// `build --downsample` (tf_presets.h DefaultTfBasis); empty: the basis of the model's means.
+    std::vector<double> defaultTf;
 
     /// Records the input's full-resolution grid: its bounds and smallest spacing, and the brick
     /// size K of a downsampled build (0: an ensemble or a field on its own grid).

@@ -1,5 +1,7 @@
 #pragma once
-// A progress bar on stderr, drawn only when stderr is a terminal (quiet otherwise).
+// Progress on stderr: a bar with the time left when stderr is a terminal, otherwise (a log, a
+// pipe, a batch job) one line every lineSeconds() with the share done and the time left;
+// UDVR_NO_PROGRESS=1 keeps it quiet (the tests).
 // Thread-safe: advance() may be called from worker threads.
 #include <atomic>
 #include <chrono>
@@ -40,8 +42,11 @@ class ProgressBar {
     std::size_t done() const { return done_.load(std::memory_order_relaxed); }
     /// Units of work in all (at least 1).
     std::size_t total() const { return total_; }
-    /// Whether bars are drawn at all (stderr is a tty and UDVR_NO_PROGRESS is unset).
+    /// Whether progress is shown at all (UDVR_NO_PROGRESS is unset).
     static bool enabled();
+    /// Seconds between two progress lines when stderr is not a terminal: 10, or
+    /// UDVR_PROGRESS_EVERY (seconds, > 0) where set.
+    static double lineSeconds();
 
   private:
     void draw(std::size_t done);
@@ -53,6 +58,8 @@ class ProgressBar {
     std::chrono::steady_clock::time_point start_;
     std::mutex drawMutex_;
     bool enabled_;
+    bool terminal_;  // a redrawn bar; else a line every lineSeconds()
+    long long lineNs_;
     long long showAfterNs_;
     bool drawn_ = false;
     bool finished_ = false;

@@ -1,5 +1,7 @@
 #include "udvr/util/text_parse.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -102,6 +104,53 @@ std::vector<double> parseDoubleList(const std::string& text, const std::string& 
     std::vector<double> out;
     for (const auto& p : split(text, ',')) out.push_back(parseReal(p, flag));
     return out;
+}
+
+namespace {
+
+std::string foldedName(std::string_view s) {
+    std::string out;
+    for (char c : s) {
+        if (c == '_') c = '-';
+        out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    }
+    return out;
+}
+
+/// Optimal string alignment distance (Levenshtein with adjacent swaps).
+std::size_t editDistance(const std::string& a, const std::string& b) {
+    const std::size_t n = a.size(), m = b.size();
+    std::vector<std::vector<std::size_t>> d(n + 1, std::vector<std::size_t>(m + 1, 0));
+    for (std::size_t i = 0; i <= n; ++i) d[i][0] = i;
+    for (std::size_t j = 0; j <= m; ++j) d[0][j] = j;
+    for (std::size_t i = 1; i <= n; ++i)
+        for (std::size_t j = 1; j <= m; ++j) {
+            const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
+            d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
+            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+                d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+        }
+    return d[n][m];
+}
+
+}  // namespace
+
+std::string nearestName(std::string_view given, const std::vector<std::string>& names) {
+    if (given.size() > 64) return "";  // a hostile value: nothing is near
+    const std::string g = foldedName(given);
+    std::string best;
+    std::size_t bestDistance = 0;
+    for (const std::string& name : names) {
+        const std::size_t dist = editDistance(g, foldedName(name));
+        if (best.empty() || dist < bestDistance) best = name, bestDistance = dist;
+    }
+    if (best.empty() || 3 * bestDistance > best.size()) return "";
+    return best;
+}
+
+std::string didYouMean(std::string_view given, const std::vector<std::string>& names) {
+    const std::string near = nearestName(given, names);
+    return near.empty() ? "" : " (did you mean '" + near + "'?)";
 }
 
 }  // namespace udvr

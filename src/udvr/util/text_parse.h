@@ -33,4 +33,12 @@ bool parseBool(const std::string& text, const std::string& flag);
 /// `text` cut to 64 characters for an error message (a hostile value may be megabytes).
 std::string clipForMessage(std::string_view text);
 
+/// The name in `names` nearest to `given` for a "did you mean" hint: case, '_' and '-' are
+/// ignored, then the fewest single-character edits (insert, delete, replace, swap of two
+/// neighbours); empty when the nearest needs more than a third of its length in edits (nothing
+/// is near). Ties go to the earlier name.
+std::string nearestName(std::string_view given, const std::vector<std::string>& names);
+/// " (did you mean 'NAME'?)" for nearestName, or "" when nothing is near.
+std::string didYouMean(std::string_view given, const std::vector<std::string>& names);
+
 }  // namespace udvr
