@@ -594,8 +594,9 @@ PYBIND11_MODULE(_udvr, m) {
                     .tf;
             },
             py::arg("name"), py::arg("values"), py::arg("range") = py::none(),
-            "the preset `udvr render` uses without --tf: over the values' 0.5-99.5th "
-            "percentiles (or `range`), opacity rising from their median")
+            "the preset over bare values (no grid): colours over their 0.5-99.5th percentiles "
+            "(or `range`), opacity rising from their median; preset_for(name, model) is the "
+            "default TF of `udvr render` (boundary opacity, docs/rendering.md)")
         .def_static(
             "preset_for",
             [](const std::string& name, const ModelVolume& model,

@@ -75,6 +75,45 @@ def test_info_histogram_png_and_bad_flags(field, tmp_path):
     assert_one_line_error(run_udvr("info", tmp_path / "missing.nrrd"), "missing.nrrd")
 
 
+def boundary_opacity(values, spacing, lo, hi, bins=64, points=16):
+    """The default TF's opacity (docs/rendering.md, "The default TF"), independently in NumPy:
+    mean gradient magnitude per value bin over [lo, hi] (np.gradient: central differences,
+    one-sided at the faces), smoothed over 3 bins (bins with < max(1, 1e-5 n) points left out),
+    less the median gradient magnitude, times the face weight clip(2 - r, 0, 1), r the bin's
+    share of face points over the volume's; relative to its peak, less 0.2, over 0.8, times
+    0.5 (clipped to [0, 0.5]); at 16 even points."""
+    v = values.astype(np.float64)
+    gz, gy, gx = np.gradient(v, spacing[2], spacing[1], spacing[0])
+    g = np.sqrt(gx * gx + gy * gy + gz * gz).astype(np.float32).astype(np.float64)
+    w = (hi - lo) / bins
+    b = (v - lo) / w
+    inside = (b >= 0) & (b < bins)
+    idx = b[inside].astype(int)
+    count = np.bincount(idx, minlength=bins).astype(float)
+    total = np.bincount(idx, weights=g[inside], minlength=bins)
+    onface = np.zeros(v.shape, bool)
+    onface[0], onface[-1], onface[:, 0], onface[:, -1] = True, True, True, True
+    onface[:, :, 0], onface[:, :, -1] = True, True
+    face = np.bincount(idx, weights=onface[inside].astype(float), minlength=bins)
+    ok = count >= max(1.0, 1e-5 * v.size)
+    mean = np.zeros(bins)
+    for k in range(bins):
+        sel = [o for o in range(max(0, k - 1), min(bins, k + 2)) if ok[o]]
+        c = sum(count[o] for o in sel)
+        mean[k] = sum(total[o] for o in sel) / c if c > 0 else 0.0
+    floor = np.sort(g.ravel())[g.size // 2]
+    share = face.sum() / count.sum()
+    keep = np.where(ok, np.clip(2.0 - np.divide(face, count, where=ok, out=np.zeros(bins)) / share,
+                                0.0, 1.0), 1.0)
+    weight = np.maximum(0.0, mean - floor) * keep
+    xs = lo + (hi - lo) * np.arange(points) / (points - 1)
+    pos = np.clip((xs - lo) / w - 0.5, 0.0, bins - 1.0)
+    b0 = pos.astype(int)
+    b1 = np.minimum(b0 + 1, bins - 1)
+    m = weight[b0] * (1 - (pos - b0)) + weight[b1] * (pos - b0)
+    return list(xs), list(0.5 * np.clip((m / weight.max() - 0.2) / 0.8, 0.0, 1.0))
+
+
 def test_default_tf_is_the_preset_over_the_robust_range(field, tmp_path):
     _, path, values = field
     tf_path = tmp_path / "tf.json"
@@ -89,8 +128,10 @@ def test_default_tf_is_the_preset_over_the_robust_range(field, tmp_path):
     assert rgb[0] == pytest.approx(lo, rel=1e-6) and rgb[-4] == pytest.approx(hi, rel=1e-6)
     assert rgb[1:4] == pytest.approx([0.231373, 0.298039, 0.752941])  # cool-to-warm's blue
     pts = tf["Points"]  # x, alpha, midpoint, sharpness
-    assert pts[0::4] == pytest.approx([lo, median, hi], rel=1e-6)
-    assert pts[1::4] == pytest.approx([0.0, 0.0, 0.5])
+    x_ref, a_ref = boundary_opacity(values, (0.5, 2.0, 1.0), lo, hi)
+    assert pts[0::4] == pytest.approx(x_ref, rel=1e-6, abs=1e-9)
+    assert pts[1::4] == pytest.approx(a_ref, abs=2e-4)
+    assert 0.05 < max(pts[1::4]) <= 0.5
     # The saved TF renders the same image when given back: the camera does not depend on it.
     img_saved = tmp_path / "b.npy"
     run_ok("render", path, "--size", "24x20", "--tf", tf_path,

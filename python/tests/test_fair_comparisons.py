@@ -113,3 +113,37 @@ def test_compare_refuses_images_made_differently(data):
         assert float(r.stdout) > 0
     run_ok("render", t / "field.vti", "--size", "40x48", "-o", t / "other.png")
     assert_one_line_error(run_udvr("compare", t / "other.png", t / "truth.png"), "sizes")
+
+
+def test_the_default_tf_finds_an_object_in_noisy_air(tmp_path):
+    # CT-like: air at 100 with noise (not zero), a holder plate at 300 touching the faces, and a
+    # sphere at 800 in the middle. The old default (opacity from the median up) made the noisy
+    # air above the median an opaque fog; the boundary rule leaves air clear and shows the sphere.
+    rng = np.random.default_rng(35)
+    n = 40
+    z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(np.float32)
+    v = 100 + 10 * rng.normal(size=(n, n, n))
+    v[z < 4] = 300 + 10 * rng.normal(size=v[z < 4].shape)
+    r = np.sqrt((x - 20) ** 2 + (y - 20) ** 2 + (z - 20) ** 2)
+    v = np.where(r < 9, 800 + 10 * rng.normal(size=v.shape), v).astype(np.float32)
+    udvr.write_field(str(tmp_path / "ct.vti"), udvr.Field(v))
+    run_ok("render", tmp_path / "ct.vti", "--size", "64", "--save-tf", tmp_path / "tf.json",
+           "--float", tmp_path / "a.npy", "-o", tmp_path / "a.png")
+    tf = json.loads((tmp_path / "tf.json").read_text())[0]
+    xs, alphas = np.array(tf["Points"][0::4]), np.array(tf["Points"][1::4])
+    # A hard-edged sphere: its own values carry the boundary's gradient (no partial volume).
+    assert np.interp(100.0, xs, alphas) < 0.05  # the air: a tenth of the peak at most
+    assert np.interp(300.0, xs, alphas) < 0.05  # the plate touches the faces: clear
+    assert np.interp(800.0, xs, alphas) > 0.3
+    a = np.load(tmp_path / "a.npy")[..., 3]
+    assert a[32, 32] > 0.9  # the ray through the sphere's centre
+    # Everything visible is the sphere: within 14 px of the image centre (its radius projects
+    # to ~10 px with SPEC 5's camera at 64 px).
+    rows, cols = np.nonzero(a > 0.3)
+    assert len(rows) > 50 and np.hypot(rows - 31.5, cols - 31.5).max() < 14
+    # The old rule's TF (a ramp from the median over the robust range) also shows the plate and
+    # the air's upper half: twice the visible pixels or more.
+    run_ok("render", tmp_path / "ct.vti", "--size", "64", "--tf-range",
+           ",".join(map(str, np.percentile(v, [0.5, 99.5]))), "--float", tmp_path / "b.npy",
+           "-o", tmp_path / "b.png")
+    assert (np.load(tmp_path / "b.npy")[..., 3] > 0.3).sum() > 2 * len(rows)

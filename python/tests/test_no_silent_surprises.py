@@ -40,33 +40,43 @@ def test_build_says_the_size_and_compresses_unless_told(tmp_path):
     f = udvr.generate("tangle", [24, 20, 16])
     udvr.write_field(str(tmp_path / "f.vti"), f)
     out = {}
+    arrays = 12 * 10 * 8 * 27 * 4  # 12x10x8 voxels x (4 + 9 quantiles + 2 iqr + 12 gmm) floats
     for tag, extra in (("lz4", []), ("raw", ["--no-compress"])):
         path = tmp_path / f"{tag}.vti"
         err = run_ok("build", tmp_path / "f.vti", "--downsample", "2", *extra, "-o", path).stderr
-        # 12x10x8 voxels x (mean, stddev, min, max, 9 quantiles, 2 iqr, 12 gmm) floats.
-        arrays = 12 * 10 * 8 * 27 * 4
-        m = re.search(r"the model: 12x10x8 voxels x 27 floats = ([\d.]+) KiB uncompressed", err)
-        assert m and abs(float(m.group(1)) * 1024 - arrays) <= 0.005 * arrays, err
-        assert err.index("the model:") < err.index("-> " + str(path))
+        assert "the model:" not in err  # small: no announcement (a failed write stays one line)
         disk = os.path.getsize(path)
-        m = re.search(r"\(([\d.]+) KiB on disk, (\d+) % of the arrays\)", err)
-        assert m and abs(float(m.group(1)) * 1024 - disk) <= 0.005 * disk, err
+        m = re.search(r"\(([\d.]+) KiB on disk, (\d+) % of the ([\d.]+) KiB of arrays\)", err)
+        assert m, err
+        assert abs(float(m.group(1)) * 1024 - disk) <= 0.005 * disk
+        assert abs(float(m.group(3)) * 1024 - arrays) <= 0.005 * arrays
         assert abs(int(m.group(2)) - 100 * disk / arrays) <= 1
         out[tag] = (disk, udvr.load(str(path)))
-    assert out["raw"][0] >= 12 * 10 * 8 * 27 * 4 > out["lz4"][0]
+    assert out["raw"][0] >= arrays > out["lz4"][0]
     for name in ("mean", "stddev", "quantiles", "gmm"):
         assert np.array_equal(getattr(out["raw"][1], name), getattr(out["lz4"][1], name))
     vtk = pytest.importorskip("vtk")
+    from vtk.util.numpy_support import vtk_to_numpy
     for tag in ("lz4", "raw"):  # what ParaView's reader makes of either file
         r = vtk.vtkXMLImageDataReader()
         r.SetFileName(str(tmp_path / f"{tag}.vti"))
         r.Update()
-        from vtk.util.numpy_support import vtk_to_numpy
         got = vtk_to_numpy(r.GetOutput().GetPointData().GetArray("quantiles"))
         assert np.array_equal(got.reshape(8, 10, 12, 9), out["lz4"][1].quantiles)
     assert_one_line_error(run_udvr("build", tmp_path / "f.vti", "--downsample", "2",
                                    "--no-compress", "--slab-height", "2", "-o",
                                    tmp_path / "s.vti"), "--no-compress", "out of core")
+
+
+def test_build_announces_a_large_model_before_writing_it(tmp_path):
+    udvr.write_field(str(tmp_path / "big.vti"), udvr.generate("tangle", [192, 192, 96]))
+    err = run_ok("build", tmp_path / "big.vti", "--downsample", "2", "-o",
+                 tmp_path / "m.vti", timeout=300).stderr
+    arrays = 96 * 96 * 48 * 27 * 4  # 45.6 MiB: over the 32 MiB that are announced
+    m = re.search(r"build: the model: 96x96x48 voxels x 27 floats = ([\d.]+) MiB uncompressed; "
+                  r"writing it LZ4-compressed", err)
+    assert m and abs(float(m.group(1)) * 2 ** 20 - arrays) <= 0.005 * arrays, err
+    assert err.index("the model:") < err.index("-> " + str(tmp_path / "m.vti"))
 
 
 @pytest.mark.parametrize("args, near", [

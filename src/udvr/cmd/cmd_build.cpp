@@ -249,10 +249,16 @@ struct BuildFlags {
     bool noCompress = false;
 };
 
-/// "build: the model: 64x64x64 voxels x 27 floats = 28.3 MB uncompressed; written LZ4-compressed
-/// (--no-compress: raw)": what the file will take, before it is written (issue 35).
+/// Models whose arrays pass this are announced before they are written (a small one is not:
+/// its write takes no time, and a failing write stays one error line).
+constexpr std::size_t kAnnounceModelBytes = std::size_t{32} << 20;
+
+/// "build: the model: 192x192x96 voxels x 27 floats = 364 MiB uncompressed; writing it
+/// LZ4-compressed (--no-compress: raw)\n" for a model over kAnnounceModelBytes, else "": what
+/// the file will take, before it is written (issue 35).
 std::string modelSizeNote(const Grid3& grid, int q, int k, bool compress) {
     const std::size_t bytes = modelArrayBytes(grid, q, k);
+    if (bytes < kAnnounceModelBytes) return "";
     const std::size_t floats = grid.pointCount() > 0 ? bytes / 4 / grid.pointCount() : 0;
     char note[320];
     std::snprintf(note, sizeof note,
@@ -276,11 +282,12 @@ std::string diskSizeText(const std::string& path, std::size_t arrayBytes) {
     }
     bytes += static_cast<std::size_t>(std::filesystem::file_size(p, ec));
     if (ec || bytes == 0) return "";
-    char text[96];
+    char text[128];
     std::snprintf(
-        text, sizeof text, " (%s on disk, %.0f %% of the arrays)", byteSizeText(bytes).c_str(),
-        arrayBytes > 0 ? 100.0 * static_cast<double>(bytes) / static_cast<double>(arrayBytes)
-                       : 0.0);
+        text, sizeof text, " (%s on disk, %.0f %% of the %s of arrays)",
+        byteSizeText(bytes).c_str(),
+        arrayBytes > 0 ? 100.0 * static_cast<double>(bytes) / static_cast<double>(arrayBytes) : 0.0,
+        byteSizeText(arrayBytes).c_str());
     return text;
 }
 
@@ -404,6 +411,7 @@ class LocalBuild {
             writeSeconds_ += secondsSince(ts);
         };
         model_ = run(in, sink);
+        model_.defaultTf = streamedDefaultTf_;
         bars_.bar.reset();
         sayNotes();  // one pass (no GMM): only now is the whole input known to be finite
         const auto tf = std::chrono::steady_clock::now();
@@ -412,6 +420,7 @@ class LocalBuild {
         readSeconds_ = rep_.readSeconds;
         written_ = true;
     }
+    std::vector<double> streamedDefaultTf_;  // the field's default-TF basis (out of core)
     void fromBricks() {
         FieldReadOptions ro;
         ro.var = f_.var;
@@ -432,14 +441,24 @@ class LocalBuild {
         const int planes =
             planSlabs(mem, limit_, reduced.dims[2], f_.downsample, forcedSlab_, field);
         if (planes > 0) {
+            // The field's default TF needs the whole field: read once more where it fits in
+            // the memory limit (the file is then the in-memory build's, byte for byte).
+            const double fieldBytes = static_cast<double>(inputGrid.pointCount()) * 8.0;
+            if (fieldBytes < static_cast<double>(limit_.bytes)) {
+                const ScalarField f = readField(f_.inputs[0], ro);
+                if (std::all_of(f.values.begin(), f.values.end(),
+                                [](float v) { return std::isfinite(v); }))
+                    streamedDefaultTf_ = encodeDefaultTfBasis(defaultTfBasis(f.grid, f.values));
+            } else {
+                notes_ +=
+                    "build: out of core, the model records no default TF of the whole field: "
+                    "render without --tf spreads it over the brick means (--tf-range or a TF "
+                    "file matches the field's rendering)\n";
+            }
             streamTo(reduced, r, planes, [&](const SlabInput& in, const SlabSink& sink) {
                 return buildModelDownsampledStreamed(in, f_.downsample, planes, opt_, sink,
                                                      progress(), &rep_);
             });
-            std::fprintf(stderr,
-                         "build: out of core, the model records no default TF of the whole "
-                         "field: render without --tf spreads it over the brick means (--tf-range "
-                         "or a TF file matches the field's rendering)\n");
         } else {
             r = SlabReader{};  // what it read to open the field
             // The file opened as a field above (openBrickedField).
