@@ -1,0 +1,49 @@
+#!/bin/bash
+# Frame times of two builds side by side, alternated in one run (issue 31's "no model slower by
+# more than 5 %"): render_bench's 1D models (64³, 1 thread) and the CLI's --frames median for 2D
+# and bivariate TFs (data/tf2/tangle.json on the 64³ tangle, 20 members, q = 8). Prints one CSV
+# line per frame: side, what, load average, time.
+#   BASE=/work/base/build MAIN=build bash bench/speed_against_base.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BASE=${BASE:?set BASE to the other build folder}
+MAIN=${MAIN:-build}
+W=${WORK:-/tmp/udvr-speed-base}
+ROUNDS=${ROUNDS:-3}
+TF2=$PWD/data/tf2/tangle.json
+mkdir -p "$W"
+if [ ! -f "$W/model.vti" ]; then
+    "$MAIN/udvr" generate tangle --dims 64 -o "$W/tangle.vti"
+    "$MAIN/udvr" perturb "$W/tangle.vti" --members 20 --seed 1 -o "$W/ens.nc"
+    "$MAIN/udvr" build "$W/ens.nc" -o "$W/model.vti"
+    "$MAIN/udvr" perturb "$W/tangle.vti" --members 20 --seed 3 --noise gaussian -o "$W/ens3.nc"
+    "$MAIN/udvr" build "$W/ens3.nc" -o "$W/model3.vti"
+fi
+load() { cut -d' ' -f1 /proc/loadavg; }
+frame() {  # side build label args...
+    local side=$1 dir=$2 label=$3
+    shift 3
+    local ms
+    ms=$(UDVR_NO_PROGRESS=1 "$dir/udvr" render "$W/model.vti" "$@" --threads 1 -o "$W/o.png" 2>&1 |
+         grep -oE "median_ms=[0-9.]+" | head -1)
+    echo "$side,$label,$(load),${ms#median_ms=}"
+}
+for r in $(seq "$ROUNDS"); do
+    for side in base main; do
+        dir=$BASE
+        [ "$side" = main ] && dir=$MAIN
+        "$dir/render_bench" --benchmark_filter='BM_Render/model:(0|1|3|4|5|6|7|8|9|10)/n:64/threads:1' \
+            --benchmark_format=csv 2>/dev/null | grep BM_ | cut -d, -f1,3 | sed "s/^/$side,/;s/,/,1d:/1;s/\$/,$(load)/"
+        for m in mean quantile-range quantile-mean iqr quartile-middle; do
+            frame "$side" "$dir" "2d-$m-128" --model "$m" --tf2 "$TF2" --size 128 --frames 3
+        done
+        frame "$side" "$dir" 2d-gaussian-16 --model gaussian --tf2 "$TF2" --size 16 --frames 1
+        frame "$side" "$dir" 2d-uniform-fast-64 --model uniform-fast --tf2 "$TF2" --size 64 --frames 3
+        for m in mean quantile-range; do
+            frame "$side" "$dir" "biv-$m-128" --model "$m" --tf2 "$TF2" --second "$W/model3.vti" \
+                --size 128 --frames 3
+        done
+        frame "$side" "$dir" biv-gaussian-48 --model gaussian --tf2 "$TF2" --second "$W/model3.vti" \
+            --size 48 --frames 1
+    done
+done
