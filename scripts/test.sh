@@ -10,7 +10,7 @@ build_dir=${UDVR_BUILD_DIR:-build}
 export UDVR_NO_PROGRESS=1
 
 echo "== clang-format check" >&2
-files=$(git ls-files 'src/*.cpp' 'src/*.h' 'tests/*.cpp' 'bench/*.cpp' 'fuzz/*.cpp' 'fuzz/*.h' 2>/dev/null || true)
+files=$(git ls-files 'src/*.cpp' 'src/*.h' 'tests/*.cpp' 'bench/*.cpp' 'fuzz/*.cpp' 'fuzz/*.h' 'paraview/*.h' 'paraview/*.cxx' 2>/dev/null || true)
 if [ -n "$files" ]; then
     # shellcheck disable=SC2086
     clang-format --dry-run --Werror $files

@@ -1,5 +1,12 @@
 #include "vtkUdvrBuildModel.h"
 
+#include <exception>
+#include <string>
+#include <vector>
+
+#include "udvr/stats/build_model.h"
+#include "udvr/stats/model_volume.h"
+#include "udvr/util/check.h"
 #include "vtkDataArray.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
@@ -14,159 +21,135 @@
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkStringArray.h"
 
-#include <exception>
-#include <string>
-#include <vector>
-
-#include "udvr/stats/build_model.h"
-#include "udvr/stats/model_volume.h"
-#include "udvr/util/check.h"
-
 vtkStandardNewMacro(vtkUdvrBuildModel);
 
-namespace
-{
-void addDoubles(vtkFieldData* fd, const char* name, const std::vector<double>& values)
-{
-  vtkNew<vtkDoubleArray> a;
-  a->SetName(name);
-  for (double v : values)
-    a->InsertNextValue(v);
-  fd->AddArray(a);
+namespace {
+void addDoubles(vtkFieldData* fd, const char* name, const std::vector<double>& values) {
+    vtkNew<vtkDoubleArray> a;
+    a->SetName(name);
+    for (double v : values) a->InsertNextValue(v);
+    fd->AddArray(a);
 }
-void addInt(vtkFieldData* fd, const char* name, int value)
-{
-  vtkNew<vtkIntArray> a;
-  a->SetName(name);
-  a->InsertNextValue(value);
-  fd->AddArray(a);
+void addInt(vtkFieldData* fd, const char* name, int value) {
+    vtkNew<vtkIntArray> a;
+    a->SetName(name);
+    a->InsertNextValue(value);
+    fd->AddArray(a);
 }
-void addString(vtkFieldData* fd, const char* name, const std::string& value)
-{
-  vtkNew<vtkStringArray> a;
-  a->SetName(name);
-  a->InsertNextValue(value);
-  fd->AddArray(a);
+void addString(vtkFieldData* fd, const char* name, const std::string& value) {
+    vtkNew<vtkStringArray> a;
+    a->SetName(name);
+    a->InsertNextValue(value);
+    fd->AddArray(a);
 }
-} // namespace
+}  // namespace
 
-int vtkUdvrBuildModel::RequestData(
-  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
-{
-  vtkImageData* input = vtkImageData::GetData(inputVector[0]);
-  vtkImageData* output = vtkImageData::GetData(outputVector);
-  if (!input || !output)
-    return 0;
-  output->SetExtent(input->GetExtent());
-  output->SetOrigin(input->GetOrigin());
-  output->SetSpacing(input->GetSpacing());
-  output->SetDirectionMatrix(input->GetDirectionMatrix());
-  if (input->GetNumberOfPoints() == 0)
-    return 1;  // a rank without data
-  try
-  {
-    int ext[6], whole[6];
-    input->GetExtent(ext);
-    inputVector[0]->GetInformationObject(0)->Get(
-      vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-    udvr::Ensemble e;
-    const double* origin = input->GetOrigin();
-    const double* spacing = input->GetSpacing();
-    for (int a = 0; a < 3; ++a)
-    {
-      e.grid.dims[a] = ext[2 * a + 1] - ext[2 * a] + 1;
-      e.grid.spacing[a] = spacing[a];
-      e.grid.origin[a] = origin[a] + ext[2 * a] * spacing[a];
-    }
-    const std::size_t n = e.grid.pointCount();
-    vtkPointData* pd = input->GetPointData();
-    std::vector<vtkDataArray*> members;
-    std::string names;
-    for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
-    {
-      vtkDataArray* a = pd->GetArray(i);
-      if (a && a->GetNumberOfComponents() == 1 &&
-        static_cast<std::size_t>(a->GetNumberOfTuples()) == n)
-      {
-        members.push_back(a);
-        names += (names.empty() ? "" : ", ") + std::string(a->GetName() ? a->GetName() : "?");
-      }
-    }
-    if (members.size() < 2)
-      UDVR_FAIL("an ensemble needs at least 2 members (one-component point arrays); the input has "
-        << members.size());
-    e.members = static_cast<int>(members.size());
-    e.name = "ParaView point arrays";
-    e.values.resize(n * members.size());
-    for (std::size_t m = 0; m < members.size(); ++m)
-      for (std::size_t v = 0; v < n; ++v)
-        e.values[m * n + v] = static_cast<float>(members[m]->GetComponent(static_cast<vtkIdType>(v), 0));
+int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** inputVector,
+                                   vtkInformationVector* outputVector) {
+    vtkImageData* input = vtkImageData::GetData(inputVector[0]);
+    vtkImageData* output = vtkImageData::GetData(outputVector);
+    if (!input || !output) return 0;
+    output->SetExtent(input->GetExtent());
+    output->SetOrigin(input->GetOrigin());
+    output->SetSpacing(input->GetSpacing());
+    output->SetDirectionMatrix(input->GetDirectionMatrix());
+    if (input->GetNumberOfPoints() == 0) return 1;  // a rank without data
+    try {
+        int ext[6], whole[6];
+        input->GetExtent(ext);
+        inputVector[0]->GetInformationObject(0)->Get(
+            vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+        udvr::Ensemble e;
+        const double* origin = input->GetOrigin();
+        const double* spacing = input->GetSpacing();
+        for (int a = 0; a < 3; ++a) {
+            e.grid.dims[a] = ext[2 * a + 1] - ext[2 * a] + 1;
+            e.grid.spacing[a] = spacing[a];
+            e.grid.origin[a] = origin[a] + ext[2 * a] * spacing[a];
+        }
+        const std::size_t n = e.grid.pointCount();
+        vtkPointData* pd = input->GetPointData();
+        std::vector<vtkDataArray*> members;
+        std::string names;
+        for (int i = 0; i < pd->GetNumberOfArrays(); ++i) {
+            vtkDataArray* a = pd->GetArray(i);
+            if (a && a->GetNumberOfComponents() == 1 &&
+                static_cast<std::size_t>(a->GetNumberOfTuples()) == n) {
+                members.push_back(a);
+                names +=
+                    (names.empty() ? "" : ", ") + std::string(a->GetName() ? a->GetName() : "?");
+            }
+        }
+        if (members.size() < 2)
+            UDVR_FAIL(
+                "an ensemble needs at least 2 members (one-component point arrays); the input has "
+                << members.size());
+        e.members = static_cast<int>(members.size());
+        e.name = "ParaView point arrays";
+        e.values.resize(n * members.size());
+        for (std::size_t m = 0; m < members.size(); ++m)
+            for (std::size_t v = 0; v < n; ++v)
+                e.values[m * n + v] =
+                    static_cast<float>(members[m]->GetComponent(static_cast<vtkIdType>(v), 0));
 
-    udvr::BuildOptions o;
-    o.quantiles = this->Quantiles;
-    o.gmmComponents = this->GmmComponents;
-    o.density = this->Density == 1 ? udvr::DensityEstimate::Kde : udvr::DensityEstimate::Empirical;
-    o.bandwidthText = this->Density == 1 ? "silverman" : "";
-    o.source = "ParaView point arrays " + names;
-    udvr::fitBuildOptionsToSamples(o, e.members, false, false);  // as the CLI's defaults
-    udvr::validateBuildOptions(o, e.members);
-    const udvr::ModelVolume model = udvr::buildModel(e, o);
+        udvr::BuildOptions o;
+        o.quantiles = this->Quantiles;
+        o.gmmComponents = this->GmmComponents;
+        o.density =
+            this->Density == 1 ? udvr::DensityEstimate::Kde : udvr::DensityEstimate::Empirical;
+        o.bandwidthText = this->Density == 1 ? "silverman" : "";
+        o.source = "ParaView point arrays " + names;
+        udvr::fitBuildOptionsToSamples(o, e.members, false, false);  // as the CLI's defaults
+        udvr::validateBuildOptions(o, e.members);
+        const udvr::ModelVolume model = udvr::buildModel(e, o);
 
-    vtkPointData* out = output->GetPointData();
-    for (const udvr::ModelFileArray& spec : udvr::kModelFileArrays)
-    {
-      const std::vector<float>& values = model.*spec.values;
-      const int c = spec.floatsPerVoxel(model);
-      if (values.empty() || c < 1)
-        continue;
-      vtkNew<vtkFloatArray> a;
-      a->SetName(spec.name);
-      a->SetNumberOfComponents(c);
-      a->SetNumberOfTuples(static_cast<vtkIdType>(n));
-      std::copy(values.begin(), values.end(), a->GetPointer(0));
-      out->AddArray(a);
+        vtkPointData* out = output->GetPointData();
+        for (const udvr::ModelFileArray& spec : udvr::kModelFileArrays) {
+            const std::vector<float>& values = model.*spec.values;
+            const int c = spec.floatsPerVoxel(model);
+            if (values.empty() || c < 1) continue;
+            vtkNew<vtkFloatArray> a;
+            a->SetName(spec.name);
+            a->SetNumberOfComponents(c);
+            a->SetNumberOfTuples(static_cast<vtkIdType>(n));
+            std::copy(values.begin(), values.end(), a->GetPointer(0));
+            out->AddArray(a);
+        }
+        out->SetActiveScalars("mean");
+        // Field data as `udvr build` writes it (SPEC §7); the bounds are the whole grid's.
+        vtkFieldData* fd = output->GetFieldData();
+        const bool q = model.hasQuantiles();
+        addInt(fd, "quantile_count", q ? model.quantileCount : 0);
+        if (q) {
+            std::vector<double> levels;
+            for (int j = 0; j <= model.quantileCount; ++j) levels.push_back(model.quantileLevel(j));
+            addDoubles(fd, "quantile_levels", levels);
+        }
+        addString(fd, "density", model.density);
+        addDoubles(fd, "bandwidth", {model.bandwidth});
+        addString(fd, "bandwidth_rule", model.bandwidthRule);
+        addDoubles(fd, "tail_eps", {model.tailEps});
+        addInt(fd, "samples_per_voxel", model.samplesPerVoxel);
+        addInt(fd, "downsample", 0);
+        std::vector<double> bounds(6);
+        for (int a = 0; a < 3; ++a) {
+            bounds[2 * a] = origin[a] + whole[2 * a] * spacing[a];
+            bounds[2 * a + 1] = origin[a] + whole[2 * a + 1] * spacing[a];
+        }
+        addDoubles(fd, "bounds", bounds);
+        addDoubles(fd, "full_res_min_spacing", {e.grid.minSpacing()});
+        addInt(fd, "gmm_components", model.hasGmm() ? model.gmmComponents : 0);
+        addString(fd, "source", model.source);
+    } catch (const std::exception& ex) {
+        vtkErrorMacro(<< "udvr: " << ex.what());
+        return 0;
     }
-    out->SetActiveScalars("mean");
-    // Field data as `udvr build` writes it (SPEC §7); the bounds are the whole grid's.
-    vtkFieldData* fd = output->GetFieldData();
-    const bool q = model.hasQuantiles();
-    addInt(fd, "quantile_count", q ? model.quantileCount : 0);
-    if (q)
-    {
-      std::vector<double> levels;
-      for (int j = 0; j <= model.quantileCount; ++j)
-        levels.push_back(model.quantileLevel(j));
-      addDoubles(fd, "quantile_levels", levels);
-    }
-    addString(fd, "density", model.density);
-    addDoubles(fd, "bandwidth", { model.bandwidth });
-    addString(fd, "bandwidth_rule", model.bandwidthRule);
-    addDoubles(fd, "tail_eps", { model.tailEps });
-    addInt(fd, "samples_per_voxel", model.samplesPerVoxel);
-    addInt(fd, "downsample", 0);
-    std::vector<double> bounds(6);
-    for (int a = 0; a < 3; ++a)
-    {
-      bounds[2 * a] = origin[a] + whole[2 * a] * spacing[a];
-      bounds[2 * a + 1] = origin[a] + whole[2 * a + 1] * spacing[a];
-    }
-    addDoubles(fd, "bounds", bounds);
-    addDoubles(fd, "full_res_min_spacing", { e.grid.minSpacing() });
-    addInt(fd, "gmm_components", model.hasGmm() ? model.gmmComponents : 0);
-    addString(fd, "source", model.source);
-  }
-  catch (const std::exception& ex)
-  {
-    vtkErrorMacro(<< "udvr: " << ex.what());
-    return 0;
-  }
-  return 1;
+    return 1;
 }
 
-void vtkUdvrBuildModel::PrintSelf(ostream& os, vtkIndent indent)
-{
-  this->Superclass::PrintSelf(os, indent);
-  os << indent << "Quantiles: " << this->Quantiles << "\n";
-  os << indent << "GmmComponents: " << this->GmmComponents << "\n";
-  os << indent << "Density: " << this->Density << "\n";
+void vtkUdvrBuildModel::PrintSelf(ostream& os, vtkIndent indent) {
+    this->Superclass::PrintSelf(os, indent);
+    os << indent << "Quantiles: " << this->Quantiles << "\n";
+    os << indent << "GmmComponents: " << this->GmmComponents << "\n";
+    os << indent << "Density: " << this->Density << "\n";
 }

@@ -8,35 +8,34 @@
 #include "UdvrParaViewModule.h"  // for export macro
 #include "vtkImageAlgorithm.h"
 
-class UDVRPARAVIEW_EXPORT vtkUdvrBuildModel : public vtkImageAlgorithm
-{
-public:
-  static vtkUdvrBuildModel* New();
-  vtkTypeMacro(vtkUdvrBuildModel, vtkImageAlgorithm);
-  void PrintSelf(ostream& os, vtkIndent indent) override;
+class UDVRPARAVIEW_EXPORT vtkUdvrBuildModel : public vtkImageAlgorithm {
+  public:
+    static vtkUdvrBuildModel* New();
+    vtkTypeMacro(vtkUdvrBuildModel, vtkImageAlgorithm);
+    void PrintSelf(ostream& os, vtkIndent indent) override;
 
-  /// q quantiles (0 skips the quantiles array), `udvr build --quantiles`.
-  vtkSetClampMacro(Quantiles, int, 0, 1024);
-  vtkGetMacro(Quantiles, int);
-  /// K GMM components (0 skips), `--gmm`; lowered to the member count when there are fewer.
-  vtkSetClampMacro(GmmComponents, int, 0, 64);
-  vtkGetMacro(GmmComponents, int);
-  /// 0 empirical, 1 kde (Silverman's bandwidth), `--density`.
-  vtkSetClampMacro(Density, int, 0, 1);
-  vtkGetMacro(Density, int);
+    /// q quantiles (0 skips the quantiles array), `udvr build --quantiles`.
+    vtkSetClampMacro(Quantiles, int, 0, 1024);
+    vtkGetMacro(Quantiles, int);
+    /// K GMM components (0 skips), `--gmm`; lowered to the member count when there are fewer.
+    vtkSetClampMacro(GmmComponents, int, 0, 64);
+    vtkGetMacro(GmmComponents, int);
+    /// 0 empirical, 1 kde (Silverman's bandwidth), `--density`.
+    vtkSetClampMacro(Density, int, 0, 1);
+    vtkGetMacro(Density, int);
 
-protected:
-  vtkUdvrBuildModel() = default;
-  ~vtkUdvrBuildModel() override = default;
-  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  protected:
+    vtkUdvrBuildModel() = default;
+    ~vtkUdvrBuildModel() override = default;
+    int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
-  int Quantiles = 8;
-  int GmmComponents = 4;
-  int Density = 0;
+    int Quantiles = 8;
+    int GmmComponents = 4;
+    int Density = 0;
 
-private:
-  vtkUdvrBuildModel(const vtkUdvrBuildModel&) = delete;
-  void operator=(const vtkUdvrBuildModel&) = delete;
+  private:
+    vtkUdvrBuildModel(const vtkUdvrBuildModel&) = delete;
+    void operator=(const vtkUdvrBuildModel&) = delete;
 };
 
 #endif

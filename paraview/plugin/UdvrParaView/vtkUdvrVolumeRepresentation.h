@@ -9,34 +9,33 @@
 
 class vtkUdvrVolumeMapper;
 
-class UDVRPARAVIEW_EXPORT vtkUdvrVolumeRepresentation : public vtkImageVolumeRepresentation
-{
-public:
-  static vtkUdvrVolumeRepresentation* New();
-  vtkTypeMacro(vtkUdvrVolumeRepresentation, vtkImageVolumeRepresentation);
-  void PrintSelf(ostream& os, vtkIndent indent) override;
+class UDVRPARAVIEW_EXPORT vtkUdvrVolumeRepresentation : public vtkImageVolumeRepresentation {
+  public:
+    static vtkUdvrVolumeRepresentation* New();
+    vtkTypeMacro(vtkUdvrVolumeRepresentation, vtkImageVolumeRepresentation);
+    void PrintSelf(ostream& os, vtkIndent indent) override;
 
-  // The properties of udvr render (vtkUdvrVolumeMapper).
-  void SetUncertainModel(int model);
-  void SetUncertainStep(double step);
-  void SetUncertainUnitDistance(double unit);
-  void SetUncertainEarlyExit(double threshold);
-  void SetUncertainRealizations(int realizations);
-  void SetUncertainSeed(int seed);
-  void SetUncertainUniformWidth(int minmax);
-  void SetUncertainTransferFunction2D(const char* path);
-  /// Wall time of the last frame udvr rendered on this rank (ms).
-  double GetUncertainFrameMilliseconds();
+    // The properties of udvr render (vtkUdvrVolumeMapper).
+    void SetUncertainModel(int model);
+    void SetUncertainStep(double step);
+    void SetUncertainUnitDistance(double unit);
+    void SetUncertainEarlyExit(double threshold);
+    void SetUncertainRealizations(int realizations);
+    void SetUncertainSeed(int seed);
+    void SetUncertainUniformWidth(int minmax);
+    void SetUncertainTransferFunction2D(const char* path);
+    /// Wall time of the last frame udvr rendered on this rank (ms).
+    double GetUncertainFrameMilliseconds();
 
-protected:
-  vtkUdvrVolumeRepresentation();
-  ~vtkUdvrVolumeRepresentation() override;
-  void UpdateMapperParameters() override;
-  vtkUdvrVolumeMapper* UdvrMapper();
+  protected:
+    vtkUdvrVolumeRepresentation();
+    ~vtkUdvrVolumeRepresentation() override;
+    void UpdateMapperParameters() override;
+    vtkUdvrVolumeMapper* UdvrMapper();
 
-private:
-  vtkUdvrVolumeRepresentation(const vtkUdvrVolumeRepresentation&) = delete;
-  void operator=(const vtkUdvrVolumeRepresentation&) = delete;
+  private:
+    vtkUdvrVolumeRepresentation(const vtkUdvrVolumeRepresentation&) = delete;
+    void operator=(const vtkUdvrVolumeRepresentation&) = delete;
 };
 
 #endif
