@@ -173,7 +173,7 @@ void run(const RenderOpts& o) {
     const ModelKind kind = parseModelKind(o.model);
     requireOneTf(o.tf.tf, o.tf2);
     const bool twoD = !o.tf2.file.empty();
-    const bool members = kind == ModelKind::Members;
+    const bool members = readsMembers(kind);
     if (!members && o.inputs.size() != 1)
         UDVR_FAIL("render takes one model or field, got "
                   << o.inputs.size()
@@ -220,7 +220,7 @@ void run(const RenderOpts& o) {
                     : renderVolume(model, kind, tf, at, &stats, &cache);
     };
     const auto frame = [&] { return frameWith(s); };
-    const FrameEstimate estimate = estimateFrame(s, kind == ModelKind::GmmMc, frameWith, stats);
+    const FrameEstimate estimate = estimateFrame(s, rendersRealizations(kind), frameWith, stats);
     if (estimate.ms > kWarnAboveMs)
         std::fprintf(stderr, "%s\n", estimateWarning(o, s, estimate).c_str());
     ImageRgba image = frame();

@@ -384,7 +384,7 @@ std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model
                                                         const RenderSettings& settings, int px,
                                                         int py) {
     tf.validate();
-    const ModelKind pickKind = modelFamily(kind).realizations ? ModelKind::GmmOrdered : kind;
+    const ModelKind pickKind = kernelStandIn(kind);
     return pick(model, settings, px, py, [&](const ClassifyOptions& options, const auto& f) {
         withKernel(model, pickKind, tf, options, f);
     });

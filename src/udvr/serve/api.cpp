@@ -255,7 +255,7 @@ ApiResponse Api::getState() {
         std::string label(family.name);
         if (family.labelShowsQ && m.quantileCount > 0)
             label += " (q=" + std::to_string(m.quantileCount) + ")";
-        if (kind == ModelKind::GmmOrdered || kind == ModelKind::GmmMc)
+        if (readsGmm(kind))
             if (m.gmmComponents > 0) label += " (K=" + std::to_string(m.gmmComponents) + ")";
         row["label"] = label;
         std::string reason;
