@@ -65,11 +65,14 @@ function estimateMs(params) {
 // Progressive steps of a frame over the latency goal: the side halved `step` times, from the
 // first step whose estimate meets the goal (time goes with the pixels, so 4× per step) up to
 // the full frame; each step is a request that the next input's request cancels. 0: one frame.
+// A lower bound (the server's probe ran out of time) starts at a quarter of the side.
 function progressiveSteps(params) {
   const goal = state.info.latency_goal_ms;
+  const fits = (steps) => Math.min(...state.size) >> steps >= 8;
   let steps = 0;
-  for (let ms = estimateMs(params); ms > goal && Math.min(...state.size) >> (steps + 1) >= 8; ms /= 4)
-    ++steps;
+  for (let ms = estimateMs(params); ms > goal && fits(steps + 1); ms /= 4) ++steps;
+  const m = params.source === 'truth' ? null : modelInfo(params.model);
+  if (m && m.estimate_lower_bound) while (steps < 2 && fits(steps + 1)) ++steps;
   return steps;
 }
 

@@ -43,13 +43,11 @@ struct RenderOpts {
     EnsembleFlags ensemble;         // --model members
 };
 
-constexpr double kWarnAboveMs = 10'000.0;  // over it, render says so before the frame
-
 /// "render: this frame will take about 390 s (a 64x64 probe took 6.1 s); shorter: …".
 std::string estimateWarning(const RenderOpts& o, const RenderSettings& s, const FrameEstimate& e) {
     const double seconds = e.ms / 1000.0;
     // The side that brings the frame under ~10 s (time goes with the pixel count).
-    const double shrink = std::sqrt(kWarnAboveMs / e.ms);
+    const double shrink = std::sqrt(kLongFrameMs / e.ms);
     const int w = std::max(8, static_cast<int>(s.width * shrink));
     const int h = std::max(8, static_cast<int>(s.height * shrink));
     std::string cheaper;
@@ -175,7 +173,7 @@ void run(const RenderOpts& o) {
             frameWith(at);
             return stats.milliseconds;
         });
-    if (estimate.ms > kWarnAboveMs)
+    if (estimate.ms > kLongFrameMs)
         std::fprintf(stderr, "%s\n", estimateWarning(o, s, estimate).c_str());
     ImageRgba image = frame();
     if (o.frames > 0) {

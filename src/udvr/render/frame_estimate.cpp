@@ -86,7 +86,11 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
         double ms = 0.0;
         try {
             ms = probe(at);
-            if (runs.empty() && ms < 100.0) ms = probe(at);  // tables built
+            // The first probe runs again (its first run built the skipping and kernel tables
+            // the frame reuses), as do quick ones; the faster run counts (other work on the
+            // machine only ever adds time).
+            if (runs.empty() ? ms <= limits.maxProbeMs : 4.0 * ms <= limits.maxProbeMs)
+                ms = std::min(ms, probe(at));
         } catch (const RenderCancelled&) {
             if (s.cancel && s.cancel->load()) throw;  // the caller's, not the deadline
             const double spent =
@@ -94,7 +98,9 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
             e.probeMs += spent;
             e.width = at.width;
             e.height = at.height;
-            e.ms = std::max(e.ms, spent * full / pixels * perFrame);
+            // A frame takes at least as long as a smaller probe of it (not the probe's time
+            // scaled by the pixels: a gmm-mc realization's voxels cost the same at any size).
+            e.ms = std::max(e.ms, spent * perFrame);
             e.lowerBound = true;
             return e;
         }
@@ -105,13 +111,31 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
         if (4.0 * ms > limits.maxProbeMs) break;  // the next would take too long
     }
     if (runs.empty()) return e;
-    const auto& [p2, t2] = runs.back();
-    double ms = t2 * full / p2;
-    if (runs.size() >= 2) {
-        const auto& [p1, t1] = runs[runs.size() - 2];
-        const double b = std::max(0.0, (t2 - t1) / (p2 - p1));
-        const double a = std::max(0.0, t2 - b * p2);
-        ms = a + b * full;
+    // Least squares over the probes of t = a + b·pixels with a, b >= 0 (all the probes, not the
+    // last two: on a loaded machine one probe's time can be off by 2x). One probe: b·pixels.
+    double ms = 0.0;
+    if (runs.size() == 1) {
+        ms = runs[0][1] * full / runs[0][0];
+    } else {
+        const double n = static_cast<double>(runs.size());
+        double pm = 0.0, tm = 0.0;
+        for (const auto& [p, t] : runs) pm += p / n, tm += t / n;
+        double spp = 0.0, spt = 0.0, sp2 = 0.0, sptRaw = 0.0;
+        for (const auto& [p, t] : runs) {
+            spp += (p - pm) * (p - pm);
+            spt += (p - pm) * (t - tm);
+            sp2 += p * p;
+            sptRaw += p * t;
+        }
+        double slope = spt / spp, a = tm - slope * pm;
+        if (slope < 0.0) {  // larger probes no slower: a per-frame cost (gmm-mc's draws)
+            slope = 0.0;
+            a = tm;
+        } else if (a < 0.0) {  // superlinear: through the origin
+            a = 0.0;
+            slope = sptRaw / sp2;
+        }
+        ms = a + slope * full;
     }
     e.ms = ms * perFrame;
     return e;

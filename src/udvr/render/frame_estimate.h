@@ -8,12 +8,16 @@
 
 namespace udvr {
 
+/// Frames estimated over this (ms) are announced before they start, with what would shorten
+/// them (`udvr render`, `udvr experiment`).
+inline constexpr double kLongFrameMs = 10'000.0;
+
 struct FrameEstimate {
     double ms = 0.0;            // the estimated frame time (0: not estimated)
     int width = 0, height = 0;  // the last probe's size
     double probeMs = 0.0;       // the probes' time in all
     /// The deadline stopped a probe: the frame takes at least `ms` (that probe's time so far,
-    /// scaled to the frame), likely much more.
+    /// times gmm-mc's realization ratio), likely much more.
     bool lowerBound = false;
 };
 
@@ -27,13 +31,15 @@ struct FrameEstimateLimits {
 
 /// Probes of frame `s` at 1/32 of its size along each axis (at least 2 pixels), then twice and
 /// four times that, stopping before a probe over limits.maxProbeMs (and before one as large as
-/// the frame); the time fitted as a + b·pixels through the last two probes (a: what a frame
-/// costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or b·pixels from one.
+/// the frame); the time fitted as a + b·pixels (a, b >= 0, least squares over the probes; a:
+/// what a frame costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or
+/// b·pixels from one probe.
 /// `monteCarlo` (gmm-mc): the probes draw 4 realizations and the time scales by the frame's
-/// count. The first probe runs twice when it is quick (it builds the skipping tables the real
-/// frame reuses). `probe` renders the settings it is given and returns the frame's milliseconds
-/// (it throws RenderCancelled when their cancel flag turns true). No probe (ms 0) where none is
-/// smaller than the frame. A RenderCancelled from s.cancel (not the deadline) passes through.
+/// count. The first probe (unless over maxProbeMs) and any under a quarter of it run twice and
+/// keep the faster run (the first run builds the tables the frame reuses; load only adds time).
+/// `probe` renders the settings it is given and returns the frame's milliseconds (it throws
+/// RenderCancelled when their cancel flag turns true). No probe (ms 0) where none is smaller than
+/// the frame. A RenderCancelled from s.cancel (not the deadline) passes through.
 FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
                             const std::function<double(const RenderSettings&)>& probe,
                             const FrameEstimateLimits& limits = {});

@@ -93,11 +93,12 @@ inline constexpr std::size_t kMaxBodyBytesInFlight = std::size_t{512} << 20;
 /// renders it progressively (coarse first, each step cancelled by the next request).
 inline constexpr double kFrameGoalMs = 1000.0;
 /// /api/state's per-model estimates (render/frame_estimate.h): no probe over kEstimateProbeMs,
-/// and at most kEstimateDeadlineMs of probes per model (past it the estimate is a lower bound),
+/// and at most kEstimateDeadlineMs of probes per model (past it the estimate is a lower bound
+/// and the model counts as slow),
 /// so one /api/state costs at most (models) × kEstimateDeadlineMs of render time. They are
 /// kept for the current TF only (one per model).
-inline constexpr double kEstimateProbeMs = 50.0;
-inline constexpr double kEstimateDeadlineMs = 250.0;
+inline constexpr double kEstimateProbeMs = 200.0;
+inline constexpr double kEstimateDeadlineMs = 600.0;
 
 class Api {
   public:
