@@ -11,6 +11,7 @@
 #include <cstring>
 #include <exception>
 #include <filesystem>
+#include <fstream>
 #include <span>
 #include <sstream>
 #include <string>
@@ -19,6 +20,7 @@
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function.h"
 #include "udvr/classify/transfer_function_2d.h"
+#include "udvr/classify/transfer_function_2d_widget_json.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/model_view.h"
 #include "udvr/stats/model_volume.h"
@@ -284,9 +286,10 @@ udvr::TransferFunction2D tf2OfRaster(vtkImageData* img, vtkDataArray* a, const d
     return tf;
 }
 
-// A 2D TF raster .vti (SPEC §9: W×H×1 points, a 4-component array r, g, b, α; x along i, y along
-// j, the domain from origin and spacing), read with ParaView's own VTK. Widget JSON files become
-// such a raster with `udvr tf2 widgets.json -o tf2.vti`.
+// A 2D TF file (SPEC §9), as `udvr render --tf2` reads it: a raster .vti (W×H×1 points, a
+// 4-component array r, g, b, α; x along i, y along j, the domain from origin and spacing), read
+// with ParaView's own VTK; or a widget .json, parsed and rasterised by udvr's core (its domain
+// and resolution from the file, else 256×256 points).
 udvr::TransferFunction2D tf2Of(const std::string& path) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec))
@@ -294,11 +297,18 @@ udvr::TransferFunction2D tf2Of(const std::string& path) {
     std::string suffix = std::filesystem::path(path).extension().string();
     std::transform(suffix.begin(), suffix.end(), suffix.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (suffix == ".json") {
+        std::ifstream in(path, std::ios::binary);
+        std::ostringstream text;
+        text << in.rdbuf();
+        if (!in) UDVR_FAIL("2D transfer function '" << path << "': cannot read it");
+        return udvr::transferFunction2DFromWidgets(text.str(), path);
+    }
     if (suffix != ".vti")
         UDVR_FAIL("2D transfer function '"
                   << path
-                  << "': ParaView reads 2D TF rasters (.vti); make one from a widget file with "
-                     "`udvr tf2 widgets.json --over MODEL -o tf2.vti`");
+                  << "': expected a raster (.vti) or widgets (.json); make a raster of another "
+                     "form with `udvr tf2 TF2 -o tf2.vti`");
     auto reader = vtkSmartPointer<vtkXMLImageDataReader>::New();
     if (!reader->CanReadFile(path.c_str()))
         UDVR_FAIL("2D transfer function '" << path << "': not a VTK XML image file");
