@@ -16,7 +16,7 @@
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/reconstruct/gradient_field.h"
-#include "udvr/stats/model_volume.h"
+#include "udvr/stats/model_view.h"
 
 namespace udvr {
 
@@ -69,11 +69,11 @@ struct Tf2Rasters {
 /// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
 /// `gradients`, which outlives the setup).
 struct Tf2Setup : Tf2Rasters {
-    const ModelVolume& model;
+    const ModelView& model;
     GradientCache& gradients;
 
     /// Views of `tf` (validated by the caller) over `model`; both must outlive the setup.
-    Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);
+    Tf2Setup(const TransferFunction2D& tf, const ModelView& model, GradientCache& cache);
     /// The `mean` array's grid gradients as planes (computed on first use).
     MeanGradientView meanGradientPlanes();
 };
@@ -93,11 +93,11 @@ struct ModelFamily {
     /// gmm-mc: rendered as the screen-space average of mean-field realizations; no kernel.
     bool realizations;
     /// The kernel over `model` with the TF pieces `tf` (both outlive it). Null for gmm-mc.
-    AnyKernel (*makeKernel)(const ModelVolume& model, const TfPiecesStorage& tf,
+    AnyKernel (*makeKernel)(const ModelView& model, const TfPiecesStorage& tf,
                             const ClassifyOptions& options, const ModelFamily& family);
     /// The kernel with a 2D TF (SPEC §9) over `model`, filling the gradients it needs in
     /// `setup` (which outlives it). Null where SPEC §9 gives the model no 2D classification.
-    AnyKernel2D (*makeKernel2D)(const ModelVolume& model, Tf2Setup& setup,
+    AnyKernel2D (*makeKernel2D)(const ModelView& model, Tf2Setup& setup,
                                 const ClassifyOptions& options, const ModelFamily& family);
 };
 
@@ -109,14 +109,14 @@ const ModelFamily& modelFamily(ModelKind kind);
 /// The row of `kind` after checking that `model` has the arrays it needs and that it has a
 /// per-sample kernel; else UdvrError (gmm-mc: "has no <what>: it is rendered as the average of
 /// mean-field realizations").
-const ModelFamily& familyWithKernel(const ModelVolume& model, ModelKind kind,
+const ModelFamily& familyWithKernel(const ModelView& model, ModelKind kind,
                                     const ClassifyOptions& options, const char* what);
 
 /// Call f(kernel) with the kernel for `kind` built over `model` and `tf` (the TF pieces live
 /// for the call). Throws UdvrError when the model lacks an array the kind needs, or for gmm-mc,
 /// which has no per-sample kernel (render only: its realizations are mean fields).
 template <class F>
-void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+void withKernel(const ModelView& model, ModelKind kind, const TransferFunction1D& tf,
                 const ClassifyOptions& options, F&& f) {
     const ModelFamily& family = familyWithKernel(model, kind, options, "per-sample kernel");
     const TfPiecesStorage pieces(tf);
@@ -128,7 +128,7 @@ void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction
 /// (TransferFunction2D::validate). Throws UdvrError for models without one or a model without a
 /// `mean` array (n̂ needs it).
 template <class F>
-void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+void withKernel2D(const ModelView& model, ModelKind kind, const TransferFunction2D& tf,
                   const ClassifyOptions& options, F&& f, GradientCache* cache = nullptr) {
     checkModelHasArrays(model, kind, options);
     checkModelHasArrays(model, ModelKind::Mean, options);
@@ -146,7 +146,7 @@ void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFuncti
 using AnyBivariateKernel = std::variant<BivariateMean2DKernel, Bivariate2DKernel>;
 
 /// Throws UdvrError unless the two models share one grid (dimensions, origin and spacing).
-void checkSameGrid(const ModelVolume& first, const ModelVolume& second);
+void checkSameGrid(const ModelView& first, const ModelView& second);
 
 /// A TF of α = 0 everywhere, for kernels built for their reconstruction only.
 const TransferFunction1D& reconstructionOnlyTf();
@@ -156,7 +156,7 @@ const TransferFunction1D& reconstructionOnlyTf();
 /// data range unless options.dataSpan is set). `tf` must be validated. Throws UdvrError for
 /// grids that differ, a model lacking the arrays `kind` needs, or gmm-mc.
 template <class F>
-void withKernelBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+void withKernelBivariate(const ModelView& first, const ModelView& second, ModelKind kind,
                          const TransferFunction2D& tf, const ClassifyOptions& options, F&& f) {
     checkSameGrid(first, second);
     const ModelFamily& family = familyWithKernel(first, kind, options, "bivariate classification");
@@ -175,7 +175,7 @@ void withKernelBivariate(const ModelVolume& first, const ModelVolume& second, Mo
 
 /// withKernel with default options.
 template <class F>
-void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
+void withKernel(const ModelView& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
     withKernel(model, kind, tf, ClassifyOptions{}, std::forward<F>(f));
 }
 
