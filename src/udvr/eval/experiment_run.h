@@ -279,7 +279,7 @@ class Run {
         // the frame's own progress lines (every 10 s off a terminal) give the time left.
         if (options_.log) {
             const FrameEstimate e =
-                estimateFrame(settings_, kind == ModelKind::GmmMc, [&](const RenderSettings& at) {
+                estimateFrame(settings_, rendersRealizations(kind), [&](const RenderSettings& at) {
                     frame(at);
                     return stats.milliseconds;
                 });

@@ -360,7 +360,7 @@ std::map<ModelKind, FrameEstimate> Api::frameEstimates(const ApiRequest& request
             auto& cache = renderCaches_[{"model", kind}];
             if (!cache) cache = std::make_unique<RenderCache>();
             estimates_[kind] = estimateFrame(
-                s, kind == ModelKind::GmmMc,
+                s, rendersRealizations(kind),
                 [&](const RenderSettings& at) {
                     RenderStats stats;
                     if (data_.second)
