@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "udvr/reconstruct/gradient_field.h"
@@ -213,6 +214,48 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
         fast.cellRun = cellRuns.data();
     else
         cellRuns.clear();
+    // The banded walk's prefix tables (exact, O(min(x, y crossings)) pieces a segment) for the
+    // float view; the double view keeps the cell-by-cell walk (probe, references).
+    if (static_cast<std::size_t>(tf.width) * tf.height <= kMaxTf2BandPrefixPoints) {
+        bandPrefix = tf.bandPrefixMoments();
+        fast.bandPrefix = bandPrefix.data();
+        // Per band, its cells with α > 0 (first, one past the last): x bands, then y bands.
+        const int cx = tf.width - 1, cy = tf.height - 1;
+        bandCells.assign(2 * static_cast<std::size_t>(cx + cy), 0.f);
+        const auto opaque = [&](int i, int j) {
+            return cellEmptyDistance[static_cast<std::size_t>(j) * cx + i] == 0.f;
+        };
+        for (int i = 0; i < cx; ++i)
+            for (int j = 0; j < cy; ++j)
+                if (opaque(i, j)) {
+                    if (bandCells[2 * i + 1] == 0.f) bandCells[2 * i] = static_cast<float>(j);
+                    bandCells[2 * i + 1] = static_cast<float>(j + 1);
+                }
+        for (int j = 0; j < cy; ++j)
+            for (int i = 0; i < cx; ++i)
+                if (opaque(i, j)) {
+                    float* b = bandCells.data() + 2 * (static_cast<std::size_t>(cx) + j);
+                    if (b[1] == 0.f) b[0] = static_cast<float>(i);
+                    b[1] = static_cast<float>(i + 1);
+                }
+        fast.bandCells = bandCells.data();
+        int firstCol = cx, lastCol = -1, firstBand = cy, lastBand = -1;
+        for (int i = 0; i < cx; ++i)
+            if (bandCells[2 * i + 1] > 0.f) firstCol = std::min(firstCol, i), lastCol = i;
+        for (int j = 0; j < cy; ++j)
+            if (bandCells[2 * (static_cast<std::size_t>(cx) + j) + 1] > 0.f)
+                firstBand = std::min(firstBand, j), lastBand = j;
+        constexpr float inf = std::numeric_limits<float>::infinity();
+        if (lastCol < 0) {
+            fast.opaqueBox[0] = fast.opaqueBox[2] = 1.f;
+            fast.opaqueBox[1] = fast.opaqueBox[3] = 0.f;
+        } else {
+            fast.opaqueBox[0] = firstCol == 0 ? -inf : static_cast<float>(firstCol);
+            fast.opaqueBox[1] = lastCol + 1 == cx ? inf : static_cast<float>(lastCol + 1);
+            fast.opaqueBox[2] = firstBand == 0 ? -inf : static_cast<float>(firstBand);
+            fast.opaqueBox[3] = lastBand + 1 == cy ? inf : static_cast<float>(lastBand + 1);
+        }
+    }
     const int cw = tf.width - 1, rows = tf.height - 1;
     columnEmptyRun.assign(static_cast<std::size_t>(cw), 0.f);
     for (int i = cw - 1; i >= 0; --i) {

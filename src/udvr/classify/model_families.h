@@ -42,6 +42,11 @@ inline constexpr double kTf2RunTolerance = 1e-6;
 /// Largest raster (points) that gets the row prefix integrals (8 floats per point: 128 MiB).
 inline constexpr std::size_t kMaxTf2RowPrefixPoints = std::size_t{1} << 22;
 
+/// Largest raster (points) that gets the banded walk's prefix tables
+/// (TransferFunction2D::bandPrefixMoments: 2 × 21 doubles per point, 336 MiB at this size; 22 MB
+/// for 256²); larger ones walk cell by cell.
+inline constexpr std::size_t kMaxTf2BandPrefixPoints = std::size_t{1} << 20;
+
 /// Views of a validated TF2 for the kernels: the raster over double and float, with the
 /// distances of empty cells (TransferFunction2D::emptyCellDistances); the float view also
 /// walks segments by runs of linear cells (kTf2RunTolerance), the double one cell by cell.
@@ -56,6 +61,10 @@ struct Tf2Rasters {
     /// (Tf2Raster::rowSameUpTo, rowPrefix): where at least half of the bands with α > 0 have
     /// identical rows, up to kMaxTf2RowPrefixPoints; else empty.
     std::vector<float> rowSameUpTo, rowPrefix;
+    /// The float view's banded walk tables (Tf2Raster::bandPrefix), up to
+    /// kMaxTf2BandPrefixPoints; else empty.
+    std::vector<double> bandPrefix;
+    std::vector<float> bandCells;  // Tf2Raster::bandCells, with bandPrefix
     /// Per row of cells j: the first and last cell with α > 0 at a corner (first > last: none);
     /// and the first and last such row.
     std::vector<int> rowCells;
