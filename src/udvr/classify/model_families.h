@@ -43,9 +43,9 @@ inline constexpr double kTf2RunTolerance = 1e-6;
 inline constexpr std::size_t kMaxTf2RowPrefixPoints = std::size_t{1} << 22;
 
 /// Largest raster (points) that gets the banded walk's prefix tables
-/// (TransferFunction2D::bandPrefixMoments: 2 × 21 doubles per point, 336 MiB at this size; 22 MB
-/// for 256²); larger ones walk cell by cell.
-inline constexpr std::size_t kMaxTf2BandPrefixPoints = std::size_t{1} << 20;
+/// (TransferFunction2D::bandPrefixMoments: 2 × 21 doubles per point, 84 MiB at this size, 512²;
+/// 22 MB for 256²); larger ones walk cell by cell. Bounds what a TF2 edit (serve) allocates.
+inline constexpr std::size_t kMaxTf2BandPrefixPoints = std::size_t{1} << 18;
 
 /// Views of a validated TF2 for the kernels: the raster over double and float, with the
 /// distances of empty cells (TransferFunction2D::emptyCellDistances); the float view also
