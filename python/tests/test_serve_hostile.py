@@ -199,8 +199,7 @@ def test_connection_floods_make_room(inputs):
     try:
         idle = [socket.create_connection(host_port(s), timeout=10) for _ in range(20)]
         time.sleep(0.2)
-        # /api/tf: answered without render work (the first /api/state probes every model).
-        (status, _, _), seconds = timed(s.get, "/api/tf")
+        (status, _, _), seconds = timed(s.get, "/api/state")
         assert status == 200 and seconds < 1.0
         for c in idle:
             c.close()
