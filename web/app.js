@@ -535,7 +535,7 @@ function loadAndSave(prefix, path, name, apply) {
 
 // ---- start --------------------------------------------------------------------------------
 async function start() {
-  state.info = await getJson('/api/state');
+  state.info = await getJson('/api/state', {estimates: 1});  // with each model's frame estimate
   $('title').textContent = `udvr serve — ${state.info.model.file}`;
   const picker = $('model');
   for (const m of state.info.models) {

@@ -29,7 +29,7 @@ def render_ms(server, model):
 def test_state_estimates_every_available_model(inputs):
     s = Server(inputs.model, "--tf", inputs.tf)
     try:
-        state = s.json("/api/state")
+        state = s.json("/api/state?estimates=1")
         assert state["latency_goal_ms"] == GOAL_MS and state["estimate_size"] == "512x512"
         by = {m["name"]: m for m in state["models"]}
         for m in state["models"]:
@@ -46,15 +46,20 @@ def test_state_estimates_every_available_model(inputs):
             assert 0.25 < ratio < 4.0, (name, by[name]["estimate_ms"], actual)
         # Kept for the TF: a second /api/state probes nothing (it answers at once).
         t0 = time.monotonic()
-        again = s.json("/api/state")
+        again = s.json("/api/state?estimates=1")
         assert time.monotonic() - t0 < 0.5
         assert [m["estimate_ms"] for m in again["models"]] == \
             [m["estimate_ms"] for m in state["models"]]
+        # A plain /api/state never probes: it gives the estimates known for the current TF.
+        assert [m["estimate_ms"] for m in s.json("/api/state")["models"]] == \
+            [m["estimate_ms"] for m in state["models"]]
+        assert s.get("/api/state?estimates=2")[0] == 400
         # A new TF: estimated again (an all-clear TF makes every frame quick).
         clear = '[{"ColorSpace":"RGB","Points":[-10,0,0.5,0,10,0,0.5,0],' \
                 '"RGBPoints":[-10,1,1,1,10,1,1,1]}]'
         assert s.get("/api/tf", data=clear.encode(), method="POST")[0] == 200
-        after = {m["name"]: m for m in s.json("/api/state")["models"]}
+        assert all(m["estimate_ms"] is None for m in s.json("/api/state")["models"])
+        after = {m["name"]: m for m in s.json("/api/state?estimates=1")["models"]}
         assert after["uniform"]["estimate_ms"] < by["uniform"]["estimate_ms"]
     finally:
         s.stop()
@@ -67,7 +72,7 @@ def test_probes_stop_at_the_deadline(inputs):
     s = Server(inputs.model, "--tf2", ROOT / "data" / "tf2" / "tangle.json")
     try:
         t0 = time.monotonic()
-        state = s.json("/api/state")
+        state = s.json("/api/state?estimates=1")
         seconds = time.monotonic() - t0
         available = [m for m in state["models"] if m["available"]]
         bounded = [m for m in available if m["estimate_lower_bound"]]
@@ -90,7 +95,7 @@ def test_a_client_that_goes_stops_the_probes(inputs):
         import socket
         host, port = s.url.split("//")[1].split(":")
         c = socket.create_connection((host, int(port)))
-        c.sendall(b"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+        c.sendall(b"GET /api/state?estimates=1 HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
         time.sleep(0.3)
         c.close()
         t0 = time.monotonic()

@@ -199,7 +199,7 @@ def test_picker_marks_models_over_the_goal(inputs):
     driver = None
     try:
         driver = open_page(s.url)
-        state = s.json("/api/state")  # estimates kept: answers at once
+        state = s.json("/api/state")  # the estimates the page asked for, kept
         slow = {m["name"] for m in state["models"] if m["available"] and m["slow"]}
         assert "uniform" in slow
         options = {o.get_attribute("value"): o.text

@@ -280,8 +280,21 @@ ApiResponse Api::getState(const ApiRequest& request) {
         row["probe"] = !family.realizations;
         models.push_back(row);
     }
-    // Each available model's frame at the default view, estimated (cost before work, issue 35).
-    const std::map<ModelKind, FrameEstimate> estimates = frameEstimates(request, available);
+    // Each available model's frame at the default view, estimated (cost before work, issue 35):
+    // probed with ?estimates=1 (the page), else only those already known for the current TF, so
+    // a plain /api/state never waits for the render gate.
+    const Query q(request.params, {{"estimates"}});
+    const std::string want = q.text("estimates", "0");
+    if (want != "0" && want != "1")
+        UDVR_FAIL("estimates must be 0 or 1, got '" << Query::clip(want) << "'");
+    std::map<ModelKind, FrameEstimate> estimates;
+    if (want == "1") {
+        estimates = frameEstimates(request, available);
+    } else if (std::unique_lock lock(estimatesMutex_, std::try_to_lock); lock.owns_lock()) {
+        const auto [tf1, v1] = currentTf();
+        if (estimatesTf_ == std::to_string(v1) + "/" + std::to_string(currentTf2().version))
+            estimates = estimates_;
+    }
     for (json& row : models) {
         const auto it = estimates.find(parseModelKind(row["name"].get<std::string>()));
         if (it == estimates.end() || it->second.ms <= 0.0) {
