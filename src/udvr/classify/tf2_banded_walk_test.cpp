@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 #include <vector>
 
 #include "udvr/classify/classify_test_util.h"
@@ -190,6 +191,19 @@ TEST(Tf2BandedWalk, LinearTf2GivesTheClosedFormFarFromTheOrigin) {
     }
     std::printf("banded walk on a linear 1024² TF2 near (1000, 1000): max |Δ| %.3g\n", worst);
     EXPECT_LE(worst, 1e-6);  // the points' float rounding: ≤ 6e−8 per point
+}
+
+// The tables' memory bound (kMaxTf2BandPrefixPoints, 2^18 points = 512²: 84 MiB): a raster at
+// the bound gets them, one row more walks cell by cell (a TF2 edit in serve allocates no more).
+TEST(Tf2BandedWalk, TablesStopAtTheirPointBound) {
+    CounterRng rng(33, 9, 0);
+    for (const auto& [w, h, tables] : {std::tuple{512, 512, true}, std::tuple{512, 513, false}}) {
+        ASSERT_EQ(static_cast<std::size_t>(w) * h <= kMaxTf2BandPrefixPoints, tables);
+        const TransferFunction2D t = roughTf2(rng, w, h, false);
+        const Tf2Rasters r(t);
+        EXPECT_EQ(r.fast.bandPrefix != nullptr, tables) << w << "x" << h;
+        EXPECT_LE(r.bandPrefix.size() * sizeof(double), std::size_t{84} << 20);
+    }
 }
 
 TEST(Tf2BandedWalk, FloatAndLanesMatchTheDoubleCellWalk) {
