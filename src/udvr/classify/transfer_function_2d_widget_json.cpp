@@ -95,6 +95,17 @@ double positive(const json& obj, const Context& c, const char* key) {
     return v;
 }
 
+/// An optional key naming one of two choices: whether it names `second` (absent: `first`).
+bool isSecondChoice(const json& w, const Context& c, const char* key, const char* first,
+                    const char* second) {
+    if (!w.contains(key)) return false;
+    const std::string v = stringValue(w[key], c, key);
+    if (v != first && v != second)
+        UDVR_FAIL(c.prefix() << ": '" << key << "' must be \"" << first << "\" or \"" << second
+                             << "\", got \"" << v << "\"");
+    return v == second;
+}
+
 Tf2Widget parseWidget(const json& w, const Context& c) {
     if (!w.is_object()) UDVR_FAIL(c.prefix() << ": expected an object with \"type\" and \"rgba\"");
     const std::string type = stringValue(required(w, c, "type"), c, "type");
@@ -119,13 +130,7 @@ Tf2Widget parseWidget(const json& w, const Context& c) {
         if (t.top == t.apex[1])
             UDVR_FAIL(wc.prefix() << ": 'top' must differ from the apex's y (" << t.apex[1] << ")");
         t.width = positive(w, wc, "width");
-        if (w.contains("falloff")) {
-            const std::string f = stringValue(w["falloff"], wc, "falloff");
-            if (f != "tent" && f != "flat")
-                UDVR_FAIL(wc.prefix()
-                          << ": 'falloff' must be \"tent\" or \"flat\", got \"" << f << "\"");
-            t.flat = f == "flat";
-        }
+        t.flat = isSecondChoice(w, wc, "falloff", "tent", "flat");
         out.shape = t;
     } else if (type == "ellipse") {
         checkKeys(w, wc, {"type", "rgba", "name", "comment", "center", "sigma", "angle", "cutoff"});
@@ -153,13 +158,7 @@ Tf2Widget parseWidget(const json& w, const Context& c) {
         if (!(b.halfWidth[0] > 0.0 && b.halfWidth[1] > 0.0))
             UDVR_FAIL(wc.prefix() << ": 'half_width' values must be > 0, got [" << b.halfWidth[0]
                                   << ", " << b.halfWidth[1] << "]");
-        if (w.contains("profile")) {
-            const std::string p = stringValue(w["profile"], wc, "profile");
-            if (p != "box" && p != "tent")
-                UDVR_FAIL(wc.prefix()
-                          << ": 'profile' must be \"box\" or \"tent\", got \"" << p << "\"");
-            b.tent = p == "tent";
-        }
+        b.tent = isSecondChoice(w, wc, "profile", "box", "tent");
         out.shape = b;
     } else {
         UDVR_FAIL(c.prefix() << ": unknown type \"" << type
