@@ -47,6 +47,9 @@ def parse_args(argv):
     p.add_argument("--frames", type=int, default=0,
                    help="also render this many more frames; print the mean frame time and the "
                         "peak RSS of each rank")
+    p.add_argument("--pvti-reader", default="udvr", choices=["udvr", "paraview"],
+                   help="a .pvti's reader: udvr's (each rank keeps its piece once; default) or "
+                        "ParaView's XML reader (keeps each piece twice)")
     p.add_argument("--plugin", default=os.environ.get("UDVR_PARAVIEW_PLUGIN", ""),
                    help="udvr.so (default: $UDVR_PARAVIEW_PLUGIN, which udvr-pvbatch sets)")
     p.add_argument("-o", "--output", required=True, help="PNG to write")
@@ -116,7 +119,15 @@ def main(argv):
             fail("the udvr plugin was not found: run build/paraview/udvr-pvbatch, or pass --plugin")
         LoadPlugin(a.plugin, remote=False, ns=globals())
 
-    reader = OpenDataFile(a.model)
+    def open_model():
+        # A .pvti through the plugin's reader (one copy of each rank's piece), else ParaView's.
+        if a.model.lower().endswith(".pvti"):
+            if a.pvti_reader == "udvr":
+                return paraview.simple.udvrPVTIReader(FileName=a.model)
+            return paraview.simple.XMLPartitionedImageDataReader(FileName=[a.model])
+        return OpenDataFile(a.model)
+
+    reader = open_model()
     if reader is None:
         fail("ParaView cannot open %s" % a.model)
     reader.UpdatePipeline()
@@ -135,7 +146,7 @@ def main(argv):
     # Fetched from a second reader of the file with its point arrays switched off: the field data
     # comes without the arrays. (An ExtractSubset of one voxel of `reader` made the reader run
     # again for its extent: +212 MiB on each rank's VmRSS with a 216 MiB model.)
-    meta = OpenDataFile(a.model)
+    meta = open_model()
     meta.PointArrayStatus = []
     field = servermanager.Fetch(meta)
     fb = field.GetFieldData().GetArray("bounds") if field else None

@@ -189,6 +189,40 @@ def test_two_ranks_render_their_pieces_and_match_the_cli(models):
     assert extents == {"0..23 0..23 0..11", "0..23 0..23 11..23"}, r.stderr
 
 
+def test_two_ranks_each_hold_half_of_a_pvti_model(models, tmp_path):
+    """A 2-piece .pvti of a 128³ model (27 floats a voxel, 216 MiB) on 2 ranks, read by the
+    plugin's .pvti reader: each rank's VmRSS grows by less than 0.7 × the model (its half, 108
+    MiB, and the reader's buffers; measured +119/+119 MiB). ParaView's own reader, in the same
+    processes, adds a whole model's worth a rank (its piece readers keep a second copy; measured
+    +216/+220), so the check tells the two apart. Jobs in one pvbatch, told apart by frame size:
+    16² the 24³ model (baseline), 32² the big model through udvr's reader, 48² through ParaView's."""
+    big = tmp_path / "big.pvti"
+    run_ok("generate", "tangle", "--dims", "128", "-o", tmp_path / "f.vti")
+    run_ok("perturb", tmp_path / "f.vti", "--members", "8", "--noise", "gaussian", "--seed",
+           SEED, "-o", tmp_path / "e.nc")
+    run_ok("build", tmp_path / "e.nc", "--pieces", "2", "-o", big, timeout=300)
+    model_mib = 128 ** 3 * (4 + 9 + 2 + 12) * 4 / 2 ** 20
+    jobs = [[str(models / "model.pvti"), "--size", "16x16", "-o", str(tmp_path / "a.png")],
+            [str(big), "--size", "32x32", "-o", str(tmp_path / "b.png")],
+            [str(big), "--size", "48x48", "--pvti-reader", "paraview",
+             "-o", str(tmp_path / "c.png")]]
+    (tmp_path / "jobs.json").write_text(json.dumps(jobs))
+    r = pvbatch(BATCH, tmp_path / "jobs.json", ranks=2, timeout=300)
+    assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
+    rss = {}  # pid -> frame side -> largest VmRSS, MiB
+    for pid, side, mib in re.findall(r"udvr: pid (\d+) frame (\d+)x\d+ .*VmRSS (\d+) MiB",
+                                     r.stderr):
+        per = rss.setdefault(pid, {})
+        per[side] = max(per.get(side, 0), int(mib))
+    assert len(rss) == 2 and all(len(p) == 3 for p in rss.values()), r.stderr
+    for pid, p in rss.items():
+        udvr_reader, paraview_reader = p["32"] - p["16"], p["48"] - p["32"]
+        print("rank pid %s: baseline %d MiB, udvr reader +%d, ParaView's reader +%d; model %.0f"
+              % (pid, p["16"], udvr_reader, paraview_reader, model_mib))
+        assert udvr_reader < 0.7 * model_mib, (pid, p)
+        assert paraview_reader > 0.7 * model_mib, (pid, p)
+
+
 CT = ROOT.parent / "shared" / "data" / "chest-ct" / "chest.nhdr"
 
 
