@@ -286,11 +286,22 @@ def test_paraviews_own_2d_tf_is_udvrs_2d_classification(models, tmp_path):
     assert rmse(tmp_path / "pv.png", tmp_path / "pv1d.png") > 10 * TOLERANCE  # not the 1D TF
 
 
+def assert_same_model(pv_path, cli_path, samples):
+    """The Build Model filter's model file equals `udvr build`'s, array for array, bit for bit."""
+    import numpy as np
+    import udvr
+    pv, cli = udvr.load(pv_path), udvr.load(cli_path)
+    for name in ("mean", "stddev", "min", "max", "quantiles", "iqr", "gmm"):
+        a, b = np.asarray(getattr(pv, name)), np.asarray(getattr(cli, name))
+        assert a.shape == b.shape and a.size > 0, name
+        assert np.array_equal(a, b), (name, float(np.max(np.abs(a - b))))
+    assert list(pv.bounds) == list(cli.bounds) and pv.samples_per_voxel == samples
+
+
 def test_build_model_filter_matches_udvr_build(tmp_path):
     """udvr Build Model over member files (NRRD) joined by ParaView's Append Attributes gives
     `udvr build`'s model of the same files, array for array, bit for bit."""
     import numpy as np
-    import udvr
     rng = np.random.default_rng(SEED)
     z, y, x = np.mgrid[0:9, 0:10, 0:12].astype(np.float32)
     base = np.sin(x / 3) + np.cos(y / 4) * z / 5
@@ -313,12 +324,7 @@ def test_build_model_filter_matches_udvr_build(tmp_path):
         f"SaveData({str(tmp_path / 'pv.vti')!r}, proxy=model)\n")
     r = pvbatch(script, timeout=120)
     assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
-    pv, cli = udvr.load(tmp_path / "pv.vti"), udvr.load(tmp_path / "cli.vti")
-    for name in ("mean", "stddev", "min", "max", "quantiles", "iqr", "gmm"):
-        a, b = np.asarray(getattr(pv, name)), np.asarray(getattr(cli, name))
-        assert a.shape == b.shape and a.size > 0, name
-        assert np.array_equal(a, b), (name, float(np.max(np.abs(a - b))))
-    assert list(pv.bounds) == list(cli.bounds) and pv.samples_per_voxel == 8
+    assert_same_model(tmp_path / "pv.vti", tmp_path / "cli.vti", 8)
     # Too few members: a ParaView error, not a crash.
     script.write_text(
         "from paraview.simple import *\n"
@@ -328,6 +334,47 @@ def test_build_model_filter_matches_udvr_build(tmp_path):
     r = pvbatch(script, timeout=120)
     assert r.returncode == 0 and "updated" in r.stdout, r.stdout + r.stderr
     assert "at least 2 members" in r.stderr, r.stderr
+
+
+def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, tmp_path):
+    """File → Open of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr perturb`) with
+    the plugin's reader, then udvr Build Model, gives `udvr build ensemble.nc`'s model array for
+    array, bit for bit. Bad files in the same pvbatch: ParaView errors, not crashes."""
+    import numpy as np
+    import scipy.io
+    ensemble = models / "ensemble.nc"
+    data = ensemble.read_bytes()
+    (tmp_path / "cut.nc").write_bytes(data[:-1])  # one byte short: netCDF-C would read zeros
+    (tmp_path / "half.nc").write_bytes(data[:len(data) // 2])
+    with scipy.io.netcdf_file(tmp_path / "rank3.nc", "w") as f:  # member, y, x: 2 grid dims
+        f.createDimension("member", 4)
+        f.createDimension("y", 5)
+        f.createDimension("x", 6)
+        f.createVariable("v", "f4", ("member", "y", "x"))[:] = np.ones((4, 5, 6), np.float32)
+    run_ok("generate", "tangle", "--dims", "8", "-o", tmp_path / "field.nc")
+    bad = {"cut.nc": "the file is cut short", "half.nc": "the file is cut short",
+           "rank3.nc": "no variable with a member dimension",
+           "field.nc": "no variable with a member dimension"}
+    script = tmp_path / "nc.py"
+    script.write_text(
+        "from paraview.simple import *\n"
+        f"reader = udvrNetCDFEnsembleReader(FileName={str(ensemble)!r})\n"
+        "model = udvrBuildModel(Input=reader, GmmComponents=3)\n"
+        f"SaveData({str(tmp_path / 'pv.vti')!r}, proxy=model)\n"
+        "pd = reader.PointData\n"
+        "print('ARRAYS', ' '.join(pd.GetArray(i).GetName() for i in range(pd.GetNumberOfArrays())))\n"
+        f"for name in {sorted(bad)!r}:\n"
+        f"    r = udvrNetCDFEnsembleReader(FileName={str(tmp_path)!r} + '/' + name)\n"
+        "    r.UpdatePipeline()\n"
+        "    print('READ', name, r.GetDataInformation().GetNumberOfPoints())\n")
+    r = pvbatch(script, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert re.search(r"ARRAYS tangle_000 tangle_001 .* tangle_015\n", r.stdout), r.stdout
+    assert_same_model(tmp_path / "pv.vti", models / "model.vti", 16)
+    errors = [line for line in r.stderr.splitlines() if "ERR|" in line]
+    for name, message in bad.items():
+        assert "READ %s 0" % name in r.stdout, r.stdout + r.stderr
+        assert any(name + ": " + message in line for line in errors), (name, r.stderr)
 
 
 def bad_input_script(tmp_path, source, array, kind="mean"):
