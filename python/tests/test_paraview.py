@@ -337,8 +337,8 @@ def test_build_model_filter_matches_udvr_build(tmp_path):
 
 
 def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, tmp_path):
-    """File → Open of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr perturb`) with
-    the plugin's reader, then udvr Build Model, gives `udvr build ensemble.nc`'s model array for
+    """File → Open (OpenDataFile) of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr
+    perturb`) picks the plugin's reader; it, then udvr Build Model, gives `udvr build ensemble.nc`'s model array for
     array, bit for bit. Bad files in the same pvbatch: ParaView errors, not crashes."""
     import numpy as np
     import scipy.io
@@ -358,7 +358,8 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
     script = tmp_path / "nc.py"
     script.write_text(
         "from paraview.simple import *\n"
-        f"reader = udvrNetCDFEnsembleReader(FileName={str(ensemble)!r})\n"
+        f"reader = OpenDataFile({str(ensemble)!r})\n"
+        "print('OPENED WITH', reader.GetXMLName())\n"
         "model = udvrBuildModel(Input=reader, GmmComponents=3)\n"
         f"SaveData({str(tmp_path / 'pv.vti')!r}, proxy=model)\n"
         "pd = reader.PointData\n"
@@ -369,6 +370,7 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
         "    print('READ', name, r.GetDataInformation().GetNumberOfPoints())\n")
     r = pvbatch(script, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
+    assert "OPENED WITH EnsembleNetCDFReader" in r.stdout, r.stdout  # before ParaView's own
     assert re.search(r"ARRAYS tangle_000 tangle_001 .* tangle_015\n", r.stdout), r.stdout
     assert_same_model(tmp_path / "pv.vti", models / "model.vti", 16)
     errors = [line for line in r.stderr.splitlines() if "ERR|" in line]
