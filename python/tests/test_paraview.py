@@ -339,7 +339,8 @@ def test_build_model_filter_matches_udvr_build(tmp_path):
 def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, tmp_path):
     """File → Open (OpenDataFile) of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr
     perturb`) picks the plugin's reader; it, then udvr Build Model, gives `udvr build ensemble.nc`'s model array for
-    array, bit for bit. Bad files in the same pvbatch: ParaView errors, not crashes."""
+    array, bit for bit, on one process and on 2 MPI ranks. Bad files in the first pvbatch:
+    ParaView errors, not crashes."""
     import numpy as np
     import scipy.io
     ensemble = models / "ensemble.nc"
@@ -373,6 +374,16 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
     assert "OPENED WITH EnsembleNetCDFReader" in r.stdout, r.stdout  # before ParaView's own
     assert re.search(r"ARRAYS tangle_000 tangle_001 .* tangle_015\n", r.stdout), r.stdout
     assert_same_model(tmp_path / "pv.vti", models / "model.vti", 16)
+    # 2 MPI ranks: each reads and builds its piece (whole x-y planes, the GMM's streams keyed by
+    # the whole grid's voxel index, the σ floor from the range reduced over the ranks).
+    (tmp_path / "mpi.py").write_text(
+        "from paraview.simple import *\n"
+        f"model = udvrBuildModel(Input=OpenDataFile({str(ensemble)!r}), GmmComponents=3)\n"
+        f"SaveData({str(tmp_path / 'pv2.pvti')!r}, proxy=model)\n")
+    r2 = pvbatch(tmp_path / "mpi.py", ranks=2, timeout=120)
+    assert r2.returncode == 0 and "ERR|" not in r2.stderr, r2.stdout + r2.stderr
+    assert len(re.findall(r"<Piece ", (tmp_path / "pv2.pvti").read_text())) == 2
+    assert_same_model(tmp_path / "pv2.pvti", models / "model.vti", 16)
     errors = [line for line in r.stderr.splitlines() if "ERR|" in line]
     for name, message in bad.items():
         assert "READ %s 0" % name in r.stdout, r.stdout + r.stderr

@@ -1,6 +1,8 @@
 #include "vtkUdvrBuildModel.h"
 
+#include <cmath>
 #include <exception>
+#include <limits>
 #include <string>
 #include <variant>
 #include <vector>
@@ -16,7 +18,9 @@
 #include "vtkImageData.h"
 #include "vtkInformation.h"
 #include "vtkInformationVector.h"
+#include "vtkCommunicator.h"
 #include "vtkIntArray.h"
+#include "vtkMultiProcessController.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
 #include "vtkPointData.h"
@@ -51,6 +55,19 @@ void addFieldData(vtkFieldData* fd, const udvr::ModelVolume& model) {
 }
 }  // namespace
 
+int vtkUdvrBuildModel::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector,
+                                           vtkInformationVector* outputVector) {
+    vtkInformation* in = inputVector[0]->GetInformationObject(0);
+    vtkInformation* out = outputVector->GetInformationObject(0);
+    int ext[6], whole[6];
+    out->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+    in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    if (ext[1] >= ext[0] && ext[3] >= ext[2] && ext[5] >= ext[4])
+        for (int i = 0; i < 4; ++i) ext[i] = whole[i];
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext, 6);
+    return 1;
+}
+
 int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** inputVector,
                                    vtkInformationVector* outputVector) {
     vtkImageData* input = vtkImageData::GetData(inputVector[0]);
@@ -60,6 +77,29 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
     output->SetOrigin(input->GetOrigin());
     output->SetSpacing(input->GetSpacing());
     output->SetDirectionMatrix(input->GetDirectionMatrix());
+    // The whole ensemble's data range (the GMM's σ floor): this piece's finite values, reduced
+    // over the MPI ranks — before anything that may return, as every rank must take part.
+    double range[2] = {std::numeric_limits<double>::infinity(),
+                       -std::numeric_limits<double>::infinity()};
+    vtkPointData* pd = input->GetPointData();
+    for (int i = 0; i < pd->GetNumberOfArrays(); ++i) {
+        vtkDataArray* a = pd->GetArray(i);
+        if (!a || a->GetNumberOfComponents() != 1) continue;
+        for (vtkIdType t = 0; t < a->GetNumberOfTuples(); ++t) {
+            const double v = a->GetComponent(t, 0);
+            if (!std::isfinite(v)) continue;
+            range[0] = std::min(range[0], v);
+            range[1] = std::max(range[1], v);
+        }
+    }
+    vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
+    if (controller && controller->GetNumberOfProcesses() > 1) {
+        double reduced[2];
+        controller->AllReduce(&range[0], &reduced[0], 1, vtkCommunicator::MIN_OP);
+        controller->AllReduce(&range[1], &reduced[1], 1, vtkCommunicator::MAX_OP);
+        range[0] = reduced[0];
+        range[1] = reduced[1];
+    }
     if (input->GetNumberOfPoints() == 0) return 1;  // a rank without data
     try {
         int ext[6], whole[6];
@@ -75,7 +115,6 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
             e.grid.origin[a] = origin[a] + ext[2 * a] * spacing[a];
         }
         const std::size_t n = e.grid.pointCount();
-        vtkPointData* pd = input->GetPointData();
         std::vector<vtkDataArray*> members;
         std::string names;
         for (int i = 0; i < pd->GetNumberOfArrays(); ++i) {
@@ -107,6 +146,19 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
         o.bandwidthText = this->Density == 1 ? "silverman" : "";
         o.source = "ParaView point arrays " + names;
         udvr::fitBuildOptionsToSamples(o, e.members, false, false);  // as the CLI's defaults
+        // A piece of whole x-y planes (RequestUpdateExtent): its voxel 0's index in the whole
+        // grid; with the whole range, the piece's values are the whole build's.
+        if (ext[0] == whole[0] && ext[1] == whole[1] && ext[2] == whole[2] && ext[3] == whole[3])
+            o.piece.firstVoxel = static_cast<std::uint64_t>(ext[4] - whole[4]) *
+                                 static_cast<std::uint64_t>(e.grid.dims[0]) *
+                                 static_cast<std::uint64_t>(e.grid.dims[1]);
+        else
+            vtkWarningMacro(<< "udvr: the input is not whole x-y planes; the GMM's random "
+                               "streams are this piece's, not the whole grid's");
+        if (range[0] <= range[1]) {
+            o.piece.wholeMin = range[0];
+            o.piece.wholeMax = range[1];
+        }
         udvr::validateBuildOptions(o, e.members);
         udvr::ModelVolume model = udvr::buildModel(e, o);
 

@@ -1,7 +1,9 @@
 // "udvr Build Model" (issue 32, docs/paraview.md): a udvr model (SPEC §7 arrays and field data)
 // from an ensemble whose members are the one-component point arrays of an image — `udvr build`
 // over member files, with its --quantiles, --gmm and --density as properties. Every voxel's
-// model depends on its own samples only, so under MPI each rank builds its own piece.
+// model depends on its own samples, its index in the whole grid (the GMM's random stream) and the
+// whole ensemble's data range (the GMM's σ floor) only, so under MPI each rank builds its own
+// piece of whole x-y planes, with the ranks' range reduced over MPI: `udvr build`'s model.
 #ifndef vtkUdvrBuildModel_h
 #define vtkUdvrBuildModel_h
 
@@ -27,6 +29,10 @@ class UDVRPARAVIEW_EXPORT vtkUdvrBuildModel : public vtkImageAlgorithm {
   protected:
     vtkUdvrBuildModel() = default;
     ~vtkUdvrBuildModel() override = default;
+    /// The input of whole x-y planes over the z-range asked for: the piece's voxels then have
+    /// consecutive indices in the whole grid, which the GMM's random streams are keyed by.
+    int RequestUpdateExtent(vtkInformation*, vtkInformationVector**,
+                            vtkInformationVector*) override;
     int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
     int Quantiles = 8;

@@ -339,14 +339,16 @@ struct ChunkCounts {
 /// The GMMs of one chunk's voxels c0 … c0 + count − 1 (global indices; `base` the slab's
 /// first) from their sorted samples buf (n per voxel; with `finite`, voxel i has finite[i]):
 /// EM 16 voxels at a time (one per vector lane) where all n samples are finite, alone (same
-/// random stream, bit for bit) otherwise.
+/// random stream, bit for bit) otherwise. Voxel v's random stream is streamOffset + v.
 void fitChunkGmms(const float* buf, std::size_t count, std::size_t un, const std::size_t* finite,
-                  std::size_t c0, std::size_t base, int K, const GmmOptions& gmmOpt, ModelVolume& m,
-                  std::vector<GmmFitInfo>& infos, GmmWorkspace& ws, ChunkCounts& counts) {
+                  std::size_t c0, std::size_t base, std::uint64_t streamOffset, int K,
+                  const GmmOptions& gmmOpt, ModelVolume& m, std::vector<GmmFitInfo>& infos,
+                  GmmWorkspace& ws, ChunkCounts& counts) {
     const std::size_t stride = static_cast<std::size_t>(3 * K);
     // Voxels i0..i1 of the chunk, all with n samples.
     auto fitRun = [&](std::size_t i0, std::size_t i1) {
-        fitGmmMany(std::span<const float>(buf + i0 * un, (i1 - i0) * un), un, gmmOpt, c0 + i0,
+        fitGmmMany(std::span<const float>(buf + i0 * un, (i1 - i0) * un), un, gmmOpt,
+                   streamOffset + c0 + i0,
                    std::span<float>(m.gmm.data() + (c0 - base + i0) * stride, (i1 - i0) * stride),
                    std::span<GmmFitInfo>(infos.data() + i0, i1 - i0), ws);
     };
@@ -360,8 +362,9 @@ void fitChunkGmms(const float* buf, std::size_t count, std::size_t un, const std
             continue;
         }
         // Fewer samples than n: alone, same stream (as in a batch, bit for bit).
-        infos[i] = fitGmm(std::span<const float>(buf + i * un, finite[i]), gmmOpt, c0 + i,
-                          std::span<float>(m.gmm.data() + (c0 - base + i) * stride, stride), ws);
+        infos[i] =
+            fitGmm(std::span<const float>(buf + i * un, finite[i]), gmmOpt, streamOffset + c0 + i,
+                   std::span<float>(m.gmm.data() + (c0 - base + i) * stride, stride), ws);
         ++i;
     }
     for (std::size_t i = 0; i < count; ++i) {
@@ -402,7 +405,9 @@ void buildSlab(const Grid3& grid, std::size_t first, std::size_t count, int n, c
     gmmOpt.components = std::max(K, 1);
     gmmOpt.seed = opt.gmmSeed;
     // σ floor 1e−3 of the data range (SPEC §2); an input that is constant everywhere uses 1e−3.
-    const double range = scan.max - scan.min;
+    const double range = opt.piece.wholeMax >= opt.piece.wholeMin
+                             ? opt.piece.wholeMax - opt.piece.wholeMin
+                             : scan.max - scan.min;
     gmmOpt.sigmaFloor = range > 0.0 ? 1e-3 * range : 1e-3;
 
     std::mutex totalsMutex;
@@ -452,7 +457,7 @@ void buildSlab(const Grid3& grid, std::size_t first, std::size_t count, int n, c
             c.estimateCpu += t2 - t1;
             if (K > 0) {
                 fitChunkGmms(buf.data(), c1 - c0, un, skipNonFinite ? finite.data() : nullptr, c0,
-                             base, K, gmmOpt, m, infos, ws, c);
+                             base, opt.piece.firstVoxel, K, gmmOpt, m, infos, ws, c);
                 c.gmmCpu += threadCpuSeconds() - t2;
             }
             if (opt.progress) opt.progress->advance(c1 - c0);

@@ -44,6 +44,16 @@ struct BuildOptions {
     struct PlaneRange {
         int begin = 0, end = -1;
     } modelPlanes;
+    /// In-memory builds of a piece of a larger grid (ParaView's Build Model filter: one MPI
+    /// rank's piece, whole x-y planes): the only two things a voxel's values take from outside
+    /// its own samples are set to the whole grid's, so the piece's values are the whole build's,
+    /// bit for bit. firstVoxel: the whole grid's index of the input's voxel 0 (a voxel's GMM
+    /// random stream is firstVoxel + its index in the input); wholeMin ≤ wholeMax: the whole
+    /// input's data range, for the GMM's σ floor (wholeMin > wholeMax: the input's own).
+    struct Piece {
+        std::uint64_t firstVoxel = 0;
+        double wholeMin = 1.0, wholeMax = 0.0;
+    } piece;
 };
 
 /// What a build did, for the summary line.

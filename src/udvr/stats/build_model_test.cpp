@@ -181,6 +181,36 @@ TEST(BuildModel, SkipsQuantilesAndGmmOnRequestAndIsThreadInvariant) {
     EXPECT_EQ(all.bandwidth, one.bandwidth);
 }
 
+TEST(BuildModel, APieceWithTheWholeGridsStreamsAndRangeIsTheWholeBuildsSlab) {
+    // ParaView's Build Model filter on one MPI rank: z-planes [3, 7) of a 9×8×7 ensemble whose
+    // values grow with the voxel index (so the piece's data range is not the whole's).
+    const Ensemble e = makeEnsemble({9, 8, 7}, 12, 5);
+    BuildOptions opt;
+    opt.gmmComponents = 3;
+    const ModelVolume whole = buildModel(e, opt);
+    const std::size_t plane = 9 * 8, first = 3 * plane, count = 4 * plane;
+    Ensemble piece = e;
+    piece.grid.dims = {9, 8, 4};
+    piece.values.resize(count * 12);
+    for (int m = 0; m < 12; ++m)
+        std::copy_n(e.member(m) + first, count, piece.values.begin() + m * count);
+    const auto slabOf = [&](const std::vector<float>& a, std::size_t perVoxel) {
+        return std::vector<float>(a.begin() + first * perVoxel,
+                                  a.begin() + (first + count) * perVoxel);
+    };
+    const ModelVolume alone = buildModel(piece, opt);  // the piece's own streams and range
+    EXPECT_NE(alone.gmm, slabOf(whole.gmm, 9));
+    opt.piece.firstVoxel = first;
+    const auto [lo, hi] = std::minmax_element(e.values.begin(), e.values.end());
+    opt.piece.wholeMin = *lo;
+    opt.piece.wholeMax = *hi;
+    const ModelVolume part = buildModel(piece, opt);
+    EXPECT_EQ(part.gmm, slabOf(whole.gmm, 9));
+    EXPECT_EQ(part.quantiles, slabOf(whole.quantiles, 9));
+    EXPECT_EQ(part.mean, slabOf(whole.mean, 1));
+    EXPECT_EQ(part.stddev, slabOf(whole.stddev, 1));
+}
+
 TEST(BuildModel, DownsampledGeometryAndValues) {
     ScalarField f;
     f.grid.dims = {7, 6, 5};
