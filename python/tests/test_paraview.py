@@ -336,6 +336,9 @@ def test_build_model_filter_matches_udvr_build(tmp_path):
     assert "at least 2 members" in r.stderr, r.stderr
 
 
+FUEL = ROOT.parent / "shared" / "data" / "fuel-ensemble" / "fuel_ensemble.nc"
+
+
 def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, tmp_path):
     """File → Open (OpenDataFile) of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr
     perturb`) picks the plugin's reader; it, then udvr Build Model, gives `udvr build ensemble.nc`'s model array for
@@ -356,6 +359,13 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
     bad = {"cut.nc": "the file is cut short", "half.nc": "the file is cut short",
            "rank3.nc": "no variable with a member dimension",
            "field.nc": "no variable with a member dimension"}
+    # A real NetCDF-4 (HDF5) ensemble where ../shared has it: built as `udvr build` does it, and
+    # cut short: HDF5's own error.
+    fuel = FUEL.is_file()
+    if fuel:
+        run_ok("build", FUEL, "-o", tmp_path / "fuel_cli.vti", timeout=300)
+        (tmp_path / "fuel_cut.nc").write_bytes(FUEL.read_bytes()[:-100])
+        bad["fuel_cut.nc"] = "cannot open as NetCDF: NetCDF: HDF error"
     script = tmp_path / "nc.py"
     script.write_text(
         "from paraview.simple import *\n"
@@ -363,6 +373,8 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
         "print('OPENED WITH', reader.GetXMLName())\n"
         "model = udvrBuildModel(Input=reader, GmmComponents=3)\n"
         f"SaveData({str(tmp_path / 'pv.vti')!r}, proxy=model)\n"
+        + (f"SaveData({str(tmp_path / 'fuel_pv.vti')!r}, proxy=udvrBuildModel("
+           f"Input=OpenDataFile({str(FUEL)!r})))\n" if fuel else "") +
         "pd = reader.PointData\n"
         "print('ARRAYS', ' '.join(pd.GetArray(i).GetName() for i in range(pd.GetNumberOfArrays())))\n"
         f"for name in {sorted(bad)!r}:\n"
@@ -374,6 +386,8 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
     assert "OPENED WITH EnsembleNetCDFReader" in r.stdout, r.stdout  # before ParaView's own
     assert re.search(r"ARRAYS tangle_000 tangle_001 .* tangle_015\n", r.stdout), r.stdout
     assert_same_model(tmp_path / "pv.vti", models / "model.vti", 16)
+    if fuel:
+        assert_same_model(tmp_path / "fuel_pv.vti", tmp_path / "fuel_cli.vti", 10)
     # 2 MPI ranks: each reads and builds its piece (whole x-y planes, the GMM's streams keyed by
     # the whole grid's voxel index, the σ floor from the range reduced over the ranks).
     (tmp_path / "mpi.py").write_text(
