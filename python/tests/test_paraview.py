@@ -341,9 +341,9 @@ FUEL = ROOT.parent / "shared" / "data" / "fuel-ensemble" / "fuel_ensemble.nc"
 
 def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, tmp_path):
     """File → Open (OpenDataFile) of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr
-    perturb`) picks the plugin's reader; it, then udvr Build Model, gives `udvr build ensemble.nc`'s model array for
-    array, bit for bit, on one process and on 2 MPI ranks. Bad files in the first pvbatch:
-    ParaView errors, not crashes."""
+    perturb`) picks the plugin's reader; it, then udvr Build Model, gives `udvr build
+    ensemble.nc`'s model array for array, bit for bit, on one process and on 2 MPI ranks. Bad
+    files in the first pvbatch: ParaView errors, not crashes."""
     import numpy as np
     import scipy.io
     ensemble = models / "ensemble.nc"
@@ -376,7 +376,8 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
         + (f"SaveData({str(tmp_path / 'fuel_pv.vti')!r}, proxy=udvrBuildModel("
            f"Input=OpenDataFile({str(FUEL)!r})))\n" if fuel else "") +
         "pd = reader.PointData\n"
-        "print('ARRAYS', ' '.join(pd.GetArray(i).GetName() for i in range(pd.GetNumberOfArrays())))\n"
+        "names = [pd.GetArray(i).GetName() for i in range(pd.GetNumberOfArrays())]\n"
+        "print('ARRAYS', ' '.join(names))\n"
         f"for name in {sorted(bad)!r}:\n"
         f"    r = udvrNetCDFEnsembleReader(FileName={str(tmp_path)!r} + '/' + name)\n"
         "    r.UpdatePipeline()\n"

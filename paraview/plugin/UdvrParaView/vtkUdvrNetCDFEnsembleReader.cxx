@@ -7,9 +7,9 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
-#include <tuple>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 #include <vector>
 
 #include "vtkFloatArray.h"
@@ -94,8 +94,7 @@ EnsembleVar findEnsembleVar(int nc, const std::string& path) {
                 e.lengths[static_cast<std::size_t>(d)] = length;
                 e.dimNames[static_cast<std::size_t>(d)] = dimName;
             }
-            if (e.memberDim < 0 && std::find(std::begin(kMemberDimNames),
-                                             std::end(kMemberDimNames),
+            if (e.memberDim < 0 && std::find(std::begin(kMemberDimNames), std::end(kMemberDimNames),
                                              std::string(dimName)) != std::end(kMemberDimNames))
                 e.memberDim = d;
         }
@@ -157,8 +156,7 @@ std::pair<double, double> axisGeometry(int nc, const EnsembleVar& e, int axis,
 void checkClassicLength(int nc, const std::string& path) {
     int format = 0;
     check(nc_inq_format(nc, &format), path, "format");
-    if (format != NC_FORMAT_CLASSIC && format != NC_FORMAT_64BIT_OFFSET &&
-        format != NC_FORMAT_CDF5)
+    if (format != NC_FORMAT_CLASSIC && format != NC_FORMAT_64BIT_OFFSET && format != NC_FORMAT_CDF5)
         return;
     using Bytes = unsigned long long;
     const Bytes count = format == NC_FORMAT_CDF5 ? 8 : 4;  // NON_NEG: counts, lengths, ids
@@ -199,8 +197,8 @@ void checkClassicLength(int nc, const std::string& path) {
         nc_type type;
         int vdims = 0, natts = 0;
         check(nc_inq_var(nc, v, varName, &type, &vdims, nullptr, &natts), path, "variable");
-        header += name(varName) + count + static_cast<Bytes>(vdims) * count +
-                  attributes(v, natts) + 4 + count + offset;
+        header += name(varName) + count + static_cast<Bytes>(vdims) * count + attributes(v, natts) +
+                  4 + count + offset;
         std::vector<int> dims(static_cast<std::size_t>(std::max(vdims, 0)));
         if (vdims > 0) check(nc_inq_vardimid(nc, v, dims.data()), path, "variable dims");
         if (vdims > 0 && dims[0] == unlimited) continue;  // record data: not counted
@@ -218,8 +216,10 @@ void checkClassicLength(int nc, const std::string& path) {
     const auto length = std::filesystem::file_size(path, error);
     if (error) fail(path, "cannot read its size: " + error.message());
     if (length < needed)
-        fail(path, "the file is cut short: " + std::to_string(length) + " bytes, its header and "
-                   "data take at least " + std::to_string(needed));
+        fail(path, "the file is cut short: " + std::to_string(length) +
+                       " bytes, its header and "
+                       "data take at least " +
+                       std::to_string(needed));
 }
 }  // namespace
 
@@ -250,7 +250,8 @@ int vtkUdvrNetCDFEnsembleReader::RequestInformation(vtkInformation*, vtkInformat
         double origin[3], spacing[3];
         for (int a = 0; a < 3; ++a) {
             whole[2 * a] = 0;
-            whole[2 * a + 1] = static_cast<int>(e.lengths[static_cast<std::size_t>(e.gridDim(a))]) - 1;
+            whole[2 * a + 1] =
+                static_cast<int>(e.lengths[static_cast<std::size_t>(e.gridDim(a))]) - 1;
             std::tie(origin[a], spacing[a]) = axisGeometry(f.id, e, a, this->FileName);
         }
         out->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole, 6);
@@ -325,20 +326,22 @@ int vtkUdvrNetCDFEnsembleReader::RequestData(vtkInformation*, vtkInformationVect
                   this->FileName, "reading " + what);
             vtkNew<vtkFloatArray> a;
             std::string index = std::to_string(m);
-            index.insert(0, static_cast<std::size_t>(digits) - std::min<std::size_t>(
-                                                                   index.size(), digits),
-                         '0');
+            index.insert(
+                0, static_cast<std::size_t>(digits) - std::min<std::size_t>(index.size(), digits),
+                '0');
             a->SetName((e.name + "_" + index).c_str());
             a->SetNumberOfTuples(static_cast<vtkIdType>(n));
             float* out = a->GetPointer(0);
             for (std::size_t i = 0; i < n; ++i) {
                 if (std::find(fills.begin(), fills.end(), raw[i]) != fills.end())
-                    fail(this->FileName, what + " has missing (fill) values; expected a "
-                                                "complete field");
+                    fail(this->FileName, what +
+                                             " has missing (fill) values; expected a "
+                                             "complete field");
                 const double v = raw[i] * scale + offset;
                 if (!std::isfinite(v) || std::abs(v) > std::numeric_limits<float>::max())
-                    fail(this->FileName, what + " has a non-finite value or one outside the "
-                                                "float32 range");
+                    fail(this->FileName, what +
+                                             " has a non-finite value or one outside the "
+                                             "float32 range");
                 out[i] = static_cast<float>(v);
             }
             pd->AddArray(a);

@@ -32,8 +32,7 @@ class UDVRPARAVIEW_EXPORT vtkUdvrNetCDFEnsembleReader : public vtkImageAlgorithm
   protected:
     vtkUdvrNetCDFEnsembleReader();
     ~vtkUdvrNetCDFEnsembleReader() override = default;
-    int RequestInformation(vtkInformation*, vtkInformationVector**,
-                           vtkInformationVector*) override;
+    int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
     int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
     std::string FileName;
