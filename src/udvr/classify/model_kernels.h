@@ -19,10 +19,12 @@
 //       corners' supports (supports interpolate linearly: Σ w(μ ± kσ) ⊇ μ(p) ± kσ(p) since
 //       sqrt(Σw²σ²) ≤ Σwσ), so a cell whose hull has α = 0 everywhere can be skipped;
 //   void prefetch(int voxel) const;   the cache lines of the cell based at a voxel;
-//   template <class Sink> void distribution(const Cell<double>&, Sink&) const;
-//       the model's random variable at a cell as pieces of probability mass into a
-//       DistributionSink (point_distribution.h): what probe describes and expectedTfOver checks
-//       the classification against;
+//   template <class T, class F> void reconstruct(const Cell<T>&, MaskOf<T> live, const F& use)
+//   const;
+//       the model's random variable at the cell, built once as a Distribution1D over T
+//       (distributions.h) and handed to use(d): load() takes expectedTf over it, and over double
+//       probe, the references and the bivariate moments describe() it (distributionAt,
+//       point_distribution.h);
 //   static constexpr bool kLoadDeadLanes;   whether the ray loop loads lanes in empty cells too
 //       (cheap loads need not wait for the emptiness test).
 // Kernels are plain structs of sizes and pointers into storage that outlives them (a
@@ -33,6 +35,7 @@
 #include <utility>
 #include <variant>
 
+#include "udvr/classify/distributions.h"
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/tf_pieces.h"
@@ -59,8 +62,6 @@ inline constexpr double kUniformPointWidth = 1e-6;
 inline constexpr float kMaxFloatTotalOverPiece = 256.f;
 /// Quantile widths ≤ this × data range are zero widths for quantile-mean (SPEC §4).
 inline constexpr double kQuantileZeroWidth = 1e-12;
-/// Largest GMM K the kernels handle (stack arrays).
-inline constexpr int kMaxKernelGmmComponents = 16;
 
 /// A classified sample: (E[α·r], E[α·g], E[α·b], E[α]).
 template <class T>
@@ -174,73 +175,53 @@ struct ClassifyInLoad {
         for (int ch = 0; ch < 4; ++ch) out[ch] = c.v[ch];
     }
 };
-/// f(view): on AVX2 (lanes::kWindowLookups) the 8-piece window of `tf` that holds the pieces of
-/// every live lane's values in [lo, hi], where one does (lookups: one permute instead of two or
-/// four and blends; in a batch of neighbouring rays the quantiles of a sample seldom span more
-/// than 8 pieces) where `worth` (choosing costs two reductions and two piece searches: iqr's
-/// single interval does not repay them); otherwise `tf` itself. The callee may only look up
-/// values in [lo, hi].
-template <class Tf, class F>
-UDVR_INLINE void withPieceWindow(const Tf& tf, lanes::Vf lo, lanes::Vf hi, lanes::Mask live,
-                                 bool worth, const F& f) {
-    if constexpr (lanes::kWindowLookups && Tf::kLookupSize != 8) {
-        if (worth && lanes::anyOf(live)) {
-            // pieceOf is monotone: the pieces of the extreme values bound every lane's.
-            const int first = tf.pieceOf(lanes::minOf(lo, live));
-            const int last = tf.pieceOf(lanes::maxOf(hi, live));
-            if (last - first < 8 && first + 8 <= tf.stride) {
-                f(tf.window(first, last - first));
-                return;
-            }
-        }
-    }
-    f(tf);
-}
-/// The load of the quantile kernels: body(tf, boundary, width, out) with boundary(j), width(j)
-/// callables over boundaries first … first + count − 1 of a voxel-major array (`stride` floats
-/// per voxel) — the batch's transposed rows where they fit (kMaxRowBoundaries), else one
-/// trilinear blend per boundary; lanes whose int32 float index would pass 2³¹ take the double
-/// body. Dead lanes are 0.
-template <class T, class K, class Body>
-UDVR_CPU_GPU UDVR_INLINE Classified<T> quantileLoad(const K& k, const float* data, int stride,
-                                                    int first, int count, bool widths,
-                                                    const Cell<T>& c, lanes::MaskOf<T> live,
-                                                    const Body& body) {
-    Classified<T> r;
+/// use(boundary, width, windowed) with callables boundary(j), width(j) over boundaries first …
+/// first + count − 1 of a voxel-major array (`stride` floats per voxel; widths only where
+/// `widths`) at a cell (Eq. 2): on lanes the batch's transposed rows where they fit
+/// (kMaxRowBoundaries; windowed = true), else one trilinear blend per boundary. Dead lanes are 0.
+/// Lanes whose int32 float index would pass 2³¹ must not come here (gathersFit).
+template <class T, class Use>
+UDVR_CPU_GPU UDVR_INLINE void quantileRows(const CellGeometry& g, const float* data, int stride,
+                                           int first, int count, bool widths, const Cell<T>& c,
+                                           lanes::MaskOf<T> live, const Use& use) {
     if constexpr (lanes::kIsVector<T>) {
         if (count <= kMaxRowBoundaries) {
             lanes::Vf b[kMaxRowBoundaries], w[kMaxRowBoundaries];
-            boundaryRows(k.geometry, data, stride, first, count, c, live, b, widths ? w : nullptr);
-            k.template withTf<T>([&](const auto& t) {
-                withPieceWindow(t, b[0], b[count - 1], live, count > 2, [&](const auto& tw) {
-                    body(
-                        tw, [&](int j) { return b[j]; }, [&](int j) { return w[j]; }, r.v);
-                });
-            });
-            keepLive<T>(live, r.v);
-            return r;
-        }
-        if (!k.gathersFit(stride)) {
-            exactLanes(k, c, live, r.v);
-            return r;
+            boundaryRows(g, data, stride, first, count, c, live, b, widths ? w : nullptr);
+            use([&](int j) UDVR_INLINE_LAMBDA { return b[j]; },
+                [&](int j) UDVR_INLINE_LAMBDA { return w[j]; }, true);
+            return;
         }
     }
-    k.template withTf<T>([&](const auto& t) {
-        body(
-            t, [&](int j) { return boundaryAt<T>(k.geometry, data, stride, first + j, c, live); },
-            [&](int j) { return widthAt<T>(k.geometry, data, stride, first + j, c, live); }, r.v);
-    });
+    use([&](int j)
+            UDVR_INLINE_LAMBDA { return boundaryAt<T>(g, data, stride, first + j, c, live); },
+        [&](int j) UDVR_INLINE_LAMBDA { return widthAt<T>(g, data, stride, first + j, c, live); },
+        false);
+}
+/// E[TF] over the distribution d of kernel k at a cell in the `live` lanes (0 elsewhere): the
+/// one expectation of d's kind (distributions.h); float lanes it cannot serve accurately
+/// (tooWideForFloat) take k's double body.
+template <class T, class K, class D>
+UDVR_CPU_GPU UDVR_INLINE Classified<T> classifyOver(const K& k, const Cell<T>& c, const D& d,
+                                                    lanes::MaskOf<T> live) {
+    Classified<T> r{};
+    auto wide = lanes::MaskOf<T>{};
+    if constexpr (!std::is_same_v<T, double>)
+        wide = live & tooWideForFloat<T>(d, k.tfFast.narrowestPiece);
+    k.template withTf<T>([&](const auto& t)
+                             UDVR_INLINE_LAMBDA { expectedTf(t, d, live & !wide, r.v); });
+    exactWhere(k, c, wide, r.v);
     keepLive<T>(live, r.v);
     return r;
 }
-/// A normal piece N(μ, σ²) with `mass` into a distribution sink (point_distribution.h), a point
-/// mass where σ = 0.
-template <class Sink>
-void normalOrPoint(Sink& sink, double mu, double sigma, double mass) {
-    if (sigma > 0.0)
-        sink.normal(mu, sigma, mass);
+/// Whether lanes of T would gather past int32 indices in an array of `perVoxel` floats per
+/// voxel (then the batch takes the double body).
+template <class T, class K>
+UDVR_INLINE bool gathersPastInt32(const K& k, int perVoxel) {
+    if constexpr (lanes::kIsVector<T>)
+        return !k.gathersFit(perVoxel);
     else
-        sink.point(mu, mass);
+        return false;
 }
 }  // namespace detail
 
@@ -268,18 +249,24 @@ struct MeanKernel : KernelBase {
     template <class T>
     using Loaded = T;
     static constexpr bool kLoadDeadLanes = true;
+    /// Its distribution at a cell: the interpolated value, a point mass.
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        use(PointMass<T>{trilinear(geometry, values, 1, c, live)});
+    }
+    /// The value (the ray loop loads every lane, then classifies the live ones in finish).
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE T load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        return trilinear(geometry, values, 1, c, live);
+        T value{};
+        reconstruct<T>(c, live, [&](const PointMass<T>& d) UDVR_INLINE_LAMBDA { value = d.x; });
+        return value;
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE void finish(T value, T out[4]) const {
-        withTf<T>([&](const auto& t) { tfAt<T>(t, value, out); });
-    }
-    /// Its distribution at a cell (point_distribution.h): the interpolated value, a point.
-    template <class Sink>
-    void distribution(const Cell<double>& c, Sink& sink) const {
-        sink.point(load<double>(c, true), 1.0);
+        withTf<T>([&](const auto& t) UDVR_INLINE_LAMBDA {
+            expectedTf(t, PointMass<T>{value}, lanes::allTrue<T>(), out);
+        });
     }
     void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = values[v]; }
     void prefetch(int v) const { prefetchRows(values, v, 1); }
@@ -332,20 +319,17 @@ struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {
           exact(exactIn),
           pointWidth(point),
           maxFloatTotal(kMaxFloatTotalOverPiece * tf.fast().narrowestPiece) {}
-    /// The box spline's terms at a cell.
-    UDVR_CPU_GPU UniformSum sumAt(const Cell<double>& c) const {
-        double w[8], lo[8], hi[8];
-        trilinearWeights(c, w);
-        for (int k = 0; k < 8; ++k) interval(cornerVoxel(geometry, c.base, k), lo[k], hi[k]);
-        return makeUniformSum(lo, hi, w, tinyWidth);
-    }
-    /// The fast form at a cell (the 8 corners' intervals by x-edges, as the Gaussian's σ).
-    template <class T>
-    UDVR_CPU_GPU UDVR_INLINE BoxSplineFast<T> fastAt(const Cell<T>& c,
-                                                     lanes::MaskOf<T> live) const {
+    /// Its distribution at a cell: the box spline of the 8 corners' intervals (SPEC §3
+    /// uniform), loaded by x-edges; `uniform-fast` takes the fast form's expectation over it.
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
         using S = lanes::ScalarOf<T>;
-        T w[8], lo[8], hi[8];
-        trilinearWeights(c, w);
+        CornerBoxSpline<T> d;
+        d.tinyWidth = tinyWidth;
+        d.pointWidth = pointWidth;
+        d.exact = exact;
+        trilinearWeights(c, d.w);
         const std::int64_t offsets[4] = {0, geometry.next[1], geometry.next[2],
                                          geometry.next[1] + geometry.next[2]};
         for (int r = 0; r < 4; ++r) {  // corners 2r (x0) and 2r + 1 (x1) of row r = (y, z)
@@ -354,51 +338,38 @@ struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {
             edgeOf<T>(geometry, second, 1, c.base, offsets[r], live, b[0], b[1]);
             for (int x = 0; x < 2; ++x) {
                 const T h = b[x] * S(1.7320508075688772);
-                lo[2 * r + x] = minMax ? a[x] : a[x] - h;
-                hi[2 * r + x] = minMax ? b[x] : a[x] + h;
+                d.lo[2 * r + x] = minMax ? a[x] : a[x] - h;
+                d.hi[2 * r + x] = minMax ? b[x] : a[x] + h;
             }
         }
-        return makeBoxSplineFast<T>(lo, hi, w, static_cast<S>(pointWidth));
+        use(d);
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         using S = lanes::ScalarOf<T>;
         Classified<T> r{};
-        if (exact) {
-            if constexpr (lanes::kIsVector<T>) {
-                detail::exactLanes(*this, c, live, r.v);
-            } else if constexpr (std::is_same_v<T, double>) {
-                expectedTfUniformSum(tfExact, sumAt(c), r.v);
-            } else {
-                detail::exactWhere(*this, c, live, r.v);
-            }
+        if constexpr (std::is_same_v<T, double>) {
+            reconstruct<T>(c, live, [&](const CornerBoxSpline<T>& d) UDVR_INLINE_LAMBDA {
+                expectedTf(tfExact, d, live, r.v);
+            });
             return r;
         }
-        if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(1)) {
-                detail::exactLanes(*this, c, live, r.v);
-                return r;
-            }
+        if (exact || detail::gathersPastInt32<T>(*this, 1)) {
+            detail::exactWhere(*this, c, live, r.v);
+            return r;
         }
-        const BoxSplineFast<T> b = fastAt(c, live);
-        auto wide = lanes::MaskOf<T>{};
-        if constexpr (!std::is_same_v<T, double>) wide = live & (b.total > maxFloatTotal);
-        withTf<T>([&](const auto& t) {
-            expectedTfUniformFast<T>(t, b, static_cast<S>(pointWidth), live & !wide, r.v);
+        reconstruct<T>(c, live, [&](const CornerBoxSpline<T>& d) UDVR_INLINE_LAMBDA {
+            // Float lanes whose support is wide against the TF's narrowest piece take the
+            // double body (kMaxFloatTotalOverPiece).
+            const BoxSplineFast<T> b = d.fast();
+            const auto wide = live & (b.total > maxFloatTotal);
+            withTf<T>([&](const auto& t) UDVR_INLINE_LAMBDA {
+                expectedTfUniformFast<T>(t, b, static_cast<S>(pointWidth), live & !wide, r.v);
+            });
+            detail::exactWhere(*this, c, wide, r.v);
+            detail::keepLive<T>(live, r.v);
         });
-        detail::exactWhere(*this, c, wide, r.v);
-        detail::keepLive<T>(live, r.v);
         return r;
-    }
-    /// Its distribution at a cell: the box spline of the corners' intervals (SPEC §3 uniform;
-    /// `uniform-fast` approximates the expectation over this same distribution).
-    template <class Sink>
-    void distribution(const Cell<double>& c, Sink& sink) const {
-        const UniformSum u = sumAt(c);
-        if (u.n == 0)
-            sink.point(u.shift, 1.0);
-        else
-            sink.boxSpline(u, 1.0);
     }
     using UniformVoxels::voxelSupport;
     void prefetch(int v) const {
@@ -415,32 +386,21 @@ struct GaussianKernel : KernelBase, detail::ClassifyInLoad {
 
     GaussianKernel(const Grid3& grid, const float* m, const float* s, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), mean(m), stddev(s) {}
-    /// μ and σ at a cell (reconstruct/gaussian_interp.h).
-    template <class T>
-    UDVR_CPU_GPU void paramsAt(const Cell<T>& c, lanes::MaskOf<T> live, T& mu, T& sigma) const {
-        gaussianAt(geometry, mean, stddev, c, live, mu, sigma);
+    /// Its distribution at a cell: N(μ, σ²) (reconstruct/gaussian_interp.h), a point where σ = 0.
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        NormalDistribution<T> d;
+        gaussianAt(geometry, mean, stddev, c, live, d.mu, d.sigma);
+        use(d);
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
-        T mu, sigma;
-        paramsAt(c, live, mu, sigma);
-        // Float lanes whose σ is wide against the TF's narrowest piece lose (σ/w)² × the float
-        // rounding: they take the double body (kMaxFloatSigmaOverPiece).
-        auto wide = lanes::MaskOf<T>{};
-        if constexpr (!std::is_same_v<T, double>)
-            wide = live & (sigma > kMaxFloatSigmaOverPiece * tfFast.narrowestPiece);
-        withTf<T>([&](const auto& t) { expectedTfGaussian<T>(t, mu, sigma, live & !wide, r.v); });
-        detail::exactWhere(*this, c, wide, r.v);
-        detail::keepLive<T>(live, r.v);
+        reconstruct<T>(c, live, [&](const NormalDistribution<T>& d) UDVR_INLINE_LAMBDA {
+            r = detail::classifyOver<T>(*this, c, d, live);
+        });
         return r;
-    }
-    /// Its distribution at a cell: N(μ, σ²), a point where σ = 0.
-    template <class Sink>
-    void distribution(const Cell<double>& c, Sink& sink) const {
-        double mu, sigma;
-        paramsAt<double>(c, true, mu, sigma);
-        detail::normalOrPoint(sink, mu, sigma, 1.0);
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);
@@ -462,59 +422,27 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
 
     GmmOrderedKernel(const Grid3& grid, const float* g, int k, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), gmm(g), components(k) {}
-    /// π_k (normalised), μ_k, σ_k at a cell; returns Σπ before normalisation
-    /// (reconstruct/gmm_ordered.h).
-    template <class T>
-    UDVR_CPU_GPU T componentsAt(const Cell<T>& c, lanes::MaskOf<T> live, T* pi, T* mu,
-                                T* sigma) const {
-        return gmmOrderedAt(geometry, gmm, components, c, live, pi, mu, sigma);
-    }
-    /// Σ_k π_k E_k in the `on` lanes (0 elsewhere); returns the lanes too wide for float.
-    template <class T>
-    UDVR_CPU_GPU lanes::MaskOf<T> expectation(const Cell<T>& c, lanes::MaskOf<T> on,
-                                              T out[4]) const {
-        T pi[kMaxKernelGmmComponents], mu[kMaxKernelGmmComponents], sigma[kMaxKernelGmmComponents];
-        componentsAt(c, on, pi, mu, sigma);
-        auto wide = lanes::MaskOf<T>{};
-        if constexpr (!std::is_same_v<T, double>) {
-            const float maxSigma = kMaxFloatSigmaOverPiece * tfFast.narrowestPiece;
-            for (int i = 0; i < components; ++i) wide = wide | (sigma[i] > maxSigma);
-            wide = wide & on;
-        }
-        for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
-        withTf<T>([&](const auto& t) {
-            for (int i = 0; i < components; ++i) {
-                const auto use = on & !wide & (pi[i] != 0);
-                if (!lanes::anyOf(use)) continue;
-                T e[4];
-                expectedTfGaussian<T>(t, mu[i], sigma[i], use, e);
-                for (int ch = 0; ch < 4; ++ch)
-                    out[ch] = lanes::select(use, lanes::fma(pi[i], e[ch], out[ch]), out[ch]);
-            }
-        });
-        return wide;
+    /// Its distribution at a cell: the mixture of π_k (normalised), μ_k, σ_k
+    /// (reconstruct/gmm_ordered.h); no mass where every weight is 0.
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        NormalMixture<T> d;
+        d.k = components;
+        gmmOrderedAt(geometry, gmm, components, c, live, d.pi, d.mu, d.sigma);
+        use(d);
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r{};
-        if constexpr (lanes::kIsVector<T>) {
-            if (!gathersFit(3 * components)) {  // 3K floats per voxel past int32 indices
-                detail::exactLanes(*this, c, live, r.v);
-                return r;
-            }
+        if (detail::gathersPastInt32<T>(*this, 3 * components)) {  // 3K floats per voxel
+            detail::exactWhere(*this, c, live, r.v);
+            return r;
         }
-        detail::exactWhere(*this, c, expectation(c, live, r.v), r.v);
+        reconstruct<T>(c, live, [&](const NormalMixture<T>& d) UDVR_INLINE_LAMBDA {
+            r = detail::classifyOver<T>(*this, c, d, live);
+        });
         return r;
-    }
-    /// Its distribution at a cell: the mixture's components with their normalised weights (none
-    /// where every weight is 0).
-    template <class Sink>
-    void distribution(const Cell<double>& c, Sink& sink) const {
-        double pi[kMaxKernelGmmComponents], mu[kMaxKernelGmmComponents],
-            sigma[kMaxKernelGmmComponents];
-        componentsAt<double>(c, true, pi, mu, sigma);
-        for (int i = 0; i < components; ++i)
-            if (pi[i] != 0.0) detail::normalOrPoint(sink, mu[i], sigma[i], pi[i]);
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* g = gmm + voxel * 3 * static_cast<std::size_t>(components);
@@ -545,31 +473,29 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
     QuantileRangeKernel(const Grid3& grid, const float* b, int s, int lo, int hi,
                         const double* levelsIn, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), boundaries(b), stride(s), j0(lo), j1(hi), levels{levelsIn, lo} {}
-    template <class T>
-    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+    /// Its distribution at a cell (Eq. 2 and 4): the rank population j0 … j1, each quantile
+    /// uniform between its boundaries with its share of the population's mass.
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
         const int count = j1 - j0 + 1;
-        return detail::quantileLoad<T>(
-            *this, boundaries, stride, j0, count, false, c, live,
-            [&](const auto& t, const auto& boundary, const auto&, T* out) {
-                expectedTfQuantileRange<T>(t, boundary, count, levels, out);
+        detail::quantileRows<T>(
+            geometry, boundaries, stride, j0, count, false, c, live,
+            [&](const auto& boundary, const auto&, bool windowed) UDVR_INLINE_LAMBDA {
+                use(QuantilePopulation<T, decltype(boundary)>{boundary, count, levels, windowed});
             });
     }
-    /// Its distribution at a cell (Eq. 2 and 4): the rank population j0 … j1, each quantile
-    /// uniform between its boundaries with its share of the population's mass (a point mass where
-    /// its width is 0).
-    template <class Sink>
-    void distribution(const Cell<double>& c, Sink& sink) const {
-        const double inv = levels.inverseTotal<double>(j1 - j0 + 1);
-        double a = boundaryAt<double>(geometry, boundaries, stride, j0, c, true);
-        for (int j = j0 + 1; j <= j1; ++j) {
-            const double b = boundaryAt<double>(geometry, boundaries, stride, j, c, true);
-            const double mass = levels.mass(j - j0) * inv;
-            if (b > a)
-                sink.uniform(a, b, mass);
-            else
-                sink.point(a, mass);
-            a = b;
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r{};
+        if (j1 - j0 + 1 > kMaxRowBoundaries && detail::gathersPastInt32<T>(*this, stride)) {
+            detail::exactWhere(*this, c, live, r.v);
+            return r;
         }
+        reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
+            r = detail::classifyOver<T>(*this, c, d, live);
+        });
+        return r;
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
@@ -597,32 +523,29 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
           levels{levelsIn, 0},
           densityWeights(density),
           zeroWidth(zero) {}
-    template <class T>
-    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        const T zero = lanes::splat<T>(static_cast<lanes::ScalarOf<T>>(zeroWidth));
-        return detail::quantileLoad<T>(
-            *this, quantiles, q + 1, 0, q + 1, densityWeights, c, live,
-            [&](const auto& t, const auto& boundary, const auto& width, T* out) {
-                expectedTfQuantileMean<T>(t, boundary, width, q, levels, densityWeights, zero, live,
-                                          out);
+    /// Its distribution at a cell (Eq. 5): a point mass at each quantile's midpoint with
+    /// quantileMeanWeight's share, every one of the q (mass 0 included), in order.
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        detail::quantileRows<T>(
+            geometry, quantiles, q + 1, 0, q + 1, densityWeights, c, live,
+            [&](const auto& boundary, const auto& width, bool windowed) UDVR_INLINE_LAMBDA {
+                use(QuantileMidpoints<T, decltype(boundary), decltype(width)>{
+                    boundary, width, q, levels, densityWeights, zeroWidth, windowed});
             });
     }
-    /// Its distribution at a cell (Eq. 5): a point mass at each quantile's midpoint with
-    /// quantileMeanMasses' share, every one of the q emitted (mass 0 included), in order.
-    template <class Sink>
-    void distribution(const Cell<double>& c, Sink& sink) const {
-        const auto boundary = [&](int j) {
-            return boundaryAt<double>(geometry, quantiles, q + 1, j, c, true);
-        };
-        double a = boundary(0);  // quantile j's lower boundary: masses come in order
-        quantileMeanMasses(
-            levels, q, densityWeights, zeroWidth,
-            [&](int j) { return widthAt<double>(geometry, quantiles, q + 1, j, c, true); },
-            [&](int j, double mass) {
-                const double b = boundary(j + 1);
-                sink.point(0.5 * (a + b), mass);
-                a = b;
-            });
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r{};
+        if (q + 1 > kMaxRowBoundaries && detail::gathersPastInt32<T>(*this, q + 1)) {
+            detail::exactWhere(*this, c, live, r.v);
+            return r;
+        }
+        reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
+            r = detail::classifyOver<T>(*this, c, d, live);
+        });
+        return r;
     }
     /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
     /// the corners' midpoints (m_j(p) = Σ w_c m_{j,c}), so [m_0, m_{q−1}] of each voxel is a
@@ -644,41 +567,29 @@ struct MembersKernel : KernelBase, detail::ClassifyInLoad {
 
     MembersKernel(const Grid3& grid, const float* m, int count, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), members(m), n(count) {}
-    /// Member i at a cell: Σ_c w_c f_{i,c} by the lerps of the mean field.
-    template <class T>
-    UDVR_CPU_GPU UDVR_INLINE T memberAt(int i, const Cell<T>& c, lanes::MaskOf<T> live) const {
-        return boundaryAt<T>(geometry, members, n, i, c, live);
+    /// Its distribution at a cell: a point mass 1/n at each member, interpolated as the mean
+    /// field is (Σ_c w_c f_{i,c} by lerps); on lanes blocks of members as the batch's transposed
+    /// rows (contiguous per voxel).
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        const auto values = [&](int first, int count, T* f) UDVR_INLINE_LAMBDA {
+            if constexpr (lanes::kIsVector<T>) {
+                boundaryRows(geometry, members, n, first, count, c, live, f);
+            } else {
+                for (int i = 0; i < count; ++i)
+                    f[i] = boundaryAt<T>(geometry, members, n, first + i, c, live);
+            }
+        };
+        use(EqualMasses<T, decltype(values)>{values, n});
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r{};
-        withTf<T>([&](const auto& t) {
-            const auto add = [&](T value) {
-                T e[4];
-                tfAt<T>(t, value, e);
-                for (int ch = 0; ch < 4; ++ch) r.v[ch] += e[ch];
-            };
-            if constexpr (lanes::kIsVector<T>) {
-                // Blocks of members as the batch's transposed rows (contiguous per voxel).
-                lanes::Vf f[kMaxRowBoundaries];
-                for (int first = 0; first < n; first += kMaxRowBoundaries) {
-                    const int count = n - first < kMaxRowBoundaries ? n - first : kMaxRowBoundaries;
-                    boundaryRows(geometry, members, n, first, count, c, live, f);
-                    for (int i = 0; i < count; ++i) add(f[i]);
-                }
-            } else {
-                for (int i = 0; i < n; ++i) add(memberAt<T>(i, c, live));
-            }
+        Classified<T> r;
+        reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
+            r = detail::classifyOver<T>(*this, c, d, live);
         });
-        const T inv = lanes::splat<T>(static_cast<lanes::ScalarOf<T>>(1.0 / n));
-        for (int ch = 0; ch < 4; ++ch) r.v[ch] *= inv;
-        detail::keepLive<T>(live, r.v);
         return r;
-    }
-    /// Its distribution at a cell: a point mass 1/n at each member's interpolated value.
-    template <class Sink>
-    void distribution(const Cell<double>& c, Sink& sink) const {
-        for (int i = 0; i < n; ++i) sink.point(memberAt<double>(i, c, true), 1.0 / n);
     }
     /// [min, max] over the voxel's members: each f_i(p) is a convex blend of its corners.
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {

@@ -2,7 +2,7 @@
 // Kernels for 2D transfer functions (SPEC §9): x the value at the sample, y the gradient
 // magnitude G = n̂·Y along the mean gradient n̂ = μ_Y/|μ_Y| (+x where μ_Y = 0). The same
 // interface as the 1D kernels (model_kernels.h), so the same ray loop and probe serve them;
-// instead of `distribution` each has `jointDistribution`: its (X, G) at a cell as pieces into a
+// instead of `reconstruct` each has `jointDistribution`: its (X, G) at a cell as pieces into a
 // JointDistributionSink (joint_distribution.h).
 //
 // Gradients come from grid gradients computed once per model (reconstruct/gradient_field.h):

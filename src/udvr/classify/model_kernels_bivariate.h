@@ -47,9 +47,9 @@ struct BivariateMean2DKernel : GridKernel, detail::ClassifyInLoad {
     }
 };
 
-/// Bivariate fields of any other model: each field's distribution (its kernel's `distribution`) as
-/// per-cell moments along its raster axis, then E[TF2] exactly (expectedTf2Independent), in double
-/// (lanes and float threads take the double body).
+/// Bivariate fields of any other model: each field's distribution (its kernel's `reconstruct`,
+/// described) as per-cell moments along its raster axis, then E[TF2] exactly
+/// (expectedTf2Independent), in double (lanes and float threads take the double body).
 struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
     Tf2Raster<double> tf;
     RasterAxis axisX, axisY;

@@ -1,15 +1,16 @@
 #pragma once
-// A model's distribution at a point (SPEC §3), apart from the expectation of any TF over it
-// (docs/architecture.md, "Distributions and expectations"). Each 1D kernel's `distribution`
-// member (model_kernels.h) reconstructs its model's random variable once, in double, as pieces
-// of probability mass into a DistributionSink: point masses, uniform pieces (Eq. 2's quantiles),
-// normals and box splines.
+// A model's distribution at a point (SPEC §3) as pieces of probability mass, apart from the
+// expectation of any TF over it (docs/architecture.md, "Distributions and expectations"). Each
+// 1D kernel's `reconstruct` (model_kernels.h) builds its model's random variable once, as a
+// Distribution1D over the lane type (distributions.h); distributionAt describes the double one
+// into a DistributionSink: point masses, uniform pieces (Eq. 2's quantiles), normals and box
+// splines.
 // Its consumers are the sinks:
 //   - PointDistribution stores the pieces: probe's JSON and plot (probe.cpp) and expectedTfOver,
 //     the expectation of a 1D TF over any distribution (Eq. 3);
 //   - AxisMoments (expected_tf2_bivariate.h): per-raster-cell moments, for a bivariate TF2;
 //   - DistributionMoments: mean and variance.
-// The render kernels' lane bodies (model_kernels.h) are the fast path of the same definitions;
+// The render kernels' lane bodies take expectedTf over the same object (distributions.h);
 // probe_test.cpp holds every kernel's classification to expectedTfOver of its distribution.
 #include <algorithm>
 #include <cmath>
@@ -24,18 +25,6 @@
 
 namespace udvr {
 
-/// What receives a distribution (data units; masses sum to 1 over the pieces of one point):
-/// point(x, m): mass m at x; uniform(a, b, m): m spread evenly over [a, b], a < b;
-/// normal(μ, σ, m): m × N(μ, σ²), σ > 0; boxSpline(u, m): m × the density of a sum of uniforms
-/// (u.n ≥ 1).
-template <class S>
-concept DistributionSink = requires(S& s, double x, const UniformSum& u) {
-    s.point(x, x);
-    s.uniform(x, x, x);
-    s.normal(x, x, x);
-    s.boxSpline(u, x);
-};
-
 /// visitor(kernel) for a kernel, or for the kernel a variant of kernels holds.
 template <class Kernel, class Visitor>
 void visitKernel(const Kernel& kernel, const Visitor& visitor) {
@@ -46,10 +35,12 @@ void visitKernel(const Kernel& kernel, const Visitor& visitor) {
 }
 
 /// The distribution of `kernel` (any 1D model kernel, or an AnyKernel) at a cell into `sink`:
-/// the kernel's own `distribution` (model_kernels.h).
+/// the kernel's own reconstruction (model_kernels.h), described as pieces (distributions.h).
 template <class Kernel, DistributionSink Sink>
 void distributionAt(const Kernel& kernel, const Cell<double>& cell, Sink& sink) {
-    visitKernel(kernel, [&](const auto& k) { k.distribution(cell, sink); });
+    visitKernel(kernel, [&](const auto& k) {
+        k.template reconstruct<double>(cell, true, [&](const auto& d) { describe(d, sink); });
+    });
 }
 
 /// Σ mass × (E[α·r], E[α·g], E[α·b], E[α]) over the pieces of a distribution.

@@ -46,9 +46,9 @@ std::vector<double> levelsOf(const QuantileLevels& levels, int count) {
 }
 
 // What probe reports of each model's parameters at a cell (SPEC §8), next to its distribution
-// (the kernel's `distribution`, which the plot and the point masses listed here come from). One
-// overload per kernel type that has parameters to print; `family` tells models that share a kernel
-// apart.
+// (the kernel's reconstruction, distributionAt, which the plot and the point masses listed here
+// come from). One overload per kernel type that has parameters to print; `family` tells models that
+// share a kernel apart.
 struct Describe {
     const ModelFamily& family;
     const Cell<double>& cell;
@@ -60,36 +60,33 @@ struct Describe {
     template <class Kernel>
     void operator()(const Kernel&) const {}
     void operator()(const GaussianKernel& k) const {
-        double mu, sigma;
-        k.paramsAt<double>(cell, true, mu, sigma);
-        j["mean"] = mu;
-        j["stddev"] = sigma;
+        k.reconstruct<double>(cell, true, [&](const NormalDistribution<double>& d) {
+            j["mean"] = d.mu;
+            j["stddev"] = d.sigma;
+        });
     }
     void operator()(const UniformKernel& k) const {
-        double weights[8];
-        trilinearWeights(cell, weights);
-        json terms = json::array();
-        for (int c = 0; c < 8; ++c) {
-            if (weights[c] == 0.0) continue;
-            double lo, hi;
-            k.interval(cornerVoxel(k.geometry, cell.base, c), lo, hi);
-            terms.push_back(
-                {{"weight", weights[c]}, {"low", weights[c] * lo}, {"high", weights[c] * hi}});
-        }
-        const UniformSum u = k.sumAt(cell);
-        j["terms"] = terms;
-        j["mean"] = u.mean();
-        j["stddev"] = std::sqrt(u.variance());
-        j["low"] = u.shift;
-        j["high"] = u.shift + u.total;
+        k.reconstruct<double>(cell, true, [&](const CornerBoxSpline<double>& d) {
+            json terms = json::array();
+            for (int c = 0; c < 8; ++c) {
+                if (d.w[c] == 0.0) continue;
+                terms.push_back(
+                    {{"weight", d.w[c]}, {"low", d.w[c] * d.lo[c]}, {"high", d.w[c] * d.hi[c]}});
+            }
+            const UniformSum u = d.sum();
+            j["terms"] = terms;
+            j["mean"] = u.mean();
+            j["stddev"] = std::sqrt(u.variance());
+            j["low"] = u.shift;
+            j["high"] = u.shift + u.total;
+        });
     }
     void operator()(const GmmOrderedKernel& k) const {
-        const int K = k.components;
-        std::vector<double> pi(K), mu(K), sg(K);
-        k.componentsAt<double>(cell, true, pi.data(), mu.data(), sg.data());
-        j["weights"] = pi;
-        j["means"] = mu;
-        j["sigmas"] = sg;
+        k.reconstruct<double>(cell, true, [&](const NormalMixture<double>& d) {
+            j["weights"] = std::vector<double>(d.pi, d.pi + d.k);
+            j["means"] = std::vector<double>(d.mu, d.mu + d.k);
+            j["sigmas"] = std::vector<double>(d.sigma, d.sigma + d.k);
+        });
     }
     void operator()(const QuantileRangeKernel& k) const {
         std::vector<double> b(static_cast<std::size_t>(k.stride));

@@ -82,7 +82,8 @@ TEST(Probe, PlainFieldNamesTheModelsItLacksArraysFor) {
 }
 
 TEST(PointDistribution, EveryKernelClassifiesAsTheExpectationOverItsDistribution) {
-    // One distribution object per model (each kernel's `distribution`) and one 1D expectation over
+    // One distribution object per model (each kernel's `reconstruct`, distributions.h; a
+    // Distribution1D over double and lanes, checked at compile time) and one 1D expectation over
     // any distribution (expectedTfOver, Eq. 3 piece by piece): every kernel's own classification
     // (the double body the renderer's lanes are checked against) equals it. Exact models to
     // 1e−9 (summation order); uniform-fast approximates the box spline's expectation, within
@@ -96,6 +97,10 @@ TEST(PointDistribution, EveryKernelClassifiesAsTheExpectationOverItsDistribution
         for (ModelKind kind : allModelKinds()) {
             if (kind == ModelKind::GmmMc) continue;
             withKernel(m, kind, tf, [&](const auto& k) {
+                [[maybe_unused]] const auto onLanes = [&](const Cell<lanes::Vf>& c) {
+                    k.template reconstruct<lanes::Vf>(c, lanes::allTrue<lanes::Vf>(),
+                                                      RequireDistribution1D{});
+                };
                 for (int i = 0; i < 20; ++i) {
                     const Cell<double> cell =
                         cellAt<double>(CellGeometry(m.grid), static_cast<float>(3 * rng.uniform()),
@@ -103,6 +108,7 @@ TEST(PointDistribution, EveryKernelClassifiesAsTheExpectationOverItsDistribution
                                        static_cast<float>(2 * rng.uniform()));
                     double kernel[4], over[4];
                     k.finish(k.template load<double>(cell, true), kernel);
+                    k.template reconstruct<double>(cell, true, RequireDistribution1D{});
                     PointDistribution d;
                     distributionAt(k, cell, d);
                     double mass = d.continuousMass();

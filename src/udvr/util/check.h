@@ -133,6 +133,9 @@ namespace detail {
 /// For the small bodies of the per-sample kernels: inlined into the ray loop even where GCC's
 /// heuristics would call them (a call passes 16-lane vectors through memory).
 #define UDVR_INLINE inline __attribute__((always_inline))
+/// The same for a lambda, after its parameter list: `[&](int j) UDVR_INLINE_LAMBDA { … }` (the
+/// ray step's flatten does not reach through every lambda a distribution is handed to).
+#define UDVR_INLINE_LAMBDA __attribute__((always_inline))
 /// For the ray loop's step: everything it calls is inlined into it (GCC's inliner otherwise stops
 /// at its growth limits and passes the batch's vectors through memory: +30 % on quantile-range).
 #define UDVR_FLATTEN __attribute__((flatten))
