@@ -311,11 +311,11 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf(const Tf& tf, const EqualMasses<T, Valu
     for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
 }
 
-/// Lanes the float closed form cannot serve: none, for distributions without such a limit.
-template <class T, class D>
-UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> tooWideForFloat(const D&, float) {
-    return lanes::MaskOf<T>{};
-}
+/// Whether a distribution kind has lanes its float closed form cannot serve (tooWideForFloat).
+template <class D>
+inline constexpr bool hasFloatLimit = requires(const D& d) {
+    tooWideForFloat(d, 1.f);
+};
 
 /// The contract of a model's distribution at a point (what a kernel's `reconstruct` hands on),
 /// over its real type D::Real: a 1D TF's expectation over it on that type, and over double also

@@ -198,21 +198,22 @@ UDVR_CPU_GPU UDVR_INLINE void quantileRows(const CellGeometry& g, const float* d
         [&](int j) UDVR_INLINE_LAMBDA { return widthAt<T>(g, data, stride, first + j, c, live); },
         false);
 }
-/// E[TF] over the distribution d of kernel k at a cell in the `live` lanes (0 elsewhere): the
-/// one expectation of d's kind (distributions.h); float lanes it cannot serve accurately
-/// (tooWideForFloat) take k's double body.
+/// out ← E[TF] over the distribution d of kernel k at a cell in the `live` lanes (0 elsewhere):
+/// the one expectation of d's kind (distributions.h); float lanes it cannot serve accurately
+/// (tooWideForFloat, for the kinds that have such a limit) take k's double body.
 template <class T, class K, class D>
-UDVR_CPU_GPU UDVR_INLINE Classified<T> classifyOver(const K& k, const Cell<T>& c, const D& d,
-                                                    lanes::MaskOf<T> live) {
-    Classified<T> r{};
-    auto wide = lanes::MaskOf<T>{};
-    if constexpr (!std::is_same_v<T, double>)
-        wide = live & tooWideForFloat<T>(d, k.tfFast.narrowestPiece);
-    k.template withTf<T>([&](const auto& t)
-                             UDVR_INLINE_LAMBDA { expectedTf(t, d, live & !wide, r.v); });
-    exactWhere(k, c, wide, r.v);
-    keepLive<T>(live, r.v);
-    return r;
+UDVR_CPU_GPU UDVR_INLINE void classifyOver(const K& k, const Cell<T>& c, const D& d,
+                                           lanes::MaskOf<T> live, T out[4]) {
+    if constexpr (!std::is_same_v<T, double> && hasFloatLimit<D>) {
+        const auto wide = live & tooWideForFloat(d, k.tfFast.narrowestPiece);
+        k.template withTf<T>([&](const auto& t)
+                                 UDVR_INLINE_LAMBDA { expectedTf(t, d, live & !wide, out); });
+        exactWhere(k, c, wide, out);
+    } else {
+        k.template withTf<T>([&](const auto& t)
+                                 UDVR_INLINE_LAMBDA { expectedTf(t, d, live, out); });
+    }
+    keepLive<T>(live, out);
 }
 /// Whether lanes of T would gather past int32 indices in an array of `perVoxel` floats per
 /// voxel (then the batch takes the double body).
@@ -398,7 +399,7 @@ struct GaussianKernel : KernelBase, detail::ClassifyInLoad {
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
         reconstruct<T>(c, live, [&](const NormalDistribution<T>& d) UDVR_INLINE_LAMBDA {
-            r = detail::classifyOver<T>(*this, c, d, live);
+            detail::classifyOver<T>(*this, c, d, live, r.v);
         });
         return r;
     }
@@ -440,7 +441,7 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
             return r;
         }
         reconstruct<T>(c, live, [&](const NormalMixture<T>& d) UDVR_INLINE_LAMBDA {
-            r = detail::classifyOver<T>(*this, c, d, live);
+            detail::classifyOver<T>(*this, c, d, live, r.v);
         });
         return r;
     }
@@ -487,13 +488,14 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r{};
+        Classified<T> r;
         if (j1 - j0 + 1 > kMaxRowBoundaries && detail::gathersPastInt32<T>(*this, stride)) {
+            r = Classified<T>{};
             detail::exactWhere(*this, c, live, r.v);
             return r;
         }
         reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
-            r = detail::classifyOver<T>(*this, c, d, live);
+            detail::classifyOver<T>(*this, c, d, live, r.v);
         });
         return r;
     }
@@ -537,13 +539,14 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r{};
+        Classified<T> r;
         if (q + 1 > kMaxRowBoundaries && detail::gathersPastInt32<T>(*this, q + 1)) {
+            r = Classified<T>{};
             detail::exactWhere(*this, c, live, r.v);
             return r;
         }
         reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
-            r = detail::classifyOver<T>(*this, c, d, live);
+            detail::classifyOver<T>(*this, c, d, live, r.v);
         });
         return r;
     }
@@ -587,7 +590,7 @@ struct MembersKernel : KernelBase, detail::ClassifyInLoad {
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
         reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
-            r = detail::classifyOver<T>(*this, c, d, live);
+            detail::classifyOver<T>(*this, c, d, live, r.v);
         });
         return r;
     }
