@@ -417,9 +417,13 @@ void ExperimentProgress::beginStage(double plannedMs, bool build) {
     stageStartMs_ = nowMs();
 }
 
-void ExperimentProgress::refineStage(double estimateMs) {
+double ExperimentProgress::refineStage(double estimateMs) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (inStage_ && estimateMs > 0.0) stageEstimateMs_ = estimateMs;
+    // Within 5x of the plan: a frame's probes are closer than the plan as a rule, but a probe
+    // too small to measure can be off by 100x.
+    if (!inStage_ || estimateMs <= 0.0 || stagePlannedMs_ <= 0.0) return estimateMs;
+    stageEstimateMs_ = std::clamp(estimateMs, stagePlannedMs_ / 5.0, stagePlannedMs_ * 5.0);
+    return stageEstimateMs_;
 }
 
 void ExperimentProgress::endStage() {
@@ -469,8 +473,8 @@ StageScope::StageScope(const Work& w) : p_(ExperimentProgress::current()) {
 StageScope::~StageScope() {
     if (p_) p_->endStage();
 }
-void StageScope::refine(double estimateMs) {
-    if (p_) p_->refineStage(estimateMs);
+double StageScope::refine(double estimateMs) {
+    return p_ ? p_->refineStage(estimateMs) : estimateMs;
 }
 
 }  // namespace udvr::experiment_detail

@@ -76,8 +76,9 @@ class ExperimentProgress {
 
     /// A build or frame starts: its planned ms (at this machine's speed).
     void beginStage(double plannedMs, bool build);
-    /// A better estimate of the running stage (a frame's probes), ms.
-    void refineStage(double estimateMs);
+    /// A better estimate of the running stage (a frame's probes), ms; kept within 5x of the
+    /// stage's plan, and returned so.
+    double refineStage(double estimateMs);
     void endStage();
     /// The line as it would be printed now.
     std::string line() const;
@@ -109,7 +110,8 @@ class StageScope {
   public:
     explicit StageScope(const Work& w);
     ~StageScope();
-    void refine(double estimateMs);
+    /// The progress's refineStage (the estimate as given where no experiment is in progress).
+    double refine(double estimateMs);
     StageScope(const StageScope&) = delete;
     StageScope& operator=(const StageScope&) = delete;
 

@@ -297,15 +297,15 @@ class Run {
                     frame(at);
                     return stats.milliseconds;
                 });
-            if (e.ms > kLongFrameMs)
-                log(label + ": this frame will take about " + fmt("%.0f", e.ms / 1000.0) +
+            // The probes' estimate, kept within 5x of the plan's (a probe of a few pixels under
+            // load can be off by 100x: 543 s said for a 0.2 s frame).
+            const double frameMs = stage.refine(e.ms);
+            if (frameMs > kLongFrameMs)
+                log(label + ": this frame will take about " + fmt("%.0f", frameMs / 1000.0) +
                     " s (probes up to " + std::to_string(e.width) + "x" + std::to_string(e.height) +
                     " took " + fmt("%.2f", e.probeMs / 1000.0) + " s); shorter: " +
-                    (options_.quick ? std::string("a smaller image_size or fewer realizations "
-                                                  "(the Python API's overrides)")
-                                    : std::string("--quick (smaller images and realization "
-                                                  "counts)")));
-            stage.refine(e.ms);
+                    (options_.quick ? std::string("a smaller --size (Python: image_size)")
+                                    : std::string("--quick or a smaller --size")));
         }
         ImageRgba img = frame(settings_);
         *ms = stats.milliseconds;

@@ -381,7 +381,15 @@ ExperimentResult runOne(const std::string& name, const fs::path& dir,
         UDVR_FAIL("transfer-function folder " << tfDir.string()
                                               << " not found (use --tf-dir or UDVR_TF_DIR)");
     const std::string line = estimateLine(name, options);
-    if (!line.empty()) std::fprintf(stderr, "%s\n", line.c_str());
+    if (!line.empty()) {
+        // The folder too (as Run makes it), so that a bad -o is the one line.
+        std::error_code ec;
+        fs::create_directories(dir / "images", ec);
+        if (ec)
+            UDVR_FAIL("cannot create output directory " << (dir / "images").string() << ": "
+                                                        << ec.message());
+        std::fprintf(stderr, "%s\n", line.c_str());
+    }
     const Work work = planExperiment(name, resolveSizes(name, options), options);
     const Speed& speed = machineSpeed();
     ExperimentProgress progress(name, work.buildMs * speed.build, work.frameMs * speed.frame, true);

@@ -76,12 +76,14 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
     }
     std::vector<std::array<double, 2>> runs;  // (pixels, ms)
     // Sides: 1/32 of the frame's (at least 2 pixels), then twice and four times that. gmm-mc
-    // may first probe 2x2 (limits.fixedCostProbe): its time is what a realization costs at any
-    // size (drawing it over the voxels), which can be most of a 1/32 probe's; without it, one
-    // probe scaled by the pixels gave 3575 s for a 54 s frame (serve's 200 ms limit allowed one).
+    // first probes 2x2: its time is what a realization costs at any size (drawing it over the
+    // voxels), which can be most of a 1/32 probe's; without it, one 16² probe scaled by the
+    // pixels gave 3575 s for a 54 s frame (serve) and 12995 s for a ~60 s one (the tangle's
+    // 64³, 512²). Not for frames under 256²: fitted between 2x2 and 4x4 probes, the load's noise
+    // gave 2183 s for a 0.75 s frame of 128².
     const int w0 = std::max(2, s.width / 32), h0 = std::max(2, s.height / 32);
     std::vector<std::array<int, 2>> sides;
-    if (monteCarlo && limits.fixedCostProbe && (w0 > 2 || h0 > 2)) sides.push_back({2, 2});
+    if (monteCarlo && w0 * h0 >= 64) sides.push_back({2, 2});
     for (int k : {1, 2, 4}) sides.push_back({w0 * k, h0 * k});
     double fixedMs = 0.0;  // the 2x2 gmm-mc probe's time
     for (const auto& [pw, ph] : sides) {

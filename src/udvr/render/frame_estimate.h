@@ -27,11 +27,6 @@ struct FrameEstimateLimits {
     /// The probes' wall time in all (0: none): past it the running probe is cancelled and the
     /// estimate is a lower bound. Bounds the probes' cost whatever the model (serve).
     double deadlineMs = 0.0;
-    /// gmm-mc: probe 2x2 first, whose time is what drawing the realizations costs at any size,
-    /// so a tight maxProbeMs (serve's 200 ms) still lets the larger probes run. Off by default:
-    /// with few probe pixels (a 128² frame's 2x2 and 4x4) the fit extrapolates the load's noise
-    /// (an experiment's 128² frame of 0.75 s was estimated at 2183 s).
-    bool fixedCostProbe = false;
 };
 
 /// Probes of frame `s` at 1/32 of its size along each axis (at least 2 pixels), then twice and
@@ -39,9 +34,10 @@ struct FrameEstimateLimits {
 /// the frame); the time fitted as a + b·pixels (a, b >= 0, least squares over the probes; a:
 /// what a frame costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or
 /// b·pixels from one probe.
-/// `monteCarlo` (gmm-mc): with limits.fixedCostProbe a 2x2 probe first (if no larger probe fits
-/// the limit, the estimate is its time, a lower bound); the probes draw 4 realizations and the
-/// time scales by the frame's count. The first probe (unless over maxProbeMs) and any under a
+/// `monteCarlo` (gmm-mc): a 2x2 probe first where the 1/32 probes have 64 pixels or more (its
+/// time: what drawing the realizations costs at any size; if no larger probe fits the limit,
+/// the estimate is its time, a lower bound); the probes draw 4 realizations and the time scales
+/// by the frame's count. The first probe (unless over maxProbeMs) and any under a
 /// quarter of it run twice and keep the faster run (the first run builds the tables the frame
 /// reuses; load only adds time). `probe` renders the settings it is given and returns the frame's
 /// milliseconds (it throws RenderCancelled when their cancel flag turns true). No probe (ms 0)

@@ -52,7 +52,6 @@ TEST(FrameEstimate, MonteCarloMeasuresThePerRealizationCost) {
     s.realizations = 200;
     FrameEstimateLimits limits;
     limits.maxProbeMs = 200.0;
-    limits.fixedCostProbe = true;
     std::vector<int> sides;
     const FrameEstimate e = estimateFrame(
         s, true,

@@ -376,7 +376,6 @@ std::map<ModelKind, FrameEstimate> Api::frameEstimates(const ApiRequest& request
         FrameEstimateLimits limits;
         limits.maxProbeMs = kEstimateProbeMs;
         limits.deadlineMs = kEstimateDeadlineMs;
-        limits.fixedCostProbe = true;  // gmm-mc's draws: one 16² probe may not fit the limit
         for (ModelKind kind : missing) {
             auto& cache = renderCaches_[{"model", kind}];
             if (!cache) cache = std::make_unique<RenderCache>();
