@@ -68,8 +68,8 @@ def test_quiet_with_no_progress(tmp_path):
 
 
 def test_the_full_run_suggests_quick_and_a_smaller_size(tmp_path):
-    """The full tangle (512², 200 realizations; minutes): its first line says so, with --quick
-    and --size 128 each estimated shorter. Stopped after that line."""
+    """The full tangle (512², 200 realizations; 1.5-3 min here): its first line says so, with
+    --quick and --size 128 each estimated at under a third of it. Stopped after that line."""
     p = subprocess.Popen([str(UDVR_BINARY), "experiment", "tangle", "-o", str(tmp_path)],
                          stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
     try:
@@ -81,7 +81,7 @@ def test_the_full_run_suggests_quick_and_a_smaller_size(tmp_path):
     m = ESTIMATE.match(first)
     assert m and m.group(6) == "512", first
     estimate = int(m.group(2))
-    assert estimate > 60
+    assert estimate >= 10  # the line is only for runs over 10 s
     ways = re.fullmatch(r"--quick \(about (\d+) s\) or --size 128 \(about (\d+) s\)", m.group(8))
     assert ways, m.group(8)
     assert int(ways.group(1)) < estimate / 3 and int(ways.group(2)) < estimate / 3

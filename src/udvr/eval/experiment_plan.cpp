@@ -460,7 +460,16 @@ std::string ExperimentProgress::line() const {
     std::lock_guard<std::mutex> lock(mutex_);
     const double now = nowMs();
     const double left = leftMsLocked(now);
-    const double frac = now / std::max(now + left, 1.0);
+    // The share done is of the planned work (so it only grows, as a bar's units): the stages
+    // ended, and the running one's plan by its time so far over its estimate (at most 95 %).
+    double done = donePlannedMs_[0] + donePlannedMs_[1];
+    if (inStage_)
+        done += stagePlannedMs_ *
+                std::min((now - stageStartMs_) / std::max(stageEstimateMs_, 1.0), 0.95);
+    // Never below a share shown before (a frame's probes may raise its estimate as it starts).
+    lastFrac_ = std::max(
+        lastFrac_, std::min(done / std::max(plannedMs_[0] + plannedMs_[1], done + 1e-9), 1.0));
+    const double frac = lastFrac_;
     char buf[160];
     std::snprintf(buf, sizeof buf, "experiment %s: %.0f %% done after %.0f s, about %.0f s left",
                   name_.c_str(), 100.0 * frac, now / 1000.0, left / 1000.0);

@@ -65,8 +65,9 @@ std::string estimateLine(const std::string& name, const ExperimentOptions& optio
 
 /// Progress over a whole experiment: a line "experiment NAME: P % done after T s, about R s
 /// left" every ProgressBar::lineSeconds() (10 s; UDVR_PROGRESS_EVERY), whether stderr is a
-/// terminal or not; UDVR_NO_PROGRESS=1 silences it. The time left is the planned work not yet
-/// done, scaled by how long the stages done so far took against their plan.
+/// terminal or not; UDVR_NO_PROGRESS=1 silences it. The share done is of the planned work (it
+/// only grows); the time left is the planned work not yet done, scaled by how long the stages
+/// done so far took against their plan.
 class ExperimentProgress {
   public:
     ExperimentProgress(std::string name, double plannedBuildMs, double plannedFrameMs, bool draw);
@@ -99,6 +100,7 @@ class ExperimentProgress {
     double begunPlannedMs_[2] = {0, 0};                            // plans of the stages begun
     double donePlannedMs_[2] = {0, 0}, doneActualMs_[2] = {0, 0};  // stages ended
     double ratioLocked(int type) const;
+    mutable double lastFrac_ = 0.0;  // the share done last shown
     bool inStage_ = false;
     int stageType_ = 0;
     double stagePlannedMs_ = 0.0, stageEstimateMs_ = 0.0, stageStartMs_ = 0.0;
