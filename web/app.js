@@ -22,7 +22,8 @@ const state = {
   probe: null,            // {pixel, point, model, models: {name: json}, tf2Row}
   probing: 0,
   posters: [],            // the TF posters (tfPoster): busy while posting
-  timings: [],            // {kind, channel, latency (event -> pixels, ms), render (ms)}
+  estimating: false,      // the models' estimates are being asked again (refreshEstimates)
+  timings: [],            // {kind, channel, size, realizations, latency (event -> pixels, ms), render (ms)}
 };
 
 // This page load's own channels on the server: its seq counts from 1 whatever an older load (or
@@ -62,13 +63,23 @@ function estimateMs(params) {
   return m.estimate_ms * (w * h) / (w0 * h0) * (params.source === 'diff' ? 1.1 : 1);
 }
 
-// Progressive steps of a frame over the latency goal: the side halved `step` times, from the
-// first step whose estimate meets the goal (time goes with the pixels, so 4× per step) up to
-// the full frame; each step is a request that the next input's request cancels. 0: one frame.
-// A lower bound (the server's probe ran out of time) starts at a quarter of the side.
+// Whether the view's model is rendered as an average of realizations (gmm-mc): its cost goes with
+// the realizations, each costing about as much at any image size (drawing it over the voxels).
+function byRealizations(params) {
+  const m = params.source === 'truth' ? null : modelInfo(params.model);
+  return !!(m && m.realizations);
+}
+
+// Progressive steps of a frame over the latency goal, from the first step whose estimate meets
+// the goal up to the full frame, each 4x cheaper than the next: the side halved `step` times,
+// or for gmm-mc the full side with the realizations divided by 4^step (at least 2); each step is
+// a request that the next input's request cancels. 0: one frame. A lower bound (the server's
+// probe ran out of time) starts two steps down.
 function progressiveSteps(params) {
   const goal = state.info.latency_goal_ms;
-  const fits = (steps) => Math.min(...state.size) >> steps >= 8;
+  const fits = byRealizations(params)
+      ? (steps) => state.info.defaults.realizations >> (2 * steps) >= 2
+      : (steps) => Math.min(...state.size) >> steps >= 8;
   let steps = 0;
   for (let ms = estimateMs(params); ms > goal && fits(steps + 1); ms /= 4) ++steps;
   const m = params.source === 'truth' ? null : modelInfo(params.model);
@@ -76,9 +87,17 @@ function progressiveSteps(params) {
   return steps;
 }
 
-function sizeAtStep(step) {
+// The size (and for gmm-mc the realizations) of progressive step `step` of a view.
+function stepParams(params, step) {
   const [w, h] = state.size;
-  return `${Math.max(1, w >> step)}x${Math.max(1, h >> step)}`;
+  if (byRealizations(params))
+    return {size: `${w}x${h}`, realizations: state.info.defaults.realizations >> (2 * step)};
+  return {size: `${Math.max(1, w >> step)}x${Math.max(1, h >> step)}`};
+}
+
+function stepText(params, step) {
+  return byRealizations(params) ? `1/${1 << (2 * step)} of the realizations`
+                                : `1/${1 << step} of the side`;
 }
 
 function secondsText(ms) {
@@ -176,8 +195,8 @@ function pump(v) {
   v.pending = null;
   const seq = ++state.seq;
   v.inFlight.set(seq, kind);
-  const size = kind === 'step' ? sizeAtStep(step) : sizeText(kind === 'coarse');
-  const params = {...v.params, size, ...cameraParams(), channel: v.channel, seq, page: PAGE};
+  const sized = kind === 'step' ? stepParams(v.params, step) : {size: sizeText(kind === 'coarse')};
+  const params = {...v.params, ...sized, ...cameraParams(), channel: v.channel, seq, page: PAGE};
   const query = JSON.stringify({...params, channel: undefined, seq: undefined, page: undefined});
   // The PNG's 8-bit RGBA values without the PNG (no encoding, no decoding): the PNG itself is
   // asked for when saved (pngOf).
@@ -199,11 +218,12 @@ function pump(v) {
         await new Promise(requestAnimationFrame);
         const latency = performance.now() - eventTime;
         // ms after the input: the answer's bytes here, and within it the server's part.
-        state.timings.push({kind, channel: v.channel, latency, render: renderMs,
+        state.timings.push({kind, channel: v.channel, size: sized.size,
+                            realizations: sized.realizations, latency, render: renderMs,
                             server: Number(headers.get('X-Udvr-Server-Ms')),
                             arrived: arrived - eventTime});
-        const what = kind === 'step' ? `step (1/${1 << step} of the side; the full frame: about ` +
-                                           `${secondsText(estimateMs(v.params))})` : kind;
+        const what = kind === 'step' ? `step (${stepText(v.params, step)}; the full frame: ` +
+                                           `about ${secondsText(estimateMs(v.params))})` : kind;
         v.info = `${what} ${image.width}×${image.height}, render ${renderMs.toFixed(0)} ms, ` +
                  `shown ${latency.toFixed(0)} ms after the input`;
         v.caption.textContent = captionOf(v);
@@ -383,12 +403,14 @@ function tfPoster(path, body) {
     p.pending = p.pending === 'commit' || phase === 'commit' ? 'commit' : 'drag';
     if (p.busy) return;
     p.busy = true;
+    let committed = false;
     try {
       while (p.pending) {
         const kind = p.pending;
         p.pending = null;
         await postJson(path, body());
         schedule(kind === 'drag');
+        committed = committed || kind === 'commit';
         // An edit made while the probe refreshes is pending again: the loop goes on.
         if (!p.pending && state.probe) await refreshProbe();
       }
@@ -397,6 +419,7 @@ function tfPoster(path, body) {
     } finally {
       p.busy = false;
     }
+    if (committed) refreshEstimates();
   };
   state.posters.push(p);
   return p.changed;
@@ -418,6 +441,7 @@ async function applyTfText(text) {
   await postJson('/api/tf', toParaViewJson(tf));
   editor.setTf(tf);
   schedule(false);
+  refreshEstimates();
   if (state.probe) await refreshProbe();
 }
 
@@ -533,24 +557,58 @@ function loadAndSave(prefix, path, name, apply) {
   });
 }
 
+// ---- estimates ----------------------------------------------------------------------------
+// Models over the latency goal are marked with their estimate and render progressively.
+function markOption(o, m) {
+  o.text = m.slow ? `${m.label} — ${m.estimate_lower_bound ? 'over' : 'about'} ` +
+                    `${secondsText(m.estimate_ms)} (progressive)` : m.label;
+  o.title = m.available ? '' : m.reason;
+  if (m.slow)
+    o.title = `a ${state.info.estimate_size} frame is estimated at ${secondsText(m.estimate_ms)}, ` +
+              `over the ${state.info.latency_goal_ms} ms goal: shown coarse first, then finer`;
+  if (m.slow) o.dataset.slow = 'true';
+  else delete o.dataset.slow;
+}
+
+// The estimates are for one TF (the server drops them when it changes): after an edit, ask
+// again (its probes take their turn at the server after the frames already asked for) and mark
+// the picker anew. One at a time; an edit meanwhile asks once more after it.
+let estimatesAgain = false;
+async function refreshEstimates() {
+  if (state.estimating) {
+    estimatesAgain = true;
+    return;
+  }
+  state.estimating = true;
+  try {
+    do {
+      estimatesAgain = false;
+      const info = await getJson('/api/state', {estimates: 1});
+      for (const fresh of info.models) {
+        const m = modelInfo(fresh.name);
+        if (!m) continue;
+        for (const k of ['estimate_ms', 'estimate_lower_bound', 'slow']) m[k] = fresh[k];
+        const o = [...$('model').options].find((o) => o.value === m.name);
+        if (o) markOption(o, m);
+      }
+    } while (estimatesAgain);
+  } catch (e) {
+    showError(e);
+  } finally {
+    state.estimating = false;
+  }
+}
+
 // ---- start --------------------------------------------------------------------------------
 async function start() {
   state.info = await getJson('/api/state', {estimates: 1});  // with each model's frame estimate
   $('title').textContent = `udvr serve — ${state.info.model.file}`;
   const picker = $('model');
   for (const m of state.info.models) {
-    // Models over the latency goal are marked with their estimate and render progressively.
-    const label = m.slow ? `${m.label} — ${m.estimate_lower_bound ? 'over' : 'about'} ` +
-                           `${secondsText(m.estimate_ms)} (progressive)` : m.label;
-    const o = new Option(label, m.name);
+    const o = new Option(m.label, m.name);
     o.disabled = !m.available;
-    if (!m.available) o.title = m.reason;
-    if (m.slow) {
-      o.dataset.slow = 'true';
-      o.title = `a ${state.info.estimate_size} frame is estimated at ${secondsText(m.estimate_ms)}, ` +
-                `over the ${state.info.latency_goal_ms} ms goal: shown coarse first, then finer`;
-    }
     picker.add(o);
+    markOption(o, m);
   }
   const preferred = ['quantile-range', 'mean'].find((n) => modelInfo(n).available) || 'mean';
   state.model = preferred;
@@ -609,7 +667,8 @@ async function start() {
 
 // For tests and the benchmark: whether every view shows the full frame of the current state.
 function idle() {
-  if (!state.info || !state.views.size || state.posters.some((p) => p.busy) || state.probing)
+  if (!state.info || !state.views.size || state.posters.some((p) => p.busy) || state.probing ||
+      state.estimating)
     return false;
   const c = cameraParams();
   for (const v of state.views.values()) {

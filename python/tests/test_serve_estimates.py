@@ -38,16 +38,20 @@ def test_state_estimates_every_available_model(inputs):
                 continue
             assert m["estimate_ms"] > 0, m["name"]
             assert m["slow"] == (m["estimate_lower_bound"] or m["estimate_ms"] > GOAL_MS)
-        # Against the frame itself: within 4x either way (the probes and the frame share a
-        # 2-core machine with other jobs; measured here within 2.7x at a load of 10).
-        for name in ("mean", "quantile-range", "gaussian"):
+        # Against the frame itself: within 8x either way. Generous: the probes and the frame
+        # share a 2-core machine with other jobs (measured within 2.7x at a load of 10, and
+        # quantile-range 4x high at a load of 9); a wrong scaling is off by 30x or more (a
+        # 1/32-side probe scaled by the side instead of the pixels, or by nothing).
+        for name in ("mean", "quantile-range", "gaussian", "uniform-fast"):
             actual = render_ms(s, name)
             ratio = by[name]["estimate_ms"] / actual
-            assert 0.25 < ratio < 4.0, (name, by[name]["estimate_ms"], actual)
-        # Kept for the TF: a second /api/state probes nothing (it answers at once).
-        t0 = time.monotonic()
+            assert 1 / 8 < ratio < 8.0, (name, by[name]["estimate_ms"], actual)
+        # The costly kernels are estimated as costlier than the mean, as they render.
+        assert by["gaussian"]["estimate_ms"] > by["mean"]["estimate_ms"]
+        # Kept for the TF: a second /api/state probes nothing (the render gate sees no turn).
+        turns = s.json("/api/status")["completed"]
         again = s.json("/api/state?estimates=1")
-        assert time.monotonic() - t0 < 0.5
+        assert s.json("/api/status")["completed"] == turns
         assert [m["estimate_ms"] for m in again["models"]] == \
             [m["estimate_ms"] for m in state["models"]]
         # A plain /api/state never probes: it gives the estimates known for the current TF.
@@ -76,7 +80,9 @@ def test_probes_stop_at_the_deadline(inputs):
         seconds = time.monotonic() - t0
         available = [m for m in state["models"] if m["available"]]
         bounded = [m for m in available if m["estimate_lower_bound"]]
-        assert seconds < len(available) * DEADLINE_S + 2.0, seconds
+        # Generous for a loaded machine (the watcher's cancel, the gate's turn); without the
+        # deadline the gaussian's and uniform's 512² frames alone take minutes.
+        assert seconds < len(available) * (DEADLINE_S + 0.5) + 5.0, seconds
         assert "gaussian" in {m["name"] for m in bounded}
         for m in bounded:
             assert m["slow"] and m["estimate_ms"] >= DEADLINE_S * 1000 * 0.9, m
@@ -98,10 +104,13 @@ def test_a_client_that_goes_stops_the_probes(inputs):
         c.sendall(b"GET /api/state?estimates=1 HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
         time.sleep(0.3)
         c.close()
-        t0 = time.monotonic()
         status, _, _ = s.get("/api/render?model=mean&size=16x16")
         assert status == 200
-        assert time.monotonic() - t0 < DEADLINE_S + 1.5
         assert s.json("/api/status")["abandoned"] >= 1
+        # The probes stopped where the client went: not every model was estimated (they take
+        # seconds in all with this 2D TF, the client went after 0.3 s).
+        available = [m for m in s.json("/api/state")["models"] if m["available"]]
+        estimated = [m for m in available if m["estimate_ms"] is not None]
+        assert len(estimated) < len(available), estimated
     finally:
         s.stop()

@@ -193,6 +193,55 @@ def test_a_slow_model_comes_in_steps(page, server, inputs, tmp_path):
         "m.estimate_ms = 10; m.slow = false;")
 
 
+def test_a_slow_gmm_mc_steps_through_realizations(page, server, inputs, tmp_path):
+    """gmm-mc's cost is per realization (drawing one costs about the same at any size): its steps
+    keep the image's size and cut the realizations. Its estimate set to 8 s at 512² (2 s at
+    256²): one step of 200/4 = 50 realizations at 256², then the full frame (200), which is
+    `udvr render`'s image."""
+    state = server.json("/api/state")
+    assert state["defaults"]["realizations"] == 200
+    by = {m["name"]: m for m in state["models"]}
+    assert by["gmm-mc"]["realizations"] is True and by["mean"]["realizations"] is False
+    page.execute_script(
+        "const m = window.udvr.state.info.models.find((m) => m.name === 'gmm-mc');"
+        "m.estimate_ms = 8000; m.slow = true; window.udvr.state.timings.length = 0;")
+    Select(page.find_element("id", "model")).select_by_value("gmm-mc")
+    wait_idle(page, 180)
+    main = page.execute_script(
+        "return window.udvr.state.timings.filter((t) => t.channel === 'main')"
+        ".map((t) => [t.kind, t.size, t.realizations === undefined ? null : t.realizations]);")
+    assert main == [["step", "256x256", 50], ["full", "256x256", None]], main
+    assert assert_page_is_cli(page, server, inputs, tmp_path)["model"] == "gmm-mc"
+    Select(page.find_element("id", "model")).select_by_value("mean")
+    wait_idle(page)
+
+
+def test_a_tf_edit_reads_the_estimates_again(page, server, inputs, tmp_path):
+    """The estimates are for a TF: after one is loaded, the page asks the server again and its
+    picker follows (mean's estimate, faked as 8 s and slow here, is the server's again)."""
+    page.execute_script(
+        "const m = window.udvr.state.info.models.find((m) => m.name === 'mean');"
+        "m.estimate_ms = 8000; m.slow = true;")
+    good = tmp_path / "again.json"
+    good.write_text(json.dumps([{"RGBPoints": [-5, 0, 0, 1, 25, 1, 0.5, 0],
+                                 "Points": [-5, 0, 0.5, 0, 9, 0, 0.5, 0, 25, 0.6, 0.5, 0]}]))
+    page.find_element("id", "tf-load").send_keys(str(good))
+    end = time.time() + 10
+    while time.time() < end and "again.json" not in page.find_element("id", "status").text:
+        time.sleep(0.05)
+    wait_idle(page, 60)
+    fresh = {m["name"]: m for m in server.json("/api/state")["models"]}
+    assert fresh["mean"]["estimate_ms"] is not None  # the page asked for them
+    mine = page.execute_script(
+        "return window.udvr.state.info.models.map((m) => [m.name, m.estimate_ms, m.slow]);")
+    for name, ms, slow in mine:
+        assert [ms, slow] == [fresh[name]["estimate_ms"], fresh[name]["slow"]], name
+    options = {o.get_attribute("value"): o.text
+               for o in Select(page.find_element("id", "model")).options}
+    for name, text in options.items():
+        assert ("(progressive)" in text) == bool(fresh[name]["slow"]), (name, text)
+
+
 def test_picker_marks_models_over_the_goal(inputs):
     """With a 2D TF the uniform kernel's 512² frame takes minutes: its option says so."""
     s = Server(inputs.model, "--tf2", TANGLE_TF2)

@@ -17,6 +17,7 @@ void addExperimentCommand(CLI::App& app) {
         std::string name;
         std::string out;
         bool quick = false;
+        int size = 0;
         std::string tfDir, dataDir;
     };
     auto args = std::make_shared<Args>();
@@ -26,6 +27,9 @@ void addExperimentCommand(CLI::App& app) {
     sub->add_option("-o,--output", args->out, "output directory (created)")->required();
     sub->add_flag("--quick", args->quick,
                   "smaller grids, images and realization counts (the whole set in minutes)");
+    sub->add_option("--size", args->size,
+                    "square images of N pixels a side, at most the run's own (512, or --quick's); "
+                    "shortens the frames");
     sub->add_option("--tf-dir", args->tfDir,
                     "folder of the transfer functions (default: the repository's data/tf)");
     sub->add_option("--data-dir", args->dataDir,
@@ -33,6 +37,10 @@ void addExperimentCommand(CLI::App& app) {
     sub->callback([args] {
         ExperimentOptions o;
         o.quick = args->quick;
+        if (args->size != 0 && (args->size < 8 || args->size > 4096))
+            UDVR_FAIL("--size " << args->size
+                                << " is out of range (8 to the run's own image size)");
+        o.imageSize = args->size;
         o.tfDir = args->tfDir;
         o.dataDir = args->dataDir;
         const auto results = runExperiments(args->name, args->out, o);

@@ -171,7 +171,11 @@ ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOp
             }
             bo.source = "downsample-estimators " + vol.name + " " + est.name;
             BuildReport rep;
+            std::optional<StageScope> stage(
+                std::in_place, buildWork(double(reducedGrid.pointCount()), kBrick * kBrick * kBrick,
+                                         bo.gmmComponents, bo.density, true));
             const ModelVolume model = buildModelDownsampled(field, kBrick, bo, &rep);
+            stage.reset();
             run.log("built " + vol.name + " with " + est.name + " quantiles in " +
                     fmt("%.2f", rep.seconds) + " s");
             if (est.density == DensityEstimate::Empirical)

@@ -108,6 +108,10 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
         run.renderTruth(d.truth, 1, 1.0);
         run.result().rows.back().label = d.name + ": ground truth";
         run.items().back().caption[0] = d.name + ": ground truth";
+        // The model's voxels: the ensemble's grid, or the field's reduced by the bricks.
+        const double voxels =
+            double(d.ensemble ? d.truth.grid.pointCount()
+                              : downsampledGrid(d.truth.grid, kBrick).pointCount());
         d.truth = {};      // the rendered truth is all that is needed from here on
         if (d.ensemble) {  // the ensemble's own expected image: rows get their RMSE against it
             run.addMembers(*d.ensemble, " (" + d.name + ")", true, false);
@@ -122,7 +126,10 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
             bo.quantileLevels = ls.levels;
             bo.gmmComponents = 0;
             bo.source = "quantile-levels " + d.name + " " + ls.name;
+            std::optional<StageScope> stage(
+                std::in_place, buildWork(voxels, d.samples, 0, bo.density, !d.ensemble));
             const ModelVolume model = d.build(bo);
+            stage.reset();
             run.log("built " + d.name + " with " + ls.name + " levels");
             for (ModelKind k : kinds) {
                 const ResultRow row =

@@ -20,6 +20,7 @@
 
 #include "udvr/classify/model_families.h"
 #include "udvr/classify/transfer_function_2d.h"
+#include "udvr/eval/experiment_plan.h"
 #include "udvr/eval/experiments.h"
 #include "udvr/eval/figure.h"
 #include "udvr/eval/image_metrics.h"
@@ -276,21 +277,35 @@ class Run {
             return renderVolume(model, kind, *tf2_, at, &stats);
         };
         // Cost before work (issue 35): a long frame is announced with what would shorten it;
-        // the frame's own progress lines (every 10 s off a terminal) give the time left.
+        // the frame's own progress lines (every 10 s off a terminal) give the time left, and the
+        // experiment's progress line takes the frame's estimate as this stage's.
+        const auto& b = model.bounds;
+        const double step = settings_.step > 0.0
+                                ? settings_.step
+                                : 0.5 * (model.fullResMinSpacing > 0.0 ? model.fullResMinSpacing
+                                                                       : model.grid.minSpacing());
+        StageScope stage(frameWork(kind, double(settings_.width) * settings_.height,
+                                   std::max({b[1] - b[0], b[3] - b[2], b[5] - b[4]}) / step,
+                                   double(model.voxelCount()), settings_.realizations,
+                                   model.memberCount,
+                                   !tf2_                   ? TfKind::OneD
+                                   : second_.count(&model) ? TfKind::Bivariate
+                                                           : TfKind::TwoD));
         if (options_.log) {
             const FrameEstimate e =
                 estimateFrame(settings_, rendersRealizations(kind), [&](const RenderSettings& at) {
                     frame(at);
                     return stats.milliseconds;
                 });
-            if (e.ms > kLongFrameMs)
-                log(label + ": this frame will take about " + fmt("%.0f", e.ms / 1000.0) +
+            // The probes' estimate, kept within 5x of the plan's (a probe of a few pixels under
+            // load can be off by 100x: 543 s said for a 0.2 s frame).
+            const double frameMs = stage.refine(e.ms);
+            if (frameMs > kLongFrameMs)
+                log(label + ": this frame will take about " + fmt("%.0f", frameMs / 1000.0) +
                     " s (probes up to " + std::to_string(e.width) + "x" + std::to_string(e.height) +
                     " took " + fmt("%.2f", e.probeMs / 1000.0) + " s); shorter: " +
-                    (options_.quick ? std::string("a smaller image_size or fewer realizations "
-                                                  "(the Python API's overrides)")
-                                    : std::string("--quick (smaller images and realization "
-                                                  "counts)")));
+                    (options_.quick ? std::string("a smaller --size (Python: image_size)")
+                                    : std::string("--quick or a smaller --size")));
         }
         ImageRgba img = frame(settings_);
         *ms = stats.milliseconds;
@@ -441,6 +456,8 @@ class Run {
         bo.density = density;
         bo.source = result_.name + " ensemble";
         BuildReport rep;
+        const StageScope stage(
+            buildWork(double(ensemble.grid.pointCount()), ensemble.members, gmm, density));
         ModelVolume m = buildModel(ensemble, bo, &rep);
         log("built " + describeBuild(q, gmm, density) + " from " +
             std::to_string(ensemble.members) + " members in " + fmt("%.2f", rep.seconds) + " s");
@@ -454,6 +471,9 @@ class Run {
         bo.density = density;  // kde: Silverman's bandwidth, tails at 1/(2n)
         bo.source = result_.name + " " + std::to_string(k) + "^3 bricks";
         BuildReport rep;
+        const Grid3 reduced = downsampledGrid(field.grid, k);
+        const StageScope stage(
+            buildWork(double(reduced.pointCount()), k * k * k, gmm, density, true));
         ModelVolume m = buildModelDownsampled(field, k, bo, &rep);
         log("built " + describeBuild(q, gmm, density) + " from " + std::to_string(k) +
             "³ bricks (" + std::to_string(m.grid.dims[0]) + "×" + std::to_string(m.grid.dims[1]) +

@@ -16,6 +16,7 @@
 #include "udvr/classify/model_families.h"
 #include "udvr/data/noise.h"
 #include "udvr/data/synthetic.h"
+#include "udvr/eval/experiment_plan.h"
 #include "udvr/eval/experiment_run.h"
 #include "udvr/eval/figure.h"
 #include "udvr/eval/image_metrics.h"
@@ -348,8 +349,8 @@ ExperimentResult runChest(const fs::path& dir, const ExperimentOptions& options)
         &cam);
 }
 
-ExperimentResult runOne(const std::string& name, const fs::path& dir,
-                        const ExperimentOptions& options) {
+ExperimentResult runOneUnplanned(const std::string& name, const fs::path& dir,
+                                 const ExperimentOptions& options) {
     if (name == "tangle" || name == "teardrop") return runEnsembleExperiment(name, dir, options);
     if (name == "tangle-sweep") return runSweep(dir, options);
     if (name == "quartiles") return runQuartiles(dir, options);
@@ -365,6 +366,38 @@ ExperimentResult runOne(const std::string& name, const fs::path& dir,
     UDVR_FAIL("unknown experiment '" << clipForMessage(name) << "'"
                                      << didYouMean(name, experimentNames()) << " (expected one of "
                                      << names << "all)");
+}
+
+/// Cost before work (issue 35): the whole run estimated before it starts (one line when over
+/// 10 s, with what would shorten it), then a progress line with the time left every 10 s.
+ExperimentResult runOne(const std::string& name, const fs::path& dir,
+                        const ExperimentOptions& options) {
+    const auto& names = experimentNames();
+    if (!options.log || std::find(names.begin(), names.end(), name) == names.end())
+        return runOneUnplanned(name, dir, options);
+    // The inputs' checks first: a bad one is one error line, with no estimate before it.
+    const fs::path tfDir = options.tfDir.empty() ? locateTfDir() : options.tfDir;
+    if (!fs::is_directory(tfDir))
+        UDVR_FAIL("transfer-function folder " << tfDir.string()
+                                              << " not found (use --tf-dir or UDVR_TF_DIR)");
+    const std::string line = estimateLine(name, options);
+    if (!line.empty()) {
+        // The folder too (as Run makes it), so that a bad -o is the one line.
+        std::error_code ec;
+        fs::create_directories(dir / "images", ec);
+        if (ec)
+            UDVR_FAIL("cannot create output directory " << (dir / "images").string() << ": "
+                                                        << ec.message());
+        std::fprintf(stderr, "%s\n", line.c_str());
+    }
+    const Work work = planExperiment(name, resolveSizes(name, options), options);
+    const Speed& speed = machineSpeed();
+    ExperimentProgress progress(name, work.buildMs * speed.build, work.frameMs * speed.frame, true);
+    struct Current {
+        explicit Current(ExperimentProgress* p) { ExperimentProgress::current() = p; }
+        ~Current() { ExperimentProgress::current() = nullptr; }
+    } current(&progress);
+    return runOneUnplanned(name, dir, options);
 }
 
 fs::path executableDir() {

@@ -75,11 +75,20 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
         at.cancel = deadline->flag();
     }
     std::vector<std::array<double, 2>> runs;  // (pixels, ms)
-    // Sides: 1/32 of the frame's (at least 2 pixels), then twice and four times that.
+    // Sides: 1/32 of the frame's (at least 2 pixels), then twice and four times that. gmm-mc
+    // first probes 2x2: its time is what a realization costs at any size (drawing it over the
+    // voxels), which can be most of a 1/32 probe's; without it, one 16² probe scaled by the
+    // pixels gave 3575 s for a 54 s frame (serve) and 12995 s for a ~60 s one (the tangle's
+    // 64³, 512²). Not for frames under 256²: fitted between 2x2 and 4x4 probes, the load's noise
+    // gave 2183 s for a 0.75 s frame of 128².
     const int w0 = std::max(2, s.width / 32), h0 = std::max(2, s.height / 32);
-    for (int k : {1, 2, 4}) {
-        at.width = w0 * k;
-        at.height = h0 * k;
+    std::vector<std::array<int, 2>> sides;
+    if (monteCarlo && w0 * h0 >= 64) sides.push_back({2, 2});
+    for (int k : {1, 2, 4}) sides.push_back({w0 * k, h0 * k});
+    double fixedMs = 0.0;  // the 2x2 gmm-mc probe's time
+    for (const auto& [pw, ph] : sides) {
+        at.width = pw;
+        at.height = ph;
         if (at.width >= s.width || at.height >= s.height) break;
         const double pixels = static_cast<double>(at.width) * at.height;
         const auto started = Clock::now();
@@ -108,9 +117,20 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
         e.width = at.width;
         e.height = at.height;
         e.probeMs += ms;
-        if (4.0 * ms > limits.maxProbeMs) break;  // the next would take too long
+        if (monteCarlo && runs.size() == 1 && sides.size() == 4) {
+            fixedMs = ms;  // the next probe: its per-realization part and ~4x its pixels' part
+            if (ms > limits.maxProbeMs) break;
+            continue;
+        }
+        // The next probe has 4x the pixels: it would take too long.
+        if (fixedMs + 4.0 * std::max(ms - fixedMs, 0.0) > limits.maxProbeMs) break;
     }
     if (runs.empty()) return e;
+    if (runs.size() == 1 && sides.size() == 4) {  // only gmm-mc's 2x2: a frame takes longer
+        e.ms = runs[0][1] * perFrame;
+        e.lowerBound = true;
+        return e;
+    }
     // Least squares over the probes of t = a + b·pixels with a, b >= 0 (all the probes, not the
     // last two: on a loaded machine one probe's time can be off by 2x). One probe: b·pixels.
     double ms = 0.0;

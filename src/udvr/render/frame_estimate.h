@@ -34,12 +34,15 @@ struct FrameEstimateLimits {
 /// the frame); the time fitted as a + b·pixels (a, b >= 0, least squares over the probes; a:
 /// what a frame costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or
 /// b·pixels from one probe.
-/// `monteCarlo` (gmm-mc): the probes draw 4 realizations and the time scales by the frame's
-/// count. The first probe (unless over maxProbeMs) and any under a quarter of it run twice and
-/// keep the faster run (the first run builds the tables the frame reuses; load only adds time).
-/// `probe` renders the settings it is given and returns the frame's milliseconds (it throws
-/// RenderCancelled when their cancel flag turns true). No probe (ms 0) where none is smaller than
-/// the frame. A RenderCancelled from s.cancel (not the deadline) passes through.
+/// `monteCarlo` (gmm-mc): a 2x2 probe first where the 1/32 probes have 64 pixels or more (its
+/// time: what drawing the realizations costs at any size; if no larger probe fits the limit,
+/// the estimate is its time, a lower bound); the probes draw 4 realizations and the time scales
+/// by the frame's count. The first probe (unless over maxProbeMs) and any under a
+/// quarter of it run twice and keep the faster run (the first run builds the tables the frame
+/// reuses; load only adds time). `probe` renders the settings it is given and returns the frame's
+/// milliseconds (it throws RenderCancelled when their cancel flag turns true). No probe (ms 0)
+/// where none is smaller than the frame. A RenderCancelled from s.cancel (not the deadline) passes
+/// through.
 FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
                             const std::function<double(const RenderSettings&)>& probe,
                             const FrameEstimateLimits& limits = {});

@@ -44,6 +44,32 @@ TEST(FrameEstimate, MonteCarloScalesByRealizations) {
     EXPECT_NEAR(e.ms, 0.001 * 512 * 512 * 200, 1e-6);
 }
 
+// gmm-mc whose realizations cost 50 ms each to draw at any size (serve's 200 ms probe limit):
+// the 2x2 probe measures that part, so the larger probes still run and the fit is exact (one
+// 16x16 probe scaled by the pixels alone would say 1024x its 50 ms).
+TEST(FrameEstimate, MonteCarloMeasuresThePerRealizationCost) {
+    RenderSettings s;
+    s.realizations = 200;
+    FrameEstimateLimits limits;
+    limits.maxProbeMs = 200.0;
+    std::vector<int> sides;
+    const FrameEstimate e = estimateFrame(
+        s, true,
+        [&](const RenderSettings& at) {
+            sides.push_back(at.width);
+            return (50.0 + 0.0001 * at.width * at.height) * at.realizations / 4.0;
+        },
+        limits);
+    EXPECT_NEAR(e.ms, (50.0 + 0.0001 * 512 * 512) * 50.0, 1e-6);
+    EXPECT_FALSE(e.lowerBound);
+    EXPECT_EQ(sides, (std::vector<int>{2, 2, 16, 32, 64}));  // 16² (50 ms) once: not "quick"
+    // Draws alone over the limit: the 2x2 probe is all, a lower bound.
+    const FrameEstimate slow = estimateFrame(
+        s, true, [&](const RenderSettings& at) { return 300.0 + 0.0 * at.width; }, limits);
+    EXPECT_TRUE(slow.lowerBound);
+    EXPECT_NEAR(slow.ms, 300.0 * 50.0, 1e-9);
+}
+
 // No probe over maxProbeMs: a probe of 40 ms stops the series when the limit is 100 ms.
 TEST(FrameEstimate, StopsBeforeAProbeOverTheLimit) {
     RenderSettings s;

@@ -278,6 +278,9 @@ ApiResponse Api::getState(const ApiRequest& request) {
         if (!reason.empty()) row["reason"] = reason;
         if (reason.empty()) available.push_back(kind);
         row["probe"] = !family.realizations;
+        // Averaged realizations (gmm-mc): its cost is per realization, so its progressive steps
+        // (the page) cut the realizations rather than the image.
+        row["realizations"] = family.realizations;
         models.push_back(row);
     }
     // Each available model's frame at the default view, estimated (cost before work, issue 35):
@@ -311,31 +314,35 @@ ApiResponse Api::getState(const ApiRequest& request) {
     const Tf2State tf2 = currentTf2();
     json presets = json::array();
     for (const auto& name : transferFunctionPresetNames()) presets.push_back(name);
-    json state{
-        {"version", std::string(build::versionLine())},
-        {"model",
-         {{"file", data_.modelFile},
-          {"dims", m.grid.dims},
-          {"origin", m.grid.origin},
-          {"spacing", m.grid.spacing},
-          {"bounds", m.bounds},
-          {"quantiles", m.quantileCount},
-          {"gmm_components", m.gmmComponents},
-          {"density", m.density},
-          {"samples_per_voxel", m.samplesPerVoxel},
-          {"downsample", m.downsample}}},
-        {"models", models},
-        {"truth", data_.truth ? json(data_.truthFile) : json(nullptr)},
-        {"second", data_.second ? json(data_.secondFile) : json(nullptr)},
-        {"tf2", data_.tf2 ? json(data_.tf2File) : json(nullptr)},
-        {"tf2_editable", tf2.widgets != nullptr},  // widget JSON (a raster is view-only)
-        {"tf2_version", tf2.version},
-        {"tf_version", version},
-        {"presets", presets},
-        {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
-        {"latency_goal_ms", kFrameGoalMs},
-        {"estimate_size", "512x512"},
-        {"defaults", {{"size", "512x512"}, {"azimuth", 30.0}, {"elevation", 20.0}, {"zoom", 1.0}}}};
+    json state{{"version", std::string(build::versionLine())},
+               {"model",
+                {{"file", data_.modelFile},
+                 {"dims", m.grid.dims},
+                 {"origin", m.grid.origin},
+                 {"spacing", m.grid.spacing},
+                 {"bounds", m.bounds},
+                 {"quantiles", m.quantileCount},
+                 {"gmm_components", m.gmmComponents},
+                 {"density", m.density},
+                 {"samples_per_voxel", m.samplesPerVoxel},
+                 {"downsample", m.downsample}}},
+               {"models", models},
+               {"truth", data_.truth ? json(data_.truthFile) : json(nullptr)},
+               {"second", data_.second ? json(data_.secondFile) : json(nullptr)},
+               {"tf2", data_.tf2 ? json(data_.tf2File) : json(nullptr)},
+               {"tf2_editable", tf2.widgets != nullptr},  // widget JSON (a raster is view-only)
+               {"tf2_version", tf2.version},
+               {"tf_version", version},
+               {"presets", presets},
+               {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
+               {"latency_goal_ms", kFrameGoalMs},
+               {"estimate_size", "512x512"},
+               {"defaults",
+                {{"size", "512x512"},
+                 {"azimuth", 30.0},
+                 {"elevation", 20.0},
+                 {"zoom", 1.0},
+                 {"realizations", RenderOptions{}.realizations}}}};
     return jsonResponse(state);
 }
 
