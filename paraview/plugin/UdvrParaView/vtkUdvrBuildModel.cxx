@@ -93,26 +93,49 @@ int vtkUdvrBuildModel::RequestInformation(vtkInformation*, vtkInformationVector*
     return 1;
 }
 
+namespace {
+// The model planes this process builds: its share of the output's whole extent in whole x-y
+// planes, z split evenly over the pieces asked for (UPDATE_PIECE_NUMBER of
+// UPDATE_NUMBER_OF_PIECES: ParaView asks for pieces, one a rank), else the update extent's z.
+void outputPiece(vtkInformation* out, int ext[6]) {
+    int whole[6];
+    out->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    out->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+    for (int i = 0; i < 4; ++i) ext[i] = whole[i];
+    const int pieces = out->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+                           ? out->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+                           : 1;
+    if (pieces <= 1) return;
+    const int piece = out->Get(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER());
+    const long long planes = whole[5] - whole[4] + 1;
+    ext[4] = whole[4] + static_cast<int>(planes * piece / pieces);
+    ext[5] = whole[4] + static_cast<int>(planes * (piece + 1) / pieces) - 1;
+}
+}  // namespace
+
 int vtkUdvrBuildModel::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector,
                                            vtkInformationVector* outputVector) {
     vtkInformation* in = inputVector[0]->GetInformationObject(0);
     vtkInformation* out = outputVector->GetInformationObject(0);
     int ext[6], whole[6];
-    out->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+    outputPiece(out, ext);
     in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-    if (ext[1] >= ext[0] && ext[3] >= ext[2] && ext[5] >= ext[4]) {
+    if (ext[1] >= ext[0] && ext[3] >= ext[2] && ext[5] >= ext[4] && this->Downsample >= 2) {
+        // Model planes [z0, z1] are the input planes [K·z0, K·z1 + K); the last model plane
+        // also asks for the trailing N mod K planes (which no brick uses): a single process
+        // then holds the whole field, for the default TF's basis.
+        const int k = this->Downsample;
+        const int z0 = ext[4], z1 = ext[5];
         for (int i = 0; i < 4; ++i) ext[i] = whole[i];
-        if (this->Downsample >= 2) {  // model planes [z0, z1] = input planes [K·z0, K·z1 + K)
-            const int k = this->Downsample;
-            const int z0 = ext[4], z1 = ext[5];
-            ext[4] = whole[4] + z0 * k;
-            ext[5] = whole[4] + (z1 + 1) * k - 1;
-            // The last model plane also asks for the trailing N mod K planes (which no brick
-            // uses): a single process then holds the whole field, for the default TF's basis.
-            if (z1 == (whole[5] - whole[4] + 1) / k - 1) ext[5] = whole[5];
-        }
+        ext[4] = whole[4] + z0 * k;
+        ext[5] = whole[4] + (z1 + 1) * k - 1;
+        if (z1 == (whole[5] - whole[4] + 1) / k - 1) ext[5] = whole[5];
     }
+    // This extent of the input, not the input's own split into pieces.
     in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext, 6);
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), 0);
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), 1);
+    in->Set(vtkStreamingDemandDrivenPipeline::EXACT_EXTENT(), 1);
     return 1;
 }
 
