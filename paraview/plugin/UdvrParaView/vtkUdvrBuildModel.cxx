@@ -75,11 +75,7 @@ int vtkUdvrBuildModel::RequestInformation(vtkInformation*, vtkInformationVector*
     int reduced[6];
     for (int a = 0; a < 3; ++a) {
         const int n = whole[2 * a + 1] - whole[2 * a] + 1;
-        if (n < k) {
-            vtkErrorMacro(<< "udvr: Downsample " << k << " is larger than the input's "
-                          << n << " points along axis " << "xyz"[a]);
-            return 0;
-        }
+        if (n < k) return 1;  // the input's grid; RequestData says why (udvr's message)
         // udvr::downsampledGrid: origin + (K−1)/2·spacing, spacing K·spacing.
         origin[a] += (whole[2 * a] + (k - 1) / 2.0) * spacing[a];
         spacing[a] *= k;
@@ -120,11 +116,13 @@ int vtkUdvrBuildModel::RequestUpdateExtent(vtkInformation*, vtkInformationVector
     int ext[6], whole[6];
     outputPiece(out, ext);
     in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-    if (ext[1] >= ext[0] && ext[3] >= ext[2] && ext[5] >= ext[4] && this->Downsample >= 2) {
+    const int k = this->Downsample;
+    const bool bricks = k >= 2 && whole[1] - whole[0] + 1 >= k && whole[3] - whole[2] + 1 >= k &&
+                        whole[5] - whole[4] + 1 >= k;  // else RequestData's error
+    if (ext[1] >= ext[0] && ext[3] >= ext[2] && ext[5] >= ext[4] && bricks) {
         // Model planes [z0, z1] are the input planes [K·z0, K·z1 + K); the last model plane
         // also asks for the trailing N mod K planes (which no brick uses): a single process
         // then holds the whole field, for the default TF's basis.
-        const int k = this->Downsample;
         const int z0 = ext[4], z1 = ext[5];
         for (int i = 0; i < 4; ++i) ext[i] = whole[i];
         ext[4] = whole[4] + z0 * k;
