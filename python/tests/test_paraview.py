@@ -404,8 +404,9 @@ FUEL = ROOT.parent / "shared" / "data" / "fuel-ensemble" / "fuel_ensemble.nc"
 def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, tmp_path):
     """File → Open (OpenDataFile) of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr
     perturb`) picks the plugin's reader; it, then udvr Build Model, gives `udvr build
-    ensemble.nc`'s model array for array, bit for bit, on one process and on 2 MPI ranks. Bad
-    files in the first pvbatch: ParaView errors, not crashes."""
+    ensemble.nc`'s model array for array, bit for bit (on 3 MPI ranks:
+    test_three_ranks_build_and_render_their_pieces). Bad files in the same pvbatch: ParaView
+    errors, not crashes."""
     import numpy as np
     import scipy.io
     ensemble = models / "ensemble.nc"
@@ -451,20 +452,62 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
     assert_same_model(tmp_path / "pv.vti", models / "model.vti", 16)
     if fuel:
         assert_same_model(tmp_path / "fuel_pv.vti", tmp_path / "fuel_cli.vti", 10)
-    # 2 MPI ranks: each reads and builds its piece (whole x-y planes, the GMM's streams keyed by
-    # the whole grid's voxel index, the σ floor from the range reduced over the ranks).
-    (tmp_path / "mpi.py").write_text(
-        "from paraview.simple import *\n"
-        f"model = udvrBuildModel(Input=OpenDataFile({str(ensemble)!r}), GmmComponents=3)\n"
-        f"SaveData({str(tmp_path / 'pv2.pvti')!r}, proxy=model)\n")
-    r2 = pvbatch(tmp_path / "mpi.py", ranks=2, timeout=120)
-    assert r2.returncode == 0 and "ERR|" not in r2.stderr, r2.stdout + r2.stderr
-    assert len(re.findall(r"<Piece ", (tmp_path / "pv2.pvti").read_text())) == 2
-    assert_same_model(tmp_path / "pv2.pvti", models / "model.vti", 16)
     errors = [line for line in r.stderr.splitlines() if "ERR|" in line]
     for name, message in bad.items():
         assert "READ %s 0" % name in r.stdout, r.stdout + r.stderr
         assert any(name + ": " + message in line for line in errors), (name, r.stderr)
+
+
+def test_three_ranks_build_and_render_their_pieces(models, tmp_path):
+    """One `mpirun -np 3 pvbatch`: (1) the NetCDF reader + Build Model, each rank building its
+    third (whole x-y planes: the GMM's streams keyed by the whole grid's voxel index, the σ floor
+    from the range reduced over the ranks) = `udvr build ensemble.nc` bit for bit; the tooth CT
+    (where ../shared has it) by 4³ bricks with Scott's bandwidth and GMM 2 = `udvr build
+    --downsample 4` bit for bit (each rank reads the 4 input planes of its model planes); (2) a
+    3-piece .pvti rendered by render.py, each rank its piece, within 2/255 of `udvr render`."""
+    ensemble = models / "ensemble.nc"
+    run_ok("build", ensemble, "--gmm", "3", "--pieces", "3", "-o", tmp_path / "m3.pvti")
+    ct = CT_SMALL.is_file()
+    ct_flags = ["--downsample", "4", "--bandwidth", "scott", "--gmm", "2"]
+    if ct:
+        run_ok("build", CT_SMALL, *ct_flags, "-o", tmp_path / "ct_cli.vti", timeout=300)
+    jobs = cli_and_paraview_jobs(tmp_path, ["mean", "quantile-range", "gmm-mc"],
+                                 tmp_path / "m3.pvti", "np3", ["--tf", str(models / "tf.json")])
+    jobs += cli_and_paraview_jobs(tmp_path, ["quantile-range"], tmp_path / "m3.pvti", "np3_2d",
+                                  ["--tf2", str(models / "tf2.vti")])
+    (tmp_path / "jobs.json").write_text(json.dumps([[*a, "-o", str(pv)] for _, pv, a in jobs]))
+    (tmp_path / "mpi.py").write_text(
+        "import json, sys\n"
+        f"sys.path.insert(0, {str(RENDER.parent)!r})\n"
+        "import render\n"
+        "from paraview.simple import *\n"
+        f"model = udvrBuildModel(Input=OpenDataFile({str(ensemble)!r}), GmmComponents=3)\n"
+        f"SaveData({str(tmp_path / 'pv3.pvti')!r}, proxy=model)\n"
+        + (f"ct = udvrBuildModel(Input=OpenDataFile({str(CT_SMALL)!r}), Downsample=4, "
+           "Bandwidth='scott', GmmComponents=2)\n"
+           f"SaveData({str(tmp_path / 'ct_pv.pvti')!r}, proxy=ct)\n" if ct else "") +
+        f"for args in json.load(open({str(tmp_path / 'jobs.json')!r})):\n"
+        "    render.main(args)\n")
+    r = pvbatch(tmp_path / "mpi.py", ranks=3, timeout=600)
+    assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
+    assert len(re.findall(r"<Piece ", (tmp_path / "pv3.pvti").read_text())) == 3
+    assert_same_model(tmp_path / "pv3.pvti", models / "model.vti", 16)
+    if ct:
+        assert len(re.findall(r"<Piece ", (tmp_path / "ct_pv.pvti").read_text())) == 3
+        assert_same_model(tmp_path / "ct_pv.pvti", tmp_path / "ct_cli.vti", 64)
+    log = []
+    for cli, pv, args in jobs:
+        run_ok("render", *args, "-o", cli, timeout=300)
+        e = rmse(pv, cli)
+        log.append("3 ranks %s %s: RMSE %.5f (%.2f/255)" % (args[2], args[3], e, 255 * e))
+        assert e <= TOLERANCE, log[-1]
+    print("\n".join(log))
+    # Each rank rendered its own third, not the whole. ParaView's representation splits the
+    # volume over 3 ranks as its extent translator does, not as the file's 3 z-pieces: measured
+    # z 0..7; y 0..11 and 11..23 of z 7..23 (those two ranks each read 2 of the 3 piece files).
+    found = re.findall(r"udvr: rendering extent (\S+ \S+ \S+) of \S+ \S+ \S+ \((\d+) voxels",
+                       r.stderr)
+    assert len(set(found)) == 3 and all(int(v) < 24 ** 3 / 2 for _, v in found), set(found)
 
 
 def bad_input_script(tmp_path, source, array, kind="mean"):
