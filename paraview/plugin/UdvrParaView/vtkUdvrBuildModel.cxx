@@ -16,8 +16,8 @@
 #include "udvr/util/check.h"
 #include "udvr/util/text_parse.h"
 #include "vtkCommunicator.h"
-#include "vtkDataObject.h"
 #include "vtkDataArray.h"
+#include "vtkDataObject.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
 #include "vtkFloatArray.h"
@@ -281,7 +281,8 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
                     : this->Density == 2 ? udvr::DensityEstimate::Dequantized
                                          : udvr::DensityEstimate::Empirical;
         o.bandwidthText = this->Bandwidth;
-        if (o.density == udvr::DensityEstimate::Kde) o.bandwidth = udvr::parseBandwidth(this->Bandwidth);
+        if (o.density == udvr::DensityEstimate::Kde)
+            o.bandwidth = udvr::parseBandwidth(this->Bandwidth);
         if (this->TailEps != 0.0) {
             if (!(this->TailEps > 0.0))
                 UDVR_FAIL("TailEps " << this->TailEps
@@ -299,11 +300,10 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
             ext[0] == whole[0] && ext[1] == whole[1] && ext[2] == whole[2] && ext[3] == whole[3];
         const bool wholeInput = planes && ext[4] == whole[4] && ext[5] == whole[5];
         if (planes) {
-            const std::uint64_t plane =
-                k ? static_cast<std::uint64_t>(grid.dims[0] / k) *
-                        static_cast<std::uint64_t>(grid.dims[1] / k)
-                  : static_cast<std::uint64_t>(grid.dims[0]) *
-                        static_cast<std::uint64_t>(grid.dims[1]);
+            const std::uint64_t plane = k ? static_cast<std::uint64_t>(grid.dims[0] / k) *
+                                                static_cast<std::uint64_t>(grid.dims[1] / k)
+                                          : static_cast<std::uint64_t>(grid.dims[0]) *
+                                                static_cast<std::uint64_t>(grid.dims[1]);
             o.piece.firstVoxel =
                 static_cast<std::uint64_t>((ext[4] - whole[4]) / (k ? k : 1)) * plane;
         } else {
@@ -359,10 +359,11 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
             full.origin[a] = origin[a] + whole[2 * a] * spacing[a];
         }
         model.setFullResolution(full, k);
-        if (k && wholeInput &&
-            std::all_of(field.values.begin(), field.values.end(),
-                        [](float v) { return std::isfinite(v); }))
-            model.defaultTf = udvr::encodeDefaultTfBasis(udvr::defaultTfBasis(field.grid, field.values));
+        if (k && wholeInput && std::all_of(field.values.begin(), field.values.end(), [](float v) {
+                return std::isfinite(v);
+            }))
+            model.defaultTf =
+                udvr::encodeDefaultTfBasis(udvr::defaultTfBasis(field.grid, field.values));
         else if (k)
             vtkWarningMacro(<< "udvr: the model records no default TF (it needs the whole "
                                "field on one process, without NaN/Inf)");

@@ -1,16 +1,17 @@
 // "udvr Build Model" (issue 32, docs/paraview.md): a udvr model (SPEC §7 arrays and field data)
 // from an ensemble whose members are the one-component point arrays of an image — `udvr build`
 // over member files — or, with Downsample K ≥ 2, from the K³ bricks of one array (`udvr build
-// FIELD --downsample K`); `udvr build`'s model options are properties (the same BuildOptions). Every voxel's
-// model depends on its own samples, its index in the whole grid (the GMM's random stream) and the
-// whole ensemble's data range (the GMM's σ floor) only, so under MPI each rank builds its own
-// piece of whole x-y planes, with the ranks' range reduced over MPI: `udvr build`'s model.
+// FIELD --downsample K`); `udvr build`'s model options are properties (the same BuildOptions).
+// Every voxel's model depends on its own samples, its index in the whole grid (the GMM's random
+// stream) and the whole ensemble's data range (the GMM's σ floor) only, so under MPI each rank
+// builds its own piece of whole x-y planes, with the ranks' range reduced over MPI: `udvr build`'s
+// model.
 #ifndef vtkUdvrBuildModel_h
 #define vtkUdvrBuildModel_h
 
-#include "UdvrParaViewModule.h"  // for export macro
 #include <string>
 
+#include "UdvrParaViewModule.h"  // for export macro
 #include "vtkImageAlgorithm.h"
 
 class UDVRPARAVIEW_EXPORT vtkUdvrBuildModel : public vtkImageAlgorithm {
@@ -39,7 +40,8 @@ class UDVRPARAVIEW_EXPORT vtkUdvrBuildModel : public vtkImageAlgorithm {
     /// kde tail probability of b_0 and b_q; 0: 1/(2n), `--tail-eps`.
     vtkSetMacro(TailEps, double);
     vtkGetMacro(TailEps, double);
-    /// "t_0,…,t_q": uneven quantile levels (q from their count, over Quantiles), `--quantile-levels`.
+    /// "t_0,…,t_q": uneven quantile levels (q from their count, over Quantiles),
+    /// `--quantile-levels`.
     vtkSetStdStringFromCharMacro(QuantileLevels);
     vtkGetCharFromStdStringMacro(QuantileLevels);
     /// 0 error, 1 skip: NaN/Inf samples, `--nan`.
@@ -53,8 +55,7 @@ class UDVRPARAVIEW_EXPORT vtkUdvrBuildModel : public vtkImageAlgorithm {
     /// input planes of each model plane): the piece's voxels then have consecutive indices in
     /// the whole grid, which the GMM's random streams are keyed by.
     /// With Downsample K: the reduced grid (⌊N/K⌋ points per axis at brick centres, SPEC §2).
-    int RequestInformation(vtkInformation*, vtkInformationVector**,
-                           vtkInformationVector*) override;
+    int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
     int RequestUpdateExtent(vtkInformation*, vtkInformationVector**,
                             vtkInformationVector*) override;
     int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
