@@ -91,8 +91,8 @@ int vtkUdvrBuildModel::RequestInformation(vtkInformation*, vtkInformationVector*
 
 namespace {
 // The model planes this process builds: its share of the output's whole extent in whole x-y
-// planes, z split evenly over the pieces asked for (UPDATE_PIECE_NUMBER of
-// UPDATE_NUMBER_OF_PIECES: ParaView asks for pieces, one a rank), else the update extent's z.
+// planes, z split over the pieces asked for (UPDATE_PIECE_NUMBER of UPDATE_NUMBER_OF_PIECES:
+// ParaView asks for pieces, one a rank), else the update extent's z.
 void outputPiece(vtkInformation* out, int ext[6]) {
     int whole[6];
     out->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
@@ -103,9 +103,12 @@ void outputPiece(vtkInformation* out, int ext[6]) {
                            : 1;
     if (pieces <= 1) return;
     const int piece = out->Get(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER());
-    const long long planes = whole[5] - whole[4] + 1;
-    ext[4] = whole[4] + static_cast<int>(planes * piece / pieces);
-    ext[5] = whole[4] + static_cast<int>(planes * (piece + 1) / pieces) - 1;
+    // Split by cells, as ParaView's extent translator does: neighbouring pieces share their
+    // boundary plane (built on both ranks, the same values), so a piece rendered straight from
+    // the filter has the ghost plane trilinear reconstruction needs.
+    const long long cells = std::max(whole[5] - whole[4], 0);
+    ext[4] = whole[4] + static_cast<int>(cells * piece / pieces);
+    ext[5] = whole[4] + static_cast<int>(cells * (piece + 1) / pieces);
 }
 }  // namespace
 
