@@ -487,7 +487,19 @@ def test_three_ranks_build_and_render_their_pieces(models, tmp_path):
            "Bandwidth='scott', GmmComponents=2)\n"
            f"SaveData({str(tmp_path / 'ct_pv.pvti')!r}, proxy=ct)\n" if ct else "") +
         f"for args in json.load(open({str(tmp_path / 'jobs.json')!r})):\n"
-        "    render.main(args)\n")
+        "    render.main(args)\n"
+        # Build Model straight into the representation, no file between: render.py opens the
+        # ensemble through OpenDataFile, here the filter over ParaView's reader of it.
+        "import paraview.simple as ps\n"
+        "opened = ps.OpenDataFile\n"
+        "def built(path, **kw):\n"
+        "    m = ps.udvrBuildModel(Input=opened(path), GmmComponents=3)\n"
+        "    object.__setattr__(m, 'PointArrayStatus', None)  # render.py's field-data reader\n"
+        "    return m\n"
+        "ps.OpenDataFile = built\n"
+        f"render.main([{str(ensemble)!r}, '--model', 'quantile-range', '--tf',\n"
+        f"             {str(models / 'tf.json')!r}, '--size', '{SIZE}', '--realizations', '20',\n"
+        f"             '-o', {str(tmp_path / 'direct.png')!r}])\n")
     r = pvbatch(tmp_path / "mpi.py", ranks=3, timeout=600)
     assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
     assert len(re.findall(r"<Piece ", (tmp_path / "pv3.pvti").read_text())) == 3
@@ -501,13 +513,19 @@ def test_three_ranks_build_and_render_their_pieces(models, tmp_path):
         e = rmse(pv, cli)
         log.append("3 ranks %s %s: RMSE %.5f (%.2f/255)" % (args[2], args[3], e, 255 * e))
         assert e <= TOLERANCE, log[-1]
+    e = rmse(tmp_path / "direct.png", tmp_path / "cli_np3_quantile-range.png")
+    log.append("3 ranks, Build Model straight into the representation: RMSE %.5f" % e)
+    assert e <= TOLERANCE, log[-1]
     print("\n".join(log))
     # Each rank rendered its own third, not the whole. ParaView's representation splits the
-    # volume over 3 ranks as its extent translator does, not as the file's 3 z-pieces: measured
+    # .pvti over 3 ranks as its extent translator does, not as the file's 3 z-pieces: measured
     # z 0..7; y 0..11 and 11..23 of z 7..23 (those two ranks each read 2 of the 3 piece files).
+    # Build Model's own pieces are z-slabs sharing their boundary plane: 0..7, 7..15, 15..23.
     found = re.findall(r"udvr: rendering extent (\S+ \S+ \S+) of \S+ \S+ \S+ \((\d+) voxels",
                        r.stderr)
-    assert len(set(found)) == 3 and all(int(v) < 24 ** 3 / 2 for _, v in found), set(found)
+    extents = {e for e, _ in found}
+    assert {"0..23 0..23 0..7", "0..23 0..23 7..15", "0..23 0..23 15..23"} <= extents, extents
+    assert len(extents) == 5 and all(int(v) < 24 ** 3 / 2 for _, v in found), set(found)
 
 
 def bad_input_script(tmp_path, source, array, kind="mean"):
