@@ -286,21 +286,55 @@ def test_paraviews_own_2d_tf_is_udvrs_2d_classification(models, tmp_path):
     assert rmse(tmp_path / "pv.png", tmp_path / "pv1d.png") > 10 * TOLERANCE  # not the 1D TF
 
 
-def assert_same_model(pv_path, cli_path, samples):
-    """The Build Model filter's model file equals `udvr build`'s, array for array, bit for bit."""
+def field_data(path):
+    """A model file's field data (SPEC §7) as {name: [values as text]}, read by VTK (python3-vtk9,
+    which udvr's build needs), and its grid (origin, spacing, whole extent)."""
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLPImageDataReader
+    r = vtkXMLPImageDataReader() if str(path).endswith(".pvti") else vtkXMLImageDataReader()
+    r.SetFileName(str(path))
+    r.Update()
+    out = r.GetOutput()
+    fd = out.GetFieldData()
+    values = {}
+    for i in range(fd.GetNumberOfArrays()):
+        a = fd.GetAbstractArray(i)
+        values[a.GetName()] = [a.GetVariantValue(j).ToString() for j in range(a.GetNumberOfValues())]
+    return values, (out.GetOrigin(), out.GetSpacing(), out.GetExtent())
+
+
+def assert_same_model(pv_path, cli_path, samples, field=False):
+    """The Build Model filter's model file equals `udvr build`'s, array for array, bit for bit;
+    with `field`, also its grid and every field datum (default_tf too) but `source`, which names
+    the input (ParaView's arrays vs the CLI's files)."""
     import numpy as np
     import udvr
     pv, cli = udvr.load(pv_path), udvr.load(cli_path)
     for name in ("mean", "stddev", "min", "max", "quantiles", "iqr", "gmm"):
         a, b = np.asarray(getattr(pv, name)), np.asarray(getattr(cli, name))
-        assert a.shape == b.shape and a.size > 0, name
+        assert a.shape == b.shape and (a.size > 0 or name == "gmm"), name
         assert np.array_equal(a, b), (name, float(np.max(np.abs(a - b))))
     assert list(pv.bounds) == list(cli.bounds) and pv.samples_per_voxel == samples
+    if field:
+        (fa, grid_a), (fb, grid_b) = field_data(pv_path), field_data(cli_path)
+        assert grid_a == grid_b, (grid_a, grid_b)
+        fa.pop("source")
+        fb.pop("source")
+        assert fa == fb, {k: (fa.get(k), fb.get(k)) for k in set(fa) | set(fb)
+                          if fa.get(k) != fb.get(k)}
+        return fa
+
+
+CT_SMALL = ROOT.parent / "shared" / "data" / "tooth" / "tooth.nhdr"  # 103x94x161 uint8 CT
 
 
 def test_build_model_filter_matches_udvr_build(tmp_path):
-    """udvr Build Model over member files (NRRD) joined by ParaView's Append Attributes gives
-    `udvr build`'s model of the same files, array for array, bit for bit."""
+    """udvr Build Model, with `udvr build`'s options as properties, gives `udvr build`'s model of
+    the same input, array for array and field datum for field datum, bit for bit: member files
+    (NRRD) joined by ParaView's Append Attributes, with the defaults and with kde + Scott's
+    bandwidth + uneven quantile levels + tail ε; and (where ../shared has it) a real CT, the
+    tooth, by 4³ bricks (Downsample): the defaults (kde, Silverman; default_tf of the whole
+    field), a bandwidth h = 2.5 + GMM 2 + NaN skip, and dequantized. Bad properties are ParaView
+    errors naming the property. One pvbatch."""
     import numpy as np
     rng = np.random.default_rng(SEED)
     z, y, x = np.mgrid[0:9, 0:10, 0:12].astype(np.float32)
@@ -313,27 +347,55 @@ def test_build_model_filter_matches_udvr_build(tmp_path):
             "NRRD0004\ntype: float\ndimension: 3\nsizes: 12 10 9\nendian: little\n"
             "encoding: raw\nspace origin: (1,2,3)\n"
             f"space directions: (0.5,0,0) (0,0.5,0) (0,0,0.7)\ndata file: m_{i}.raw\n")
-    run_ok("build", tmp_path / "members" / "m_*.nhdr", "-o", tmp_path / "cli.vti")
+    members = tmp_path / "members" / "m_*.nhdr"
+    kde = ["--density", "kde", "--bandwidth", "scott", "--quantile-levels", "0,0.1,0.5,0.9,1",
+           "--tail-eps", "0.02"]
+    # (CLI flags, the filter's properties, input) per case; None: the member files.
+    cases = {"default": ([], "", None),
+             "kde": (kde, "Density='kde', Bandwidth='scott', QuantileLevels='0,0.1,0.5,0.9,1', "
+                     "TailEps=0.02", None)}
+    if CT_SMALL.is_file():
+        cases["ct"] = (["--downsample", "4"], "Downsample=4", CT_SMALL)
+        cases["ct_h"] = (["--downsample", "4", "--bandwidth", "2.5", "--gmm", "2", "--nan", "skip"],
+                         "Downsample=4, Bandwidth='2.5', GmmComponents=2, NanPolicy='skip'",
+                         CT_SMALL)
+        cases["ct_deq"] = (["--downsample", "4", "--density", "dequantized", "--gmm", "0"],
+                           "Downsample=4, Density='dequantized', GmmComponents=0", CT_SMALL)
+    lines = ["import glob", "from paraview.simple import *",
+             f"files = sorted(glob.glob({str(members)!r}))",
+             "joined = AppendAttributes(Input=[OpenDataFile(f) for f in files])"]
+    if CT_SMALL.is_file():
+        lines.append(f"ct = OpenDataFile({str(CT_SMALL)!r})")
+    for name, (flags, props, source) in cases.items():
+        run_ok("build", source or members, *flags, "-o", tmp_path / f"cli_{name}.vti",
+               timeout=300)
+        lines.append(f"SaveData({str(tmp_path / f'pv_{name}.vti')!r}, proxy=udvrBuildModel("
+                     f"Input={'ct' if source else 'joined'}{', ' + props if props else ''}))")
+    # Bad inputs: each a ParaView error, not a crash (the script goes on).
+    bad = {"few": ("OpenDataFile(files[0])", "", "at least 2 members"),
+           "bandwidth": ("joined", "Density='kde', Bandwidth='wide'", "wide"),
+           "levels": ("joined", "QuantileLevels='0,0.5,0.4,1'", "quantile"),
+           "dequantized": ("joined", "Density='dequantized'", "integer-typed"),
+           "bricks": ("joined", "Downsample=11", "--downsample 11 is larger than the grid")}
+    for name, (source, props, _) in bad.items():
+        lines += [f"m = udvrBuildModel(Input={source}{', ' + props if props else ''})",
+                  "m.UpdatePipeline()", f"print('UPDATED {name}', flush=True)"]
     script = tmp_path / "build.py"
-    script.write_text(
-        "import glob\n"
-        "from paraview.simple import *\n"
-        f"files = sorted(glob.glob({str(tmp_path / 'members' / 'm_*.nhdr')!r}))\n"
-        "joined = AppendAttributes(Input=[OpenDataFile(f) for f in files])\n"
-        "model = udvrBuildModel(Input=joined)\n"
-        f"SaveData({str(tmp_path / 'pv.vti')!r}, proxy=model)\n")
-    r = pvbatch(script, timeout=120)
-    assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
-    assert_same_model(tmp_path / "pv.vti", tmp_path / "cli.vti", 8)
-    # Too few members: a ParaView error, not a crash.
-    script.write_text(
-        "from paraview.simple import *\n"
-        f"model = udvrBuildModel(Input=OpenDataFile({str(tmp_path / 'members' / 'm_0.nhdr')!r}))\n"
-        "model.UpdatePipeline()\n"
-        "print('updated')\n")
-    r = pvbatch(script, timeout=120)
-    assert r.returncode == 0 and "updated" in r.stdout, r.stdout + r.stderr
-    assert "at least 2 members" in r.stderr, r.stderr
+    script.write_text("\n".join(lines) + "\n")
+    r = pvbatch(script, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    errors = [line for line in r.stderr.splitlines() if "ERR|" in line and "udvr:" in line]
+    for name, (_, _, message) in bad.items():
+        assert "UPDATED " + name in r.stdout, r.stdout + r.stderr
+        assert any(message in line for line in errors), (name, errors)
+    assert len(errors) == len(bad), errors  # the good cases gave none
+    for name in cases:
+        fd = assert_same_model(tmp_path / f"pv_{name}.vti", tmp_path / f"cli_{name}.vti",
+                               64 if name.startswith("ct") else 8, field=True)
+        if name == "ct":
+            assert "default_tf" in fd and fd["bandwidth_rule"] == ["silverman"], fd
+        if name == "kde":
+            assert fd["bandwidth_rule"] == ["scott"] and fd["density"] == ["kde"], fd
 
 
 FUEL = ROOT.parent / "shared" / "data" / "fuel-ensemble" / "fuel_ensemble.nc"
@@ -342,8 +404,9 @@ FUEL = ROOT.parent / "shared" / "data" / "fuel-ensemble" / "fuel_ensemble.nc"
 def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, tmp_path):
     """File → Open (OpenDataFile) of an ensemble NetCDF (`tangle(member, z, y, x)` from `udvr
     perturb`) picks the plugin's reader; it, then udvr Build Model, gives `udvr build
-    ensemble.nc`'s model array for array, bit for bit, on one process and on 2 MPI ranks. Bad
-    files in the first pvbatch: ParaView errors, not crashes."""
+    ensemble.nc`'s model array for array, bit for bit (on 3 MPI ranks:
+    test_three_ranks_build_and_render_their_pieces). Bad files in the same pvbatch: ParaView
+    errors, not crashes."""
     import numpy as np
     import scipy.io
     ensemble = models / "ensemble.nc"
@@ -389,20 +452,80 @@ def test_netcdf_ensemble_reader_and_build_model_give_udvr_builds_model(models, t
     assert_same_model(tmp_path / "pv.vti", models / "model.vti", 16)
     if fuel:
         assert_same_model(tmp_path / "fuel_pv.vti", tmp_path / "fuel_cli.vti", 10)
-    # 2 MPI ranks: each reads and builds its piece (whole x-y planes, the GMM's streams keyed by
-    # the whole grid's voxel index, the σ floor from the range reduced over the ranks).
-    (tmp_path / "mpi.py").write_text(
-        "from paraview.simple import *\n"
-        f"model = udvrBuildModel(Input=OpenDataFile({str(ensemble)!r}), GmmComponents=3)\n"
-        f"SaveData({str(tmp_path / 'pv2.pvti')!r}, proxy=model)\n")
-    r2 = pvbatch(tmp_path / "mpi.py", ranks=2, timeout=120)
-    assert r2.returncode == 0 and "ERR|" not in r2.stderr, r2.stdout + r2.stderr
-    assert len(re.findall(r"<Piece ", (tmp_path / "pv2.pvti").read_text())) == 2
-    assert_same_model(tmp_path / "pv2.pvti", models / "model.vti", 16)
     errors = [line for line in r.stderr.splitlines() if "ERR|" in line]
     for name, message in bad.items():
         assert "READ %s 0" % name in r.stdout, r.stdout + r.stderr
         assert any(name + ": " + message in line for line in errors), (name, r.stderr)
+
+
+def test_three_ranks_build_and_render_their_pieces(models, tmp_path):
+    """One `mpirun -np 3 pvbatch`: (1) the NetCDF reader + Build Model, each rank building its
+    third (whole x-y planes: the GMM's streams keyed by the whole grid's voxel index, the σ floor
+    from the range reduced over the ranks) = `udvr build ensemble.nc` bit for bit; the tooth CT
+    (where ../shared has it) by 4³ bricks with Scott's bandwidth and GMM 2 = `udvr build
+    --downsample 4` bit for bit (each rank reads the 4 input planes of its model planes); (2) a
+    3-piece .pvti rendered by render.py, each rank its piece, within 2/255 of `udvr render`."""
+    ensemble = models / "ensemble.nc"
+    run_ok("build", ensemble, "--gmm", "3", "--pieces", "3", "-o", tmp_path / "m3.pvti")
+    ct = CT_SMALL.is_file()
+    ct_flags = ["--downsample", "4", "--bandwidth", "scott", "--gmm", "2"]
+    if ct:
+        run_ok("build", CT_SMALL, *ct_flags, "-o", tmp_path / "ct_cli.vti", timeout=300)
+    jobs = cli_and_paraview_jobs(tmp_path, ["mean", "quantile-range", "gmm-mc"],
+                                 tmp_path / "m3.pvti", "np3", ["--tf", str(models / "tf.json")])
+    jobs += cli_and_paraview_jobs(tmp_path, ["quantile-range"], tmp_path / "m3.pvti", "np3_2d",
+                                  ["--tf2", str(models / "tf2.vti")])
+    (tmp_path / "jobs.json").write_text(json.dumps([[*a, "-o", str(pv)] for _, pv, a in jobs]))
+    (tmp_path / "mpi.py").write_text(
+        "import json, sys\n"
+        f"sys.path.insert(0, {str(RENDER.parent)!r})\n"
+        "import render\n"
+        "from paraview.simple import *\n"
+        f"model = udvrBuildModel(Input=OpenDataFile({str(ensemble)!r}), GmmComponents=3)\n"
+        f"SaveData({str(tmp_path / 'pv3.pvti')!r}, proxy=model)\n"
+        + (f"ct = udvrBuildModel(Input=OpenDataFile({str(CT_SMALL)!r}), Downsample=4, "
+           "Bandwidth='scott', GmmComponents=2)\n"
+           f"SaveData({str(tmp_path / 'ct_pv.pvti')!r}, proxy=ct)\n" if ct else "") +
+        f"for args in json.load(open({str(tmp_path / 'jobs.json')!r})):\n"
+        "    render.main(args)\n"
+        # Build Model straight into the representation, no file between: render.py opens the
+        # ensemble through OpenDataFile, here the filter over ParaView's reader of it.
+        "import paraview.simple as ps\n"
+        "opened = ps.OpenDataFile\n"
+        "def built(path, **kw):\n"
+        "    m = ps.udvrBuildModel(Input=opened(path), GmmComponents=3)\n"
+        "    object.__setattr__(m, 'PointArrayStatus', None)  # render.py's field-data reader\n"
+        "    return m\n"
+        "ps.OpenDataFile = built\n"
+        f"render.main([{str(ensemble)!r}, '--model', 'quantile-range', '--tf',\n"
+        f"             {str(models / 'tf.json')!r}, '--size', '{SIZE}', '--realizations', '20',\n"
+        f"             '-o', {str(tmp_path / 'direct.png')!r}])\n")
+    r = pvbatch(tmp_path / "mpi.py", ranks=3, timeout=600)
+    assert r.returncode == 0 and "ERR|" not in r.stderr, r.stdout + r.stderr
+    assert len(re.findall(r"<Piece ", (tmp_path / "pv3.pvti").read_text())) == 3
+    assert_same_model(tmp_path / "pv3.pvti", models / "model.vti", 16)
+    if ct:
+        assert len(re.findall(r"<Piece ", (tmp_path / "ct_pv.pvti").read_text())) == 3
+        assert_same_model(tmp_path / "ct_pv.pvti", tmp_path / "ct_cli.vti", 64)
+    log = []
+    for cli, pv, args in jobs:
+        run_ok("render", *args, "-o", cli, timeout=300)
+        e = rmse(pv, cli)
+        log.append("3 ranks %s %s: RMSE %.5f (%.2f/255)" % (args[2], args[3], e, 255 * e))
+        assert e <= TOLERANCE, log[-1]
+    e = rmse(tmp_path / "direct.png", tmp_path / "cli_np3_quantile-range.png")
+    log.append("3 ranks, Build Model straight into the representation: RMSE %.5f" % e)
+    assert e <= TOLERANCE, log[-1]
+    print("\n".join(log))
+    # Each rank rendered its own third, not the whole. ParaView's representation splits the
+    # .pvti over 3 ranks as its extent translator does, not as the file's 3 z-pieces: measured
+    # z 0..7; y 0..11 and 11..23 of z 7..23 (those two ranks each read 2 of the 3 piece files).
+    # Build Model's own pieces are z-slabs sharing their boundary plane: 0..7, 7..15, 15..23.
+    found = re.findall(r"udvr: rendering extent (\S+ \S+ \S+) of \S+ \S+ \S+ \((\d+) voxels",
+                       r.stderr)
+    extents = {e for e, _ in found}
+    assert {"0..23 0..23 0..7", "0..23 0..23 7..15", "0..23 0..23 15..23"} <= extents, extents
+    assert len(extents) == 5 and all(int(v) < 24 ** 3 / 2 for _, v in found), set(found)
 
 
 def bad_input_script(tmp_path, source, array, kind="mean"):
