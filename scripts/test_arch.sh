@@ -55,7 +55,28 @@ for arch in "${arches[@]}"; do
     esac
 done
 
+# The vector instruction set of the main build (-march=native), from `udvr --version`: a target
+# whose lanes would be the same code path (x86-64-v3 on a CPU with AVX2 but no AVX-512) is
+# already tested by scripts/test.sh's ctest and pytest, and is skipped (~8 min of CI on 2 cores).
+main_binary=${UDVR_BUILD_DIR:-build}/udvr
+main_isa=""
+if [ -x "$main_binary" ]; then
+    main_isa=$("$main_binary" --version 2>/dev/null | sed -n 's/.*(target native: \([^,]*\),.*/\1/p')
+fi
+# The vector instruction set a target compiles to (util/build_info.h's UDVR_BUILD_ISA).
+isa_of() {
+    case "$1" in
+        x86-64-v4) echo "AVX-512" ;;
+        x86-64-v3) echo "AVX2+FMA" ;;
+        *) echo "" ;;
+    esac
+}
+
 for arch in "${arches[@]}"; do
+    if [ -n "$main_isa" ] && [ "$(isa_of "$arch")" = "$main_isa" ] && [ -z "${UDVR_TEST_SAME_ISA:-}" ]; then
+        echo "== arch $arch: skipped: the main build ($main_binary, -march=native) already runs its $main_isa lanes (UDVR_TEST_SAME_ISA=1 builds it anyway)" >&2
+        continue
+    fi
     why=$(cannot_run "$arch")
     if [ -n "$why" ]; then
         echo "== arch $arch: skipped: $why" >&2

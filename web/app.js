@@ -51,6 +51,40 @@ function modelInfo(name) {
   return state.info.models.find((m) => m.name === name);
 }
 
+// A view's full frame, estimated: the server's probe of the model at its default view
+// (estimate_size, the TF when the page loaded), scaled by the pixel count. 0: unknown.
+function estimateMs(params) {
+  if (params.source === 'truth') return 0;  // the truth renders as `mean`
+  const m = modelInfo(params.model);
+  if (!m || !m.estimate_ms) return 0;
+  const [w0, h0] = state.info.estimate_size.split('x').map(Number);
+  const [w, h] = state.size;
+  return m.estimate_ms * (w * h) / (w0 * h0) * (params.source === 'diff' ? 1.1 : 1);
+}
+
+// Progressive steps of a frame over the latency goal: the side halved `step` times, from the
+// first step whose estimate meets the goal (time goes with the pixels, so 4× per step) up to
+// the full frame; each step is a request that the next input's request cancels. 0: one frame.
+// A lower bound (the server's probe ran out of time) starts at a quarter of the side.
+function progressiveSteps(params) {
+  const goal = state.info.latency_goal_ms;
+  const fits = (steps) => Math.min(...state.size) >> steps >= 8;
+  let steps = 0;
+  for (let ms = estimateMs(params); ms > goal && fits(steps + 1); ms /= 4) ++steps;
+  const m = params.source === 'truth' ? null : modelInfo(params.model);
+  if (m && m.estimate_lower_bound) while (steps < 2 && fits(steps + 1)) ++steps;
+  return steps;
+}
+
+function sizeAtStep(step) {
+  const [w, h] = state.size;
+  return `${Math.max(1, w >> step)}x${Math.max(1, h >> step)}`;
+}
+
+function secondsText(ms) {
+  return ms < 60000 ? `${(ms / 1000).toFixed(ms < 10000 ? 1 : 0)} s` : `${(ms / 60000).toFixed(1)} min`;
+}
+
 // ---- status line --------------------------------------------------------------------------
 function showError(e) {
   if (e instanceof ApiError && e.status === 409) return;  // superseded: a newer frame follows
@@ -124,7 +158,9 @@ function captionOf(v) {
 function schedule(coarse) {
   const eventTime = performance.now();
   for (const v of state.views.values()) {
-    v.pending = {kind: coarse ? 'coarse' : 'full', eventTime};
+    // A full frame over the latency goal comes in steps, coarse first (progressiveSteps).
+    const step = coarse ? 0 : progressiveSteps(v.params);
+    v.pending = {kind: coarse ? 'coarse' : step > 0 ? 'step' : 'full', eventTime, step};
     pump(v);
   }
   updateCommand();
@@ -136,12 +172,12 @@ function schedule(coarse) {
 function pump(v) {
   if (!v.pending) return;
   if (v.pending.kind === 'coarse' && [...v.inFlight.values()].includes('coarse')) return;
-  const {kind, eventTime} = v.pending;
+  const {kind, eventTime, step} = v.pending;
   v.pending = null;
   const seq = ++state.seq;
   v.inFlight.set(seq, kind);
-  const params = {...v.params, size: sizeText(kind === 'coarse'), ...cameraParams(),
-                  channel: v.channel, seq, page: PAGE};
+  const size = kind === 'step' ? sizeAtStep(step) : sizeText(kind === 'coarse');
+  const params = {...v.params, size, ...cameraParams(), channel: v.channel, seq, page: PAGE};
   const query = JSON.stringify({...params, channel: undefined, seq: undefined, page: undefined});
   // The PNG's 8-bit RGBA values without the PNG (no encoding, no decoding): the PNG itself is
   // asked for when saved (pngOf).
@@ -166,10 +202,15 @@ function pump(v) {
         state.timings.push({kind, channel: v.channel, latency, render: renderMs,
                             server: Number(headers.get('X-Udvr-Server-Ms')),
                             arrived: arrived - eventTime});
-        v.info = `${kind} ${image.width}×${image.height}, render ${renderMs.toFixed(0)} ms, ` +
+        const what = kind === 'step' ? `step (1/${1 << step} of the side; the full frame: about ` +
+                                           `${secondsText(estimateMs(v.params))})` : kind;
+        v.info = `${what} ${image.width}×${image.height}, render ${renderMs.toFixed(0)} ms, ` +
                  `shown ${latency.toFixed(0)} ms after the input`;
         v.caption.textContent = captionOf(v);
-        v.figure.classList.toggle('coarse', kind === 'coarse');
+        v.figure.classList.toggle('coarse', kind !== 'full');
+        // The next finer step, unless a newer input has asked for something else.
+        if (kind === 'step' && !v.pending && v.shownSeq === seq)
+          v.pending = {kind: step > 1 ? 'step' : 'full', eventTime, step: step - 1};
       })
       .catch(showError)
       .finally(() => {
@@ -494,13 +535,21 @@ function loadAndSave(prefix, path, name, apply) {
 
 // ---- start --------------------------------------------------------------------------------
 async function start() {
-  state.info = await getJson('/api/state');
+  state.info = await getJson('/api/state', {estimates: 1});  // with each model's frame estimate
   $('title').textContent = `udvr serve — ${state.info.model.file}`;
   const picker = $('model');
   for (const m of state.info.models) {
-    const o = new Option(m.label, m.name);
+    // Models over the latency goal are marked with their estimate and render progressively.
+    const label = m.slow ? `${m.label} — ${m.estimate_lower_bound ? 'over' : 'about'} ` +
+                           `${secondsText(m.estimate_ms)} (progressive)` : m.label;
+    const o = new Option(label, m.name);
     o.disabled = !m.available;
     if (!m.available) o.title = m.reason;
+    if (m.slow) {
+      o.dataset.slow = 'true';
+      o.title = `a ${state.info.estimate_size} frame is estimated at ${secondsText(m.estimate_ms)}, ` +
+                `over the ${state.info.latency_goal_ms} ms goal: shown coarse first, then finer`;
+    }
     picker.add(o);
   }
   const preferred = ['quantile-range', 'mean'].find((n) => modelInfo(n).available) || 'mean';

@@ -1,7 +1,7 @@
 """Render a udvr model in ParaView with the "Uncertain Volume" representation (issue 32).
 
     build/paraview/udvr-pvbatch examples/paraview/render.py MODEL [--model NAME] [--tf TF.json]
-        [--tf2 TF2.vti] [--size WxH] [--azimuth DEG] [--elevation DEG] [--zoom Z] -o OUT.png
+        [--tf2 TF2.vti|TF2.json] [--size WxH] [--azimuth DEG] [--elevation DEG] [--zoom Z] -o OUT.png
     mpirun -np 2 build/paraview/udvr-pvbatch examples/paraview/render.py MODEL.pvti ...
 
 The arguments are `udvr render`'s and so is the camera (SPEC §5: focal point at the centre of the
@@ -32,7 +32,7 @@ def parse_args(argv):
     p.add_argument("model", metavar="MODEL", help="model .vti or .pvti from `udvr build`")
     p.add_argument("--model", dest="kind", default="mean", help="noise model (udvr render --model)")
     p.add_argument("--tf", help="1D transfer function, ParaView JSON (udvr render --tf)")
-    p.add_argument("--tf2", help="2D transfer function raster .vti (udvr tf2 ... -o tf2.vti)")
+    p.add_argument("--tf2", help="2D transfer function: raster .vti or widget .json (udvr render --tf2)")
     p.add_argument("--size", default="512x512", help="WxH (default 512x512)")
     p.add_argument("--azimuth", type=float, default=30.0)
     p.add_argument("--elevation", type=float, default=20.0)
@@ -108,7 +108,7 @@ def main(argv):
     import paraview.simple
     from paraview.simple import (ColorBy, CreateView, GetColorTransferFunction,
                                  GetOpacityTransferFunction, LoadPlugin, OpenDataFile,
-                                 ExtractSubset, Render, SaveScreenshot, Show)
+                                 Delete, Render, SaveScreenshot, Show)
     definitions = servermanager.ProxyManager().SMProxyManager.GetProxyDefinitionManager()
     if not definitions.HasDefinition("representations", "UncertainVolumeRepresentation"):
         # Not loaded at start-up from PV_PLUGIN_PATH (which udvr-pvbatch sets).
@@ -132,13 +132,17 @@ def main(argv):
 
     # The full-resolution bounds (field data `bounds`, SPEC §7), else the grid's box.
     bounds = list(info.GetBounds())
-    # Fetched from one voxel: the field data travels with it, the arrays stay on their ranks.
-    corner = ExtractSubset(Input=reader, VOI=[0, 0, 0, 0, 0, 0])
-    field = servermanager.Fetch(corner)
+    # Fetched from a second reader of the file with its point arrays switched off: the field data
+    # comes without the arrays. (An ExtractSubset of one voxel of `reader` made the reader run
+    # again for its extent: +212 MiB on each rank's VmRSS with a 216 MiB model.)
+    meta = OpenDataFile(a.model)
+    meta.PointArrayStatus = []
+    field = servermanager.Fetch(meta)
     fb = field.GetFieldData().GetArray("bounds") if field else None
     if fb is not None and fb.GetNumberOfTuples() * fb.GetNumberOfComponents() == 6:
         bounds = [fb.GetComponent(i // fb.GetNumberOfComponents(), i % fb.GetNumberOfComponents())
                   for i in range(6)]
+    Delete(meta)
 
     # paraview.simple resets the camera to the data's box at a view's first render; the camera
     # below is SPEC §5's over the full-resolution bounds, which differ for a downsampled model.

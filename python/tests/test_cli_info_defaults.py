@@ -144,6 +144,26 @@ def test_default_tf_is_the_preset_over_the_robust_range(field, tmp_path):
     assert tf["RGBPoints"][0] == 2 and tf["RGBPoints"][4] == 30
 
 
+def test_info_histogram_draws_the_tf_render_uses(field, pipeline, tmp_path):
+    """`info --histogram` draws (and --save-tf writes) the TF `render` uses by default: the
+    boundary-emphasis opacity, not the median ramp, for a field, a model and an ensemble."""
+    _, path, values = field
+    info_tf, render_tf = tmp_path / "info.json", tmp_path / "render.json"
+    r = run_ok("info", path, "--histogram", tmp_path / "h.png", "--save-tf", info_tf)
+    assert "opacity on boundaries" in r.stderr
+    run_ok("render", path, "--size", "8x8", "--save-tf", render_tf, "-o", tmp_path / "r.png")
+    assert json.loads(info_tf.read_text()) == json.loads(render_tf.read_text())
+    lo, hi = np.percentile(values.ravel().astype(np.float64), [0.5, 99.5])
+    _, a_ref = boundary_opacity(values, (0.5, 2.0, 1.0), lo, hi)
+    assert json.loads(info_tf.read_text())[0]["Points"][1::4] == pytest.approx(a_ref, abs=2e-4)
+    # A model's means, and an ensemble (render --model members: over the member means).
+    for source, flags in ((pipeline.model, ()), (pipeline.ensemble, ("--model", "members"))):
+        run_ok("info", source, "--histogram", tmp_path / "h.png", "--save-tf", info_tf)
+        run_ok("render", source, *flags, "--size", "8x8", "--save-tf", render_tf,
+               "-o", tmp_path / "r.png")
+        assert json.loads(info_tf.read_text()) == json.loads(render_tf.read_text()), source
+
+
 def test_tf_flag_errors(field, tmp_path):
     _, path, _ = field
     out = tmp_path / "x.png"

@@ -27,7 +27,8 @@ SEED = int(os.environ.get("UDVR_PARAVIEW_TEST_SEED", "7"))
 SIZE = "96x96"
 TOLERANCE = 2.0 / 255.0
 # Every model with a 1D classification (members needs an ensemble, not a model file).
-MODELS_1D = ["mean", "uniform", "uniform-fast", "gaussian", "gmm-ordered", "gmm-mc",
+MODELS_1D = ["mean", "uniform", "uniform-fast", "uniform-exact", "gaussian", "gmm-ordered",
+             "gmm-mc",
              "quantile-range", "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower",
              "quartile-middle", "quartile-upper"]
 
@@ -155,9 +156,24 @@ def test_every_1d_model_matches_the_cli_on_one_process(models):
 
 
 def test_a_2d_tf_matches_the_cli(models):
+    """A raster .vti and a widget .json (rasterised by udvr's core inside ParaView), each against
+    `udvr render --tf2` with the same file; the widget file's image is its raster's."""
+    widgets = ROOT / "data" / "tf2" / "tangle.json"
     check_against_cli(models, cli_and_paraview_jobs(
         models, ["quantile-range", "mean"], models / "model.vti", "2d",
-        ["--tf2", str(models / "tf2.vti")]), 1, [])
+        ["--tf2", str(models / "tf2.vti")]) + cli_and_paraview_jobs(
+        models, ["quantile-range", "mean"], models / "model.vti", "2dj",
+        ["--tf2", str(widgets)]), 1, [])
+    assert rmse(models / "pv_2dj_quantile-range.png", models / "pv_2d_quantile-range.png") <= 1e-6
+
+
+def test_a_bad_widget_file_is_a_paraview_error(models, tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"domain": [0, 1, 0, 1], "widgets": [{"type": "box", "x": [0, 1]}]}')
+    r = pvbatch(RENDER, models / "model.vti", "--tf2", bad, "--size", "16x16", "-o",
+                tmp_path / "x.png", timeout=120)
+    assert "ERR|" in r.stderr, r.stdout + r.stderr
+    assert "bad.json: widget 0" in r.stderr.split("ERR|", 1)[1], r.stderr
 
 
 def test_two_ranks_render_their_pieces_and_match_the_cli(models):

@@ -175,6 +175,43 @@ def test_switching_the_model(page, server, inputs, tmp_path):
     assert assert_page_is_cli(page, server, inputs, tmp_path)["model"] == "quantile-mean"
 
 
+def test_a_slow_model_comes_in_steps(page, server, inputs, tmp_path):
+    """A model whose frame is estimated over the latency goal renders coarse first: here mean's
+    estimate is set to 8 s at 512² (2 s at the page's 256²), so the full frame follows one step
+    at 128² (0.5 s), and the picker marks it; the last frame is still `udvr render`'s image."""
+    page.execute_script(
+        "const m = window.udvr.state.info.models.find((m) => m.name === 'mean');"
+        "m.estimate_ms = 8000; m.slow = true; window.udvr.state.timings.length = 0;")
+    Select(page.find_element("id", "model")).select_by_value("mean")
+    wait_idle(page)
+    main = page.execute_script(
+        "return window.udvr.state.timings.filter((t) => t.channel === 'main').map((t) => t.kind);")
+    assert main == ["step", "full"], main
+    assert assert_page_is_cli(page, server, inputs, tmp_path)["model"] == "mean"
+    page.execute_script(
+        "const m = window.udvr.state.info.models.find((m) => m.name === 'mean');"
+        "m.estimate_ms = 10; m.slow = false;")
+
+
+def test_picker_marks_models_over_the_goal(inputs):
+    """With a 2D TF the uniform kernel's 512² frame takes minutes: its option says so."""
+    s = Server(inputs.model, "--tf2", TANGLE_TF2)
+    driver = None
+    try:
+        driver = open_page(s.url)
+        state = s.json("/api/state")  # the estimates the page asked for, kept
+        slow = {m["name"] for m in state["models"] if m["available"] and m["slow"]}
+        assert "uniform" in slow
+        options = {o.get_attribute("value"): o.text
+                   for o in Select(driver.find_element("id", "model")).options}
+        for name, text in options.items():
+            assert ("(progressive)" in text) == (name in slow), (name, text)
+    finally:
+        if driver:
+            driver.quit()
+        s.stop()
+
+
 def test_quartile_view_shows_three_more_images(page, server, inputs, tmp_path):
     page.find_element("id", "quartiles").click()
     wait_idle(page)

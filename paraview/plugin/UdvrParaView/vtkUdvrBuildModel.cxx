@@ -2,9 +2,11 @@
 
 #include <exception>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "udvr/stats/build_model.h"
+#include "udvr/stats/model_field_data.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/check.h"
 #include "vtkDataArray.h"
@@ -24,23 +26,28 @@
 vtkStandardNewMacro(vtkUdvrBuildModel);
 
 namespace {
-void addDoubles(vtkFieldData* fd, const char* name, const std::vector<double>& values) {
-    vtkNew<vtkDoubleArray> a;
-    a->SetName(name);
-    for (double v : values) a->InsertNextValue(v);
-    fd->AddArray(a);
-}
-void addInt(vtkFieldData* fd, const char* name, int value) {
-    vtkNew<vtkIntArray> a;
-    a->SetName(name);
-    a->InsertNextValue(value);
-    fd->AddArray(a);
-}
-void addString(vtkFieldData* fd, const char* name, const std::string& value) {
-    vtkNew<vtkStringArray> a;
-    a->SetName(name);
-    a->InsertNextValue(value);
-    fd->AddArray(a);
+// SPEC §7's field data of `model` (stats/model_field_data.h, the list udvr's own writers use) as
+// VTK arrays of ParaView's VTK.
+void addFieldData(vtkFieldData* fd, const udvr::ModelVolume& model) {
+    for (const udvr::ModelFieldDatum& d :
+         udvr::modelFieldData(model, model.hasQuantiles(), model.hasGmm())) {
+        if (const int* i = std::get_if<int>(&d.value)) {
+            vtkNew<vtkIntArray> a;
+            a->SetName(d.name);
+            a->InsertNextValue(*i);
+            fd->AddArray(a);
+        } else if (const auto* doubles = std::get_if<std::vector<double>>(&d.value)) {
+            vtkNew<vtkDoubleArray> a;
+            a->SetName(d.name);
+            for (double v : *doubles) a->InsertNextValue(v);
+            fd->AddArray(a);
+        } else {
+            vtkNew<vtkStringArray> a;
+            a->SetName(d.name);
+            a->InsertNextValue(std::get<std::string>(d.value));
+            fd->AddArray(a);
+        }
+    }
 }
 }  // namespace
 
@@ -101,7 +108,7 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
         o.source = "ParaView point arrays " + names;
         udvr::fitBuildOptionsToSamples(o, e.members, false, false);  // as the CLI's defaults
         udvr::validateBuildOptions(o, e.members);
-        const udvr::ModelVolume model = udvr::buildModel(e, o);
+        udvr::ModelVolume model = udvr::buildModel(e, o);
 
         vtkPointData* out = output->GetPointData();
         for (const udvr::ModelFileArray& spec : udvr::kModelFileArrays) {
@@ -116,30 +123,15 @@ int vtkUdvrBuildModel::RequestData(vtkInformation*, vtkInformationVector** input
             out->AddArray(a);
         }
         out->SetActiveScalars("mean");
-        // Field data as `udvr build` writes it (SPEC §7); the bounds are the whole grid's.
-        vtkFieldData* fd = output->GetFieldData();
-        const bool q = model.hasQuantiles();
-        addInt(fd, "quantile_count", q ? model.quantileCount : 0);
-        if (q) {
-            std::vector<double> levels;
-            for (int j = 0; j <= model.quantileCount; ++j) levels.push_back(model.quantileLevel(j));
-            addDoubles(fd, "quantile_levels", levels);
-        }
-        addString(fd, "density", model.density);
-        addDoubles(fd, "bandwidth", {model.bandwidth});
-        addString(fd, "bandwidth_rule", model.bandwidthRule);
-        addDoubles(fd, "tail_eps", {model.tailEps});
-        addInt(fd, "samples_per_voxel", model.samplesPerVoxel);
-        addInt(fd, "downsample", 0);
-        std::vector<double> bounds(6);
+        // Field data as `udvr build` writes it (SPEC §7); the bounds are the whole grid's. An
+        // ensemble's build records no default_tf (the model's means are its basis), as the CLI's.
         for (int a = 0; a < 3; ++a) {
-            bounds[2 * a] = origin[a] + whole[2 * a] * spacing[a];
-            bounds[2 * a + 1] = origin[a] + whole[2 * a + 1] * spacing[a];
+            model.bounds[2 * a] = origin[a] + whole[2 * a] * spacing[a];
+            model.bounds[2 * a + 1] = origin[a] + whole[2 * a + 1] * spacing[a];
         }
-        addDoubles(fd, "bounds", bounds);
-        addDoubles(fd, "full_res_min_spacing", {e.grid.minSpacing()});
-        addInt(fd, "gmm_components", model.hasGmm() ? model.gmmComponents : 0);
-        addString(fd, "source", model.source);
+        model.fullResMinSpacing = e.grid.minSpacing();
+        model.downsample = 0;
+        addFieldData(output->GetFieldData(), model);
     } catch (const std::exception& ex) {
         vtkErrorMacro(<< "udvr: " << ex.what());
         return 0;

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -10,6 +11,8 @@
 #include <cstring>
 #include <exception>
 #include <filesystem>
+#include <fstream>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -17,7 +20,9 @@
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function.h"
 #include "udvr/classify/transfer_function_2d.h"
+#include "udvr/classify/transfer_function_2d_widget_json.h"
 #include "udvr/render/render.h"
+#include "udvr/stats/model_view.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/check.h"
 #include "vtkAlgorithm.h"
@@ -25,6 +30,7 @@
 #include "vtkColorTransferFunction.h"
 #include "vtkDataArray.h"
 #include "vtkFieldData.h"
+#include "vtkFloatArray.h"
 #include "vtkImageData.h"
 #include "vtkMatrix3x3.h"
 #include "vtkObjectFactory.h"
@@ -83,11 +89,22 @@ bool isModelArray(const std::string& name) {
     return false;
 }
 
-// The model a rank holds (SPEC §7 arrays and field data) from its piece of image data: grid from
-// the extent, origin and spacing; arrays copied to float. `whole` is the extent of the data the
-// piece belongs to.
-udvr::ModelVolume modelOf(vtkImageData* image, const int whole[6]) {
-    udvr::ModelVolume m;
+// The model a rank holds (SPEC §7 arrays and field data) from its piece of image data: a view
+// of VTK's float arrays, which `held` keeps alive (nothing copied), and arrays of other types
+// converted into `converted`, which also holds the field data the view points to (view.h's
+// lifetime contract). Filled in place: the view points into this object.
+struct PieceModel {
+    udvr::ModelVolume converted;
+    std::vector<vtkSmartPointer<vtkDataArray>> held;
+    udvr::ModelView view;
+    std::size_t copiedBytes = 0;
+};
+
+// Grid from the extent, origin and spacing; `whole` is the extent of the data the piece belongs
+// to.
+void modelOf(vtkImageData* image, const int whole[6], PieceModel& out) {
+    out = PieceModel{};
+    udvr::ModelVolume& m = out.converted;
     int ext[6];
     image->GetExtent(ext);
     const double* origin = image->GetOrigin();
@@ -110,6 +127,7 @@ udvr::ModelVolume modelOf(vtkImageData* image, const int whole[6]) {
     vtkFieldData* fd = image->GetFieldData();
     const int qField = static_cast<int>(fieldDouble(fd, "quantile_count", 0));
     const int kField = static_cast<int>(fieldDouble(fd, "gmm_components", 0));
+    std::vector<std::pair<const udvr::ModelFileArray*, std::span<const float>>> borrowed;
     for (const udvr::ModelFileArray& spec : udvr::kModelFileArrays) {
         vtkDataArray* a = pd->GetArray(spec.name);
         if (!a) continue;
@@ -132,20 +150,20 @@ udvr::ModelVolume modelOf(vtkImageData* image, const int whole[6]) {
         if (static_cast<std::size_t>(a->GetNumberOfTuples()) != n)
             UDVR_FAIL("array '" << spec.name << "' holds " << a->GetNumberOfTuples()
                                 << " tuples, the grid " << n << " points");
-        std::vector<float>& out = m.*spec.values;
-        out.resize(n * static_cast<std::size_t>(c));
-        if (a->GetDataType() == VTK_FLOAT)
-            std::copy_n(static_cast<const float*>(a->GetVoidPointer(0)), out.size(), out.data());
-        else
-            for (std::size_t i = 0; i < out.size(); ++i)
-                out[i] = static_cast<float>(
-                    a->GetComponent(static_cast<vtkIdType>(i / c), static_cast<int>(i % c)));
+        const std::size_t count = n * static_cast<std::size_t>(c);
+        // vtkFloatArray is VTK's contiguous (array-of-structs) float array: borrowed as it is.
+        if (auto* f = vtkFloatArray::SafeDownCast(a)) {
+            out.held.emplace_back(a);
+            borrowed.emplace_back(&spec, std::span<const float>(f->GetPointer(0), count));
+            continue;
+        }
+        std::vector<float>& values = m.*spec.values;
+        values.resize(count);
+        for (std::size_t i = 0; i < count; ++i)
+            values[i] = static_cast<float>(
+                a->GetComponent(static_cast<vtkIdType>(i / c), static_cast<int>(i % c)));
+        out.copiedBytes += count * sizeof(float);
     }
-    if (m.mean.empty() && m.quantiles.empty() && m.gmm.empty() && m.iqr.empty() && m.min.empty())
-        UDVR_FAIL(
-            "the data holds no udvr model arrays (mean, stddev, min, max, quantiles, iqr, "
-            "gmm; written by `udvr build`); its point arrays: "
-            << arrayNames(pd));
     if (m.quantileCount > 0)
         m.quantileLevels = udvr::normalizedQuantileLevels(
             fieldDoubles(fd, "quantile_levels"), m.quantileCount, "field data 'quantile_levels'");
@@ -164,64 +182,65 @@ udvr::ModelVolume modelOf(vtkImageData* image, const int whole[6]) {
     m.fullResMinSpacing = fieldDouble(fd, "full_res_min_spacing", m.grid.minSpacing());
     if (!(m.fullResMinSpacing > 0.0))
         UDVR_FAIL("field data 'full_res_min_spacing' must be positive");
-    udvr::checkModelArrays(m, "the model");
-    return m;
+    out.view = udvr::ModelView(m);
+    for (const auto& [spec, values] : borrowed) out.view.array(*spec) = values;
+    const udvr::ModelView& v = out.view;
+    if (v.mean.empty() && v.quantiles.empty() && v.gmm.empty() && v.iqr.empty() && v.min.empty())
+        UDVR_FAIL(
+            "the data holds no udvr model arrays (mean, stddev, min, max, quantiles, iqr, "
+            "gmm; written by `udvr build`); its point arrays: "
+            << arrayNames(pd));
+    udvr::checkModelArrays(v, "the model");
 }
 
-// ParaView's lookup table and scalar opacity function as udvr's 1D TF: their control points
-// where both are piecewise linear in RGB (as udvr's TF JSON), else kSampledPoints samples over
-// their range (what ParaView shows in its editor).
+// Passes one of ParaView's functions to emit(x, values): its nodes (x, Channels values, midpoint,
+// sharpness) where `linear` holds and every node has midpoint 0.5 and sharpness 0 (piecewise
+// linear, as udvr's TF JSON), else kSampledPoints samples of sample(x, values) over `range` (what
+// ParaView shows in its editor).
+template <int Channels, class Node, class Sample, class Emit>
+void functionPoints(bool linear, int size, const Node& node, const double range[2],
+                    const Sample& sample, const Emit& emit) {
+    std::vector<std::array<double, Channels + 3>> nodes(static_cast<std::size_t>(size));
+    for (auto& n : nodes) {
+        node(static_cast<int>(&n - nodes.data()), n.data());
+        linear = linear && n[Channels + 1] == 0.5 && n[Channels + 2] == 0.0;
+    }
+    if (linear) {
+        for (const auto& n : nodes) emit(n[0], n.data() + 1);
+        return;
+    }
+    for (int i = 0; i < kSampledPoints; ++i) {
+        const double x = range[0] + (range[1] - range[0]) * i / (kSampledPoints - 1);
+        double v[Channels];
+        sample(x, v);
+        emit(x, v);
+    }
+}
+
+// ParaView's lookup table and scalar opacity function as udvr's 1D TF (functionPoints).
 udvr::TransferFunction1D tfOf(vtkColorTransferFunction* ctf, vtkPiecewiseFunction* pwf) {
     if (!ctf || ctf->GetSize() < 1)
         UDVR_FAIL("no colour map: colour the representation by a model array (e.g. 'mean')");
     if (!pwf || pwf->GetSize() < 1) UDVR_FAIL("no scalar opacity function");
     udvr::TransferFunction1D tf;
-    bool linear = ctf->GetColorSpace() == VTK_CTF_RGB && ctf->GetScale() == VTK_CTF_LINEAR;
-    for (int i = 0; i < ctf->GetSize() && linear; ++i) {
-        double v[6];
-        ctf->GetNodeValue(i, v);
-        linear = v[4] == 0.5 && v[5] == 0.0;
-    }
-    if (linear)
-        for (int i = 0; i < ctf->GetSize(); ++i) {
-            double v[6];
-            ctf->GetNodeValue(i, v);
-            tf.colorX.push_back(v[0]);
-            tf.color.push_back({v[1], v[2], v[3]});
-        }
-    else {
-        double range[2];
-        ctf->GetRange(range);
-        for (int i = 0; i < kSampledPoints; ++i) {
-            const double x = range[0] + (range[1] - range[0]) * i / (kSampledPoints - 1);
-            double rgb[3];
-            ctf->GetColor(x, rgb);
+    double range[2];
+    ctf->GetRange(range);
+    functionPoints<3>(
+        ctf->GetColorSpace() == VTK_CTF_RGB && ctf->GetScale() == VTK_CTF_LINEAR, ctf->GetSize(),
+        [&](int i, double* node) { ctf->GetNodeValue(i, node); }, range,
+        [&](double x, double* rgb) { ctf->GetColor(x, rgb); },
+        [&](double x, const double* rgb) {
             tf.colorX.push_back(x);
             tf.color.push_back({rgb[0], rgb[1], rgb[2]});
-        }
-    }
-    bool opacityLinear = true;
-    for (int i = 0; i < pwf->GetSize() && opacityLinear; ++i) {
-        double v[4];
-        pwf->GetNodeValue(i, v);
-        opacityLinear = v[2] == 0.5 && v[3] == 0.0;
-    }
-    if (opacityLinear)
-        for (int i = 0; i < pwf->GetSize(); ++i) {
-            double v[4];
-            pwf->GetNodeValue(i, v);
-            tf.opacityX.push_back(v[0]);
-            tf.opacity.push_back(std::clamp(v[1], 0.0, 1.0));
-        }
-    else {
-        double range[2];
-        pwf->GetRange(range);
-        for (int i = 0; i < kSampledPoints; ++i) {
-            const double x = range[0] + (range[1] - range[0]) * i / (kSampledPoints - 1);
+        });
+    pwf->GetRange(range);
+    functionPoints<1>(
+        true, pwf->GetSize(), [&](int i, double* node) { pwf->GetNodeValue(i, node); }, range,
+        [&](double x, double* alpha) { *alpha = pwf->GetValue(x); },
+        [&](double x, const double* alpha) {
             tf.opacityX.push_back(x);
-            tf.opacity.push_back(std::clamp(pwf->GetValue(x), 0.0, 1.0));
-        }
-    }
+            tf.opacity.push_back(std::clamp(*alpha, 0.0, 1.0));
+        });
     tf.validate();
     return tf;
 }
@@ -267,9 +286,10 @@ udvr::TransferFunction2D tf2OfRaster(vtkImageData* img, vtkDataArray* a, const d
     return tf;
 }
 
-// A 2D TF raster .vti (SPEC §9: W×H×1 points, a 4-component array r, g, b, α; x along i, y along
-// j, the domain from origin and spacing), read with ParaView's own VTK. Widget JSON files become
-// such a raster with `udvr tf2 widgets.json -o tf2.vti`.
+// A 2D TF file (SPEC §9), as `udvr render --tf2` reads it: a raster .vti (W×H×1 points, a
+// 4-component array r, g, b, α; x along i, y along j, the domain from origin and spacing), read
+// with ParaView's own VTK; or a widget .json, parsed and rasterised by udvr's core (its domain
+// and resolution from the file, else 256×256 points).
 udvr::TransferFunction2D tf2Of(const std::string& path) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec))
@@ -277,11 +297,18 @@ udvr::TransferFunction2D tf2Of(const std::string& path) {
     std::string suffix = std::filesystem::path(path).extension().string();
     std::transform(suffix.begin(), suffix.end(), suffix.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (suffix == ".json") {
+        std::ifstream in(path, std::ios::binary);
+        std::ostringstream text;
+        text << in.rdbuf();
+        if (!in) UDVR_FAIL("2D transfer function '" << path << "': cannot read it");
+        return udvr::transferFunction2DFromWidgets(text.str(), path);
+    }
     if (suffix != ".vti")
         UDVR_FAIL("2D transfer function '"
                   << path
-                  << "': ParaView reads 2D TF rasters (.vti); make one from a widget file with "
-                     "`udvr tf2 widgets.json --over MODEL -o tf2.vti`");
+                  << "': expected a raster (.vti) or widgets (.json); make a raster of another "
+                     "form with `udvr tf2 TF2 -o tf2.vti`");
     auto reader = vtkSmartPointer<vtkXMLImageDataReader>::New();
     if (!reader->CanReadFile(path.c_str()))
         UDVR_FAIL("2D transfer function '" << path << "': not a VTK XML image file");
@@ -302,10 +329,10 @@ udvr::TransferFunction2D tf2Of(const std::string& path) {
     return tf2OfRaster(img, a, nullptr);
 }
 
-std::size_t modelBytes(const udvr::ModelVolume& m) {
+std::size_t modelBytes(const udvr::ModelView& m) {
     std::size_t bytes = 0;
     for (const udvr::ModelFileArray& a : udvr::kModelFileArrays)
-        bytes += (m.*a.values).size() * sizeof(float);
+        bytes += m.array(a).size() * sizeof(float);
     return bytes;
 }
 
@@ -326,7 +353,7 @@ long statusMiB(const char* key) {
 }  // namespace
 
 struct vtkUdvrVolumeMapper::Internals {
-    udvr::ModelVolume model;
+    PieceModel model;
     vtkImageData* image = nullptr;  // what `model` was made from, and when
     vtkMTimeType imageTime = 0;
     int whole[6] = {0, -1, 0, -1, 0, -1};
@@ -367,10 +394,10 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol) {
         time = std::max(time, image->GetPointData()->GetMTime());
         if (in.image != image || in.imageTime != time ||
             !std::equal(in.whole, in.whole + 6, this->WholeExtent)) {
-            in.model = udvr::ModelVolume{};
-            in.image = nullptr;
+            // The cache is keyed by the arrays' addresses: cleared before they are released.
             in.cache.clear();
-            in.model = modelOf(image, this->WholeExtent);
+            in.image = nullptr;
+            modelOf(image, this->WholeExtent, in.model);
             in.image = image;
             in.imageTime = time;
             std::copy(this->WholeExtent, this->WholeExtent + 6, in.whole);
@@ -382,8 +409,8 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol) {
                              "(%zu voxels)\n",
                              e[0], e[1], e[2], e[3], e[4], e[5], in.whole[0], in.whole[1],
                              in.whole[2], in.whole[3], in.whole[4], in.whole[5],
-                             in.model.voxelCount());
-                const udvr::ModelVolume& v = in.model;
+                             in.model.view.voxelCount());
+                const udvr::ModelView& v = in.model.view;
                 std::fprintf(stderr,
                              "udvr: grid origin %g %g %g spacing %g %g %g; bounds %g %g %g %g %g "
                              "%g; full-res "
@@ -394,7 +421,7 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol) {
                              v.fullResMinSpacing, v.quantileCount, v.gmmComponents);
             }
         }
-        const udvr::ModelVolume& m = in.model;
+        const udvr::ModelView& m = in.model.view;
 
         udvr::RenderSettings s;
         int width = 0, height = 0, x0 = 0, y0 = 0;
@@ -471,9 +498,11 @@ void vtkUdvrVolumeMapper::Render(vtkRenderer* ren, vtkVolume* vol) {
         if (std::getenv("UDVR_PARAVIEW_VERBOSE"))
             std::fprintf(
                 stderr,
-                "udvr: pid %ld frame %dx%d %.1f ms; model %.0f MiB; VmRSS %ld MiB, VmHWM %ld MiB\n",
+                "udvr: pid %ld frame %dx%d %.1f ms; model %.0f MiB (%.0f MiB of it copied); "
+                "VmRSS %ld MiB, VmHWM %ld MiB\n",
                 static_cast<long>(getpid()), width, height, stats.milliseconds,
-                static_cast<double>(modelBytes(m)) / (1 << 20), statusMiB("VmRSS"),
+                static_cast<double>(modelBytes(m)) / (1 << 20),
+                static_cast<double>(in.model.copiedBytes) / (1 << 20), statusMiB("VmRSS"),
                 statusMiB("VmHWM"));
 
         // Rows top to bottom (udvr) → bottom to top (OpenGL); colour over black is premultiplied.

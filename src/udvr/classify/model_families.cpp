@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <string>
 
@@ -30,17 +31,17 @@ double perComponent(int, int k, int) { return 3.0 * k; }
 double perBoundary(int q, int, int) { return q + 1.0; }
 double perMember(int, int, int n) { return n; }
 
-double span(const ModelVolume& model, const ClassifyOptions& options = {}) {
+double span(const ModelView& model, const ClassifyOptions& options = {}) {
     if (options.dataSpan > 0.0) return options.dataSpan;
     const auto range = modelDataRange(model);
     return range.second - range.first;
 }
 
-AnyKernel makeMean(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+AnyKernel makeMean(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                    const ModelFamily&) {
     return MeanKernel(m.grid, m.mean.data(), tf);
 }
-AnyKernel makeUniform(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
+AnyKernel makeUniform(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
                       const ModelFamily& f) {
     const double s = span(m, o);
     return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
@@ -48,60 +49,59 @@ AnyKernel makeUniform(const ModelVolume& m, const TfPiecesStorage& tf, const Cla
                          kUniformTinyWidth * s, tf, f.kind == ModelKind::UniformExact,
                          kUniformPointWidth * s);
 }
-AnyKernel makeGaussian(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+AnyKernel makeGaussian(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                        const ModelFamily&) {
     return GaussianKernel(m.grid, m.mean.data(), m.stddev.data(), tf);
 }
-AnyKernel makeGmmOrdered(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+AnyKernel makeGmmOrdered(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                          const ModelFamily&) {
     return GmmOrderedKernel(m.grid, m.gmm.data(), m.gmmComponents, tf);
 }
-AnyKernel makeQuantileRange(const ModelVolume& m, const TfPiecesStorage& tf,
-                            const ClassifyOptions& o, const ModelFamily& f) {
+AnyKernel makeQuantileRange(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
+                            const ModelFamily& f) {
     const auto pop = quantilePopulation(f.kind, m, o);
     return QuantileRangeKernel(m.grid, m.quantiles.data(), m.quantileCount + 1, pop.first,
                                pop.second, m.levelsOrNull(), tf);
 }
-AnyKernel makeIqr(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+AnyKernel makeIqr(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                   const ModelFamily&) {
     return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, nullptr, tf);
 }
-AnyKernel makeQuantileMean(const ModelVolume& m, const TfPiecesStorage& tf,
-                           const ClassifyOptions& o, const ModelFamily& f) {
+AnyKernel makeQuantileMean(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
+                           const ModelFamily& f) {
     return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount, m.levelsOrNull(),
                               f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m, o),
                               tf);
 }
-AnyKernel makeMembers(const ModelVolume& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+AnyKernel makeMembers(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
                       const ModelFamily&) {
     return MembersKernel(m.grid, m.members.data(), m.memberCount, tf);
 }
 
 // 2D kernels (SPEC §9).
-AnyKernel2D makeMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+AnyKernel2D makeMean2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions&,
                        const ModelFamily&) {
     return Mean2DKernel(
         m.grid, s.gradients.of(m.grid, m.mean.data(), 1, 0, 1, GradientLayout::ValueRows).data(),
         s.exact, s.fast);
 }
-AnyKernel2D makeGaussian2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&,
+AnyKernel2D makeGaussian2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions&,
                            const ModelFamily& f) {
     return Gaussian2DKernel(m.grid, m.mean.data(), m.stddev.data(), s.exact, s.fast,
                             s.meanGradientPlanes(),
                             f.kind == ModelKind::GaussianExact ? nullptr : s.blurTables());
 }
-AnyKernel2D makeUniform2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
+AnyKernel2D makeUniform2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
                           const ModelFamily& f) {
     return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                            o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
                            f.kind == ModelKind::UniformExact, kUniformTinyWidth * span(m, o),
-                           s.exact, s.fast, s.meanGradientPlanes(),
-                           f.kind == ModelKind::UniformExact ? nullptr : s.blurTables());
+                           s.exact, s.fast, s.meanGradientPlanes());
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
-AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
-                       const float* data, int stride, int lo, int hi, const double* levels,
-                       bool quantileMean, bool density) {
+AnyKernel2D quantile2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o, const float* data,
+                       int stride, int lo, int hi, const double* levels, bool quantileMean,
+                       bool density) {
     if (hi - lo + 1 > kMaxBoundaries2D)
         UDVR_FAIL("2D transfer functions handle at most "
                   << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
@@ -112,17 +112,17 @@ AnyKernel2D quantile2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions&
     return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, levels, quantileMean, density,
                             kQuantileZeroWidth * span(m, o), s.exact, s.fast);
 }
-AnyKernel2D makeQuantileRange2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
+AnyKernel2D makeQuantileRange2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
                                 const ModelFamily& f) {
     const auto pop = quantilePopulation(f.kind, m, o);
     return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, pop.first, pop.second,
                       m.levelsOrNull(), false, false);
 }
-AnyKernel2D makeIqr2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
+AnyKernel2D makeIqr2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
                       const ModelFamily&) {
     return quantile2D(m, s, o, m.iqr.data(), 2, 0, 1, nullptr, false, false);
 }
-AnyKernel2D makeQuantileMean2D(const ModelVolume& m, Tf2Setup& s, const ClassifyOptions& o,
+AnyKernel2D makeQuantileMean2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
                                const ModelFamily& f) {
     return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, 0, m.quantileCount,
                       m.levelsOrNull(), true, f.kind == ModelKind::QuantileMean);
@@ -156,21 +156,21 @@ constexpr std::array<ModelFamily, 16> kFamilies{{
 struct ArrayInfo {
     ModelArray bit;
     const char* name;
-    const std::vector<float> ModelVolume::*values;
+    std::span<const float> ModelView::*values;
     const char* hint;
 };
 constexpr std::array<ArrayInfo, 8> kArrays{{
-    {kArrayMean, "mean", &ModelVolume::mean, "rebuild it with `udvr build`"},
-    {kArrayStddev, "stddev", &ModelVolume::stddev, "rebuild it with `udvr build`"},
-    {kArrayMin, "min", &ModelVolume::min, "rebuild it with `udvr build`"},
-    {kArrayMax, "max", &ModelVolume::max, "rebuild it with `udvr build`"},
-    {kArrayQuantiles, "quantiles", &ModelVolume::quantiles, "build with --quantiles Q"},
-    {kArrayIqr, "iqr", &ModelVolume::iqr, "rebuild it with `udvr build`"},
-    {kArrayGmm, "gmm", &ModelVolume::gmm, "build with --gmm K"},
-    {kArrayMembers, "members", &ModelVolume::members, "read the ensemble itself"},
+    {kArrayMean, "mean", &ModelView::mean, "rebuild it with `udvr build`"},
+    {kArrayStddev, "stddev", &ModelView::stddev, "rebuild it with `udvr build`"},
+    {kArrayMin, "min", &ModelView::min, "rebuild it with `udvr build`"},
+    {kArrayMax, "max", &ModelView::max, "rebuild it with `udvr build`"},
+    {kArrayQuantiles, "quantiles", &ModelView::quantiles, "build with --quantiles Q"},
+    {kArrayIqr, "iqr", &ModelView::iqr, "rebuild it with `udvr build`"},
+    {kArrayGmm, "gmm", &ModelView::gmm, "build with --gmm K"},
+    {kArrayMembers, "members", &ModelView::members, "read the ensemble itself"},
 }};
 
-std::size_t valuesPerVoxel(ModelArray a, const ModelVolume& m) {
+std::size_t valuesPerVoxel(ModelArray a, const ModelView& m) {
     switch (a) {
         case kArrayQuantiles:
             return static_cast<std::size_t>(m.quantileCount) + 1;
@@ -218,6 +218,48 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
         fast.cellRun = cellRuns.data();
     else
         cellRuns.clear();
+    // The banded walk's prefix tables (exact, O(min(x, y crossings)) pieces a segment) for the
+    // float view; the double view keeps the cell-by-cell walk (probe, references).
+    if (static_cast<std::size_t>(tf.width) * tf.height <= kMaxTf2BandPrefixPoints) {
+        bandPrefix = tf.bandPrefixMoments();
+        fast.bandPrefix = bandPrefix.data();
+        // Per band, its cells with α > 0 (first, one past the last): x bands, then y bands.
+        const int cx = tf.width - 1, cy = tf.height - 1;
+        bandCells.assign(2 * static_cast<std::size_t>(cx + cy), 0.f);
+        const auto opaque = [&](int i, int j) {
+            return cellEmptyDistance[static_cast<std::size_t>(j) * cx + i] == 0.f;
+        };
+        for (int i = 0; i < cx; ++i)
+            for (int j = 0; j < cy; ++j)
+                if (opaque(i, j)) {
+                    if (bandCells[2 * i + 1] == 0.f) bandCells[2 * i] = static_cast<float>(j);
+                    bandCells[2 * i + 1] = static_cast<float>(j + 1);
+                }
+        for (int j = 0; j < cy; ++j)
+            for (int i = 0; i < cx; ++i)
+                if (opaque(i, j)) {
+                    float* b = bandCells.data() + 2 * (static_cast<std::size_t>(cx) + j);
+                    if (b[1] == 0.f) b[0] = static_cast<float>(i);
+                    b[1] = static_cast<float>(i + 1);
+                }
+        fast.bandCells = bandCells.data();
+        int firstCol = cx, lastCol = -1, firstBand = cy, lastBand = -1;
+        for (int i = 0; i < cx; ++i)
+            if (bandCells[2 * i + 1] > 0.f) firstCol = std::min(firstCol, i), lastCol = i;
+        for (int j = 0; j < cy; ++j)
+            if (bandCells[2 * (static_cast<std::size_t>(cx) + j) + 1] > 0.f)
+                firstBand = std::min(firstBand, j), lastBand = j;
+        constexpr float inf = std::numeric_limits<float>::infinity();
+        if (lastCol < 0) {
+            fast.opaqueBox[0] = fast.opaqueBox[2] = 1.f;
+            fast.opaqueBox[1] = fast.opaqueBox[3] = 0.f;
+        } else {
+            fast.opaqueBox[0] = firstCol == 0 ? -inf : static_cast<float>(firstCol);
+            fast.opaqueBox[1] = lastCol + 1 == cx ? inf : static_cast<float>(lastCol + 1);
+            fast.opaqueBox[2] = firstBand == 0 ? -inf : static_cast<float>(firstBand);
+            fast.opaqueBox[3] = lastBand + 1 == cy ? inf : static_cast<float>(lastBand + 1);
+        }
+    }
     const int cw = tf.width - 1, rows = tf.height - 1;
     columnEmptyRun.assign(static_cast<std::size_t>(cw), 0.f);
     for (int i = cw - 1; i >= 0; --i) {
@@ -263,7 +305,7 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
     }
 }
 
-Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelVolume& m, GradientCache& cache)
+Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelView& m, GradientCache& cache)
     : Tf2Rasters(tf), model(m), gradients(cache) {}
 
 const Tf2BlurTables* Tf2Setup::blurTables() {
@@ -282,7 +324,7 @@ MeanGradientView Tf2Setup::meanGradientPlanes() {
             model.grid.pointCount()};
 }
 
-void checkSameGrid(const ModelVolume& first, const ModelVolume& second) {
+void checkSameGrid(const ModelView& first, const ModelView& second) {
     const Grid3 &a = first.grid, &b = second.grid;
     if (a.dims != b.dims)
         UDVR_FAIL("the second field's grid is " << b.dims[0] << "x" << b.dims[1] << "x" << b.dims[2]
@@ -318,7 +360,7 @@ const ModelFamily& modelFamily(ModelKind kind) {
     UDVR_FAIL("unknown model kind " << static_cast<int>(kind));
 }
 
-const ModelFamily& familyWithKernel(const ModelVolume& model, ModelKind kind,
+const ModelFamily& familyWithKernel(const ModelView& model, ModelKind kind,
                                     const ClassifyOptions& options, const char* what) {
     checkModelHasArrays(model, kind, options);
     const ModelFamily& family = modelFamily(kind);
@@ -328,7 +370,7 @@ const ModelFamily& familyWithKernel(const ModelVolume& model, ModelKind kind,
     return family;
 }
 
-std::pair<int, int> quantilePopulation(ModelKind kind, const ModelVolume& model,
+std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,
                                        const ClassifyOptions& options) {
     const ModelFamily& f = modelFamily(kind);
     if (!(f.population.second > f.population.first))
@@ -353,14 +395,14 @@ std::pair<int, int> quantilePopulation(ModelKind kind, const ModelVolume& model,
             static_cast<int>(f.population.second * q + 0.5)};
 }
 
-void checkModelHasArrays(const ModelVolume& model, ModelKind kind, const ClassifyOptions& options) {
+void checkModelHasArrays(const ModelView& model, ModelKind kind, const ClassifyOptions& options) {
     const std::size_t n = model.voxelCount();
     if (n == 0) UDVR_FAIL("model has an empty grid");
     const ModelFamily& f = modelFamily(kind);
     const unsigned need = f.arrays(options);
     for (const ArrayInfo& a : kArrays) {
         if (!(need & a.bit)) continue;
-        const std::vector<float>& v = model.*a.values;
+        const std::span<const float> v = model.*a.values;
         const std::size_t per = valuesPerVoxel(a.bit, model);
         // No file holds the members: the model or field was read, not the ensemble.
         if (a.bit == kArrayMembers && (v.empty() || per == 0))

@@ -17,7 +17,7 @@
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/reconstruct/gradient_field.h"
-#include "udvr/stats/model_volume.h"
+#include "udvr/stats/model_view.h"
 
 namespace udvr {
 
@@ -43,6 +43,11 @@ inline constexpr double kTf2RunTolerance = 1e-6;
 /// Largest raster (points) that gets the row prefix integrals (8 floats per point: 128 MiB).
 inline constexpr std::size_t kMaxTf2RowPrefixPoints = std::size_t{1} << 22;
 
+/// Largest raster (points) that gets the banded walk's prefix tables
+/// (TransferFunction2D::bandPrefixMoments: 2 × 21 doubles per point, 84 MiB at this size, 512²;
+/// 22 MB for 256²); larger ones walk cell by cell. Bounds what a TF2 edit (serve) allocates.
+inline constexpr std::size_t kMaxTf2BandPrefixPoints = std::size_t{1} << 18;
+
 /// Views of a validated TF2 for the kernels: the raster over double and float, with the
 /// distances of empty cells (TransferFunction2D::emptyCellDistances); the float view also
 /// walks segments by runs of linear cells (kTf2RunTolerance), the double one cell by cell.
@@ -57,6 +62,10 @@ struct Tf2Rasters {
     /// (Tf2Raster::rowSameUpTo, rowPrefix): where at least half of the bands with α > 0 have
     /// identical rows, up to kMaxTf2RowPrefixPoints; else empty.
     std::vector<float> rowSameUpTo, rowPrefix;
+    /// The float view's banded walk tables (Tf2Raster::bandPrefix), up to
+    /// kMaxTf2BandPrefixPoints; else empty.
+    std::vector<double> bandPrefix;
+    std::vector<float> bandCells;  // Tf2Raster::bandCells, with bandPrefix
     /// Per row of cells j: the first and last cell with α > 0 at a corner (first > last: none);
     /// and the first and last such row.
     std::vector<int> rowCells;
@@ -70,11 +79,11 @@ struct Tf2Rasters {
 /// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
 /// `gradients`, which outlives the setup).
 struct Tf2Setup : Tf2Rasters {
-    const ModelVolume& model;
+    const ModelView& model;
     GradientCache& gradients;
 
     /// Views of `tf` (validated by the caller) over `model`; both must outlive the setup.
-    Tf2Setup(const TransferFunction2D& tf, const ModelVolume& model, GradientCache& cache);
+    Tf2Setup(const TransferFunction2D& tf, const ModelView& model, GradientCache& cache);
     /// The `mean` array's grid gradients as planes (computed on first use).
     MeanGradientView meanGradientPlanes();
     /// The fast 2D gaussian's and uniform's prefiltered tables of the TF2: the last ones made
@@ -101,11 +110,11 @@ struct ModelFamily {
     /// gmm-mc: rendered as the screen-space average of mean-field realizations; no kernel.
     bool realizations;
     /// The kernel over `model` with the TF pieces `tf` (both outlive it). Null for gmm-mc.
-    AnyKernel (*makeKernel)(const ModelVolume& model, const TfPiecesStorage& tf,
+    AnyKernel (*makeKernel)(const ModelView& model, const TfPiecesStorage& tf,
                             const ClassifyOptions& options, const ModelFamily& family);
     /// The kernel with a 2D TF (SPEC §9) over `model`, filling the gradients it needs in
     /// `setup` (which outlives it). Null where SPEC §9 gives the model no 2D classification.
-    AnyKernel2D (*makeKernel2D)(const ModelVolume& model, Tf2Setup& setup,
+    AnyKernel2D (*makeKernel2D)(const ModelView& model, Tf2Setup& setup,
                                 const ClassifyOptions& options, const ModelFamily& family);
 };
 
@@ -117,14 +126,14 @@ const ModelFamily& modelFamily(ModelKind kind);
 /// The row of `kind` after checking that `model` has the arrays it needs and that it has a
 /// per-sample kernel; else UdvrError (gmm-mc: "has no <what>: it is rendered as the average of
 /// mean-field realizations").
-const ModelFamily& familyWithKernel(const ModelVolume& model, ModelKind kind,
+const ModelFamily& familyWithKernel(const ModelView& model, ModelKind kind,
                                     const ClassifyOptions& options, const char* what);
 
 /// Call f(kernel) with the kernel for `kind` built over `model` and `tf` (the TF pieces live
 /// for the call). Throws UdvrError when the model lacks an array the kind needs, or for gmm-mc,
 /// which has no per-sample kernel (render only: its realizations are mean fields).
 template <class F>
-void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+void withKernel(const ModelView& model, ModelKind kind, const TransferFunction1D& tf,
                 const ClassifyOptions& options, F&& f) {
     const ModelFamily& family = familyWithKernel(model, kind, options, "per-sample kernel");
     const TfPiecesStorage pieces(tf);
@@ -136,7 +145,7 @@ void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction
 /// (TransferFunction2D::validate). Throws UdvrError for models without one or a model without a
 /// `mean` array (n̂ needs it).
 template <class F>
-void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+void withKernel2D(const ModelView& model, ModelKind kind, const TransferFunction2D& tf,
                   const ClassifyOptions& options, F&& f, GradientCache* cache = nullptr) {
     checkModelHasArrays(model, kind, options);
     checkModelHasArrays(model, ModelKind::Mean, options);
@@ -154,7 +163,7 @@ void withKernel2D(const ModelVolume& model, ModelKind kind, const TransferFuncti
 using AnyBivariateKernel = std::variant<BivariateMean2DKernel, Bivariate2DKernel>;
 
 /// Throws UdvrError unless the two models share one grid (dimensions, origin and spacing).
-void checkSameGrid(const ModelVolume& first, const ModelVolume& second);
+void checkSameGrid(const ModelView& first, const ModelView& second);
 
 /// A TF of α = 0 everywhere, for kernels built for their reconstruction only.
 const TransferFunction1D& reconstructionOnlyTf();
@@ -164,7 +173,7 @@ const TransferFunction1D& reconstructionOnlyTf();
 /// data range unless options.dataSpan is set). `tf` must be validated. Throws UdvrError for
 /// grids that differ, a model lacking the arrays `kind` needs, or gmm-mc.
 template <class F>
-void withKernelBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+void withKernelBivariate(const ModelView& first, const ModelView& second, ModelKind kind,
                          const TransferFunction2D& tf, const ClassifyOptions& options, F&& f) {
     checkSameGrid(first, second);
     const ModelFamily& family = familyWithKernel(first, kind, options, "bivariate classification");
@@ -183,7 +192,7 @@ void withKernelBivariate(const ModelVolume& first, const ModelVolume& second, Mo
 
 /// withKernel with default options.
 template <class F>
-void withKernel(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
+void withKernel(const ModelView& model, ModelKind kind, const TransferFunction1D& tf, F&& f) {
     withKernel(model, kind, tf, ClassifyOptions{}, std::forward<F>(f));
 }
 

@@ -4,7 +4,7 @@
 #include <limits>
 
 namespace udvr {
-std::pair<double, double> modelDataRange(const ModelVolume& model) {
+std::pair<double, double> modelDataRange(const ModelView& model) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     const std::size_t n = model.voxelCount();
     if (model.hasQuantiles() && model.quantiles.size() == n * (model.quantileCount + 1)) {

@@ -42,7 +42,7 @@
 #include "udvr/reconstruct/gaussian_interp.h"
 #include "udvr/reconstruct/gmm_ordered.h"
 #include "udvr/reconstruct/quantile_interp.h"
-#include "udvr/stats/model_volume.h"
+#include "udvr/stats/model_view.h"
 
 namespace udvr {
 
@@ -707,17 +707,17 @@ struct ClassifyOptions {
 
 /// The model's data range (SPEC §4): [min b_0, max b_q] with quantiles, else [min of `min`,
 /// max of `max`], else the range of `mean`. Used to scale zero-width thresholds.
-std::pair<double, double> modelDataRange(const ModelVolume& model);
+std::pair<double, double> modelDataRange(const ModelView& model);
 
 /// Throws UdvrError unless `model` has the arrays `kind` needs (sizes checked too).
-void checkModelHasArrays(const ModelVolume& model, ModelKind kind,
+void checkModelHasArrays(const ModelView& model, ModelKind kind,
                          const ClassifyOptions& options = {});
 
 /// The quantile population [j0, j1] (boundary indices) of a quantile-range-family kind over the
 /// model's q quantiles: quantile-range (0, q); the quartile views the boundaries at levels
 /// (0, .25), (.25, .75), (.75, 1) — (0, q/4), (q/4, 3q/4), (3q/4, q) for even levels, which
 /// need q divisible by options.quartileDivisor. Throws UdvrError where a level has no boundary.
-std::pair<int, int> quantilePopulation(ModelKind kind, const ModelVolume& model,
+std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,
                                        const ClassifyOptions& options = {});
 
 }  // namespace udvr

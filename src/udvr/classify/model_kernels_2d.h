@@ -206,26 +206,22 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
 /// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
 /// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
-/// is the paper's bivariate box spline. E[TF2] from a double body: `uniform-exact` converged
-/// (expectedTf2UniformExact, ≤ 1e−6); `uniform` (and its alias `uniform-fast`) by the
-/// prefiltered tables (Tf2BlurTables::boxSpline: the two widest boxes kept, the rest a normal
-/// with its κ4 term) where the kept boxes take ≤ kMaxBoxPieces pieces, else by the lattice rule
-/// (expectedTf2UniformLattice, max error 2.3e−2 on rough rasters).
+/// is the paper's bivariate box spline. E[TF2] from a double body by expectedTf2UniformExact:
+/// `uniform-exact` converged (≤ 1e−6); `uniform` (and its alias `uniform-fast`) at the coarser
+/// kUniform2DFast settings (max 1.8e−4 measured; expected_tf2_uniform.h, docs/models.md).
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     bool exact;        // `uniform-exact` (expectedTf2UniformExact), else the fast form
     double tinyWidth;  // data units: directions this narrow in X count for G only (exact)
     GradientGeometry gradientGeometry;
-    const Tf2BlurTables* tables;  // the fast form's tables (null: the lattice rule)
 
     Uniform2DKernel(const Grid3& grid, const float* a, const float* b, bool mm, bool ex,
                     double tiny, const Tf2Raster<double>& tfD, const Tf2Raster<float>& tfF,
-                    const MeanGradientView& meanGrad, const Tf2BlurTables* blur = nullptr)
+                    const MeanGradientView& meanGrad)
         : Kernel2DBase(grid, tfD, tfF, meanGrad),
           UniformVoxels{a, b, mm},
           exact(ex),
           tinyWidth(tiny),
-          gradientGeometry(grid),
-          tables(blur) {}
+          gradientGeometry(grid) {}
     /// The centre (X, G at t = 0) and the directions at a scalar cell; returns their count.
     UDVR_CPU_GPU int directionsAt(const Cell<double>& c, double& cx, double& cy,
                                   BoxDirection2 d[32]) const {
@@ -251,9 +247,7 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
             double cx, cy;
             BoxDirection2 d[32];
             const int n = directionsAt(c, cx, cy, d);
-            // The tables where their kept boxes take few pieces, else the lattice rule.
-            if (exact || !tables || !tables->boxSpline(tfExact, cx, cy, d, n, tinyWidth, r.v))
-                expectedTf2Uniform(tfExact, tfFast, cx, cy, d, n, exact, tinyWidth, r.v);
+            expectedTf2Uniform(tfExact, cx, cy, d, n, exact, tinyWidth, r.v);
         } else {
             detail::exactWhere(*this, c, live, r.v);
         }

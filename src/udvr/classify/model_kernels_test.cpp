@@ -325,6 +325,19 @@ TEST(Kernels, MissingArraysAndBadQuantileCountsAreUserErrors) {
     EXPECT_NO_THROW(withKernel(m, ModelKind::Mean, tf, noop));
 }
 
+// The kind-level queries read the table's rows: only `members` reads the members, the two GMM
+// models the GMM array, only gmm-mc renders realizations, and its per-sample stand-in (for
+// pick) is gmm-ordered, the model with a kernel over the same array.
+TEST(Kernels, KindQueriesFollowTheTableRows) {
+    for (ModelKind k : allModelKinds()) {
+        const std::string name(modelName(k));
+        EXPECT_EQ(readsMembers(k), name == "members") << name;
+        EXPECT_EQ(readsGmm(k), name == "gmm-ordered" || name == "gmm-mc") << name;
+        EXPECT_EQ(rendersRealizations(k), name == "gmm-mc") << name;
+        EXPECT_EQ(modelName(kernelStandIn(k)), name == "gmm-mc" ? "gmm-ordered" : name);
+    }
+}
+
 TEST(Kernels, QuantileMeanZeroWidthQuantilesTakeAllTheWeight) {
     // One voxel: boundaries 0,0,1,3 (q = 3): the zero-width quantile at 0 is a point mass of
     // infinite density and gets all the weight; mass weights average TF at 0, 0.5, 2.

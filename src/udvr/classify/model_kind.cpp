@@ -40,4 +40,24 @@ bool needsQuantiles(ModelKind kind) {
     return (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayQuantiles) != 0;
 }
 
+bool readsGmm(ModelKind kind) {
+    return (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayGmm) != 0;
+}
+
+bool readsMembers(ModelKind kind) {
+    return (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayMembers) != 0;
+}
+
+bool rendersRealizations(ModelKind kind) { return modelFamily(kind).realizations; }
+
+ModelKind kernelStandIn(ModelKind kind) {
+    const ModelFamily& f = modelFamily(kind);
+    if (f.makeKernel) return kind;
+    for (const ModelFamily& other : modelFamilies())
+        if (other.makeKernel && other.arrays(ClassifyOptions{}) == f.arrays(ClassifyOptions{}))
+            return other.kind;
+    UDVR_FAIL("model '" << f.name
+                        << "' has no per-sample kernel, nor a model that reads its arrays");
+}
+
 }  // namespace udvr

@@ -36,5 +36,15 @@ const std::vector<ModelKind>& allModelKinds();
 std::string modelNames(bool twoD = false);
 /// Whether a model needs the quantile boundaries array.
 bool needsQuantiles(ModelKind kind);
+/// Whether a model reads the GMM array (its label names K).
+bool readsGmm(ModelKind kind);
+/// Whether a model reads an ensemble's members themselves, not a model file (`members`).
+bool readsMembers(ModelKind kind);
+/// Whether a model is rendered as the average of whole-image realizations (no per-sample kernel).
+bool rendersRealizations(ModelKind kind);
+/// The model whose per-sample kernel stands in for `kind` where one sample's classification is
+/// needed (pick): `kind` itself, or for a model without a kernel (gmm-mc) the first model with
+/// a kernel that reads the same arrays (gmm-ordered).
+ModelKind kernelStandIn(ModelKind kind);
 
 }  // namespace udvr

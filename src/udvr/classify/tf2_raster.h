@@ -45,7 +45,26 @@ struct Tf2Raster {
     /// such columns TF2(x, ·) = 0 whatever y, so the quantile kernels skip the gradients of
     /// samples whose boundaries all lie there (tf2ColumnsEmpty).
     const float* columnEmptyRun = nullptr;
+    /// Optional: the banded walk's prefix tables, kTf2BandMoments doubles per record
+    /// (TransferFunction2D::bandPrefixMoments; read by detail::bandRunSum). With them a
+    /// segment walks the raster lines of the axis it crosses fewer of, and takes the cells it
+    /// crosses along the other axis from the tables (detail::bandedWalk), exactly; cellRun is
+    /// then not used.
+    const double* bandPrefix = nullptr;
+    /// Optional with bandPrefix: per band of cells (those between x lines, then those between y
+    /// lines), the first cell along it with α > 0 at a corner and one past the last, as floats
+    /// (first ≥ last: none); the walk reads no records outside.
+    const float* bandCells = nullptr;
+    /// With bandPrefix: the box of raster coordinates [s0, s1] × [t0, t1] outside which α = 0
+    /// (±inf where cells with α > 0 reach the domain's edge, the TF2 clamped beyond it; s0 > s1
+    /// where α = 0 everywhere). The banded walk walks only the part of a segment inside.
+    Real opaqueBox[4] = {
+        -std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity(),
+        -std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity()};
 };
+
+/// Doubles per record of Tf2Raster::bandPrefix: α's 3 moments, then 6 per colour channel.
+inline constexpr int kTf2BandMoments = 21;
 
 namespace detail {
 /// Raster index coordinate of v (cells from the origin), clamped to [0, n − 1]; NaN → 0.

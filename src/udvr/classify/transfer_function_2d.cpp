@@ -183,6 +183,34 @@ std::vector<float> TransferFunction2D::rowPrefixIntegrals() const {
     return out;
 }
 
+std::vector<double> TransferFunction2D::bandPrefixMoments() const {
+    constexpr int M = kTf2BandMoments;
+    const std::size_t W = static_cast<std::size_t>(width), H = static_cast<std::size_t>(height);
+    std::vector<double> out(((W - 1) * H + (H - 1) * W) * M, 0.0);
+    // Band `band` of one orientation, its n lines along the other axis: corner(b, l, ch) is the
+    // raster value at the band's line b ∈ {0, 1} (across) and line l along it.
+    const auto fill = [&](double* table, int bands, int n, const auto& corner) {
+        for (int band = 0; band < bands; ++band) {
+            double* rec = table + static_cast<std::size_t>(band) * n * M;
+            for (int l = 0; l + 1 < n; ++l) {
+                double e[M];
+                detail::bandCellMoments(
+                    l,
+                    [&](int b, int along, int ch) {
+                        return static_cast<double>(corner(band + b, l + along, ch));
+                    },
+                    e);
+                for (int m = 0; m < M; ++m) rec[(l + 1) * M + m] = rec[l * M + m] + e[m];
+            }
+        }
+    };
+    fill(out.data(), width - 1, height,
+         [&](int i, int j, int ch) { return point(i, j)[ch]; });  // bands between x lines
+    fill(out.data() + (W - 1) * H * M, height - 1, width,
+         [&](int j, int i, int ch) { return point(i, j)[ch]; });  // bands between y lines
+    return out;
+}
+
 void TransferFunction2D::validate() const {
     if (width < 2 || height < 2 || width > kMaxTf2Resolution || height > kMaxTf2Resolution)
         UDVR_FAIL("2D transfer function: needs 2x2 to "

@@ -55,6 +55,13 @@ struct TransferFunction2D {
     /// difference of two of them keeps float's relative precision (as the 1D TF's cumulative
     /// integrals, TfPieces).
     std::vector<float> rowPrefixIntegrals() const;
+    /// The banded segment walk's prefix tables (Tf2Raster::bandPrefix; layout and use in
+    /// detail::bandRunSum, tf2_segment_walk.h): per band of cells between two lines of one axis
+    /// and per line of the other, kTf2BandMoments doubles, the prefix sums along the band of its
+    /// cells' moments of α and α·c with the cross fraction linear along the band. Bands between
+    /// x lines first ((W − 1)·H records), then bands between y lines ((H − 1)·W records):
+    /// (2·W·H − W − H)·kTf2BandMoments·8 bytes (22 MB for 256²).
+    std::vector<double> bandPrefixMoments() const;
     /// Throws UdvrError unless 2 ≤ W, H ≤ kMaxTf2Resolution, rgba has W·H·4 values in [0, 1],
     /// the domain is finite with x0 < x1, y0 < y1, and its widths and raster steps are finite
     /// and non-zero in float (the kernels' coordinates).

@@ -87,6 +87,11 @@ bool isGlob(const std::string& s) { return s.find_first_of("*?[") != std::string
 struct Described {
     json info;
     std::vector<float> values;
+    // The default TF's basis as render finds it (defaultTfBasisOf): on this grid, over
+    // `basisValues` (an ensemble's member means; empty: `values`), or the recorded one.
+    Grid3 grid;
+    std::vector<float> basisValues;
+    std::vector<double> recordedTf;
 };
 
 Described describeEnsemble(const std::vector<std::string>& inputs, const InfoOpts& o,
@@ -120,6 +125,13 @@ Described describeEnsemble(const std::vector<std::string>& inputs, const InfoOpt
     }
     d.info["member_spread"] = {{"mean_stddev", sum / static_cast<double>(n)},
                                {"max_stddev", largest}};
+    d.grid = e.grid;
+    d.basisValues.resize(n);  // --model members renders over the member means
+    for (std::size_t p = 0; p < n; ++p) {
+        double m = 0.0;
+        for (int k = 0; k < e.members; ++k) m += e.member(k)[p];
+        d.basisValues[p] = static_cast<float>(m / e.members);
+    }
     d.values = std::move(e.values);
     d.info["values"] = summaryJson(summarizeValues(d.values));
     return d;
@@ -163,6 +175,8 @@ Described describeFile(const std::string& path, const InfoOpts& o) {
         mj["source"] = m.source;
         if (!m.stddev.empty()) mj["stddev"] = summaryJson(summarizeValues(m.stddev));
         d.info["model"] = mj;
+        d.grid = m.grid;
+        d.recordedTf = std::move(m.defaultTf);
         d.values = std::move(m.mean);
     } else {
         FieldReadOptions fo;
@@ -171,6 +185,7 @@ Described describeFile(const std::string& path, const InfoOpts& o) {
         ScalarField f = readField(path, fo);
         d.info["kind"] = "field";
         d.info["grid"] = gridJson(f.grid);
+        d.grid = f.grid;
         if (!f.name.empty()) d.info["variable"] = f.name;
         for (const ArrayInfo& a : arrays)
             if (arrays.size() == 1 || a.name == f.name) d.info["type"] = a.type;
@@ -300,12 +315,18 @@ void run(const InfoOpts& o) {
         po.logScale = o.logScale;
         po.title = d.info["file"].get<std::string>() + " (" + d.info["kind"].get<std::string>() +
                    (d.info["kind"] == "model" ? " means)" : " values)");
-        TfChoice tf;
-        const bool drawTf = !o.tf.tf.empty() || !o.tf.range.empty() || !o.tf.save.empty();
-        if (drawTf) {
-            tf = chooseTransferFunction(o.tf, d.values, "info");
-        }
-        writePng(o.histogram, renderHistogramPlot(h, drawTf ? &tf.tf : nullptr, po));
+        // The TF render uses for this input with the same flags (without --tf: the default).
+        const TfChoice tf = chooseTransferFunction(
+            o.tf,
+            [&] {
+                ModelVolume m;
+                m.grid = d.grid;
+                m.mean = d.basisValues.empty() ? d.values : d.basisValues;
+                m.defaultTf = d.recordedTf;
+                return defaultTfBasisOf(m);
+            },
+            "info");
+        writePng(o.histogram, renderHistogramPlot(h, &tf.tf, po));
         finishTransferFunction(o.tf, tf);
         std::uint64_t fullest = 0;
         int filled = 0;
@@ -344,7 +365,8 @@ void addInfoCommand(CLI::App& app) {
         ->required();
     sub->add_flag("--json", o->json, "print JSON (one object, or a list for several inputs)");
     sub->add_option("--histogram", o->histogram,
-                    "write a PNG of the value histogram (a model's means) of the one input");
+                    "write a PNG of the value histogram (a model's means) of the one input, under "
+                    "the TF render uses for it (the default, or --tf/--tf-range)");
     sub->add_flag("--log", o->logScale, "histogram: bar height log10(1 + count)");
     auto* bins = sub->add_option("--bins", o->bins, "histogram bins (default 256)");
     addTfOptions(sub, o->tf);

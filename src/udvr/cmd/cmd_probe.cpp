@@ -59,7 +59,7 @@ void addProbeCommand(CLI::App& app) {
     sub->callback([o] {
         o->inputs = withOneMatchResolved(o->inputs);  // a quoted glob of one file is that file
         const ModelKind kind = parseModelKind(o->kind);
-        const bool members = kind == ModelKind::Members;
+        const bool members = readsMembers(kind);
         if (!members && o->inputs.size() != 1)
             UDVR_FAIL("probe takes one model or field, got "
                       << o->inputs.size()

@@ -20,6 +20,7 @@
 #include "udvr/io/image.h"
 #include "udvr/io/model_io.h"
 #include "udvr/io/transfer_function_io.h"
+#include "udvr/render/frame_estimate.h"
 #include "udvr/render/framing.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/model_volume.h"
@@ -42,64 +43,11 @@ struct RenderOpts {
     EnsembleFlags ensemble;         // --model members
 };
 
-/// A frame's time estimated before it is rendered (issue 35): the same model, TF and camera at
-/// 1/32 of the size along each axis (at least 2 pixels), then twice and four times that,
-/// stopping where the next probe would take over a second, so the probes stay short even where
-/// a frame takes minutes; the time fitted as a + b·pixels through the last two probes (a: what a
-/// frame costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or b·pixels from
-/// one. gmm-mc probes 4 realizations and scales by the count. The first probe runs twice when it is
-/// quick (it builds the skipping tables the real frame reuses). No probe where none is smaller.
-struct FrameEstimate {
-    double ms = 0.0;            // the estimated frame time (0: not estimated)
-    int width = 0, height = 0;  // the last probe's size
-    double probeMs = 0.0;       // the probes' time in all
-};
-constexpr double kWarnAboveMs = 10'000.0;
-
-FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
-                            const std::function<ImageRgba(const RenderSettings&)>& frameWith,
-                            const RenderStats& stats) {
-    FrameEstimate e;
-    RenderSettings probe = s;
-    double perFrame = 1.0;  // gmm-mc: the frame's realizations per probe realization
-    if (monteCarlo && s.realizations > 4) {
-        probe.realizations = 4;
-        perFrame = s.realizations / 4.0;
-    }
-    std::vector<std::array<double, 2>> runs;  // (pixels, ms)
-    // Sides: 1/32 of the frame's (at least 2 pixels), then twice and four times that.
-    const int w0 = std::max(2, s.width / 32), h0 = std::max(2, s.height / 32);
-    for (int k : {1, 2, 4}) {
-        probe.width = w0 * k;
-        probe.height = h0 * k;
-        if (probe.width >= s.width || probe.height >= s.height) break;
-        frameWith(probe);
-        if (runs.empty() && stats.milliseconds < 100.0) frameWith(probe);  // tables built
-        runs.push_back({static_cast<double>(probe.width) * probe.height, stats.milliseconds});
-        e.width = probe.width;
-        e.height = probe.height;
-        e.probeMs += stats.milliseconds;
-        if (4.0 * stats.milliseconds > 1000.0) break;  // the next would take over a second
-    }
-    if (runs.empty()) return e;
-    const double full = static_cast<double>(s.width) * s.height;
-    const auto& [p2, t2] = runs.back();
-    double ms = t2 * full / p2;
-    if (runs.size() >= 2) {
-        const auto& [p1, t1] = runs[runs.size() - 2];
-        const double b = std::max(0.0, (t2 - t1) / (p2 - p1));
-        const double a = std::max(0.0, t2 - b * p2);
-        ms = a + b * full;
-    }
-    e.ms = ms * perFrame;
-    return e;
-}
-
 /// "render: this frame will take about 390 s (a 64x64 probe took 6.1 s); shorter: …".
 std::string estimateWarning(const RenderOpts& o, const RenderSettings& s, const FrameEstimate& e) {
     const double seconds = e.ms / 1000.0;
     // The side that brings the frame under ~10 s (time goes with the pixel count).
-    const double shrink = std::sqrt(kWarnAboveMs / e.ms);
+    const double shrink = std::sqrt(kLongFrameMs / e.ms);
     const int w = std::max(8, static_cast<int>(s.width * shrink));
     const int h = std::max(8, static_cast<int>(s.height * shrink));
     std::string cheaper;
@@ -110,7 +58,7 @@ std::string estimateWarning(const RenderOpts& o, const RenderSettings& s, const 
         cheaper = !o.tf2.file.empty()
                       ? ", a quantile model (quantile-range, quantile-mean: a polyline per "
                         "sample, not a 2D integral) or a 1D --tf"
-                      : ", or uniform-fast / gaussian (the fast forms)";
+                      : ", or uniform / gaussian (the fast forms)";
     char text[512];
     std::snprintf(
         text, sizeof text,
@@ -173,7 +121,7 @@ void run(const RenderOpts& o) {
     const ModelKind kind = parseModelKind(o.model);
     requireOneTf(o.tf.tf, o.tf2);
     const bool twoD = !o.tf2.file.empty();
-    const bool members = kind == ModelKind::Members;
+    const bool members = readsMembers(kind);
     if (!members && o.inputs.size() != 1)
         UDVR_FAIL("render takes one model or field, got "
                   << o.inputs.size()
@@ -220,8 +168,12 @@ void run(const RenderOpts& o) {
                     : renderVolume(model, kind, tf, at, &stats, &cache);
     };
     const auto frame = [&] { return frameWith(s); };
-    const FrameEstimate estimate = estimateFrame(s, kind == ModelKind::GmmMc, frameWith, stats);
-    if (estimate.ms > kWarnAboveMs)
+    const FrameEstimate estimate =
+        estimateFrame(s, rendersRealizations(kind), [&](const RenderSettings& at) {
+            frameWith(at);
+            return stats.milliseconds;
+        });
+    if (estimate.ms > kLongFrameMs)
         std::fprintf(stderr, "%s\n", estimateWarning(o, s, estimate).c_str());
     ImageRgba image = frame();
     if (o.frames > 0) {

@@ -286,21 +286,10 @@ TfChoice chooseOverBasis(const TfFlags& flags, const std::function<DefaultTfBasi
 
 }  // namespace
 
-TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> values,
+TfChoice chooseTransferFunction(const TfFlags& flags,
+                                const std::function<DefaultTfBasis()>& basisOf,
                                 const std::string& command) {
-    return chooseOverBasis(
-        flags,
-        [&] {
-            DefaultTfBasis b;
-            b.range = {};
-            const PresetOverValues p = transferFunctionPresetOver(
-                transferFunctionPresetNames().front(), values, std::nullopt);
-            b.range = p.range;
-            b.median = p.rampStart;
-            b.constant = p.constant;
-            return b;
-        },
-        command);
+    return chooseOverBasis(flags, basisOf, command);
 }
 
 TfChoice chooseTransferFunction(const TfFlags& flags, const ModelVolume& model,

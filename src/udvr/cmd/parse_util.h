@@ -3,10 +3,12 @@
 // parsers all front ends share are util/text_parse.h.
 #include <CLI/CLI.hpp>
 #include <array>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "udvr/classify/tf_presets.h"
 #include "udvr/classify/transfer_function.h"
 #include "udvr/io/field_io.h"
 #include "udvr/io/file_info.h"
@@ -101,14 +103,15 @@ bool tfIsPreset(const TfFlags& flags);
 /// refused with the list of presets.
 TransferFunction1D readTransferFunctionFile(const TfFlags& flags);
 /// The 1D TF the flags ask for: a ParaView JSON file, or a preset (named, or the default when
-/// --tf is absent) spread over --tf-range or else the robust range of `values` (a model's
-/// means; robustRange), with its opacity ramp from their median. `note` says which preset over what
-/// range (empty for a file).
+/// --tf is absent) spread over --tf-range or else over the default-TF basis `basisOf()` (called
+/// only for a preset: the values' robust range, and the boundary-emphasis opacity of
+/// defaultTfBasis). `note` says which preset over what range (empty for a file).
 struct TfChoice {
     TransferFunction1D tf;
     std::string note;
 };
-TfChoice chooseTransferFunction(const TfFlags& flags, std::span<const float> values,
+TfChoice chooseTransferFunction(const TfFlags& flags,
+                                const std::function<DefaultTfBasis()>& basisOf,
                                 const std::string& command);
 /// The same over a model: its default-TF basis (defaultTfBasisOf: the full-resolution field's
 /// for a downsampled model), so a model and its ground truth get the same default TF.

@@ -26,6 +26,7 @@
 #include "udvr/eval/report.h"
 #include "udvr/io/image.h"
 #include "udvr/io/transfer_function_io.h"
+#include "udvr/render/frame_estimate.h"
 #include "udvr/render/render.h"
 #include "udvr/stats/build_model.h"
 #include "udvr/util/atomic_file.h"
@@ -268,14 +269,30 @@ class Run {
     ImageRgba render(const ModelVolume& model, ModelKind kind, const std::string& label,
                      double* ms) {
         RenderStats stats;
-        ImageRgba img;
-        if (!tf2_) {
-            img = renderVolume(model, kind, tf_, settings_, &stats);
-        } else if (const auto it = second_.find(&model); it != second_.end()) {
-            img = renderBivariate(model, *it->second, kind, *tf2_, settings_, &stats);
-        } else {
-            img = renderVolume(model, kind, *tf2_, settings_, &stats);
+        const auto frame = [&](const RenderSettings& at) {
+            if (!tf2_) return renderVolume(model, kind, tf_, at, &stats);
+            if (const auto it = second_.find(&model); it != second_.end())
+                return renderBivariate(model, *it->second, kind, *tf2_, at, &stats);
+            return renderVolume(model, kind, *tf2_, at, &stats);
+        };
+        // Cost before work (issue 35): a long frame is announced with what would shorten it;
+        // the frame's own progress lines (every 10 s off a terminal) give the time left.
+        if (options_.log) {
+            const FrameEstimate e =
+                estimateFrame(settings_, rendersRealizations(kind), [&](const RenderSettings& at) {
+                    frame(at);
+                    return stats.milliseconds;
+                });
+            if (e.ms > kLongFrameMs)
+                log(label + ": this frame will take about " + fmt("%.0f", e.ms / 1000.0) +
+                    " s (probes up to " + std::to_string(e.width) + "x" + std::to_string(e.height) +
+                    " took " + fmt("%.2f", e.probeMs / 1000.0) + " s); shorter: " +
+                    (options_.quick ? std::string("a smaller image_size or fewer realizations "
+                                                  "(the Python API's overrides)")
+                                    : std::string("--quick (smaller images and realization "
+                                                  "counts)")));
         }
+        ImageRgba img = frame(settings_);
         *ms = stats.milliseconds;
         log("rendered " + label + " (" + std::to_string(settings_.width) + "x" +
             std::to_string(settings_.height) + ") in " + fmt("%.1f", stats.milliseconds) + " ms");

@@ -26,6 +26,7 @@
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/io/vti_check.h"
 #include "udvr/io/vtk_image.h"
+#include "udvr/stats/model_field_data.h"
 #include "udvr/util/atomic_file.h"
 #include "udvr/util/check.h"
 
@@ -39,24 +40,14 @@ using namespace vtkio;
 /// hasQuantiles/hasGmm: whether the file holds those arrays.
 void vtkio::addModelFieldData(vtkFieldData* fd, const ModelVolume& model, bool hasQuantiles,
                               bool hasGmm) {
-    addInt(fd, "quantile_count", hasQuantiles ? model.quantileCount : 0);
-    if (hasQuantiles) {
-        std::vector<double> levels(static_cast<std::size_t>(model.quantileCount) + 1);
-        for (int j = 0; j <= model.quantileCount; ++j)
-            levels[static_cast<std::size_t>(j)] = model.quantileLevel(j);
-        addDouble(fd, "quantile_levels", levels);
+    for (ModelFieldDatum& d : modelFieldData(model, hasQuantiles, hasGmm)) {
+        if (const int* i = std::get_if<int>(&d.value))
+            addInt(fd, d.name, *i);
+        else if (auto* doubles = std::get_if<std::vector<double>>(&d.value))
+            addDouble(fd, d.name, std::move(*doubles));
+        else
+            addString(fd, d.name, std::get<std::string>(d.value));
     }
-    addString(fd, "density", model.density);
-    addDouble(fd, "bandwidth", {model.bandwidth});
-    addString(fd, "bandwidth_rule", model.bandwidthRule);
-    addDouble(fd, "tail_eps", {model.tailEps});
-    addInt(fd, "samples_per_voxel", model.samplesPerVoxel);
-    addInt(fd, "downsample", model.downsample);
-    addDouble(fd, "bounds", std::vector<double>(model.bounds.begin(), model.bounds.end()));
-    addDouble(fd, "full_res_min_spacing", {model.fullResMinSpacing});
-    addInt(fd, "gmm_components", hasGmm ? model.gmmComponents : 0);
-    addString(fd, "source", model.source);
-    if (!model.defaultTf.empty()) addDouble(fd, "default_tf", model.defaultTf);
 }
 
 namespace {

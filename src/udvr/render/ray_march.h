@@ -382,7 +382,8 @@ inline void writePixel(float* out, float r, float g, float b, float a, const Mar
 
 /// Calls f(x0, y0, x1, y1) for the tiles of the image, tiles spread over the cores; f returns
 /// the (classified, skipped) sample counts it saw, summed into `counters`. Once `*cancel` is
-/// true the remaining tiles are skipped (the caller discards the image).
+/// true the remaining tiles are skipped (the caller discards the image; marchFrame also stops
+/// the rays of the tile under way, between steps).
 template <class F>
 void forEachTile(int width, int height, MarchCounters& counters, const F& f,
                  const std::atomic<bool>* cancel = nullptr) {
@@ -520,6 +521,9 @@ void marchFrame(const Kernel& kernel, const SkipTable& bricks, const std::uint32
             while (inFlight > 0) {
                 for (int k = 0; k < kRaysInFlight; ++k) {
                     if (!active[k]) continue;
+                    // A costly 2D kernel takes up to 60 ms a sample: cancelled, the rays under
+                    // way stop too, between steps.
+                    if (p.cancel && p.cancel->load(std::memory_order_relaxed)) return;
                     RayInFlight<Kernel>& ray = rays[k];
                     if (!stepRay(kernel, bricks, cellEmpty, p.skipEmpty, ray, correct,
                                  exitTransmittance, samples, skipped))

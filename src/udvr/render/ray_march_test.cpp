@@ -13,6 +13,8 @@
 #include <climits>
 #include <cmath>
 #include <random>
+#include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -21,7 +23,9 @@
 #include "udvr/classify/tf_presets.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/render/render.h"
+#include "udvr/stats/model_view.h"
 #include "udvr/stats/model_volume.h"
+#include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
 
 namespace udvr {
@@ -462,6 +466,78 @@ ModelVolume tinyModel(std::uint64_t seed, bool wide) {
         m.fullResMinSpacing = 0.2;
     }
     return m;
+}
+
+// A view over arrays held elsewhere (the ParaView plugin's VTK arrays: stats/model_view.h) renders
+// what the model itself renders, bit for bit, for every model with the 1D TF and every model
+// with a 2D classification; a RenderCache given a second view of other arrays (other addresses,
+// other values, one grid) renders that view's image, not the first's tables; the array checks
+// read the view. The borrowed copies sit in one buffer, in an order unlike the model's.
+TEST(Render, AViewOfBorrowedArraysRendersAsTheModel) {
+    ModelVolume m = tinyModel(93, true);
+    m.quantileLevels = {0.0, 0.05, 0.25, 0.3, 0.5, 0.6, 0.75, 0.9, 1.0};
+    std::vector<float> store;
+    const auto borrow = [&](const ModelVolume& from) {
+        store.clear();
+        for (auto it = std::rbegin(kModelFileArrays); it != std::rend(kModelFileArrays); ++it)
+            store.insert(store.end(), (from.*it->values).begin(), (from.*it->values).end());
+        store.insert(store.end(), from.members.begin(), from.members.end());
+        ModelView v(from);  // grid and field data; every array replaced below
+        std::size_t at = 0;
+        for (auto it = std::rbegin(kModelFileArrays); it != std::rend(kModelFileArrays); ++it) {
+            const std::size_t n = (from.*it->values).size();
+            v.array(*it) = std::span<const float>(store.data() + at, n);
+            at += n;
+        }
+        v.members = std::span<const float>(store.data() + at, from.members.size());
+        return v;
+    };
+    const ModelView view = borrow(m);
+    ASSERT_NE(view.mean.data(), m.mean.data());
+    RenderSettings s;
+    s.width = 30;
+    s.height = 26;
+    s.camera = defaultCamera(m.bounds, 40.0, 15.0, 1.4);
+    s.realizations = 3;
+    CounterRng rng(94, 0, 0);
+    const TransferFunction2D tf2 = testing::randomTf2(rng, 24, 16, -3.0, 4.0, 0.0, 6.0);
+    int rendered2D = 0;
+    for (ModelKind kind : allModelKinds()) {
+        const ImageRgba a = renderVolume(m, kind, tangleTransferFunction(), s);
+        const ImageRgba b = renderVolume(view, kind, tangleTransferFunction(), s);
+        ASSERT_EQ(a.rgba, b.rgba) << modelFamily(kind).name;
+        if (!modelFamily(kind).makeKernel2D) continue;
+        EXPECT_EQ(renderVolume(m, kind, tf2, s).rgba, renderVolume(view, kind, tf2, s).rgba)
+            << modelFamily(kind).name;
+        ++rendered2D;
+    }
+    EXPECT_GE(rendered2D, 9);
+    // One cache, two views of one grid: the second frame is the second view's.
+    ModelVolume other = m;
+    for (float& x : other.mean) x += 0.5f;
+    const ModelView view1(borrow(m));
+    const std::vector<float> keep = std::move(store);  // view1's arrays, at their addresses
+    const ModelView view2(borrow(other));
+    RenderCache cache;
+    const ImageRgba c1 =
+        renderVolume(view1, ModelKind::Mean, tangleTransferFunction(), s, nullptr, &cache);
+    const ImageRgba c2 =
+        renderVolume(view2, ModelKind::Mean, tangleTransferFunction(), s, nullptr, &cache);
+    EXPECT_EQ(c1.rgba, renderVolume(m, ModelKind::Mean, tangleTransferFunction(), s).rgba);
+    EXPECT_EQ(c2.rgba, renderVolume(other, ModelKind::Mean, tangleTransferFunction(), s).rgba);
+    EXPECT_NE(c1.rgba, c2.rgba);
+    // checkModelArrays reads the view's arrays.
+    std::vector<float> bad(view2.mean.begin(), view2.mean.end());
+    bad[5] = std::nanf("");
+    ModelView badView = view2;
+    badView.mean = bad;
+    EXPECT_NO_THROW(checkModelArrays(view2, "the view"));
+    try {
+        checkModelArrays(badView, "the view");
+        ADD_FAILURE() << "a NaN in a borrowed array passed the checks";
+    } catch (const UdvrError& e) {
+        EXPECT_EQ(std::string(e.what()), "the view: array 'mean' holds NaN at voxel (5, 0, 0)");
+    }
 }
 
 // Every model's frame against the serial reference marcher over its double kernel, with

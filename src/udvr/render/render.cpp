@@ -18,7 +18,7 @@ namespace {
 
 // The world box rays sample: the full-resolution bounds the model carries (SPEC §5), or its
 // own grid's box when a hand-made model left them unset.
-std::array<double, 6> renderBounds(const ModelVolume& model) {
+std::array<double, 6> renderBounds(const ModelView& model) {
     const auto& b = model.bounds;
     bool unset = true;
     for (double v : b) unset = unset && v == 0.0;
@@ -29,7 +29,7 @@ std::array<double, 6> renderBounds(const ModelVolume& model) {
     return b;
 }
 
-detail::MarchParams makeParams(const ModelVolume& model, const RenderSettings& s) {
+detail::MarchParams makeParams(const ModelView& model, const RenderSettings& s) {
     if (s.width < 1 || s.height < 1 || s.width > 16384 || s.height > 16384)
         UDVR_FAIL("image size must be in [1, 16384] per side, got " << s.width << "x" << s.height);
     for (int a = 0; a < 3; ++a) {
@@ -90,10 +90,10 @@ ImageRgba blankImage(int width, int height) {
     return img;
 }
 
-// What the cached skipping tables were built from: the model's arrays, the kind and whether
-// its 1D or 2D kernel (their voxel supports), and the TF's non-zero-opacity value ranges.
+// What the cached skipping tables were built from: the model's arrays (by address: a view made
+// for each call, or borrowed arrays, has no identity of its own), the kind and whether its 1D or
+// 2D kernel (their voxel supports), and the TF's non-zero-opacity value ranges.
 struct CacheKey {
-    const ModelVolume* model = nullptr;
     std::vector<const void*> arrays;
     std::size_t voxels = 0;
     std::array<int, 3> dims{};
@@ -106,16 +106,15 @@ struct CacheKey {
     bool operator==(const CacheKey& o) const = default;
 };
 
-std::vector<const void*> arraysOf(const ModelVolume& m) {
+std::vector<const void*> arraysOf(const ModelView& m) {
     return {m.mean.data(),      m.stddev.data(), m.min.data(), m.max.data(),
             m.quantiles.data(), m.iqr.data(),    m.gmm.data(), m.members.data()};
 }
 
-CacheKey makeKey(const ModelVolume& m, ModelKind kind, bool twoD,
+CacheKey makeKey(const ModelView& m, ModelKind kind, bool twoD,
                  const std::vector<std::pair<double, double>>& ranges, bool uniformMinMax,
-                 const ModelVolume* second = nullptr) {
+                 const ModelView* second = nullptr) {
     CacheKey k;
-    k.model = &m;
     k.arrays = arraysOf(m);
     if (second) k.secondArrays = arraysOf(*second);
     k.voxels = m.voxelCount();
@@ -177,7 +176,7 @@ void renderKernel(const Kernel& kernel, const detail::MarchParams& p,
 // Draw one gmm-mc realization: every voxel independently from its own mixture (SPEC §3),
 // keyed by (seed, realization, voxel) so the field does not depend on the thread count.
 // A piece (RenderSettings::piece) keys its voxels by their index in the whole grid.
-void drawRealization(const ModelVolume& model, std::uint64_t seed, std::uint64_t realization,
+void drawRealization(const ModelView& model, std::uint64_t seed, std::uint64_t realization,
                      const std::optional<RenderPiece>& piece, std::vector<float>& out) {
     const int k = model.gmmComponents;
     const std::size_t n = model.voxelCount();
@@ -219,7 +218,7 @@ void drawRealization(const ModelVolume& model, std::uint64_t seed, std::uint64_t
 
 // One frame: its parameters, a blank image and counters; march(p, image, counters) fills it.
 template <class March>
-ImageRgba timedFrame(const ModelVolume& model, const RenderSettings& settings, RenderStats* stats,
+ImageRgba timedFrame(const ModelView& model, const RenderSettings& settings, RenderStats* stats,
                      const March& march) {
     const auto start = std::chrono::steady_clock::now();
     const detail::MarchParams p = makeParams(model, settings);
@@ -261,9 +260,9 @@ struct FrameContext {
 // A timed frame of `model` (second: a bivariate field's y) under a 1D or 2D TF: body(context)
 // makes the kernels and renders.
 template <class Tf, class Body>
-ImageRgba renderFrame(const ModelVolume& model, const ModelVolume* second, ModelKind kind,
-                      const Tf& tf, const RenderSettings& settings, RenderStats* stats,
-                      RenderCache* cache, const Body& body) {
+ImageRgba renderFrame(const ModelView& model, const ModelView* second, ModelKind kind, const Tf& tf,
+                      const RenderSettings& settings, RenderStats* stats, RenderCache* cache,
+                      const Body& body) {
     constexpr bool twoD = std::is_same_v<Tf, TransferFunction2D>;
     return timedFrame(
         model, settings, stats,
@@ -282,7 +281,7 @@ ImageRgba renderFrame(const ModelVolume& model, const ModelVolume* second, Model
 
 }  // namespace
 
-ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+ImageRgba renderVolume(const ModelView& model, ModelKind kind, const TransferFunction1D& tf,
                        const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
     return renderFrame(model, nullptr, kind, tf, settings, stats, cache, [&](FrameContext& c) {
         if (!modelFamily(kind).realizations) {
@@ -314,7 +313,7 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
     });
 }
 
-ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+ImageRgba renderVolume(const ModelView& model, ModelKind kind, const TransferFunction2D& tf,
                        const RenderSettings& settings, RenderStats* stats, RenderCache* cache) {
     return renderFrame(model, nullptr, kind, tf, settings, stats, cache, [&](FrameContext& c) {
         withKernel2D(
@@ -323,7 +322,7 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
     });
 }
 
-ImageRgba renderBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+ImageRgba renderBivariate(const ModelView& first, const ModelView& second, ModelKind kind,
                           const TransferFunction2D& tf, const RenderSettings& settings,
                           RenderStats* stats, RenderCache* cache) {
     return renderFrame(first, &second, kind, tf, settings, stats, cache, [&](FrameContext& c) {
@@ -367,7 +366,7 @@ std::optional<std::array<double, 3>> pickOnRay(const Kernel& kernel, const detai
 
 // Pick on the frame of `settings` over `model` with the kernel withKernel(options, f) makes.
 template <class WithKernel>
-std::optional<std::array<double, 3>> pick(const ModelVolume& model, const RenderSettings& settings,
+std::optional<std::array<double, 3>> pick(const ModelView& model, const RenderSettings& settings,
                                           int px, int py, const WithKernel& withKernel) {
     const detail::MarchParams p = makeParams(model, settings);
     ClassifyOptions options;
@@ -379,18 +378,18 @@ std::optional<std::array<double, 3>> pick(const ModelVolume& model, const Render
 
 }  // namespace
 
-std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelView& model, ModelKind kind,
                                                         const TransferFunction1D& tf,
                                                         const RenderSettings& settings, int px,
                                                         int py) {
     tf.validate();
-    const ModelKind pickKind = modelFamily(kind).realizations ? ModelKind::GmmOrdered : kind;
+    const ModelKind pickKind = kernelStandIn(kind);
     return pick(model, settings, px, py, [&](const ClassifyOptions& options, const auto& f) {
         withKernel(model, pickKind, tf, options, f);
     });
 }
 
-std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelView& model, ModelKind kind,
                                                         const TransferFunction2D& tf,
                                                         const RenderSettings& settings, int px,
                                                         int py) {
@@ -401,8 +400,8 @@ std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model
 }
 
 std::optional<std::array<double, 3>> firstVisibleSampleBivariate(
-    const ModelVolume& first, const ModelVolume& second, ModelKind kind,
-    const TransferFunction2D& tf, const RenderSettings& settings, int px, int py) {
+    const ModelView& first, const ModelView& second, ModelKind kind, const TransferFunction2D& tf,
+    const RenderSettings& settings, int px, int py) {
     tf.validate();
     return pick(first, settings, px, py, [&](const ClassifyOptions& options, const auto& f) {
         withKernelBivariate(first, second, kind, tf, options, f);

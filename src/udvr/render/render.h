@@ -12,7 +12,7 @@
 #include "udvr/classify/transfer_function.h"
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/render/image_rgba.h"
-#include "udvr/stats/model_volume.h"
+#include "udvr/stats/model_view.h"
 
 namespace udvr {
 
@@ -98,7 +98,7 @@ class RenderCache {
 /// Render one frame of `model` with noise model `kind`. The image holds straight (not
 /// premultiplied) RGB composited over the background, alpha = accumulated opacity. Pass a
 /// RenderCache to reuse the skipping tables across frames (optional; same image either way).
-ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction1D& tf,
+ImageRgba renderVolume(const ModelView& model, ModelKind kind, const TransferFunction1D& tf,
                        const RenderSettings& settings, RenderStats* stats = nullptr,
                        RenderCache* cache = nullptr);
 
@@ -106,7 +106,7 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
 /// the mean gradient. Models: those with a 2D kernel (classify/model_families.h). Skipping uses
 /// the x ranges where the TF2 has α > 0 for some y. A RenderCache keeps the skipping tables and
 /// the model's grid gradients between frames.
-ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferFunction2D& tf,
+ImageRgba renderVolume(const ModelView& model, ModelKind kind, const TransferFunction2D& tf,
                        const RenderSettings& settings, RenderStats* stats = nullptr,
                        RenderCache* cache = nullptr);
 
@@ -114,7 +114,7 @@ ImageRgba renderVolume(const ModelVolume& model, ModelKind kind, const TransferF
 /// surfaces): x from `first`, y from `second` (same grid), the fields independent, both under
 /// model `kind`. Skipping uses the first field's supports and the x ranges where the TF2 has
 /// α > 0.
-ImageRgba renderBivariate(const ModelVolume& first, const ModelVolume& second, ModelKind kind,
+ImageRgba renderBivariate(const ModelView& first, const ModelView& second, ModelKind kind,
                           const TransferFunction2D& tf, const RenderSettings& settings,
                           RenderStats* stats = nullptr, RenderCache* cache = nullptr);
 
@@ -127,18 +127,18 @@ inline constexpr double kPickMinOpacity = 1e-4;  // opacity per unit distance
 /// (SPEC §5 sample positions t_entry + (s + ½)Δ; jitter ignored), as an index-space point clamped
 /// into the grid; nullopt when the ray misses the box or meets no visible sample. gmm-mc has no
 /// per-sample kernel: it picks with gmm-ordered's expectation of the same mixtures.
-std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelView& model, ModelKind kind,
                                                         const TransferFunction1D& tf,
                                                         const RenderSettings& settings, int px,
                                                         int py);
 /// firstVisibleSample with a 2D TF (value × gradient magnitude, SPEC §9).
-std::optional<std::array<double, 3>> firstVisibleSample(const ModelVolume& model, ModelKind kind,
+std::optional<std::array<double, 3>> firstVisibleSample(const ModelView& model, ModelKind kind,
                                                         const TransferFunction2D& tf,
                                                         const RenderSettings& settings, int px,
                                                         int py);
 /// firstVisibleSample for bivariate fields with a 2D TF (SPEC §9 `--second`).
 std::optional<std::array<double, 3>> firstVisibleSampleBivariate(
-    const ModelVolume& first, const ModelVolume& second, ModelKind kind,
-    const TransferFunction2D& tf, const RenderSettings& settings, int px, int py);
+    const ModelView& first, const ModelView& second, ModelKind kind, const TransferFunction2D& tf,
+    const RenderSettings& settings, int px, int py);
 
 }  // namespace udvr

@@ -227,7 +227,7 @@ ApiResponse Api::handle(const ApiRequest& request) {
 ApiResponse Api::route(const ApiRequest& request) {
     const std::string& p = request.path;
     const bool get = request.method == "GET", post = request.method == "POST";
-    if (p == "/api/state" && get) return getState();
+    if (p == "/api/state" && get) return getState(request);
     if (p == "/api/render" && get) return getRender(request);
     if (p == "/api/probe" && get) return getProbe(request);
     if (p == "/api/histogram" && get) return getHistogram(request);
@@ -246,16 +246,17 @@ ApiResponse Api::route(const ApiRequest& request) {
     return errorResponse(404, "no such endpoint: " + Query::clip(p));
 }
 
-ApiResponse Api::getState() {
+ApiResponse Api::getState(const ApiRequest& request) {
     const ModelVolume& m = data_.model;
     json models = json::array();
+    std::vector<ModelKind> available;
     for (ModelKind kind : allModelKinds()) {
         const ModelFamily& family = modelFamily(kind);
         json row{{"name", std::string(family.name)}};
         std::string label(family.name);
         if (family.labelShowsQ && m.quantileCount > 0)
             label += " (q=" + std::to_string(m.quantileCount) + ")";
-        if (kind == ModelKind::GmmOrdered || kind == ModelKind::GmmMc)
+        if (readsGmm(kind))
             if (m.gmmComponents > 0) label += " (K=" + std::to_string(m.gmmComponents) + ")";
         row["label"] = label;
         std::string reason;
@@ -275,8 +276,36 @@ ApiResponse Api::getState() {
         }
         row["available"] = reason.empty();
         if (!reason.empty()) row["reason"] = reason;
+        if (reason.empty()) available.push_back(kind);
         row["probe"] = !family.realizations;
         models.push_back(row);
+    }
+    // Each available model's frame at the default view, estimated (cost before work, issue 35):
+    // probed with ?estimates=1 (the page), else only those already known for the current TF, so
+    // a plain /api/state never waits for the render gate.
+    const Query q(request.params, {{"estimates"}});
+    const std::string want = q.text("estimates", "0");
+    if (want != "0" && want != "1")
+        UDVR_FAIL("estimates must be 0 or 1, got '" << Query::clip(want) << "'");
+    std::map<ModelKind, FrameEstimate> estimates;
+    if (want == "1") {
+        estimates = frameEstimates(request, available);
+    } else if (std::unique_lock lock(estimatesMutex_, std::try_to_lock); lock.owns_lock()) {
+        const auto [tf1, v1] = currentTf();
+        if (estimatesTf_ == std::to_string(v1) + "/" + std::to_string(currentTf2().version))
+            estimates = estimates_;
+    }
+    for (json& row : models) {
+        const auto it = estimates.find(parseModelKind(row["name"].get<std::string>()));
+        if (it == estimates.end() || it->second.ms <= 0.0) {
+            row["estimate_ms"] = nullptr;
+            row["slow"] = false;
+            continue;
+        }
+        row["estimate_ms"] = std::round(it->second.ms);
+        row["estimate_lower_bound"] = it->second.lowerBound;
+        // A probe stopped by the deadline: slow (its 1/32-side probe alone took 0.6 s).
+        row["slow"] = it->second.lowerBound || it->second.ms > kFrameGoalMs;
     }
     const auto [tf, version] = currentTf();
     const Tf2State tf2 = currentTf2();
@@ -304,8 +333,62 @@ ApiResponse Api::getState() {
         {"tf_version", version},
         {"presets", presets},
         {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
+        {"latency_goal_ms", kFrameGoalMs},
+        {"estimate_size", "512x512"},
         {"defaults", {{"size", "512x512"}, {"azimuth", 30.0}, {"elevation", 20.0}, {"zoom", 1.0}}}};
     return jsonResponse(state);
+}
+
+std::map<ModelKind, FrameEstimate> Api::frameEstimates(const ApiRequest& request,
+                                                       const std::vector<ModelKind>& kinds) {
+    const auto [tf, version1D] = currentTf();
+    const Tf2State tf2 = currentTf2();
+    const std::string versions = std::to_string(version1D) + "/" + std::to_string(tf2.version);
+    std::lock_guard lock(estimatesMutex_);  // one /api/state probes at a time
+    if (estimatesTf_ != versions) {         // kept for the current TF only
+        estimates_.clear();
+        estimatesTf_ = versions;
+    }
+    std::vector<ModelKind> missing;
+    for (ModelKind kind : kinds)
+        if (!estimates_.count(kind)) missing.push_back(kind);
+    if (missing.empty()) return estimates_;
+    inGate(request, [&] {
+        // The page's default view: `udvr render`'s defaults (512², SPEC §5's camera).
+        RenderOptions flags;
+        std::string note;
+        bool anyVisible = true;
+        RenderSettings s = renderSettingsFromOptions(
+            flags, data_.model,
+            [&] {
+                return tf2.tf ? visibleBounds(data_.model, *tf2.tf, &anyVisible)
+                              : visibleBounds(data_.model, *tf, &anyVisible);
+            },
+            note);
+        s.cancel = request.cancel.get();  // a client that goes stops the probes
+        FrameEstimateLimits limits;
+        limits.maxProbeMs = kEstimateProbeMs;
+        limits.deadlineMs = kEstimateDeadlineMs;
+        for (ModelKind kind : missing) {
+            auto& cache = renderCaches_[{"model", kind}];
+            if (!cache) cache = std::make_unique<RenderCache>();
+            estimates_[kind] = estimateFrame(
+                s, rendersRealizations(kind),
+                [&](const RenderSettings& at) {
+                    RenderStats stats;
+                    if (data_.second)
+                        renderBivariate(data_.model, *data_.second, kind, *tf2.tf, at, &stats,
+                                        cache.get());
+                    else if (tf2.tf)
+                        renderVolume(data_.model, kind, *tf2.tf, at, &stats, cache.get());
+                    else
+                        renderVolume(data_.model, kind, *tf, at, &stats, cache.get());
+                    return stats.milliseconds;
+                },
+                limits);
+        }
+    });
+    return estimates_;
 }
 
 std::shared_ptr<void> Api::reserveBodies(std::size_t bytes) {

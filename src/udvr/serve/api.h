@@ -21,6 +21,7 @@
 #include "udvr/classify/transfer_function.h"
 #include "udvr/classify/transfer_function_2d.h"
 #include "udvr/io/image.h"
+#include "udvr/render/frame_estimate.h"
 #include "udvr/render/render.h"
 #include "udvr/serve/render_gate.h"
 #include "udvr/stats/model_volume.h"
@@ -87,6 +88,17 @@ inline constexpr std::size_t kCachedFrames = 12;
 inline constexpr std::size_t kCachedFrameBytes = std::size_t{256} << 20;
 /// Bytes of image bodies built and not yet sent (slow clients hold theirs): over it, 503.
 inline constexpr std::size_t kMaxBodyBytesInFlight = std::size_t{512} << 20;
+/// The latency goal of a frame: a model whose frame at the page's default view (512², SPEC §5's
+/// camera, the current TF) is estimated over it is marked `slow` in /api/state, and the page
+/// renders it progressively (coarse first, each step cancelled by the next request).
+inline constexpr double kFrameGoalMs = 1000.0;
+/// /api/state's per-model estimates (render/frame_estimate.h): no probe over kEstimateProbeMs,
+/// and at most kEstimateDeadlineMs of probes per model (past it the estimate is a lower bound
+/// and the model counts as slow),
+/// so one /api/state costs at most (models) × kEstimateDeadlineMs of render time. They are
+/// kept for the current TF only (one per model).
+inline constexpr double kEstimateProbeMs = 200.0;
+inline constexpr double kEstimateDeadlineMs = 600.0;
 
 class Api {
   public:
@@ -106,7 +118,11 @@ class Api {
     struct RenderRequest;
 
     ApiResponse route(const ApiRequest& request);
-    ApiResponse getState();
+    ApiResponse getState(const ApiRequest& request);
+    /// The estimated default frame of each model (kind → estimate; absent: not available),
+    /// probed for the current TF in a turn of the gate when not yet known.
+    std::map<ModelKind, FrameEstimate> frameEstimates(const ApiRequest& request,
+                                                      const std::vector<ModelKind>& kinds);
     ApiResponse getRender(const ApiRequest& request);
     ApiResponse getProbe(const ApiRequest& request);
     ApiResponse getHistogram(const ApiRequest& request);
@@ -152,6 +168,9 @@ class Api {
     std::list<std::pair<std::string, std::shared_ptr<const Frame>>> frames_;  // newest first
     // Skipping tables per (source, model kind); used only inside the gate (one render at once).
     std::map<std::pair<std::string, ModelKind>, std::unique_ptr<RenderCache>> renderCaches_;
+    std::mutex estimatesMutex_;
+    std::string estimatesTf_;  // the TF versions the estimates are for
+    std::map<ModelKind, FrameEstimate> estimates_;
 };
 
 }  // namespace udvr::serve

@@ -5,6 +5,7 @@
 #include <sstream>
 #include <utility>
 
+#include "udvr/stats/model_view.h"
 #include "udvr/util/check.h"
 #include "udvr/util/parallel.h"
 
@@ -29,7 +30,27 @@ std::vector<double> normalizedQuantileLevels(const std::vector<double>& levels, 
     return even ? std::vector<double>{} : levels;
 }
 
+int ModelView::boundaryAtLevel(double t) const {
+    for (int j = 0; j <= quantileCount; ++j)
+        if (std::abs(quantileLevel(j) - t) <= 1e-9) return j;
+    return -1;
+}
+
+std::span<const float>& ModelView::array(const ModelFileArray& a) {
+    static_assert(std::size(kModelFileArrays) == 7, "a view member per model file array");
+    std::span<const float> ModelView::*const inOrder[] = {
+        &ModelView::mean,      &ModelView::stddev, &ModelView::min, &ModelView::max,
+        &ModelView::quantiles, &ModelView::iqr,    &ModelView::gmm};
+    for (std::size_t i = 0; i < std::size(kModelFileArrays); ++i)
+        if (kModelFileArrays[i].values == a.values) return this->*inOrder[i];
+    UDVR_FAIL("unknown model array '" << a.name << "'");
+}
+
 void checkModelArrays(const ModelVolume& m, const std::string& what) {
+    checkModelArrays(ModelView(m), what);
+}
+
+void checkModelArrays(const ModelView& m, const std::string& what) {
     const std::size_t n = m.voxelCount();
     const auto voxel = [&](std::size_t v) {
         const auto nx = static_cast<std::size_t>(m.grid.dims[0]);
@@ -46,8 +67,8 @@ void checkModelArrays(const ModelVolume& m, const std::string& what) {
         return s.str();
     };
     for (const ModelFileArray& a : kModelFileArrays) {
-        const std::vector<float>& values = m.*a.values;
-        const int per = a.floatsPerVoxel(m);
+        const std::span<const float> values = m.array(a);
+        const int per = a.floatsPerVoxel(m.quantileCount, m.gmmComponents);
         if (values.empty() || per <= 0 || values.size() != n * static_cast<std::size_t>(per))
             continue;
         for (std::size_t i = 0; i < values.size(); ++i)
@@ -69,7 +90,7 @@ void checkModelArrays(const ModelVolume& m, const std::string& what) {
             if (m.min[v] > m.max[v])
                 fail("min", "is " + number(m.min[v]) + ", over max " + number(m.max[v]), v);
     // Increasing rows: quantile boundaries b_0 ≤ … ≤ b_q, the iqr pair.
-    const auto increasing = [&](const char* array, const std::vector<float>& values, int per) {
+    const auto increasing = [&](const char* array, std::span<const float> values, int per) {
         if (per < 2 || values.size() != n * static_cast<std::size_t>(per)) return;
         for (std::size_t v = 0; v < n; ++v) {
             const float* row = values.data() + v * static_cast<std::size_t>(per);

@@ -1,0 +1,149 @@
+#include "udvr/render/frame_estimate.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+#include <vector>
+
+namespace udvr {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// A frame whose time is a + b·pixels exactly: the fit through the last two probes returns it.
+TEST(FrameEstimate, FitsAPlusBTimesPixels) {
+    RenderSettings s;
+    s.width = 512;
+    s.height = 256;
+    std::vector<std::array<int, 2>> sizes;
+    const auto probe = [&](const RenderSettings& at) {
+        sizes.push_back({at.width, at.height});
+        return 30.0 + 0.002 * at.width * at.height;
+    };
+    const FrameEstimate e = estimateFrame(s, false, probe);
+    EXPECT_NEAR(e.ms, 30.0 + 0.002 * 512 * 256, 1e-9);
+    EXPECT_FALSE(e.lowerBound);
+    // 1/32 of the sides, then twice and four times that; each twice (quick probes).
+    const std::vector<std::array<int, 2>> expected{{16, 8},  {16, 8},  {32, 16},
+                                                   {32, 16}, {64, 32}, {64, 32}};
+    EXPECT_EQ(sizes, expected);
+    EXPECT_EQ(e.width, 64);
+    EXPECT_EQ(e.height, 32);
+}
+
+// gmm-mc: probes draw 4 realizations; the estimate scales by the frame's count.
+TEST(FrameEstimate, MonteCarloScalesByRealizations) {
+    RenderSettings s;
+    s.realizations = 200;
+    const FrameEstimate e = estimateFrame(s, true, [](const RenderSettings& at) {
+        EXPECT_EQ(at.realizations, 4);
+        return 0.001 * at.width * at.height * at.realizations;
+    });
+    EXPECT_NEAR(e.ms, 0.001 * 512 * 512 * 200, 1e-6);
+}
+
+// No probe over maxProbeMs: a probe of 40 ms stops the series when the limit is 100 ms.
+TEST(FrameEstimate, StopsBeforeAProbeOverTheLimit) {
+    RenderSettings s;
+    int probes = 0;
+    FrameEstimateLimits limits;
+    limits.maxProbeMs = 100.0;
+    const FrameEstimate e = estimateFrame(
+        s, false,
+        [&](const RenderSettings& at) {
+            ++probes;
+            return 40.0 * at.width * at.height / 256.0;  // 16x16: 40 ms
+        },
+        limits);
+    EXPECT_EQ(probes, 2);  // the first probe twice (tables), no 32x32 (160 ms > 100)
+    EXPECT_NEAR(e.ms, 40.0 * 1024, 1e-9);
+    EXPECT_EQ(e.width, 16);
+}
+
+// The deadline cancels a probe that would run for ever: the estimate is a lower bound from the
+// time spent, and the probes stop within the deadline (plus the watcher's 5 ms poll).
+TEST(FrameEstimate, DeadlineCancelsAndGivesALowerBound) {
+    RenderSettings s;
+    FrameEstimateLimits limits;
+    limits.deadlineMs = 60.0;
+    const auto started = Clock::now();
+    const FrameEstimate e = estimateFrame(
+        s, false,
+        [](const RenderSettings& at) -> double {
+            while (!at.cancel->load()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            throw RenderCancelled();
+        },
+        limits);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+    EXPECT_TRUE(e.lowerBound);
+    EXPECT_GE(ms, 60.0);
+    EXPECT_LT(ms, 60.0 + 200.0);  // generous for a loaded machine
+    // At least the time spent on the 16x16 probe (a frame is no quicker than a probe of it).
+    EXPECT_GE(e.ms, 60.0);
+    EXPECT_LT(e.ms, 60.0 + 200.0);
+}
+
+// The caller's own cancel flag is not a deadline: its RenderCancelled passes through.
+TEST(FrameEstimate, CallersCancelPassesThrough) {
+    std::atomic<bool> cancel{true};
+    RenderSettings s;
+    s.cancel = &cancel;
+    FrameEstimateLimits limits;
+    limits.deadlineMs = 10'000.0;
+    EXPECT_THROW(estimateFrame(
+                     s, false,
+                     [](const RenderSettings& at) -> double {
+                         while (!at.cancel->load())
+                             std::this_thread::sleep_for(std::chrono::milliseconds(1));
+                         throw RenderCancelled();
+                     },
+                     limits),
+                 RenderCancelled);
+}
+
+// Larger probes no slower than smaller ones (a per-frame cost, and load): no negative per-pixel
+// part; the frame costs the probes' mean.
+TEST(FrameEstimate, NoSlowerLargerProbesGiveAPerFrameCost) {
+    RenderSettings s;  // 512x512: probes 16², 32², 64²
+    const FrameEstimate e = estimateFrame(
+        s, false, [](const RenderSettings& at) { return at.width == 64 ? 8.0 : 10.0; });
+    EXPECT_NEAR(e.ms, (10.0 + 10.0 + 8.0) / 3.0, 1e-9);
+}
+
+// Superlinear probes would fit a negative per-frame part: a = 0 and b through the origin, by least
+// squares (NumPy: np.linalg.lstsq([[256], [1024], [4096]], [1, 1, 50])).
+TEST(FrameEstimate, SuperlinearProbesGiveNoNegativePart) {
+    RenderSettings s;
+    const FrameEstimate e = estimateFrame(
+        s, false, [](const RenderSettings& at) { return at.width == 64 ? 50.0 : 1.0; });
+    EXPECT_NEAR(e.ms, 3019.4871794871797, 1e-6);
+}
+
+// Three noisy probes of 5 + 0.01·pixels: the least-squares line through all three.
+TEST(FrameEstimate, LeastSquaresOverTheProbes) {
+    RenderSettings s;
+    const FrameEstimate e = estimateFrame(s, false, [](const RenderSettings& at) {
+        const double p = at.width * at.height;
+        return 5.0 + 0.01 * p + (at.width == 32 ? 3.0 : 0.0);
+    });
+    // NumPy: b, a = np.polyfit([256, 1024, 4096], [7.56, 18.24, 45.96], 1); a + b·512².
+    EXPECT_NEAR(e.ms, 2554.7971428571436, 1e-6);
+}
+
+// A frame no larger than the smallest probe is not estimated.
+TEST(FrameEstimate, NoProbeForATinyFrame) {
+    RenderSettings s;
+    s.width = s.height = 2;
+    int probes = 0;
+    const FrameEstimate e = estimateFrame(s, false, [&](const RenderSettings&) {
+        ++probes;
+        return 1.0;
+    });
+    EXPECT_EQ(probes, 0);
+    EXPECT_EQ(e.ms, 0.0);
+}
+
+}  // namespace
+}  // namespace udvr
