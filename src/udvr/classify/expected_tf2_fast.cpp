@@ -1,6 +1,11 @@
+// The box-spline form (Tf2BlurTables::boxSpline) is no model's evaluation since issue 33's
+// second pass: 2.3e−3 off the exact one where the issue asks 1e−3, and slow where its kept boxes
+// take many pieces; the 2D `uniform` is expectedTf2Uniform (expected_tf2_uniform.h). Kept, with
+// its test, for the next attempt (docs/models.md).
 #include "udvr/classify/expected_tf2_fast.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 
@@ -163,13 +168,39 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
     }
 }
 
-Tf2BlurTables::~Tf2BlurTables() = default;
+namespace {
+/// The bytes of every Tf2BlurTables' built y passes and tables in the process, and their cap:
+/// past it a table is not built and its samples take the exact evaluation (`udvr serve` keeps
+/// the tables of earlier TF2s alive in its render cache; its soak test saw 529 MiB resident
+/// without a cap). At the cap which samples take the exact path depends on the order they come
+/// in (the two agree to ~3e−6, docs/models.md).
+std::atomic<std::size_t> gTableBytes{0};
+constexpr std::size_t kMaxTableBytes = std::size_t{160} << 20;
+/// Reserves `bytes` under the cap; false (nothing reserved) where they do not fit.
+bool reserveTableBytes(std::size_t bytes) {
+    std::size_t now = gTableBytes.load();
+    do {
+        if (now + bytes > kMaxTableBytes) return false;
+    } while (!gTableBytes.compare_exchange_weak(now, now + bytes));
+    return true;
+}
+}  // namespace
+
+Tf2BlurTables::~Tf2BlurTables() {
+    std::size_t bytes = 0;
+    for (int k = 0; k < levelsX_ * levelsY_; ++k)
+        if (tables_[k]) bytes += tables_[k]->v.size() * sizeof(float);
+    for (int j = 0; j < levelsY_; ++j)
+        if (passes_[j]) bytes += passes_[j]->z.size() * sizeof(float);
+    gTableBytes -= bytes;
+}
 
 const Tf2BlurTables::Pass& Tf2BlurTables::pass(int j) const {
     std::call_once(passOnce_[j], [&] {
         const Axis::Level& ly = ay_->levels[j];
         auto z = std::make_unique<Pass>();
         const int BW = 2 * width_ - 1;
+        gTableBytes += static_cast<std::size_t>(ly.count) * 4 * BW * sizeof(float);  // (table())
         z->basis = BW;
         z->z.assign(static_cast<std::size_t>(ly.count) * 4 * BW, 0.0f);
         z->lo.assign(static_cast<std::size_t>(ly.count), BW);
@@ -216,6 +247,13 @@ const Tf2BlurTables::Table* Tf2BlurTables::table(int i, int j) const {
     if (static_cast<std::size_t>(lx.count) * ly.count > kMaxTablePoints) return nullptr;
     const std::size_t k = static_cast<std::size_t>(j) * levelsX_ + i;
     std::call_once(once_[k], [&] {
+        // The table and level j's y pass (if that is built already, counted twice here: the
+        // check errs on the safe side) under the process's cap.
+        const std::size_t bytes = (static_cast<std::size_t>(lx.count) * ly.count +
+                                   std::size_t{1} * ly.count * (2 * width_ - 1)) *
+                                  4 * sizeof(float);
+        if (!reserveTableBytes(bytes)) return;
+        gTableBytes -= bytes;  // counted again as each is built
         const Pass& z = pass(j);
         auto t = std::make_unique<Table>();
         t->nx = lx.count;
@@ -240,6 +278,7 @@ const Tf2BlurTables::Table* Tf2BlurTables::table(int i, int j) const {
                 for (int ch = 0; ch < 4; ++ch) o[ch] = static_cast<float>(s[ch]);
             }
         }
+        gTableBytes += t->v.size() * sizeof(float);
         tables_[k] = std::move(t);
     });
     return tables_[k].get();

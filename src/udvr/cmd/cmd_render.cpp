@@ -255,7 +255,9 @@ void addRenderCommand(CLI::App& app) {
         ->required();
     sub->add_option("--model", o->model,
                     "noise model (default mean): " + modelNames() +
-                        " (members: an ensemble's TF averaged over its members; with --tf2: " +
+                        " (uniform, and gaussian with --tf2: the fast forms, within 1e-3 of "
+                        "uniform-exact, gaussian-exact; uniform-fast: an alias of uniform; "
+                        "members: an ensemble's TF averaged over its members; with --tf2: " +
                         modelNames(true) + ")");
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
