@@ -6,6 +6,7 @@ max |Δ| ≤ 1e−6 on every channel).
 
     python3 python/tests/golden.py inputs   # (re)write the inputs (model, second field, TFs)
     python3 python/tests/golden.py record   # (re)write golden/images.npz with the current build
+    python3 python/tests/golden.py record uniform,gaussian  # only those models' images
 
 Recording replaces the reference: do it only on purpose, and say why in the commit message."""
 import json
@@ -24,12 +25,13 @@ SIZE = "20x16"  # width × height; non-square, so x/y swaps show
 
 # Models per TF kind. gmm-mc draws 6 realizations (seeded, deterministic); `members` reads the
 # ensemble itself. The 2D and bivariate lists are the models with 2D / bivariate kernels.
-MODELS_1D = ["mean", "uniform", "uniform-fast", "gaussian", "gmm-ordered", "gmm-mc",
+MODELS_1D = ["mean", "uniform", "uniform-fast", "uniform-exact", "gaussian", "gmm-ordered", "gmm-mc",
              "quantile-range", "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower",
              "quartile-middle", "quartile-upper", "members"]
-MODELS_2D = ["mean", "uniform", "uniform-fast", "gaussian", "quantile-range", "quantile-mean",
+MODELS_2D = ["mean", "uniform", "uniform-fast", "uniform-exact", "gaussian", "gaussian-exact",
+             "quantile-range", "quantile-mean",
              "quantile-mean-mass", "iqr", "quartile-lower", "quartile-middle", "quartile-upper"]
-MODELS_BIVARIATE = ["mean", "uniform", "uniform-fast", "gaussian", "gmm-ordered",
+MODELS_BIVARIATE = ["mean", "uniform", "uniform-fast", "uniform-exact", "gaussian", "gmm-ordered",
                     "quantile-range", "quantile-mean", "quantile-mean-mass", "iqr",
                     "quartile-lower", "quartile-middle", "quartile-upper"]
 
@@ -152,22 +154,29 @@ def write_inputs():
     (GOLDEN / "tf2_bivariate.json").write_text(json.dumps(biv, indent=1) + "\n")
 
 
-def render_all():
-    """{key: image} for every case, two renders at a time (each on two threads)."""
+def render_all(models=None):
+    """{key: image} for every case (of `models` only, if given), two renders at a time (each on
+    two threads)."""
     from concurrent.futures import ThreadPoolExecutor
 
     def one(case):
         with tempfile.TemporaryDirectory() as tmp:
             return case[0], render(case[1], tmp)
 
+    todo = [c for c in cases() if models is None or c[0].split("/")[-1] in models]
     with ThreadPoolExecutor(2) as pool:
-        return dict(pool.map(one, cases()))
+        return dict(pool.map(one, todo))
 
 
-def record():
-    images = render_all()
-    for key, image in images.items():
+def record(models=None):
+    """Every image, or those of `models` (the others kept from golden/images.npz)."""
+    images = {} if models is None else dict(np.load(IMAGES))
+    keys = {c[0] for c in cases()}
+    images = {k: v for k, v in images.items() if k in keys}
+    fresh = render_all(models)
+    for key, image in fresh.items():
         print(key, "max alpha %.3f" % image[..., 3].max())
+    images.update(fresh)
     np.savez_compressed(IMAGES, **images)
 
 
@@ -176,6 +185,6 @@ if __name__ == "__main__":
     if what == "inputs":
         write_inputs()
     elif what == "record":
-        record()
+        record(set(sys.argv[2].split(",")) if len(sys.argv) > 2 else None)
     else:
         sys.exit(__doc__)

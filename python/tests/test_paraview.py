@@ -27,7 +27,8 @@ SEED = int(os.environ.get("UDVR_PARAVIEW_TEST_SEED", "7"))
 SIZE = "96x96"
 TOLERANCE = 2.0 / 255.0
 # Every model with a 1D classification (members needs an ensemble, not a model file).
-MODELS_1D = ["mean", "uniform", "uniform-fast", "gaussian", "gmm-ordered", "gmm-mc",
+MODELS_1D = ["mean", "uniform", "uniform-fast", "uniform-exact", "gaussian", "gmm-ordered",
+             "gmm-mc",
              "quantile-range", "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower",
              "quartile-middle", "quartile-upper"]
 

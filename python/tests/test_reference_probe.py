@@ -12,7 +12,7 @@ import refcase
 udvr = pytest.importorskip("udvr")
 
 TOL = 1e-4
-MODELS = ["mean", "uniform", "uniform-fast", "gaussian", "gmm-ordered", "quantile-range",
+MODELS = ["mean", "uniform", "uniform-fast", "uniform-exact", "gaussian", "gmm-ordered", "quantile-range",
           "quantile-mean", "quantile-mean-mass", "iqr", "quartile-lower", "quartile-middle",
           "quartile-upper"]
 SEEDS = [11, 12, 13, 14]
@@ -42,11 +42,13 @@ def test_probe_matches_reference(case, kind):
     for p, got in zip(case["points"], answers):
         assert got["model"] == kind
         np.testing.assert_allclose(got["point"], p, rtol=0, atol=1e-12)
-        # uniform-fast is uniform's distribution in a fast form, within the 1e−3 (its
-        # error against the exact kernel: uniform_fast_test.cpp, test_reference_render.py).
-        want = r.classify("uniform" if kind == "uniform-fast" else kind, tf, p[None, :])[0]
+        # `uniform` (alias `uniform-fast`) is the box spline's expectation in a fast form, within
+        # the 1e−3 (its error against the exact kernel: uniform_fast_test.cpp,
+        # test_reference_render.py); `uniform-exact` the exact one.
+        fast = kind in ("uniform", "uniform-fast")
+        want = r.classify("uniform" if kind.startswith("uniform") else kind, tf, p[None, :])[0]
         diff = np.abs(np.asarray(got["expected_rgba"]) - want).max()
-        assert diff <= (1e-3 if kind == "uniform-fast" else TOL), "%s at %s: udvr %s, reference %s" % (
+        assert diff <= (1e-3 if fast else TOL), "%s at %s: udvr %s, reference %s" % (
             kind, p, got["expected_rgba"], want.tolist())
         scale = max(1.0, abs(r.data_range()[0]), abs(r.data_range()[1]))
         if "value" in got:
@@ -103,7 +105,7 @@ def test_probe_uniform_minmax_matches_reference(tmp_path):
     tf = refcase.random_tf(rng, *r.data_range())
     tf.write(tmp_path / "tf.json")
     pts = refcase.random_points(rng, [4, 3, 3], 3)
-    answers = refcase.probe_many(tmp_path / "m.vti", tmp_path / "tf.json", "uniform", pts,
+    answers = refcase.probe_many(tmp_path / "m.vti", tmp_path / "tf.json", "uniform-exact", pts,
                                  ("--uniform-width", "minmax"))
     for p, a in zip(pts, answers):
         got = np.asarray(a["expected_rgba"])

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <string>
 
 #include "udvr/reconstruct/gradient_field.h"
@@ -45,7 +46,7 @@ AnyKernel makeUniform(const ModelView& m, const TfPiecesStorage& tf, const Class
     const double s = span(m, o);
     return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                          o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                         kUniformTinyWidth * s, tf, f.kind == ModelKind::Uniform,
+                         kUniformTinyWidth * s, tf, f.kind == ModelKind::UniformExact,
                          kUniformPointWidth * s);
 }
 AnyKernel makeGaussian(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
@@ -85,16 +86,17 @@ AnyKernel2D makeMean2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions&,
         s.exact, s.fast);
 }
 AnyKernel2D makeGaussian2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions&,
-                           const ModelFamily&) {
+                           const ModelFamily& f) {
     return Gaussian2DKernel(m.grid, m.mean.data(), m.stddev.data(), s.exact, s.fast,
-                            s.meanGradientPlanes());
+                            s.meanGradientPlanes(),
+                            f.kind == ModelKind::GaussianExact ? nullptr : s.blurTables());
 }
 AnyKernel2D makeUniform2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
                           const ModelFamily& f) {
     return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                            o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                           f.kind == ModelKind::Uniform, kUniformTinyWidth * span(m, o), s.exact,
-                           s.fast, s.meanGradientPlanes());
+                           f.kind == ModelKind::UniformExact, kUniformTinyWidth * span(m, o),
+                           s.exact, s.fast, s.meanGradientPlanes());
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o, const float* data,
@@ -130,7 +132,7 @@ AnyKernel2D makeQuantileMean2D(const ModelView& m, Tf2Setup& s, const ClassifyOp
 // 2D kernel.
 using K = ModelKind;
 // clang-format off
-constexpr std::array<ModelFamily, 14> kFamilies{{
+constexpr std::array<ModelFamily, 16> kFamilies{{
     {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D},
     {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
     {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
@@ -145,6 +147,8 @@ constexpr std::array<ModelFamily, 14> kFamilies{{
     {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D},
     {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr},
     {K::UniformFast, "uniform-fast", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
+    {K::UniformExact, "uniform-exact", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
+    {K::GaussianExact, "gaussian-exact", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
 }};
 // clang-format on
 
@@ -303,6 +307,17 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
 
 Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelView& m, GradientCache& cache)
     : Tf2Rasters(tf), model(m), gradients(cache) {}
+
+const Tf2BlurTables* Tf2Setup::blurTables() {
+    if (!blurTables_) {
+        static std::mutex mutex;
+        static std::shared_ptr<const Tf2BlurTables> last;
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (!last || !last->matches(exact)) last = std::make_shared<const Tf2BlurTables>(exact);
+        blurTables_ = last;
+    }
+    return blurTables_.get();
+}
 
 MeanGradientView Tf2Setup::meanGradientPlanes() {
     return {gradients.of(model.grid, model.mean.data(), 1, 0, 1).data(), 1,

@@ -5,6 +5,7 @@
 // checks, the experiments' tables) reads the row; adding a model is its kernel (a reconstruction
 // and an expectation over T, classify/model_kernels.h), a probe description (probe.cpp) and a
 // row in model_families.cpp.
+#include <memory>
 #include <span>
 #include <string_view>
 #include <utility>
@@ -85,6 +86,13 @@ struct Tf2Setup : Tf2Rasters {
     Tf2Setup(const TransferFunction2D& tf, const ModelView& model, GradientCache& cache);
     /// The `mean` array's grid gradients as planes (computed on first use).
     MeanGradientView meanGradientPlanes();
+    /// The fast 2D gaussian's and uniform's prefiltered tables of the TF2: the last ones made
+    /// in the process where they are of the same raster (Tf2BlurTables::matches: frames of
+    /// one TF2), else new ones; each blur pair's table is built when a sample first needs it.
+    const Tf2BlurTables* blurTables();
+
+  private:
+    std::shared_ptr<const Tf2BlurTables> blurTables_;
 };
 
 struct ModelFamily {

@@ -14,6 +14,7 @@
 
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2.h"
+#include "udvr/classify/expected_tf2_fast.h"
 #include "udvr/classify/expected_tf2_gaussian.h"
 #include "udvr/classify/expected_tf2_uniform.h"
 #include "udvr/classify/model_kernels.h"
@@ -136,17 +137,24 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
 /// Gaussian with a TF2 (SPEC §9): independent normal voxels X_i ~ N(μ_i, σ_i²); (X, G) =
 /// Σ_i (w_i, u_i) X_i over the 32-voxel form (u_i = n̂·g_i) is bivariate normal with means
-/// (Σ w_i μ_i, n̂·μ_Y) and covariance Σ_i (w_i, u_i)ᵀ(w_i, u_i) σ_i². E[TF2] by
-/// expectedTf2Gaussian, in double (lanes and float threads take the double body).
+/// (Σ w_i μ_i, n̂·μ_Y) and covariance Σ_i (w_i, u_i)ᵀ(w_i, u_i) σ_i². E[TF2] by the prefiltered
+/// tables (`gaussian`: Tf2BlurTables::gaussian, expected_tf2_fast.h) or, without them
+/// (`gaussian-exact`), by expectedTf2Gaussian; in double (lanes and float threads take the
+/// double body).
 struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     const float* mean;
     const float* stddev;
     GradientGeometry gradientGeometry;
+    const Tf2BlurTables* tables;  // null: the exact evaluation
 
     Gaussian2DKernel(const Grid3& grid, const float* m, const float* s,
                      const Tf2Raster<double>& exact, const Tf2Raster<float>& fast,
-                     const MeanGradientView& meanGrad)
-        : Kernel2DBase(grid, exact, fast, meanGrad), mean(m), stddev(s), gradientGeometry(grid) {}
+                     const MeanGradientView& meanGrad, const Tf2BlurTables* blur = nullptr)
+        : Kernel2DBase(grid, exact, fast, meanGrad),
+          mean(m),
+          stddev(s),
+          gradientGeometry(grid),
+          tables(blur) {}
     /// (μ_X, μ_G, var X, cov(X, G), var G) at a scalar cell.
     UDVR_CPU_GPU void momentsAt(const Cell<double>& c, double m[5]) const {
         double n[3];
@@ -168,7 +176,10 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         if constexpr (std::is_same_v<T, double>) {
             double m[5];
             momentsAt(c, m);
-            expectedTf2Gaussian(tfExact, m[0], m[1], m[2], m[3], m[4], r.v);
+            if (tables)
+                tables->gaussian(tfExact, m[0], m[1], m[2], m[3], m[4], r.v);
+            else
+                expectedTf2Gaussian(tfExact, m[0], m[1], m[2], m[3], m[4], r.v);
         } else {
             detail::exactWhere(*this, c, live, r.v);
         }
@@ -195,11 +206,11 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
 /// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
 /// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
-/// is the paper's bivariate box spline. E[TF2] by expectedTf2Uniform from a double body:
-/// `uniform` converged (expectedTf2UniformExact, ≤ 1e−6), `uniform-fast` by the lattice rule
-/// (float lanes over its 256 points).
+/// is the paper's bivariate box spline. E[TF2] from a double body by expectedTf2UniformExact:
+/// `uniform-exact` converged (≤ 1e−6); `uniform` (and its alias `uniform-fast`) at the coarser
+/// kUniform2DFast settings (max 1.8e−4 measured; expected_tf2_uniform.h, docs/models.md).
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
-    bool exact;        // `uniform` (expectedTf2UniformExact), else `uniform-fast`
+    bool exact;        // `uniform-exact` (expectedTf2UniformExact), else the fast form
     double tinyWidth;  // data units: directions this narrow in X count for G only (exact)
     GradientGeometry gradientGeometry;
 
@@ -236,7 +247,7 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
             double cx, cy;
             BoxDirection2 d[32];
             const int n = directionsAt(c, cx, cy, d);
-            expectedTf2Uniform(tfExact, tfFast, cx, cy, d, n, exact, tinyWidth, r.v);
+            expectedTf2Uniform(tfExact, cx, cy, d, n, exact, tinyWidth, r.v);
         } else {
             detail::exactWhere(*this, c, live, r.v);
         }

@@ -138,9 +138,10 @@ TEST(Bivariate, EveryModelReducesToIts1DKernelAlongEitherAxis) {
                                 static_cast<float>(rng.uniform() * 3),
                                 static_cast<float>(rng.uniform() * 2)};
             double one[4], two[4], swapped[4];
-            // The bivariate uniform is the exact box spline for both names (the fast 1D form is
-            // tested against it in uniform_fast_test.cpp).
-            const ModelKind one1D = kind == ModelKind::UniformFast ? ModelKind::Uniform : kind;
+            // The bivariate uniform is the exact box spline for every uniform name (the fast 1D
+            // form, `uniform` since issue 33, is tested against it in uniform_fast_test.cpp).
+            const bool uniform = kind == ModelKind::Uniform || kind == ModelKind::UniformFast;
+            const ModelKind one1D = uniform ? ModelKind::UniformExact : kind;
             withKernel(m, one1D, tf,
                        [&](const auto& k) { classifyAt<double>(k, p[0], p[1], p[2], one); });
             withKernelBivariate(m, c, kind, t, {}, [&](const auto& k) {

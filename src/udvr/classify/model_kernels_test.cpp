@@ -552,12 +552,13 @@ TEST(Kernels, LaneAndFloatBodiesMatchTheDoubleBody) {
                         // out of a quantile, by (jump / quantile width) × that: steps only near 0.
                         const TransferFunction1D tf = laneTestTf(offset == 0.f, dense, offset);
                         for (ModelKind listed : allModelKinds()) {
-                            // uniform's lanes run its double body: its fast form's lanes are
-                            // tested in its place.
-                            if (listed == ModelKind::GmmMc || listed == ModelKind::UniformFast)
+                            // uniform-exact's lanes run its double body; uniform-fast is
+                            // uniform and gaussian-exact the 1D gaussian.
+                            if (listed == ModelKind::GmmMc || listed == ModelKind::UniformFast ||
+                                listed == ModelKind::UniformExact ||
+                                listed == ModelKind::GaussianExact)
                                 continue;
-                            const ModelKind kind =
-                                listed == ModelKind::Uniform ? ModelKind::UniformFast : listed;
+                            const ModelKind kind = listed;
                             const bool quantile = needsQuantiles(kind);
                             const bool quartile = kind == ModelKind::QuartileLower ||
                                                   kind == ModelKind::QuartileMiddle ||

@@ -8,7 +8,7 @@ namespace udvr {
 
 enum class ModelKind {
     Mean,              // mean field
-    Uniform,           // box spline of 8 scaled uniforms
+    Uniform,           // box spline of 8 scaled uniforms, in its fast form (within 4e−4 in 1D)
     Gaussian,          // N(Σwμ, Σw²σ²)
     GmmOrdered,        // rank-wise interpolated mixture
     GmmMc,             // Monte Carlo realizations, averaged in screen space (render only)
@@ -20,7 +20,9 @@ enum class ModelKind {
     QuartileMiddle,    // quantile-range over [.25, .75]
     QuartileUpper,     // quantile-range over [.75, 1]
     Members,           // no model: the TF averaged over an ensemble's members (issue 12)
-    UniformFast,       // the uniform model's box spline in a fast form, within 4e−4 of `uniform`
+    UniformFast,       // an alias of `uniform` (the fast form; its name before issue 33)
+    UniformExact,      // the uniform model's box spline, exactly (the reference for `uniform`)
+    GaussianExact,     // gaussian; with a 2D TF the exact evaluation (the reference for `gaussian`)
 };
 
 /// Parse a CLI model name ("quantile-mean"); throws UdvrError listing the valid names.

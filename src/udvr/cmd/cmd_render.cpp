@@ -58,7 +58,7 @@ std::string estimateWarning(const RenderOpts& o, const RenderSettings& s, const 
         cheaper = !o.tf2.file.empty()
                       ? ", a quantile model (quantile-range, quantile-mean: a polyline per "
                         "sample, not a 2D integral) or a 1D --tf"
-                      : ", or uniform-fast / gaussian (the fast forms)";
+                      : ", or uniform / gaussian (the fast forms)";
     char text[512];
     std::snprintf(
         text, sizeof text,
@@ -255,7 +255,9 @@ void addRenderCommand(CLI::App& app) {
         ->required();
     sub->add_option("--model", o->model,
                     "noise model (default mean): " + modelNames() +
-                        " (members: an ensemble's TF averaged over its members; with --tf2: " +
+                        " (uniform, and gaussian with --tf2: the fast forms, within 1e-3 of "
+                        "uniform-exact, gaussian-exact; uniform-fast: an alias of uniform; "
+                        "members: an ensemble's TF averaged over its members; with --tf2: " +
                         modelNames(true) + ")");
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);

@@ -1,0 +1,476 @@
+// The box-spline form (Tf2BlurTables::boxSpline) is no model's evaluation since issue 33's
+// second pass: 2.3e−3 off the exact one where the issue asks 1e−3, and slow where its kept boxes
+// take many pieces; the 2D `uniform` is expectedTf2Uniform (expected_tf2_uniform.h). Kept, with
+// its test, for the next attempt (docs/models.md).
+#include "udvr/classify/expected_tf2_fast.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+
+#include "udvr/classify/expected_tf2_gaussian.h"
+#include "udvr/util/normal_cdf.h"
+
+namespace udvr {
+
+/// One axis of N points (raster cells 0 … N − 1): per blur level its grid and the blurred
+/// piecewise-quadratic basis (index 2i: the C0 quadratic node i, 2i + 1: the bubble of cell i;
+/// node 0 and N − 1 continued as constants beyond the domain, as the raster clamps) at each
+/// grid point, as a window of nonzero values.
+struct Tf2BlurTables::Axis {
+    struct Level {
+        double blur = 0.0, spacing = 0.0, start = 0.0;
+        int count = 0;
+        std::vector<int> first, size, offset;  // per grid point: the basis window into `values`
+        std::vector<double> values;
+    };
+    int points = 2;
+    std::vector<Level> levels;
+
+    Axis(int n, double widest) : points(n) {
+        for (double b = kMinBlur;; b *= std::sqrt(2.0)) {
+            levels.push_back(level(b));
+            if (b > widest) break;
+        }
+    }
+    Level level(double b) const {
+        Level l;
+        l.blur = b;
+        l.spacing = kSpacing * b;
+        l.start = -kPad * b;
+        l.count = static_cast<int>(std::ceil((points - 1 + 2 * kPad * b) / l.spacing)) + 1;
+        const int basis = 2 * points - 1;
+        for (int p = 0; p < l.count; ++p) {
+            const double u = l.start + p * l.spacing;
+            const int c0 = std::max(0, static_cast<int>(std::floor(u - 9.0 * b)) - 1);
+            const int c1 = std::min(points - 2, static_cast<int>(std::ceil(u + 9.0 * b)) + 1);
+            std::vector<double> v(static_cast<std::size_t>(basis), 0.0);
+            // Beyond the domain: the end nodes' constants.
+            v[0] += normalCdfPdf(u / b).upper;
+            v[basis - 1] += normalCdf((u - (points - 1)) / b);
+            for (int c = c0; c <= c1; ++c) {
+                const double v0 = u - c;  // y = u − b·z, local v = v0 − b·z ∈ [0, 1]
+                const double zl = (v0 - 1.0) / b, zh = v0 / b;
+                const NormalAt<double> nl = normalAt(zl), nh = normalAt(zh);
+                const double m0 = zl >= 0.0 ? nl.upper - nh.upper : nh.cdf - nl.cdf;
+                if (!(m0 > 0.0)) continue;
+                const double m1 = nl.pdf - nh.pdf;
+                const double m2 = m0 + zl * nl.pdf - zh * nh.pdf;
+                const double ev = v0 * m0 - b * m1;
+                const double ev2 = v0 * v0 * m0 - 2.0 * v0 * b * m1 + b * b * m2;
+                v[2 * c] += m0 - 2.0 * ev + ev2;   // (1 − v)²
+                v[2 * c + 1] += 2.0 * (ev - ev2);  // 2v(1 − v)
+                v[2 * c + 2] += ev2;               // v²
+            }
+            int f = 0, e = basis;
+            while (f < basis && v[f] == 0.0) ++f;
+            while (e > f && v[e - 1] == 0.0) --e;
+            l.first.push_back(f);
+            l.size.push_back(e - f);
+            l.offset.push_back(static_cast<int>(l.values.size()));
+            l.values.insert(l.values.end(), v.begin() + f, v.begin() + e);
+        }
+        return l;
+    }
+};
+
+/// A table: (α·c_r, α·c_g, α·c_b, α) at the grid points of levels (i, j), float.
+struct Tf2BlurTables::Table {
+    int nx = 0, ny = 0;
+    std::vector<float> v;  // ((q·nx + p)·4 + ch)
+};
+
+/// The y pass of a level: per grid row q and channel, Σ_R My[q][R]·Q[R][P] over the x basis P,
+/// with the range of P where it is not 0.
+struct Tf2BlurTables::Pass {
+    int basis = 0;
+    std::vector<float> z;     // (q·4 + ch)·basis + P
+    std::vector<int> lo, hi;  // per q
+};
+
+std::uint64_t Tf2BlurTables::hashOf(const Tf2Raster<double>& r) {
+    std::uint64_t h = 1469598103934665603ull;  // FNV-1a over the points' bits, 8 bytes a step
+    const auto mix = [&](std::uint64_t v) { h = (h ^ v) * 1099511628211ull; };
+    const std::size_t n = static_cast<std::size_t>(r.width) * r.height * 4;
+    for (std::size_t k = 0; k + 1 < n; k += 2) {
+        std::uint64_t v;
+        std::memcpy(&v, r.rgba + k, sizeof v);
+        mix(v);
+    }
+    if (n % 2) {
+        std::uint32_t v;
+        std::memcpy(&v, r.rgba + n - 1, sizeof v);
+        mix(v);
+    }
+    return h;
+}
+
+bool Tf2BlurTables::matches(const Tf2Raster<double>& r) const {
+    return r.width == width_ && r.height == height_ && r.x0 == x0_ && r.y0 == y0_ &&
+           r.invDx == invDx_ && r.invDy == invDy_ && hashOf(r) == hash_;
+}
+
+Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
+    : width_(r.width),
+      height_(r.height),
+      x0_(r.x0),
+      y0_(r.y0),
+      invDx_(r.invDx),
+      invDy_(r.invDy),
+      hash_(hashOf(r)) {
+    const int W = r.width, H = r.height, BW = 2 * W - 1, BH = 2 * H - 1;
+    ax_ = std::make_unique<Axis>(W, 8.0 * std::max(W, H));
+    ay_ = std::make_unique<Axis>(H, 8.0 * std::max(W, H));
+    levelsX_ = static_cast<int>(ax_->levels.size());
+    levelsY_ = static_cast<int>(ay_->levels.size());
+    once_ = std::make_unique<std::once_flag[]>(static_cast<std::size_t>(levelsX_ * levelsY_));
+    tables_ =
+        std::make_unique<std::unique_ptr<Table>[]>(static_cast<std::size_t>(levelsX_ * levelsY_));
+    passOnce_ = std::make_unique<std::once_flag[]>(static_cast<std::size_t>(levelsY_));
+    passes_ = std::make_unique<std::unique_ptr<Pass>[]>(static_cast<std::size_t>(levelsY_));
+    for (auto& q : q_) q.assign(static_cast<std::size_t>(BW) * BH, 0.0);
+    const auto at = [&](int i, int j, int ch) {
+        const double v = r.rgba[(static_cast<std::size_t>(j) * W + i) * 4 + ch];
+        return std::isfinite(v) ? v : 0.0;
+    };
+    for (int ch = 0; ch < 4; ++ch) {
+        // Channel ch's function: α·c (ch < 3) or α.
+        const auto a = [&](int i, int j) { return at(i, j, 3); };
+        const auto c = [&](int i, int j) { return ch == 3 ? 1.0 : at(i, j, ch); };
+        double* q = q_[ch].data();
+        for (int j = 0; j < H; ++j)
+            for (int i = 0; i < W; ++i) {
+                q[static_cast<std::size_t>(2 * j) * BW + 2 * i] = a(i, j) * c(i, j);
+                if (i + 1 < W)
+                    q[static_cast<std::size_t>(2 * j) * BW + 2 * i + 1] =
+                        0.5 * (a(i, j) * c(i + 1, j) + a(i + 1, j) * c(i, j));
+                if (j + 1 < H)
+                    q[static_cast<std::size_t>(2 * j + 1) * BW + 2 * i] =
+                        0.5 * (a(i, j) * c(i, j + 1) + a(i, j + 1) * c(i, j));
+                if (i + 1 < W && j + 1 < H)
+                    q[static_cast<std::size_t>(2 * j + 1) * BW + 2 * i + 1] =
+                        0.25 * (a(i, j) * c(i + 1, j + 1) + a(i + 1, j + 1) * c(i, j) +
+                                a(i, j + 1) * c(i + 1, j) + a(i + 1, j) * c(i, j + 1));
+            }
+    }
+    qRange_.assign(2 * static_cast<std::size_t>(BH), 0);
+    for (int R = 0; R < BH; ++R) {
+        int lo = BW, hi = 0;
+        for (int P = 0; P < BW; ++P)
+            for (int ch = 0; ch < 4; ++ch)
+                if (q_[ch][static_cast<std::size_t>(R) * BW + P] != 0.0) {
+                    lo = std::min(lo, P);
+                    hi = P + 1;
+                }
+        qRange_[2 * R] = lo;
+        qRange_[2 * R + 1] = hi;
+    }
+}
+
+namespace {
+/// The bytes of every Tf2BlurTables' built y passes and tables in the process, and their cap:
+/// past it a table is not built and its samples take the exact evaluation (`udvr serve` keeps
+/// the tables of earlier TF2s alive in its render cache; its soak test saw 529 MiB resident
+/// without a cap). At the cap which samples take the exact path depends on the order they come
+/// in (the two agree to ~3e−6, docs/models.md).
+std::atomic<std::size_t> gTableBytes{0};
+constexpr std::size_t kMaxTableBytes = std::size_t{160} << 20;
+/// Reserves `bytes` under the cap; false (nothing reserved) where they do not fit.
+bool reserveTableBytes(std::size_t bytes) {
+    std::size_t now = gTableBytes.load();
+    do {
+        if (now + bytes > kMaxTableBytes) return false;
+    } while (!gTableBytes.compare_exchange_weak(now, now + bytes));
+    return true;
+}
+}  // namespace
+
+Tf2BlurTables::~Tf2BlurTables() {
+    std::size_t bytes = 0;
+    for (int k = 0; k < levelsX_ * levelsY_; ++k)
+        if (tables_[k]) bytes += tables_[k]->v.size() * sizeof(float);
+    for (int j = 0; j < levelsY_; ++j)
+        if (passes_[j]) bytes += passes_[j]->z.size() * sizeof(float);
+    gTableBytes -= bytes;
+}
+
+const Tf2BlurTables::Pass& Tf2BlurTables::pass(int j) const {
+    std::call_once(passOnce_[j], [&] {
+        const Axis::Level& ly = ay_->levels[j];
+        auto z = std::make_unique<Pass>();
+        const int BW = 2 * width_ - 1;
+        gTableBytes += static_cast<std::size_t>(ly.count) * 4 * BW * sizeof(float);  // (table())
+        z->basis = BW;
+        z->z.assign(static_cast<std::size_t>(ly.count) * 4 * BW, 0.0f);
+        z->lo.assign(static_cast<std::size_t>(ly.count), BW);
+        z->hi.assign(static_cast<std::size_t>(ly.count), 0);
+        std::vector<double> row(static_cast<std::size_t>(BW) * 4);
+        for (int qy = 0; qy < ly.count; ++qy) {
+            int lo = BW, hi = 0;
+            const double* wy = ly.values.data() + ly.offset[qy];
+            for (int k2 = 0; k2 < ly.size[qy]; ++k2) {
+                const int R = ly.first[qy] + k2;
+                if (qRange_[2 * R] >= qRange_[2 * R + 1]) continue;
+                if (lo >= hi) std::fill(row.begin(), row.end(), 0.0);
+                const int a = qRange_[2 * R], b = qRange_[2 * R + 1];
+                if (lo < hi) {  // zero what the range grows over
+                    for (int ch = 0; ch < 4; ++ch) {
+                        double* o = row.data() + static_cast<std::size_t>(ch) * BW;
+                        for (int P = std::min(a, lo); P < lo; ++P) o[P] = 0.0;
+                        for (int P = hi; P < std::max(b, hi); ++P) o[P] = 0.0;
+                    }
+                }
+                lo = std::min(lo, a);
+                hi = std::max(hi, b);
+                const double w = wy[k2];
+                for (int ch = 0; ch < 4; ++ch) {
+                    const double* q = q_[ch].data() + static_cast<std::size_t>(R) * BW;
+                    double* o = row.data() + static_cast<std::size_t>(ch) * BW;
+                    for (int P = a; P < b; ++P) o[P] += w * q[P];
+                }
+            }
+            z->lo[qy] = lo;
+            z->hi[qy] = hi;
+            for (int ch = 0; ch < 4; ++ch)
+                for (int P = lo; P < hi; ++P)
+                    z->z[(static_cast<std::size_t>(qy) * 4 + ch) * BW + P] =
+                        static_cast<float>(row[static_cast<std::size_t>(ch) * BW + P]);
+        }
+        passes_[j] = std::move(z);
+    });
+    return *passes_[j];
+}
+
+const Tf2BlurTables::Table* Tf2BlurTables::table(int i, int j) const {
+    const Axis::Level &lx = ax_->levels[i], &ly = ay_->levels[j];
+    if (static_cast<std::size_t>(lx.count) * ly.count > kMaxTablePoints) return nullptr;
+    const std::size_t k = static_cast<std::size_t>(j) * levelsX_ + i;
+    std::call_once(once_[k], [&] {
+        // The table and level j's y pass (if that is built already, counted twice here: the
+        // check errs on the safe side) under the process's cap.
+        const std::size_t bytes = (static_cast<std::size_t>(lx.count) * ly.count +
+                                   std::size_t{1} * ly.count * (2 * width_ - 1)) *
+                                  4 * sizeof(float);
+        if (!reserveTableBytes(bytes)) return;
+        gTableBytes -= bytes;  // counted again as each is built
+        const Pass& z = pass(j);
+        auto t = std::make_unique<Table>();
+        t->nx = lx.count;
+        t->ny = ly.count;
+        t->v.assign(static_cast<std::size_t>(t->nx) * t->ny * 4, 0.0f);
+        const int BW = z.basis;
+        for (int qy = 0; qy < t->ny; ++qy) {
+            if (z.lo[qy] >= z.hi[qy]) continue;
+            const float* zr = z.z.data() + static_cast<std::size_t>(qy) * 4 * BW;
+            for (int px = 0; px < t->nx; ++px) {
+                const int a = std::max(lx.first[px], z.lo[qy]);
+                const int b = std::min(lx.first[px] + lx.size[px], z.hi[qy]);
+                const double* wx = lx.values.data() + lx.offset[px] - lx.first[px];
+                double s[4] = {};
+                for (int ch = 0; ch < 4; ++ch) {
+                    const float* zc = zr + static_cast<std::size_t>(ch) * BW;
+                    double acc = 0.0;
+                    for (int P = a; P < b; ++P) acc += wx[P] * zc[P];
+                    s[ch] = acc;
+                }
+                float* o = t->v.data() + (static_cast<std::size_t>(qy) * t->nx + px) * 4;
+                for (int ch = 0; ch < 4; ++ch) o[ch] = static_cast<float>(s[ch]);
+            }
+        }
+        gTableBytes += t->v.size() * sizeof(float);
+        tables_[k] = std::move(t);
+    });
+    return tables_[k].get();
+}
+
+bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
+                                  double out[4], const double (*boxes)[2], int nBoxes,
+                                  Quartic* quartic) const {
+    if (!(sxx > 0.0 && syy > 0.0)) return false;
+    const double sx = std::sqrt(sxx), sy = std::sqrt(syy);
+    const double rho = std::clamp(sxy / (sx * sy), -1.0, 1.0);
+    const double f = std::sqrt(0.5 * (1.0 - std::abs(rho)));
+    const double bxMax = f * sx, byMax = f * sy;
+    if (!(bxMax >= kMinBlur && byMax >= kMinBlur)) return false;
+    const auto levelOf = [](double b, int levels) {
+        const int k = static_cast<int>(std::floor(2.0 * std::log2(b / kMinBlur) + 1e-9));
+        return std::clamp(k, 0, levels - 1);
+    };
+    int i = levelOf(bxMax, levelsX_), j = levelOf(byMax, levelsY_);
+    // Floating rounding of the ladder: keep b ≤ bMax.
+    while (i > 0 && ax_->levels[i].blur > bxMax) --i;
+    while (j > 0 && ay_->levels[j].blur > byMax) --j;
+    const Axis::Level &lx = ax_->levels[i], &ly = ay_->levels[j];
+    const Table* t = table(i, j);
+    if (!t) return false;
+    const double rxx = sxx - lx.blur * lx.blur, ryy = syy - ly.blur * ly.blur;
+    const double det = rxx * ryy - sxy * sxy;
+    if (!(det > 0.0)) return false;
+    const double A = ryy / det, B = -sxy / det, C = rxx / det;
+    const double R2 = kRadius * kRadius;
+    const double hx = lx.spacing, hy = ly.spacing;
+    const double ey = kRadius * std::sqrt(ryy);
+    const int q0 = static_cast<int>(std::ceil((t0 - ey - ly.start) / hy));
+    const int q1 = static_cast<int>(std::floor((t0 + ey - ly.start) / hy));
+    const double g = std::exp(-A * hx * hx);
+    // The κ4 term: (1/24)·Σ_b κ4(t)·H4 along d_b, κ4(U[−1, 1]) = −2/15, H4(d) = (vᵀe)⁴ −
+    // 6(vᵀe)²(dᵀv) + 3(dᵀv)², v = Σr⁻¹d: a quartic in e, c[i][j] the coefficient of ex^i ey^j.
+    Quartic local;
+    Quartic& series = quartic ? *quartic : local;
+    if (nBoxes > 0 && !series.ready) {
+        for (int b = 0; b < nBoxes; ++b) {
+            const double dx = boxes[b][0], dy = boxes[b][1];
+            const double vx = A * dx + B * dy, vy = B * dx + C * dy, dv = dx * vx + dy * vy;
+            const double k = -2.0 / 15.0 / 24.0;
+            const double bin4[5] = {1, 4, 6, 4, 1}, bin2[3] = {1, 2, 1};
+            double px[5] = {1, vx, vx * vx, vx * vx * vx, vx * vx * vx * vx};
+            double py[5] = {1, vy, vy * vy, vy * vy * vy, vy * vy * vy * vy};
+            for (int e4 = 0; e4 <= 4; ++e4)
+                series.c[e4][4 - e4] += k * bin4[e4] * px[e4] * py[4 - e4];
+            for (int e2 = 0; e2 <= 2; ++e2)
+                series.c[e2][2 - e2] -= 6.0 * k * dv * bin2[e2] * px[e2] * py[2 - e2];
+            series.c[0][0] += 3.0 * k * dv * dv;
+        }
+        series.ready = true;
+    }
+    const double(&c)[5][5] = series.c;
+    double acc[4] = {}, wsum = 0.0;
+    for (int q = q0; q <= q1; ++q) {
+        const double e = ly.start + q * hy - t0;
+        const double disc = B * B * e * e - A * (C * e * e - R2);
+        if (!(disc > 0.0)) continue;
+        const double sq = std::sqrt(disc);
+        const double dlo = (-B * e - sq) / A, dhi = (-B * e + sq) / A;
+        const int p0 = static_cast<int>(std::ceil((s0 + dlo - lx.start) / hx));
+        const int p1 = static_cast<int>(std::floor((s0 + dhi - lx.start) / hx));
+        if (p1 < p0) continue;
+        const int qc = std::clamp(q, 0, t->ny - 1);
+        const float* row = t->v.data() + static_cast<std::size_t>(qc) * t->nx * 4;
+        double d = lx.start + p0 * hx - s0;
+        double w = std::exp(-0.5 * (A * d * d + 2.0 * B * e * d + C * e * e));
+        double ratio = std::exp(-0.5 * (A * (2.0 * d * hx + hx * hx) + 2.0 * B * e * hx));
+        double s[4] = {}, ws = 0.0;
+        if (nBoxes == 0) {
+            for (int p = p0; p <= p1; ++p) {
+                const float* v = row + static_cast<std::size_t>(std::clamp(p, 0, t->nx - 1)) * 4;
+                for (int ch = 0; ch < 4; ++ch) s[ch] += w * v[ch];
+                ws += w;
+                w *= ratio;
+                ratio *= g;
+            }
+        } else {
+            double poly[5];  // in d, at this row's e
+            for (int px = 0; px <= 4; ++px) {
+                poly[px] = 0.0;
+                for (int py = 4 - px; py >= 0; --py) poly[px] = poly[px] * e + c[px][py];
+            }
+            poly[0] += 1.0;
+            for (int p = p0; p <= p1; ++p, d += hx) {
+                const float* v = row + static_cast<std::size_t>(std::clamp(p, 0, t->nx - 1)) * 4;
+                const double corr =
+                    poly[0] + d * (poly[1] + d * (poly[2] + d * (poly[3] + d * poly[4])));
+                for (int ch = 0; ch < 4; ++ch) s[ch] += w * corr * v[ch];
+                ws += w;
+                w *= ratio;
+                ratio *= g;
+            }
+        }
+        for (int ch = 0; ch < 4; ++ch) acc[ch] += s[ch];
+        wsum += ws;
+    }
+    if (!(wsum > 0.0)) return false;
+    for (int ch = 0; ch < 4; ++ch) out[ch] = acc[ch] / wsum;
+    return true;
+}
+
+void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, double mx, double my, double vxx,
+                             double vxy, double vyy, double out[4]) const {
+    const double s0 = (mx - r.x0) * r.invDx, t0 = (my - r.y0) * r.invDy;
+    if (std::isfinite(s0) && std::isfinite(t0) && std::abs(s0) < 1e9 && std::abs(t0) < 1e9 &&
+        gaussianCells(s0, t0, vxx * r.invDx * r.invDx, vxy * r.invDx * r.invDy,
+                      vyy * r.invDy * r.invDy, out))
+        return;
+    expectedTf2Gaussian(r, mx, my, vxx, vxy, vyy, out);
+}
+
+bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
+                              const BoxDirection2* d, int n, double tinyWidth,
+                              double out[4]) const {
+    // In raster cells: the kKept widest directions kept as boxes, the others as their normal.
+    constexpr int kKept = 2;
+    const double s0 = (cx - r.x0) * r.invDx, t0 = (cy - r.y0) * r.invDy;
+    int kept[kKept] = {-1, -1};
+    double extent[kKept] = {0.0, 0.0};
+    double sxx = 0.0, sxy = 0.0, syy = 0.0;
+    for (int k = 0; k < n; ++k) {
+        const double a = d[k].a * r.invDx, b = d[k].b * r.invDy;
+        sxx += a * a / 3.0, sxy += a * b / 3.0, syy += b * b / 3.0;
+        const double e = std::abs(a) + std::abs(b);
+        if (!(e > 0.0)) continue;
+        for (int s = 0; s < kKept; ++s)
+            if (e > extent[s]) {
+                for (int z = kKept - 1; z > s; --z)
+                    extent[z] = extent[z - 1], kept[z] = kept[z - 1];
+                extent[s] = e, kept[s] = k;
+                break;
+            }
+    }
+    bool ok = std::isfinite(s0) && std::isfinite(t0) && std::abs(s0) < 1e9 && std::abs(t0) < 1e9;
+    double ka[kKept] = {}, kb[kKept] = {};
+    int pieces[kKept] = {1, 1};
+    double rxx = sxx, rxy = sxy, ryy = syy;
+    double rest[32][2];
+    int nRest = 0;
+    for (int k = 0; k < n && k < 32; ++k)
+        if (k != kept[0] && k != kept[1])
+            rest[nRest][0] = d[k].a * r.invDx, rest[nRest][1] = d[k].b * r.invDy, ++nRest;
+    for (int s = 0; s < kKept; ++s) {
+        if (kept[s] < 0) continue;
+        ka[s] = d[kept[s]].a * r.invDx, kb[s] = d[kept[s]].b * r.invDy;
+        rxx -= ka[s] * ka[s] / 3.0, rxy -= ka[s] * kb[s] / 3.0, ryy -= kb[s] * kb[s] / 3.0;
+    }
+    for (int s = 0; s < kKept && ok; ++s) {
+        if (kept[s] < 0) continue;
+        // The rest's std along the box, in units of its half length: GL pieces that long.
+        const double a = ka[s], b = kb[s], len2 = a * a + b * b;
+        const double along = (a * a * rxx + 2.0 * a * b * rxy + b * b * ryy) / len2;
+        const double scale = std::sqrt(std::max(along, 0.0) / len2);
+        ok = scale > 0.0;
+        if (ok) pieces[s] = std::clamp(static_cast<int>(std::ceil(1.0 / scale)), 1, 32);
+    }
+    if (ok && pieces[0] * pieces[1] > kMaxBoxPieces) return false;
+    if (ok) {
+        static constexpr double kX[3] = {-0.7745966692414834, 0.0, 0.7745966692414834};
+        static constexpr double kW[3] = {0.5555555555555556, 0.8888888888888888,
+                                         0.5555555555555556};
+        double acc[4] = {};
+        Quartic quartic;
+        const int n0 = 3 * pieces[0], n1 = 3 * pieces[1];
+        for (int i0 = 0; i0 < n0 && ok; ++i0) {
+            const double h0 = 1.0 / pieces[0];
+            const double t0n = -1.0 + 2.0 * (i0 / 3) * h0 + h0 * (1.0 + kX[i0 % 3]);
+            const double w0 = 0.5 * h0 * kW[i0 % 3];
+            for (int i1 = 0; i1 < n1 && ok; ++i1) {
+                const double h1 = 1.0 / pieces[1];
+                const double t1n = -1.0 + 2.0 * (i1 / 3) * h1 + h1 * (1.0 + kX[i1 % 3]);
+                const double w1 = kept[1] >= 0 ? 0.5 * h1 * kW[i1 % 3] : (i1 == 1 ? 1.0 : 0.0);
+                if (w1 == 0.0) continue;
+                const double tt1 = kept[1] >= 0 ? t1n : 0.0;
+                double v[4];
+                ok = gaussianCells(s0 + t0n * ka[0] + tt1 * ka[1], t0 + t0n * kb[0] + tt1 * kb[1],
+                                   rxx, rxy, ryy, v, rest, nRest, &quartic);
+                for (int ch = 0; ch < 4; ++ch) acc[ch] += w0 * w1 * v[ch];
+            }
+        }
+        if (ok) {
+            for (int ch = 0; ch < 4; ++ch) out[ch] = acc[ch];
+            return true;
+        }
+    }
+    Tf2UniformExactOptions opt;
+    expectedTf2UniformExact(r, cx, cy, d, n, tinyWidth, opt, out);
+    return true;
+}
+
+}  // namespace udvr
