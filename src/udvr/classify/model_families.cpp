@@ -129,26 +129,26 @@ AnyKernel2D makeQuantileMean2D(const ModelView& m, Tf2Setup& s, const ClassifyOp
 }
 
 // kind, name, arrays, floats per voxel, population, label shows q, realizations, kernel,
-// 2D kernel.
+// 2D kernel, frame cost (ns per pixel × step: 1D, 2D, bivariate; eval/experiment_plan.cpp).
 using K = ModelKind;
 // clang-format off
 constexpr std::array<ModelFamily, 16> kFamilies{{
-    {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D},
-    {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
-    {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
-    {K::GmmOrdered, "gmm-ordered", gmmArrays, perComponent, {0, 0}, false, false, makeGmmOrdered, nullptr},
-    {K::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr, nullptr},
-    {K::QuantileRange, "quantile-range", quantileArrays, perBoundary, {0, 1}, true, false, makeQuantileRange, makeQuantileRange2D},
-    {K::QuantileMean, "quantile-mean", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D},
-    {K::QuantileMeanMass, "quantile-mean-mass", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D},
-    {K::Iqr, "iqr", iqrArrays, two, {0, 0}, false, false, makeIqr, makeIqr2D},
-    {K::QuartileLower, "quartile-lower", quantileArrays, perBoundary, {0, .25}, false, false, makeQuantileRange, makeQuantileRange2D},
-    {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D},
-    {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D},
-    {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr},
-    {K::UniformFast, "uniform-fast", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
-    {K::UniformExact, "uniform-exact", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D},
-    {K::GaussianExact, "gaussian-exact", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D},
+    {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D, {8.9, 15.0, 11.9}},
+    {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D, {150.0, 5000.0, 1160.0}},
+    {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D, {39.0, 200.0, 1210.0}},
+    {K::GmmOrdered, "gmm-ordered", gmmArrays, perComponent, {0, 0}, false, false, makeGmmOrdered, nullptr, {82.0, 0, 0}},
+    {K::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr, nullptr, {7.95, 0, 0}},
+    {K::QuantileRange, "quantile-range", quantileArrays, perBoundary, {0, 1}, true, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
+    {K::QuantileMean, "quantile-mean", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D, {13.0, 20.0, 161.0}},
+    {K::QuantileMeanMass, "quantile-mean-mass", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D, {13.0, 20.0, 161.0}},
+    {K::Iqr, "iqr", iqrArrays, two, {0, 0}, false, false, makeIqr, makeIqr2D, {9.3, 16.0, 0}},
+    {K::QuartileLower, "quartile-lower", quantileArrays, perBoundary, {0, .25}, false, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
+    {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
+    {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
+    {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr, {2.65, 0, 0}},
+    {K::UniformFast, "uniform-fast", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D, {150.0, 5000.0, 1160.0}},
+    {K::UniformExact, "uniform-exact", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D, {925.0, 5000.0, 1160.0}},
+    {K::GaussianExact, "gaussian-exact", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D, {39.0, 6690.0, 1210.0}},
 }};
 // clang-format on
 

@@ -5,6 +5,7 @@
 // checks, the experiments' tables) reads the row; adding a model is its kernel (a reconstruction
 // and an expectation over T, classify/model_kernels.h), a probe description (probe.cpp) and a
 // row in model_families.cpp.
+#include <array>
 #include <memory>
 #include <span>
 #include <string_view>
@@ -116,6 +117,11 @@ struct ModelFamily {
     /// `setup` (which outlives it). Null where SPEC §9 gives the model no 2D classification.
     AnyKernel2D (*makeKernel2D)(const ModelView& model, Tf2Setup& setup,
                                 const ClassifyOptions& options, const ModelFamily& family);
+    /// A frame's cost at the reference speed, ns per pixel × ray step, with a 1D TF, a 2D TF and
+    /// bivariate fields (members: per member; gmm-mc: per realization, besides drawing it):
+    /// what the experiments' estimate before they start scales (eval/experiment_plan.cpp says
+    /// how they were measured). 0: not measured (the plan's default for the TF kind).
+    std::array<double, 3> nsPerStep;
 };
 
 /// Every model family, in the order of SPEC §3–4.

@@ -1,12 +1,14 @@
 #include "udvr/eval/experiment_plan.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
 
+#include "udvr/classify/model_families.h"
 #include "udvr/data/noise.h"
 #include "udvr/data/synthetic.h"
 #include "udvr/eval/experiment_run.h"
@@ -28,82 +30,16 @@ namespace {
 // 2–3 between datasets): the progress line corrects its time left by the stages done so far.
 constexpr double kProbeBuildMs = 100.0;
 
-/// ns per pixel × ray step at the reference speed, 1D TF.
-double nsPerStep1d(ModelKind k) {
-    switch (k) {
-        case ModelKind::Mean:
-            return 8.9;
-        case ModelKind::Uniform:
-            return 925.0;
-        case ModelKind::UniformFast:
-            return 150.0;
-        case ModelKind::Gaussian:
-            return 39.0;
-        case ModelKind::GmmOrdered:
-            return 82.0;
-        // Per realization, besides kGmmMcNsPerVoxel: from the tangle's gmm-mc frames at 128²
-        // (41 ms a realization) and 512² (287 ms), a + b·pixels.
-        case ModelKind::GmmMc:
-            return 7.95;
-        case ModelKind::QuantileRange:
-        case ModelKind::QuartileLower:
-        case ModelKind::QuartileMiddle:
-        case ModelKind::QuartileUpper:
-            return 18.8;
-        case ModelKind::QuantileMean:
-        case ModelKind::QuantileMeanMass:
-            return 13.0;
-        case ModelKind::Iqr:
-            return 9.3;
-        case ModelKind::Members:
-            return 2.65;  // per member
-    }
-    return 40.0;
-}
+// Per model, ns per pixel × ray step at the reference speed (ModelFamily::nsPerStep): 1D TF as
+// above; gmm-mc per realization, besides kGmmMcNsPerVoxel, from the tangle's gmm-mc frames at
+// 128² (41 ms a realization) and 512² (287 ms), a + b·pixels; members per member; 2D TF from
+// tooth2d (the fiber for bivariate fields, 96², a ray step of 0.1 spacings). The fast 2D
+// gaussian (issue 33): ~10× quantile-mean's 2D frame; the 2D uniform the exact one's order.
+// Models without a measured value take these defaults per TF kind.
+constexpr std::array<double, 3> kDefaultNsPerStep{40.0, 100.0, 300.0};
 
 /// gmm-mc: ns per model voxel and realization (drawing the realization), see above.
 constexpr double kGmmMcNsPerVoxel = 94.0;
-
-/// ns per pixel × ray step at the reference speed, 2D TF (tooth2d; the bivariate fiber too).
-double nsPerStep2d(ModelKind k) {
-    switch (k) {
-        case ModelKind::Mean:
-            return 15.0;
-        case ModelKind::Uniform:
-            return 5000.0;
-        case ModelKind::UniformFast:
-            return 494.0;
-        case ModelKind::Gaussian:
-            return 6690.0;
-        case ModelKind::QuantileRange:
-            return 89.0;
-        case ModelKind::QuantileMean:
-            return 20.0;
-        case ModelKind::Iqr:
-            return 16.0;
-        default:
-            return 100.0;
-    }
-}
-
-/// ns per pixel × ray step at the reference speed, bivariate (two fields, a 2D TF: `fiber`
-/// --quick, 96², a ray step of 0.1 spacings).
-double nsPerStepBivariate(ModelKind k) {
-    switch (k) {
-        case ModelKind::Mean:
-            return 11.9;
-        case ModelKind::Uniform:
-            return 1160.0;
-        case ModelKind::Gaussian:
-            return 1210.0;
-        case ModelKind::QuantileRange:
-            return 263.0;
-        case ModelKind::QuantileMean:
-            return 161.0;
-        default:
-            return 300.0;
-    }
-}
 
 /// ns per voxel × sample of a build at the reference speed.
 double nsPerSample(int gmmComponents, DensityEstimate density) {
@@ -166,12 +102,12 @@ Work frameWork(ModelKind kind, double pixels, double steps, double voxels, int r
                int members, TfKind tf) {
     Work w;
     w.frames = 1;
-    double ns = tf == TfKind::Bivariate ? nsPerStepBivariate(kind)
-                : tf == TfKind::TwoD    ? nsPerStep2d(kind)
-                                        : nsPerStep1d(kind);
-    if (kind == ModelKind::Members) ns *= std::max(members, 1);
+    const int column = tf == TfKind::Bivariate ? 2 : tf == TfKind::TwoD ? 1 : 0;
+    double ns = modelFamily(kind).nsPerStep[column];
+    if (!(ns > 0.0)) ns = kDefaultNsPerStep[column];
+    if (readsMembers(kind)) ns *= std::max(members, 1);
     w.frameMs = pixels * steps * ns * 1e-6;
-    if (kind == ModelKind::GmmMc)
+    if (rendersRealizations(kind))
         w.frameMs = (w.frameMs + voxels * kGmmMcNsPerVoxel * 1e-6) * std::max(realizations, 1);
     return w;
 }
