@@ -3,6 +3,8 @@
     build/paraview/udvr-pvbatch examples/paraview/render.py MODEL [--model NAME] [--tf TF.json]
         [--tf2 TF2.vti|TF2.json] [--size WxH] [--azimuth DEG] [--elevation DEG] [--zoom Z] -o OUT.png
     mpirun -np 2 build/paraview/udvr-pvbatch examples/paraview/render.py MODEL.pvti ...
+    PYTHONPATH=build/paraview-python/usr/lib/python3/dist-packages PV_PLUGIN_PATH=build/paraview/lib/udvr \
+        python3 examples/paraview/render.py --server cs://HOST:PORT MODEL ...  (a pvserver's client)
 
 The arguments are `udvr render`'s and so is the camera (SPEC §5: focal point at the centre of the
 model's full-resolution bounds, on +z looking -z with up +y at the distance where the bounding
@@ -18,6 +20,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import time
 
@@ -52,6 +55,10 @@ def parse_args(argv):
                         "ParaView's XML reader (keeps each piece twice)")
     p.add_argument("--plugin", default=os.environ.get("UDVR_PARAVIEW_PLUGIN", ""),
                    help="udvr.so (default: $UDVR_PARAVIEW_PLUGIN, which udvr-pvbatch sets)")
+    p.add_argument("--server", default="",
+                   help="cs://HOST:PORT: render on a running pvserver (started with the plugin, e.g. "
+                        "by PV_PLUGIN_PATH), as its client (python3 or pvpython, not pvbatch); "
+                        "MODEL and --tf2 are paths on the server, --tf on the client")
     p.add_argument("-o", "--output", required=True, help="PNG to write")
     a = p.parse_args(argv)
     try:
@@ -69,9 +76,11 @@ def parse_args(argv):
             raise ValueError
     except ValueError:
         fail("--background must be r,g,b in [0, 1], got '%s'" % a.background)
-    if not os.path.isfile(a.model):
+    if a.server and not re.fullmatch(r"cs://[^:/]+:[0-9]+", a.server):
+        fail("--server must be cs://HOST:PORT, got '%s'" % a.server)
+    if not a.server and not os.path.isfile(a.model):
         fail("cannot read %s: no such file" % a.model)
-    if a.tf2 and not os.path.isfile(a.tf2):
+    if not a.server and a.tf2 and not os.path.isfile(a.tf2):
         fail("cannot read %s: no such file" % a.tf2)
     return a
 
@@ -112,8 +121,27 @@ def main(argv):
     from paraview.simple import (ColorBy, CreateView, GetColorTransferFunction,
                                  GetOpacityTransferFunction, LoadPlugin, OpenDataFile,
                                  Delete, Render, SaveScreenshot, Show)
+    if a.server:
+        host, port = a.server[len("cs://"):].rsplit(":", 1)
+        try:
+            connection = paraview.simple.Connect(host, int(port))
+        except RuntimeError as e:
+            connection = None
+            print("render.py: %s" % e, file=sys.stderr)
+        if connection is None:
+            fail("cannot connect to the pvserver at %s" % a.server)
     definitions = servermanager.ProxyManager().SMProxyManager.GetProxyDefinitionManager()
-    if not definitions.HasDefinition("representations", "UncertainVolumeRepresentation"):
+    # A pvserver that loaded the plugin hands its proxy definitions to the client, but the client
+    # creates the representation's client-side object too and aborts ("Failed to create
+    # 'vtkUdvrVolumeRepresentation'") unless the plugin is loaded in the client process as well.
+    local = servermanager.vtkSMProxyManager.GetProxyManager().GetPluginManager().GetLocalInformation()
+    loaded_here = any(local.GetPluginName(i) == "udvr" and local.GetPluginLoaded(i)
+                      for i in range(local.GetNumberOfPlugins()))
+    if a.server and not definitions.HasDefinition("representations",
+                                                  "UncertainVolumeRepresentation"):
+        fail("the pvserver at %s has not loaded the udvr plugin: start it with "
+             "PV_PLUGIN_PATH=build/paraview/lib/udvr" % a.server)
+    if not loaded_here:
         # Not loaded at start-up from PV_PLUGIN_PATH (which udvr-pvbatch sets).
         if not a.plugin or not os.path.isfile(a.plugin):
             fail("the udvr plugin was not found: run build/paraview/udvr-pvbatch, or pass --plugin")
