@@ -224,6 +224,21 @@ UDVR_INLINE bool gathersPastInt32(const K& k, int perVoxel) {
     else
         return false;
 }
+/// The load of a quantile kernel k: reconstruct + classifyOver; a batch whose `count` boundaries
+/// take the gather path past int32 indices (perVoxel floats per voxel) takes the double body.
+template <class T, class K>
+UDVR_CPU_GPU UDVR_INLINE Classified<T> quantileKernelLoad(const K& k, int count, int perVoxel,
+                                                          const Cell<T>& c, lanes::MaskOf<T> live) {
+    Classified<T> r;
+    if (count > kMaxRowBoundaries && gathersPastInt32<T>(k, perVoxel)) {
+        r = Classified<T>{};
+        exactWhere(k, c, live, r.v);
+        return r;
+    }
+    k.template reconstruct<T>(
+        c, live, [&](const auto& d) UDVR_INLINE_LAMBDA { classifyOver<T>(k, c, d, live, r.v); });
+    return r;
+}
 }  // namespace detail
 
 /// Classify at an index-space point (clamped into the grid) with the body over T.
@@ -488,16 +503,7 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r;
-        if (j1 - j0 + 1 > kMaxRowBoundaries && detail::gathersPastInt32<T>(*this, stride)) {
-            r = Classified<T>{};
-            detail::exactWhere(*this, c, live, r.v);
-            return r;
-        }
-        reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
-            detail::classifyOver<T>(*this, c, d, live, r.v);
-        });
-        return r;
+        return detail::quantileKernelLoad<T>(*this, j1 - j0 + 1, stride, c, live);
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
@@ -539,16 +545,7 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r;
-        if (q + 1 > kMaxRowBoundaries && detail::gathersPastInt32<T>(*this, q + 1)) {
-            r = Classified<T>{};
-            detail::exactWhere(*this, c, live, r.v);
-            return r;
-        }
-        reconstruct<T>(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
-            detail::classifyOver<T>(*this, c, d, live, r.v);
-        });
-        return r;
+        return detail::quantileKernelLoad<T>(*this, q + 1, q + 1, c, live);
     }
     /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
     /// the corners' midpoints (m_j(p) = Σ w_c m_{j,c}), so [m_0, m_{q−1}] of each voxel is a
