@@ -88,6 +88,8 @@ inline constexpr std::size_t kCachedFrames = 12;
 inline constexpr std::size_t kCachedFrameBytes = std::size_t{256} << 20;
 /// Bytes of image bodies built and not yet sent (slow clients hold theirs): over it, 503.
 inline constexpr std::size_t kMaxBodyBytesInFlight = std::size_t{512} << 20;
+/// Freed blocks of this size and more go back to the system at once (runHttpServer: mallopt).
+inline constexpr std::size_t kReturnedBlockBytes = std::size_t{1} << 20;
 /// The latency goal of a frame: a model whose frame at the page's default view (512², SPEC §5's
 /// camera, the current TF) is estimated over it is marked `slow` in /api/state, and the page
 /// renders it progressively (coarse first, each step cancelled by the next request).
