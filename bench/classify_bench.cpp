@@ -134,15 +134,14 @@ void BM_ClassifyLanes(benchmark::State& state) {
 
 void args(benchmark::internal::Benchmark* b) {
     for (std::size_t i = 0; i < allModelKinds().size(); ++i) {
-        if (allModelKinds()[i] == ModelKind::GmmMc) continue;
+        if (rendersRealizations(allModelKinds()[i])) continue;  // gmm-mc: no per-sample kernel
         for (int q : {2, 4, 8, 16}) {
             const ModelKind k = allModelKinds()[i];
             const bool usesQ = needsQuantiles(k);
             if (!usesQ && q != 8) continue;  // q only matters to the quantile models
-            if ((k == ModelKind::QuartileLower || k == ModelKind::QuartileMiddle ||
-                 k == ModelKind::QuartileUpper) &&
-                q % 4 != 0)
-                continue;
+            // The quartile views need q divisible by 4 (a population inside [0, 1]).
+            const auto pop = modelRow(k).population;
+            if (pop.second > pop.first && pop.second - pop.first < 1.0 && q % 4 != 0) continue;
             b->Args({static_cast<long>(i), q});
         }
     }

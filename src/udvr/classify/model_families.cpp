@@ -6,6 +6,7 @@
 #include <limits>
 #include <mutex>
 #include <string>
+#include <type_traits>
 
 #include "udvr/reconstruct/gradient_field.h"
 #include "udvr/util/check.h"
@@ -13,144 +14,33 @@
 namespace udvr {
 namespace {
 
-// Arrays per option set.
-unsigned meanArrays(const ClassifyOptions&) { return kArrayMean; }
-unsigned momentArrays(const ClassifyOptions&) { return kArrayMean | kArrayStddev; }
-unsigned uniformArrays(const ClassifyOptions& o) {
-    return o.uniformMinMax ? kArrayMin | kArrayMax : kArrayMean | kArrayStddev;
+// A factory of the table: a function of the type of the (null) pointer passed, one of
+// ModelFamily's, that builds the row's kernel type K by K::make; null for NoKernel.
+template <class K, class R, class... Args>
+constexpr auto factory(R (*)(Args...)) -> R (*)(Args...) {
+    if constexpr (std::is_same_v<K, NoKernel>)
+        return nullptr;
+    else
+        return [](Args... args) -> R { return K::make(args...); };
 }
-unsigned gmmArrays(const ClassifyOptions&) { return kArrayGmm; }
-unsigned quantileArrays(const ClassifyOptions&) { return kArrayQuantiles; }
-unsigned iqrArrays(const ClassifyOptions&) { return kArrayIqr; }
-unsigned memberArrays(const ClassifyOptions&) { return kArrayMembers; }
+using Make1D = decltype(ModelFamily::makeKernel);
+using Make2D = decltype(ModelFamily::makeKernel2D);
+using MakeBivariate = decltype(ModelFamily::makeBivariate);
 
-// Floats per voxel.
-double one(int, int, int) { return 1.0; }
-double two(int, int, int) { return 2.0; }
-double perComponent(int, int k, int) { return 3.0 * k; }
-double perBoundary(int q, int, int) { return q + 1.0; }
-double perMember(int, int, int n) { return n; }
-
-double span(const ModelView& model, const ClassifyOptions& options = {}) {
-    if (options.dataSpan > 0.0) return options.dataSpan;
-    const auto range = modelDataRange(model);
-    return range.second - range.first;
-}
-
-AnyKernel makeMean(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
-                   const ModelFamily&) {
-    return MeanKernel(m.grid, m.mean.data(), tf);
-}
-AnyKernel makeUniform(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
-                      const ModelFamily& f) {
-    const double s = span(m, o);
-    return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
-                         o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                         kUniformTinyWidth * s, tf, f.kind == ModelKind::UniformExact,
-                         kUniformPointWidth * s);
-}
-AnyKernel makeGaussian(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
-                       const ModelFamily&) {
-    return GaussianKernel(m.grid, m.mean.data(), m.stddev.data(), tf);
-}
-AnyKernel makeGmmOrdered(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
-                         const ModelFamily&) {
-    return GmmOrderedKernel(m.grid, m.gmm.data(), m.gmmComponents, tf);
-}
-AnyKernel makeQuantileRange(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
-                            const ModelFamily& f) {
-    const auto pop = quantilePopulation(f.kind, m, o);
-    return QuantileRangeKernel(m.grid, m.quantiles.data(), m.quantileCount + 1, pop.first,
-                               pop.second, m.levelsOrNull(), tf);
-}
-AnyKernel makeIqr(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
-                  const ModelFamily&) {
-    return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, nullptr, tf);
-}
-AnyKernel makeQuantileMean(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions& o,
-                           const ModelFamily& f) {
-    return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount, m.levelsOrNull(),
-                              f.kind == ModelKind::QuantileMean, kQuantileZeroWidth * span(m, o),
-                              tf);
-}
-AnyKernel makeMembers(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
-                      const ModelFamily&) {
-    return MembersKernel(m.grid, m.members.data(), m.memberCount, tf);
-}
-
-// 2D kernels (SPEC §9).
-AnyKernel2D makeMean2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions&,
-                       const ModelFamily&) {
-    return Mean2DKernel(
-        m.grid, s.gradients.of(m.grid, m.mean.data(), 1, 0, 1, GradientLayout::ValueRows).data(),
-        s.exact, s.fast);
-}
-AnyKernel2D makeGaussian2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions&,
-                           const ModelFamily& f) {
-    return Gaussian2DKernel(m.grid, m.mean.data(), m.stddev.data(), s.exact, s.fast,
-                            s.meanGradientPlanes(),
-                            f.kind == ModelKind::GaussianExact ? nullptr : s.blurTables());
-}
-AnyKernel2D makeUniform2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
-                          const ModelFamily& f) {
-    return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
-                           o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                           f.kind == ModelKind::UniformExact, kUniformTinyWidth * span(m, o),
-                           s.exact, s.fast, s.meanGradientPlanes());
-}
-// Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
-AnyKernel2D quantile2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o, const float* data,
-                       int stride, int lo, int hi, const double* levels, bool quantileMean,
-                       bool density) {
-    if (hi - lo + 1 > kMaxBoundaries2D)
-        UDVR_FAIL("2D transfer functions handle at most "
-                  << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
-    const float* gradients =
-        s.gradients
-            .of(m.grid, data, stride, lo, hi - lo + 1, GradientLayout::VoxelRows, m.mean.data())
-            .data();
-    return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, levels, quantileMean, density,
-                            kQuantileZeroWidth * span(m, o), s.exact, s.fast);
-}
-AnyKernel2D makeQuantileRange2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
-                                const ModelFamily& f) {
-    const auto pop = quantilePopulation(f.kind, m, o);
-    return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, pop.first, pop.second,
-                      m.levelsOrNull(), false, false);
-}
-AnyKernel2D makeIqr2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
-                      const ModelFamily&) {
-    return quantile2D(m, s, o, m.iqr.data(), 2, 0, 1, nullptr, false, false);
-}
-AnyKernel2D makeQuantileMean2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o,
-                               const ModelFamily& f) {
-    return quantile2D(m, s, o, m.quantiles.data(), m.quantileCount + 1, 0, m.quantileCount,
-                      m.levelsOrNull(), true, f.kind == ModelKind::QuantileMean);
-}
-
-// kind, name, arrays, floats per voxel, population, label shows q, realizations, kernel,
-// 2D kernel, frame cost (ns per pixel × step: 1D, 2D, bivariate; eval/experiment_plan.cpp).
-using K = ModelKind;
-// clang-format off
-constexpr std::array<ModelFamily, 16> kFamilies{{
-    {K::Mean, "mean", meanArrays, one, {0, 0}, false, false, makeMean, makeMean2D, {8.9, 15.0, 11.9}},
-    {K::Uniform, "uniform", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D, {150.0, 5000.0, 1160.0}},
-    {K::Gaussian, "gaussian", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D, {39.0, 200.0, 1210.0}},
-    {K::GmmOrdered, "gmm-ordered", gmmArrays, perComponent, {0, 0}, false, false, makeGmmOrdered, nullptr, {82.0, 0, 0}},
-    {K::GmmMc, "gmm-mc", gmmArrays, perComponent, {0, 0}, false, true, nullptr, nullptr, {7.95, 0, 0}},
-    {K::QuantileRange, "quantile-range", quantileArrays, perBoundary, {0, 1}, true, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
-    {K::QuantileMean, "quantile-mean", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D, {13.0, 20.0, 161.0}},
-    {K::QuantileMeanMass, "quantile-mean-mass", quantileArrays, perBoundary, {0, 0}, true, false, makeQuantileMean, makeQuantileMean2D, {13.0, 20.0, 161.0}},
-    {K::Iqr, "iqr", iqrArrays, two, {0, 0}, false, false, makeIqr, makeIqr2D, {9.3, 16.0, 0}},
-    {K::QuartileLower, "quartile-lower", quantileArrays, perBoundary, {0, .25}, false, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
-    {K::QuartileMiddle, "quartile-middle", quantileArrays, perBoundary, {.25, .75}, false, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
-    {K::QuartileUpper, "quartile-upper", quantileArrays, perBoundary, {.75, 1}, false, false, makeQuantileRange, makeQuantileRange2D, {18.8, 89.0, 263.0}},
-    {K::Members, "members", memberArrays, perMember, {0, 0}, false, false, makeMembers, nullptr, {2.65, 0, 0}},
-    {K::UniformFast, "uniform-fast", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D, {150.0, 5000.0, 1160.0}},
-    {K::UniformExact, "uniform-exact", uniformArrays, two, {0, 0}, false, false, makeUniform, makeUniform2D, {925.0, 5000.0, 1160.0}},
-    {K::GaussianExact, "gaussian-exact", momentArrays, two, {0, 0}, false, false, makeGaussian, makeGaussian2D, {39.0, 6690.0, 1210.0}},
-}};
-// clang-format on
+// The rows of model_rows.h with their kernels' factories, in row order.
+constexpr ModelFamily kFamilies[] = {
+#define UDVR_MODEL_FAMILY(Enumerator, Kernel1D, Kernel2D, KernelBivariate, ...) \
+    ModelFamily{modelRow(ModelKind::Enumerator), factory<Kernel1D>(Make1D{}),   \
+                factory<Kernel2D>(Make2D{}), factory<KernelBivariate>(MakeBivariate{})},
+    UDVR_MODEL_ROWS(UDVR_MODEL_FAMILY)
+#undef UDVR_MODEL_FAMILY
+};
+static_assert(std::size(kFamilies) == kModelCount);
+static_assert([] {
+    for (std::size_t i = 0; i < kModelCount; ++i)
+        if (static_cast<std::size_t>(kFamilies[i].kind) != i) return false;
+    return true;
+}());
 
 // An array of SPEC §7: its bit, name, values per voxel and how to rebuild a model that lacks it.
 struct ArrayInfo {
@@ -355,9 +245,9 @@ const TransferFunction1D& reconstructionOnlyTf() {
 std::span<const ModelFamily> modelFamilies() { return kFamilies; }
 
 const ModelFamily& modelFamily(ModelKind kind) {
-    for (const ModelFamily& f : kFamilies)
-        if (f.kind == kind) return f;
-    UDVR_FAIL("unknown model kind " << static_cast<int>(kind));
+    const auto i = static_cast<std::size_t>(kind);
+    if (i >= kModelCount) UDVR_FAIL("unknown model kind " << static_cast<int>(kind));
+    return kFamilies[i];
 }
 
 const ModelFamily& familyWithKernel(const ModelView& model, ModelKind kind,
@@ -399,7 +289,7 @@ void checkModelHasArrays(const ModelView& model, ModelKind kind, const ClassifyO
     const std::size_t n = model.voxelCount();
     if (n == 0) UDVR_FAIL("model has an empty grid");
     const ModelFamily& f = modelFamily(kind);
-    const unsigned need = f.arrays(options);
+    const unsigned need = f.arraysWith(options);
     for (const ArrayInfo& a : kArrays) {
         if (!(need & a.bit)) continue;
         const std::span<const float> v = model.*a.values;

@@ -1,10 +1,8 @@
 #pragma once
-// The model families of SPEC §3–4 in one table: the only place that says, per model, its CLI
-// name, the arrays of SPEC §7 it reads and their size, its memory per voxel, its quantile
-// population and how its kernel is made. Everything that differs by model (render, probe,
-// checks, the experiments' tables) reads the row; adding a model is its kernel (a reconstruction
-// and an expectation over T, classify/model_kernels.h), a probe description (probe.cpp) and a
-// row in model_families.cpp.
+// The model families of SPEC §3–4 in one table: the rows of model_rows.h (the one list of
+// models: name, help, arrays, population, …; model_kind.h) with the factories of the kernels
+// they name. Everything that differs by model (render, probe, checks, help and error texts, the
+// experiments' tables) reads the row; model_rows.h says what adding a model takes.
 #include <array>
 #include <memory>
 #include <span>
@@ -12,8 +10,7 @@
 #include <utility>
 #include <variant>
 
-#include "udvr/classify/model_kernels.h"
-#include "udvr/classify/model_kernels_2d.h"
+#include "udvr/classify/any_kernel.h"
 #include "udvr/classify/model_kernels_bivariate.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/transfer_function_2d.h"
@@ -21,21 +18,6 @@
 #include "udvr/stats/model_view.h"
 
 namespace udvr {
-
-/// The per-voxel arrays of SPEC §7.
-enum ModelArray : unsigned {
-    kArrayMean = 1u << 0,
-    kArrayStddev = 1u << 1,
-    kArrayMin = 1u << 2,
-    kArrayMax = 1u << 3,
-    kArrayQuantiles = 1u << 4,  // q + 1 per voxel
-    kArrayIqr = 1u << 5,        // 2 per voxel
-    kArrayGmm = 1u << 6,        // 3K per voxel
-    kArrayMembers = 1u << 7,    // n per voxel: the ensemble itself (membersModel), not a file's
-};
-
-/// Any model's kernel with a 2D TF (SPEC §9).
-using AnyKernel2D = std::variant<Mean2DKernel, Gaussian2DKernel, Uniform2DKernel, Quantile2DKernel>;
 
 /// Largest deviation from linear (per channel, α and colour in [0, 1]) that the float raster's
 /// cell runs allow (TransferFunction2D::linearCellRuns): segment means over runs then differ
@@ -96,20 +78,16 @@ struct Tf2Setup : Tf2Rasters {
     std::shared_ptr<const Tf2BlurTables> blurTables_;
 };
 
-struct ModelFamily {
-    ModelKind kind;
-    std::string_view name;  // the CLI name (SPEC §3–4)
-    /// Arrays the classification reads (for the options given).
-    unsigned (*arrays)(const ClassifyOptions& options);
-    /// Floats stored per voxel for the model, relative to the mean field's one (n members).
-    double (*floatsPerVoxel)(int quantiles, int gmmComponents, int members);
-    /// For the quantile-range family: the covered rank interval [lo, hi] of [0, 1] (SPEC §4
-    /// quartile views); {0, 0} for other models.
-    std::pair<double, double> population;
-    /// Its label names q (models that read q + 1 boundaries of the `quantiles` array).
-    bool labelShowsQ;
-    /// gmm-mc: rendered as the screen-space average of mean-field realizations; no kernel.
-    bool realizations;
+#define UDVR_MODEL_KERNEL_BIVARIATE(Enumerator, Kernel1D, Kernel2D, KernelBivariate, ...) \
+    , KernelBivariate
+/// A bivariate field's kernel with a 2D TF (SPEC §9): x from `first`, y from `second`.
+using AnyBivariateKernel = typename detail::KernelVariant<std::variant<> UDVR_MODEL_ROWS(
+    UDVR_MODEL_KERNEL_BIVARIATE)>::type;
+#undef UDVR_MODEL_KERNEL_BIVARIATE
+
+/// A row of the model table (model_rows.h): its data (ModelRow) and the factories of the
+/// kernels it names, null for a TF kind the model has no kernel for.
+struct ModelFamily : ModelRow {
     /// The kernel over `model` with the TF pieces `tf` (both outlive it). Null for gmm-mc.
     AnyKernel (*makeKernel)(const ModelView& model, const TfPiecesStorage& tf,
                             const ClassifyOptions& options, const ModelFamily& family);
@@ -117,11 +95,17 @@ struct ModelFamily {
     /// `setup` (which outlives it). Null where SPEC §9 gives the model no 2D classification.
     AnyKernel2D (*makeKernel2D)(const ModelView& model, Tf2Setup& setup,
                                 const ClassifyOptions& options, const ModelFamily& family);
-    /// A frame's cost at the reference speed, ns per pixel × ray step, with a 1D TF, a 2D TF and
-    /// bivariate fields (members: per member; gmm-mc: per realization, besides drawing it):
-    /// what the experiments' estimate before they start scales (eval/experiment_plan.cpp says
-    /// how they were measured). 0: not measured (the plan's default for the TF kind).
-    std::array<double, 3> nsPerStep;
+    /// The kernel for bivariate fields (SPEC §9 `--second`): x from `first`, y from `second`,
+    /// with the TF2's views `rasters` and `none` (reconstructionOnlyTf's pieces, for the 1D
+    /// kernels), which outlive it. Null where the model has none (gmm-mc).
+    AnyBivariateKernel (*makeBivariate)(const ModelView& first, const ModelView& second,
+                                        const Tf2Rasters& rasters, const TfPiecesStorage& none,
+                                        const ClassifyOptions& options, const ModelFamily& family);
+
+    /// Arrays the classification reads (for the options given).
+    unsigned arraysWith(const ClassifyOptions& options) const {
+        return arraysFor(options.uniformMinMax);
+    }
 };
 
 /// Every model family, in the order of SPEC §3–4.
@@ -165,9 +149,6 @@ void withKernel2D(const ModelView& model, ModelKind kind, const TransferFunction
     std::visit(f, family.makeKernel2D(model, setup, options, family));
 }
 
-/// A bivariate field's kernel with a 2D TF (SPEC §9): x from `first`, y from `second`.
-using AnyBivariateKernel = std::variant<BivariateMean2DKernel, Bivariate2DKernel>;
-
 /// Throws UdvrError unless the two models share one grid (dimensions, origin and spacing).
 void checkSameGrid(const ModelView& first, const ModelView& second);
 
@@ -184,16 +165,11 @@ void withKernelBivariate(const ModelView& first, const ModelView& second, ModelK
     checkSameGrid(first, second);
     const ModelFamily& family = familyWithKernel(first, kind, options, "bivariate classification");
     checkModelHasArrays(second, kind, options);
+    if (!family.makeBivariate)
+        UDVR_FAIL("model '" << family.name << "' has no bivariate classification yet");
     const Tf2Rasters rasters(tf);
-    if (kind == ModelKind::Mean) {
-        f(BivariateMean2DKernel(first.grid, first.mean.data(), second.mean.data(), rasters.exact,
-                                rasters.fast));
-        return;
-    }
     const TfPiecesStorage none(reconstructionOnlyTf());
-    f(Bivariate2DKernel(first.grid, rasters.exact, rasters.rowCells.data(), rasters.firstRow,
-                        rasters.lastRow, family.makeKernel(first, none, options, family),
-                        family.makeKernel(second, none, options, family)));
+    std::visit(f, family.makeBivariate(first, second, rasters, none, options, family));
 }
 
 /// withKernel with default options.

@@ -26,7 +26,11 @@
 //       probe, the references and the bivariate moments describe() it (distributionAt,
 //       point_distribution.h);
 //   static constexpr bool kLoadDeadLanes;   whether the ray loop loads lanes in empty cells too
-//       (cheap loads need not wait for the emptiness test).
+//       (cheap loads need not wait for the emptiness test);
+//   static K make(const ModelView&, const TfPiecesStorage&, const ClassifyOptions&,
+//                 const ModelRow&);
+//       the kernel over a model for a row of the model table (model_rows.h names K in its rows;
+//       what differs between rows that share K is read from the row's fields, not its kind).
 // Kernels are plain structs of sizes and pointers into storage that outlives them (a
 // ModelVolume and the TfPiecesStorage owned by withKernel).
 #include <cmath>
@@ -62,6 +66,38 @@ inline constexpr double kUniformPointWidth = 1e-6;
 inline constexpr float kMaxFloatTotalOverPiece = 256.f;
 /// Quantile widths ≤ this × data range are zero widths for quantile-mean (SPEC §4).
 inline constexpr double kQuantileZeroWidth = 1e-12;
+
+/// Options that change classification but are not part of the model file.
+struct ClassifyOptions {
+    int quartileDivisor = 4;     // quartile views need q divisible by this
+    bool uniformMinMax = false;  // `--uniform-width minmax`: U[min, max] instead of μ ± √3σ
+    /// The data range's width that scales zero-width thresholds (SPEC §4); 0: the model's own
+    /// (modelDataRange). A probe of a cut-out neighbourhood passes the whole model's.
+    double dataSpan = 0.0;
+};
+
+/// The model's data range (SPEC §4): [min b_0, max b_q] with quantiles, else [min of `min`,
+/// max of `max`], else the range of `mean`. Used to scale zero-width thresholds.
+std::pair<double, double> modelDataRange(const ModelView& model);
+
+/// Throws UdvrError unless `model` has the arrays `kind` needs (sizes checked too).
+void checkModelHasArrays(const ModelView& model, ModelKind kind,
+                         const ClassifyOptions& options = {});
+
+/// The quantile population [j0, j1] (boundary indices) of a quantile-range-family kind over the
+/// model's q quantiles: quantile-range (0, q); the quartile views the boundaries at levels
+/// (0, .25), (.25, .75), (.75, 1) — (0, q/4), (q/4, 3q/4), (3q/4, q) for even levels, which
+/// need q divisible by options.quartileDivisor. Throws UdvrError where a level has no boundary.
+std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,
+                                       const ClassifyOptions& options = {});
+
+/// The data range's width that scales a model's zero-width thresholds (SPEC §4):
+/// options.dataSpan where set, else the model's own (modelDataRange).
+inline double dataSpan(const ModelView& model, const ClassifyOptions& options) {
+    if (options.dataSpan > 0.0) return options.dataSpan;
+    const auto range = modelDataRange(model);
+    return range.second - range.first;
+}
 
 /// A classified sample: (E[α·r], E[α·g], E[α·b], E[α]).
 template <class T>
@@ -262,6 +298,11 @@ struct MeanKernel : KernelBase {
 
     MeanKernel(const Grid3& grid, const float* v, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), values(v) {}
+    /// The kernel over `model` for a row of the model table (model_rows.h).
+    static MeanKernel make(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                           const ModelRow&) {
+        return MeanKernel(m.grid, m.mean.data(), tf);
+    }
     template <class T>
     using Loaded = T;
     static constexpr bool kLoadDeadLanes = true;
@@ -335,6 +376,14 @@ struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {
           exact(exactIn),
           pointWidth(point),
           maxFloatTotal(kMaxFloatTotalOverPiece * tf.fast().narrowestPiece) {}
+    /// The kernel over `model` for a row of the model table (model_rows.h).
+    static UniformKernel make(const ModelView& m, const TfPiecesStorage& tf,
+                              const ClassifyOptions& o, const ModelRow& row) {
+        const double s = dataSpan(m, o);
+        return UniformKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
+                             o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
+                             kUniformTinyWidth * s, tf, row.exactForm, kUniformPointWidth * s);
+    }
     /// Its distribution at a cell: the box spline of the 8 corners' intervals (SPEC §3
     /// uniform), loaded by x-edges; `uniform-fast` takes the fast form's expectation over it.
     template <class T, class Use>
@@ -402,6 +451,11 @@ struct GaussianKernel : KernelBase, detail::ClassifyInLoad {
 
     GaussianKernel(const Grid3& grid, const float* m, const float* s, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), mean(m), stddev(s) {}
+    /// The kernel over `model` for a row of the model table (model_rows.h).
+    static GaussianKernel make(const ModelView& m, const TfPiecesStorage& tf,
+                               const ClassifyOptions&, const ModelRow&) {
+        return GaussianKernel(m.grid, m.mean.data(), m.stddev.data(), tf);
+    }
     /// Its distribution at a cell: N(μ, σ²) (reconstruct/gaussian_interp.h), a point where σ = 0.
     template <class T, class Use>
     UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
@@ -438,6 +492,11 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
 
     GmmOrderedKernel(const Grid3& grid, const float* g, int k, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), gmm(g), components(k) {}
+    /// The kernel over `model` for a row of the model table (model_rows.h).
+    static GmmOrderedKernel make(const ModelView& m, const TfPiecesStorage& tf,
+                                 const ClassifyOptions&, const ModelRow&) {
+        return GmmOrderedKernel(m.grid, m.gmm.data(), m.gmmComponents, tf);
+    }
     /// Its distribution at a cell: the mixture of π_k (normalised), μ_k, σ_k
     /// (reconstruct/gmm_ordered.h); no mass where every weight is 0.
     template <class T, class Use>
@@ -489,6 +548,16 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
     QuantileRangeKernel(const Grid3& grid, const float* b, int s, int lo, int hi,
                         const double* levelsIn, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), boundaries(b), stride(s), j0(lo), j1(hi), levels{levelsIn, lo} {}
+    /// The kernel over `model` for a row of the model table (model_rows.h).
+    static QuantileRangeKernel make(const ModelView& m, const TfPiecesStorage& tf,
+                                    const ClassifyOptions& o, const ModelRow& row) {
+        // The iqr array's two boundaries, or the row's population of the quantiles.
+        if (row.arrays & kArrayIqr)
+            return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, nullptr, tf);
+        const auto pop = quantilePopulation(row.kind, m, o);
+        return QuantileRangeKernel(m.grid, m.quantiles.data(), m.quantileCount + 1, pop.first,
+                                   pop.second, m.levelsOrNull(), tf);
+    }
     /// Its distribution at a cell (Eq. 2 and 4): the rank population j0 … j1, each quantile
     /// uniform between its boundaries with its share of the population's mass.
     template <class T, class Use>
@@ -531,6 +600,13 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
           levels{levelsIn, 0},
           densityWeights(density),
           zeroWidth(zero) {}
+    /// The kernel over `model` for a row of the model table (model_rows.h).
+    static QuantileMeanKernel make(const ModelView& m, const TfPiecesStorage& tf,
+                                   const ClassifyOptions& o, const ModelRow& row) {
+        return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount, m.levelsOrNull(),
+                                  row.quantileMeanWeights == QuantileMeanWeights::Density,
+                                  kQuantileZeroWidth * dataSpan(m, o), tf);
+    }
     /// Its distribution at a cell (Eq. 5): a point mass at each quantile's midpoint with
     /// quantileMeanWeight's share, every one of the q (mass 0 included), in order.
     template <class T, class Use>
@@ -567,6 +643,11 @@ struct MembersKernel : KernelBase, detail::ClassifyInLoad {
 
     MembersKernel(const Grid3& grid, const float* m, int count, const TfPiecesStorage& tf)
         : KernelBase(grid, tf), members(m), n(count) {}
+    /// The kernel over `model` for a row of the model table (model_rows.h).
+    static MembersKernel make(const ModelView& m, const TfPiecesStorage& tf, const ClassifyOptions&,
+                              const ModelRow&) {
+        return MembersKernel(m.grid, m.members.data(), m.memberCount, tf);
+    }
     /// Its distribution at a cell: a point mass 1/n at each member, interpolated as the mean
     /// field is (Σ_c w_c f_{i,c} by lerps); on lanes blocks of members as the batch's transposed
     /// rows (contiguous per voxel).
@@ -602,33 +683,5 @@ struct MembersKernel : KernelBase, detail::ClassifyInLoad {
     }
     void prefetch(int v) const { prefetchRows(members, v, n); }
 };
-
-/// Any model's kernel.
-using AnyKernel = std::variant<MeanKernel, UniformKernel, GaussianKernel, GmmOrderedKernel,
-                               QuantileRangeKernel, QuantileMeanKernel, MembersKernel>;
-
-/// Options that change classification but are not part of the model file.
-struct ClassifyOptions {
-    int quartileDivisor = 4;     // quartile views need q divisible by this
-    bool uniformMinMax = false;  // `--uniform-width minmax`: U[min, max] instead of μ ± √3σ
-    /// The data range's width that scales zero-width thresholds (SPEC §4); 0: the model's own
-    /// (modelDataRange). A probe of a cut-out neighbourhood passes the whole model's.
-    double dataSpan = 0.0;
-};
-
-/// The model's data range (SPEC §4): [min b_0, max b_q] with quantiles, else [min of `min`,
-/// max of `max`], else the range of `mean`. Used to scale zero-width thresholds.
-std::pair<double, double> modelDataRange(const ModelView& model);
-
-/// Throws UdvrError unless `model` has the arrays `kind` needs (sizes checked too).
-void checkModelHasArrays(const ModelView& model, ModelKind kind,
-                         const ClassifyOptions& options = {});
-
-/// The quantile population [j0, j1] (boundary indices) of a quantile-range-family kind over the
-/// model's q quantiles: quantile-range (0, q); the quartile views the boundaries at levels
-/// (0, .25), (.25, .75), (.75, 1) — (0, q/4), (q/4, 3q/4), (3q/4, q) for even levels, which
-/// need q divisible by options.quartileDivisor. Throws UdvrError where a level has no boundary.
-std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,
-                                       const ClassifyOptions& options = {});
 
 }  // namespace udvr

@@ -11,6 +11,7 @@
 // models blend, per boundary j, the grid gradients of the field of every voxel's boundary j
 // (the rank coupling: all voxels at the same rank).
 #include <cmath>
+#include <tuple>
 
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2.h"
@@ -20,7 +21,9 @@
 #include "udvr/classify/model_kernels.h"
 #include "udvr/reconstruct/cell.h"
 #include "udvr/reconstruct/gradient.h"
+#include "udvr/reconstruct/gradient_field.h"
 #include "udvr/reconstruct/quantile_interp.h"
+#include "udvr/util/check.h"
 
 namespace udvr {
 
@@ -106,6 +109,16 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     Mean2DKernel(const Grid3& grid, const float* valueRows, const Tf2Raster<double>& exact,
                  const Tf2Raster<float>& fast)
         : Kernel2DBase(grid, exact, fast, {valueRows + 1, 4, 1}), rows(valueRows) {}
+    /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
+    /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
+    template <class Setup>
+    static Mean2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions&,
+                             const ModelRow&) {
+        return Mean2DKernel(
+            m.grid,
+            s.gradients.of(m.grid, m.mean.data(), 1, 0, 1, GradientLayout::ValueRows).data(),
+            s.exact, s.fast);
+    }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
@@ -155,6 +168,14 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
           stddev(s),
           gradientGeometry(grid),
           tables(blur) {}
+    /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
+    /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
+    template <class Setup>
+    static Gaussian2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions&,
+                                 const ModelRow& row) {
+        return Gaussian2DKernel(m.grid, m.mean.data(), m.stddev.data(), s.exact, s.fast,
+                                s.meanGradientPlanes(), row.exactForm ? nullptr : s.blurTables());
+    }
     /// (μ_X, μ_G, var X, cov(X, G), var G) at a scalar cell.
     UDVR_CPU_GPU void momentsAt(const Cell<double>& c, double m[5]) const {
         double n[3];
@@ -222,6 +243,16 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
           exact(ex),
           tinyWidth(tiny),
           gradientGeometry(grid) {}
+    /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
+    /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
+    template <class Setup>
+    static Uniform2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions& o,
+                                const ModelRow& row) {
+        return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
+                               o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
+                               row.exactForm, kUniformTinyWidth * dataSpan(m, o), s.exact, s.fast,
+                               s.meanGradientPlanes());
+    }
     /// The centre (X, G at t = 0) and the directions at a scalar cell; returns their count.
     UDVR_CPU_GPU int directionsAt(const Cell<double>& c, double& cx, double& cy,
                                   BoxDirection2 d[32]) const {
@@ -294,6 +325,36 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
           quantileMean(qm),
           densityWeights(density),
           zeroWidth(zero) {}
+    /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
+    /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
+    /// The iqr array's two boundaries, the row's population of the quantiles (Eq. 4), or all
+    /// of them at their midpoints (Eq. 5, the quantile-mean rows).
+    template <class Setup>
+    static Quantile2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions& o,
+                                 const ModelRow& row) {
+        const float* data = m.quantiles.data();
+        int stride = m.quantileCount + 1, lo = 0, hi = m.quantileCount;
+        const double* levels = m.levelsOrNull();
+        const bool quantileMean = row.quantileMeanWeights != QuantileMeanWeights::None;
+        if (row.arrays & kArrayIqr) {
+            data = m.iqr.data();
+            stride = 2;
+            hi = 1;
+            levels = nullptr;
+        } else if (!quantileMean) {
+            std::tie(lo, hi) = quantilePopulation(row.kind, m, o);
+        }
+        if (hi - lo + 1 > kMaxBoundaries2D)
+            UDVR_FAIL("2D transfer functions handle at most "
+                      << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);
+        const float* gradients =
+            s.gradients
+                .of(m.grid, data, stride, lo, hi - lo + 1, GradientLayout::VoxelRows, m.mean.data())
+                .data();
+        return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, levels, quantileMean,
+                                row.quantileMeanWeights == QuantileMeanWeights::Density,
+                                kQuantileZeroWidth * dataSpan(m, o), s.exact, s.fast);
+    }
 
     /// The polyline's vertices X[0 … count−1], G[…] at a cell, X_j = boundary(j); returns count.
     /// The gradients (the mean's, for n̂, and the boundaries') are blended from one VoxelRows

@@ -10,9 +10,9 @@
 // value). The same interface as the 1D kernels, so the same ray loop and probe serve them.
 #include <variant>
 
+#include "udvr/classify/any_kernel.h"
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_bivariate.h"
-#include "udvr/classify/model_kernels.h"
 #include "udvr/classify/point_distribution.h"
 #include "udvr/reconstruct/quantile_interp.h"
 
@@ -28,6 +28,16 @@ struct BivariateMean2DKernel : GridKernel, detail::ClassifyInLoad {
     BivariateMean2DKernel(const Grid3& grid, const float* a, const float* b,
                           const Tf2Raster<double>& exact, const Tf2Raster<float>& fast)
         : GridKernel(grid), tfExact(exact), tfFast(fast), first(a), second(b) {}
+    /// The kernel over the fields `first` (x) and `second` (y) for a row of the model table
+    /// (model_rows.h): `rasters` (Tf2Rasters, model_families.h) holds the TF2's views, `none` a
+    /// TF of α = 0 for the 1D kernels, `family` the row's 1D factory; all outlive it.
+    template <class Rasters, class Family>
+    static BivariateMean2DKernel make(const ModelView& first, const ModelView& second,
+                                      const Rasters& rasters, const TfPiecesStorage&,
+                                      const ClassifyOptions&, const Family&) {
+        return BivariateMean2DKernel(first.grid, first.mean.data(), second.mean.data(),
+                                     rasters.exact, rasters.fast);
+    }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
@@ -68,6 +78,18 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
           lastRow(rowHi),
           first(std::move(a)),
           second(std::move(b)) {}
+    /// The kernel over the fields `first` (x) and `second` (y) for a row of the model table
+    /// (model_rows.h): `rasters` (Tf2Rasters, model_families.h) holds the TF2's views, `none` a
+    /// TF of α = 0 for the 1D kernels, `family` the row's 1D factory; all outlive it.
+    template <class Rasters, class Family>
+    static Bivariate2DKernel make(const ModelView& first, const ModelView& second,
+                                  const Rasters& rasters, const TfPiecesStorage& none,
+                                  const ClassifyOptions& options, const Family& family) {
+        return Bivariate2DKernel(first.grid, rasters.exact, rasters.rowCells.data(),
+                                 rasters.firstRow, rasters.lastRow,
+                                 family.makeKernel(first, none, options, family),
+                                 family.makeKernel(second, none, options, family));
+    }
     /// E[(α·r, α·g, α·b, α)] at a cell. Moments only where they can meet α > 0: y over the rows
     /// of cells with α > 0, then x over the cells with α > 0 in the rows y reaches.
     void classifyAt(const Cell<double>& c, double out[4]) const {

@@ -5,57 +5,70 @@
 #include "udvr/util/text_parse.h"
 
 namespace udvr {
+namespace {
 
-ModelKind parseModelKind(std::string_view name) {
-    for (const ModelFamily& f : modelFamilies())
-        if (f.name == name) return f.kind;
-    std::vector<std::string> names;
-    for (const ModelFamily& f : modelFamilies()) names.emplace_back(f.name);
-    UDVR_FAIL("unknown model '" << clipForMessage(name) << "'" << didYouMean(name, names)
-                                << "; expected one of: " << modelNames());
-}
-
-std::string modelNames(bool twoD) {
+// The names of the rows that `has` (in table order, "mean, uniform, …").
+template <class Has>
+std::string namesWhere(const Has& has) {
     std::string all;
     for (const ModelFamily& f : modelFamilies()) {
-        if (twoD && !f.makeKernel2D) continue;
+        if (!has(f)) continue;
         if (!all.empty()) all += ", ";
         all += f.name;
     }
     return all;
 }
 
-std::string_view modelName(ModelKind kind) { return modelFamily(kind).name; }
+}  // namespace
+
+ModelKind parseModelKind(std::string_view name) {
+    for (const ModelRow& r : kModelRows)
+        if (r.name == name) return r.kind;
+    std::vector<std::string> names;
+    for (const ModelRow& r : kModelRows) names.emplace_back(r.name);
+    UDVR_FAIL("unknown model '" << clipForMessage(name) << "'" << didYouMean(name, names)
+                                << "; expected one of: " << modelNames());
+}
+
+std::string modelNames(bool twoD) {
+    return namesWhere([&](const ModelFamily& f) { return !twoD || f.makeKernel2D; });
+}
+
+std::string modelHelp() {
+    // " | " between models: their help phrases hold commas and semicolons.
+    std::string help;
+    for (const ModelRow& r : kModelRows)
+        help += std::string(r.name) + ": " + std::string(r.help) + " | ";
+    return help + "with --tf2: " +
+           namesWhere([](const ModelFamily& f) { return f.makeKernel2D != nullptr; }) +
+           " | with --second: " +
+           namesWhere([](const ModelFamily& f) { return f.makeBivariate != nullptr; });
+}
+
+std::string_view modelName(ModelKind kind) { return modelRow(kind).name; }
 
 const std::vector<ModelKind>& allModelKinds() {
     static const std::vector<ModelKind> all = [] {
         std::vector<ModelKind> v;
-        for (const ModelFamily& f : modelFamilies()) v.push_back(f.kind);
+        for (const ModelRow& r : kModelRows) v.push_back(r.kind);
         return v;
     }();
     return all;
 }
 
-bool needsQuantiles(ModelKind kind) {
-    return (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayQuantiles) != 0;
-}
+bool needsQuantiles(ModelKind kind) { return (modelRow(kind).arrays & kArrayQuantiles) != 0; }
 
-bool readsGmm(ModelKind kind) {
-    return (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayGmm) != 0;
-}
+bool readsGmm(ModelKind kind) { return (modelRow(kind).arrays & kArrayGmm) != 0; }
 
-bool readsMembers(ModelKind kind) {
-    return (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayMembers) != 0;
-}
+bool readsMembers(ModelKind kind) { return (modelRow(kind).arrays & kArrayMembers) != 0; }
 
-bool rendersRealizations(ModelKind kind) { return modelFamily(kind).realizations; }
+bool rendersRealizations(ModelKind kind) { return modelRow(kind).realizations; }
 
 ModelKind kernelStandIn(ModelKind kind) {
     const ModelFamily& f = modelFamily(kind);
     if (f.makeKernel) return kind;
     for (const ModelFamily& other : modelFamilies())
-        if (other.makeKernel && other.arrays(ClassifyOptions{}) == f.arrays(ClassifyOptions{}))
-            return other.kind;
+        if (other.makeKernel && other.arrays == f.arrays) return other.kind;
     UDVR_FAIL("model '" << f.name
                         << "' has no per-sample kernel, nor a model that reads its arrays");
 }

@@ -41,11 +41,7 @@ void addProbeCommand(CLI::App& app) {
                     "index coordinates i,j,k on the input's own grid (a downsampled model's "
                     "reduced grid)");
     sub->add_option("--world", o->world, "world coordinates x,y,z instead of --point");
-    sub->add_option("--model", o->kind,
-                    "noise model (default mean): " + modelNames() +
-                        " (uniform, and gaussian with --tf2: the fast forms, within 1e-3 of "
-                        "uniform-exact, gaussian-exact; uniform-fast: an alias of uniform; gmm-mc "
-                        "renders only: it has no distribution at a point)");
+    sub->add_option("--model", o->kind, "noise model (default mean): " + modelHelp());
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
     sub->add_option("--second", o->second,

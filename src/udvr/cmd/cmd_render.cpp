@@ -253,12 +253,7 @@ void addRenderCommand(CLI::App& app) {
            "model .vti or .pvti from 'udvr build', or any scalar field; with --model members an "
            "ensemble (.nc with a member dimension, member files or a quoted glob)")
         ->required();
-    sub->add_option("--model", o->model,
-                    "noise model (default mean): " + modelNames() +
-                        " (uniform, and gaussian with --tf2: the fast forms, within 1e-3 of "
-                        "uniform-exact, gaussian-exact; uniform-fast: an alias of uniform; "
-                        "members: an ensemble's TF averaged over its members; with --tf2: " +
-                        modelNames(true) + ")");
+    sub->add_option("--model", o->model, "noise model (default mean): " + modelHelp());
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
     sub->add_option("--second", o->second,

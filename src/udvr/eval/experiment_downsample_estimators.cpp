@@ -36,9 +36,16 @@ const std::vector<Estimator>& estimators() {
     return e;
 }
 
-/// The models whose image depends on the estimator (they read the boundaries).
-constexpr ModelKind kQuantileModels[] = {ModelKind::QuantileRange, ModelKind::QuantileMean,
-                                         ModelKind::Iqr};
+/// The models whose image depends on the estimator (they read the boundaries), with their
+/// caption in the panel (null: in the table only).
+struct EstimatorModel {
+    ModelKind kind;
+    const char* caption;
+};
+constexpr EstimatorModel kQuantileModels[] = {
+    {ModelKind::QuantileRange, "QR"}, {ModelKind::QuantileMean, "QM"}, {ModelKind::Iqr, nullptr}};
+/// The panel's columns after the truth: each estimator under these captions, in this order.
+constexpr const char* kPanelCaptions[] = {"QM", "QR"};
 /// The estimator-free models, rendered once per volume for reference (gmm-mc, 200
 /// realizations, is in `spheres` and `chest`; `uniform` is the fast box spline, within 5e−4 of
 /// `uniform-exact`).
@@ -156,9 +163,10 @@ ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOp
         run.items().back().caption[0] = vol.name + ": ground truth";
 
         const int samples = kBrick * kBrick * kBrick;
-        std::map<std::string, std::size_t> qmItem, qrItem;  // estimator → index in items()
+        // caption → estimator → index in items()
+        std::map<std::string, std::map<std::string, std::size_t>> panelItem;
         for (const Estimator& est : estimators()) {
-            for (ModelKind k : kQuantileModels)
+            for (const auto& [k, caption] : kQuantileModels)
                 rmse[vol.name][std::string(modelName(k))][est.name] =
                     std::numeric_limits<double>::quiet_NaN();
             if (est.density == DensityEstimate::Dequantized && field.valueStep <= 0.0) continue;
@@ -185,16 +193,15 @@ ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOp
                         run.add(model, k, samples, " (" + vol.name + ")", false, false);
                     rmse[vol.name][row.model]["-"] = row.rmse;
                 }
-            for (ModelKind k : kQuantileModels) {
-                const bool panel = k != ModelKind::Iqr;
+            for (const EstimatorModel& m : kQuantileModels) {
+                const bool panel = m.caption != nullptr;
                 const ResultRow row = run.add(
-                    model, k, samples, " (" + vol.name + ", " + est.name + ")", panel, panel);
+                    model, m.kind, samples, " (" + vol.name + ", " + est.name + ")", panel, panel);
                 run.result().rows.back().density = est.name;
                 rmse[vol.name][row.model][est.name] = row.rmse;
                 if (!panel) continue;
-                (k == ModelKind::QuantileMean ? qmItem : qrItem)[est.name] = run.items().size() - 1;
-                run.items().back().caption[0] =
-                    std::string(k == ModelKind::QuantileMean ? "QM, " : "QR, ") + est.name;
+                panelItem[m.caption][est.name] = run.items().size() - 1;
+                run.items().back().caption[0] = std::string(m.caption) + ", " + est.name;
             }
         }
         // The field is no longer needed; free it before the next volume is loaded.
@@ -208,11 +215,13 @@ ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOp
         std::vector<PanelItem>& items = run.items();
         std::vector<PanelItem> row;
         row.push_back(std::move(items[firstItem]));
-        for (const auto* which : {&qmItem, &qrItem})
+        for (const char* caption : kPanelCaptions) {
+            const std::map<std::string, std::size_t>& which = panelItem[caption];
             for (const Estimator& est : estimators()) {
-                const auto it = which->find(est.name);
-                row.push_back(it == which->end() ? PanelItem{} : std::move(items[it->second]));
+                const auto it = which.find(est.name);
+                row.push_back(it == which.end() ? PanelItem{} : std::move(items[it->second]));
             }
+        }
         UDVR_CHECK(row.size() == columns);
         items.resize(firstItem);
         for (PanelItem& item : row) {
@@ -239,7 +248,7 @@ ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOp
     for (std::size_t i = 0; i < estimators().size(); ++i) section += "---:|";
     section += "\n";
     for (const std::string& v : measured)
-        for (ModelKind k : kQuantileModels) {
+        for (const auto& [k, caption] : kQuantileModels) {
             const auto& byEst = rmse[v][std::string(modelName(k))];
             section += "| " + v + " | " + std::string(modelName(k)) + " |";
             for (const Estimator& e : estimators()) {
@@ -273,7 +282,7 @@ ExperimentResult runDownsampleEstimators(const fs::path& dir, const ExperimentOp
         int count = 0;
         std::string where;
         for (const std::string& v : measured)
-            for (ModelKind k : kQuantileModels) {
+            for (const auto& [k, caption] : kQuantileModels) {
                 const auto& byEst = rmse[v][std::string(modelName(k))];
                 const double r = regret(byEst, integerInput[v] ? p.integer : p.floating);
                 sum += r;

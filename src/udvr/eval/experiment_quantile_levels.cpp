@@ -101,7 +101,9 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
         "Each dataset in its own default view (azimuth 30°, elevation 20°, framing its box); the "
         "camera and TF lines below are the last dataset's.");
 
-    const ModelKind kinds[] = {ModelKind::QuantileRange, ModelKind::QuantileMean};
+    // The models compared, with their short caption in the panel.
+    const std::pair<ModelKind, const char*> kinds[] = {{ModelKind::QuantileRange, "QR"},
+                                                       {ModelKind::QuantileMean, "QM"}};
     for (Dataset& d : datasets) {
         run.loadTf(d.tfFile);
         run.setView(d.truth.bounds);
@@ -131,18 +133,17 @@ ExperimentResult runQuantileLevels(const fs::path& dir, const ExperimentOptions&
             const ModelVolume model = d.build(bo);
             stage.reset();
             run.log("built " + d.name + " with " + ls.name + " levels");
-            for (ModelKind k : kinds) {
+            for (const auto& [k, caption] : kinds) {
                 const ResultRow row =
                     run.add(model, k, d.samples, " " + std::string(ls.name) + " (" + d.name + ")",
                             true, false);
                 rmse[std::string(modelName(k)) + " " + ls.name] = row.rmse;
                 // A short caption for the panel (the table keeps the full label).
-                run.items().back().caption[0] =
-                    std::string(k == ModelKind::QuantileRange ? "QR" : "QM") + ", " + ls.name;
+                run.items().back().caption[0] = std::string(caption) + ", " + ls.name;
             }
         }
         // Which level set wins, per model.
-        for (ModelKind k : kinds) {
+        for (const auto& [k, caption] : kinds) {
             const std::string kind(modelName(k));
             std::string best, detail;
             double bestRmse = std::numeric_limits<double>::infinity();

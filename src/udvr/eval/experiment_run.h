@@ -142,7 +142,7 @@ inline std::string densityName(DensityEstimate d) { return densityEstimateName(d
 
 /// Whether a model's classification reads the quantile boundaries (the IQR's come from them too).
 inline bool usesQuantiles(ModelKind kind) {
-    return (modelFamily(kind).arrays(ClassifyOptions{}) & (kArrayQuantiles | kArrayIqr)) != 0;
+    return (modelRow(kind).arrays & (kArrayQuantiles | kArrayIqr)) != 0;
 }
 
 /// A rendered image on its way into the panel.
@@ -348,8 +348,7 @@ class Run {
     ResultRow add(const ModelVolume& model, ModelKind kind, int memberCount,
                   const std::string& labelSuffix = "", bool inPanel = true, bool withDiff = true) {
         const int q = usesQuantiles(kind) ? model.quantileCount : 0;
-        const int k =
-            (modelFamily(kind).arrays(ClassifyOptions{}) & kArrayGmm) ? model.gmmComponents : 0;
+        const int k = (modelRow(kind).arrays & kArrayGmm) ? model.gmmComponents : 0;
         ResultRow row;
         row.experiment = result_.name;
         row.label = modelLabel(kind, q) + labelSuffix;
@@ -360,7 +359,7 @@ class Run {
         row.members = memberCount;
         ImageRgba img = render(model, kind, row.label, &row.renderMs);
         row.rmse = imageRmse(img, truth_);
-        if (kind == ModelKind::Members) members_ = img;
+        if (readsMembers(kind)) members_ = img;
         if (members_.width > 0) row.rmseMembers = imageRmse(img, members_);
         row.memoryRatio = memoryRatio(kind, q, k, memberCount);
         const std::string base = "images/" + slug(row.label);

@@ -262,7 +262,7 @@ ApiResponse Api::getState(const ApiRequest& request) {
         std::string reason;
         try {
             checkModelHasArrays(m, kind, ClassifyOptions{});
-            if (data_.tf2 && !family.makeKernel2D && !(data_.second && family.makeKernel))
+            if (data_.tf2 && !family.makeKernel2D && !(data_.second && family.makeBivariate))
                 reason = "no 2D transfer-function classification for this model";
         } catch (const UdvrError& e) {
             reason = e.what();
