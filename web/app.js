@@ -42,10 +42,9 @@ function cameraParams() {
           zoom: fmt.zoom(state.camera.zoom)};
 }
 
-function sizeText(coarse) {
+function sizeText() {
   const [w, h] = state.size;
-  return coarse ? `${Math.max(1, Math.round(w / COARSE))}x${Math.max(1, Math.round(h / COARSE))}`
-                : `${w}x${h}`;
+  return `${w}x${h}`;
 }
 
 function modelInfo(name) {
@@ -93,6 +92,23 @@ function stepParams(params, step) {
   if (byRealizations(params))
     return {size: `${w}x${h}`, realizations: state.info.defaults.realizations >> (2 * step)};
   return {size: `${Math.max(1, w >> step)}x${Math.max(1, h >> step)}`};
+}
+
+// The coarse frame of a view (dragging, editing): 1/COARSE of the side, and the side halved
+// again while the model's estimate for that size is over the latency goal (down to
+// COARSE_MIN_SIDE pixels): a 2D gaussian's 128² coarse frame took 1.3 s, its 64² one 0.35 s.
+// gmm-mc's cost goes with its realizations, not the size: its coarse frames stay at 1/COARSE.
+const COARSE_MIN_SIDE = 16;
+function coarseSize(params) {
+  const [w, h] = state.size;
+  let shrink = COARSE;
+  if (!byRealizations(params)) {
+    const goal = state.info.latency_goal_ms;
+    for (let ms = estimateMs(params) / (COARSE * COARSE);
+         ms > goal && Math.min(w, h) / (2 * shrink) >= COARSE_MIN_SIDE; ms /= 4)
+      shrink *= 2;
+  }
+  return `${Math.max(1, Math.round(w / shrink))}x${Math.max(1, Math.round(h / shrink))}`;
 }
 
 function stepText(params, step) {
@@ -195,7 +211,8 @@ function pump(v) {
   v.pending = null;
   const seq = ++state.seq;
   v.inFlight.set(seq, kind);
-  const sized = kind === 'step' ? stepParams(v.params, step) : {size: sizeText(kind === 'coarse')};
+  const sized = kind === 'step' ? stepParams(v.params, step)
+              : {size: kind === 'coarse' ? coarseSize(v.params) : sizeText()};
   const params = {...v.params, ...sized, ...cameraParams(), channel: v.channel, seq, page: PAGE};
   const query = JSON.stringify({...params, channel: undefined, seq: undefined, page: undefined});
   // The PNG's 8-bit RGBA values without the PNG (no encoding, no decoding): the PNG itself is
@@ -287,7 +304,7 @@ function updateCommand() {
       ? `--tf2 ${state.info.tf2_editable ? 'tf2.json' : state.info.tf2}` +
         (state.info.second ? ` --second ${state.info.second}` : '')
       : '--tf tf.json';
-  const common = `${tfFlags} --size ${sizeText(false)} --azimuth ${c.azimuth} ` +
+  const common = `${tfFlags} --size ${sizeText()} --azimuth ${c.azimuth} ` +
                  `--elevation ${c.elevation} --zoom ${c.zoom}`;
   const lines = [`udvr render ${state.info.model.file} --model ${state.model} ${common} -o view.png`];
   if (state.info.truth) {
@@ -311,7 +328,7 @@ async function probeAt(canvas, e) {
   const model = modelInfo(state.model).probe ? state.model : 'gmm-ordered';
   state.probing++;
   try {
-    const hit = await getJson('/api/probe', {model, size: sizeText(false), ...cameraParams(), x, y});
+    const hit = await getJson('/api/probe', {model, size: sizeText(), ...cameraParams(), x, y});
     const models = {[model]: hit};
     for (const m of PLOT_MODELS) {
       if (models[m.name] || !modelInfo(m.name).available) continue;
@@ -675,7 +692,7 @@ function idle() {
     if (v.pending || v.inFlight.size || !v.shown || v.shown.kind !== 'full') return false;
     const q = JSON.parse(v.shown.query);
     if (q.azimuth !== c.azimuth || q.elevation !== c.elevation || q.zoom !== c.zoom ||
-        q.size !== sizeText(false) || q.model !== v.params.model)
+        q.size !== sizeText() || q.model !== v.params.model)
       return false;
   }
   return true;

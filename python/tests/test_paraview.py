@@ -21,6 +21,7 @@ from conftest import BUILD, ROOT, run_ok
 
 PLUGIN_TXT = BUILD / "paraview_plugin.txt"
 PVBATCH = BUILD / "paraview" / "udvr-pvbatch"
+PVPYTHON = BUILD / "paraview" / "udvr-pvpython"
 RENDER = ROOT / "examples" / "paraview" / "render.py"
 BATCH = pathlib.Path(__file__).with_name("paraview_batch.py")
 SEED = int(os.environ.get("UDVR_PARAVIEW_TEST_SEED", "7"))
@@ -47,7 +48,7 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}
 
 
-def pvbatch(*args, ranks=1, timeout=300, env=None):
+def pvbatch(*args, ranks=1, timeout=300, env=None, tool=PVBATCH):
     """pvbatch (udvr's launcher) under xvfb-run and `timeout`; ranks > 1 through mpirun. Xvfb runs
     with -noreset: by default it resets when its last client disconnects, and pvbatch, which
     closes its first connection and opens another, then sometimes finds no server ("bad X server
@@ -57,7 +58,7 @@ def pvbatch(*args, ranks=1, timeout=300, env=None):
            "-s", "-screen 0 640x480x24 -noreset"]
     if ranks > 1:
         cmd += ["mpirun", "-np", str(ranks), "-x", "UDVR_PARAVIEW_VERBOSE"]
-    cmd += [str(PVBATCH), *map(str, args)]
+    cmd += [str(tool), *map(str, args)]
     e = dict(os.environ, UDVR_NO_PROGRESS="1", UDVR_PARAVIEW_VERBOSE="1", **MPI_ENV, **(env or {}))
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout + 30, env=e,
                           stdin=subprocess.DEVNULL)
@@ -119,6 +120,21 @@ def test_plugin_loads_in_pvbatch(tmp_path):
     r = pvbatch(script, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "loaded True" in r.stdout, r.stdout + r.stderr
+
+
+def test_pvpython_loads_the_plugin_and_renders_like_the_cli(models):
+    """udvr-pvpython: python3-paraview's pvpython (unpacked into the build tree where
+    python3-vtk9 is installed, scripts/paraview_python.sh) with the plugin; render.py through it
+    against `udvr render`."""
+    pv, cli = models / "pvpython_qr.png", models / "cli_pvpython_qr.png"
+    args = [models / "model.vti", "--model", "quantile-range", "--tf", models / "tf.json",
+            "--size", SIZE]
+    r = pvbatch(RENDER, *args, "-o", pv, timeout=240, tool=PVPYTHON)
+    assert r.returncode == 0, r.stdout + r.stderr
+    run_ok("render", *args, "-o", cli)
+    e = rmse(pv, cli)
+    print("pvpython quantile-range: RMSE %.5f" % e)
+    assert e <= TOLERANCE
 
 
 def cli_and_paraview_jobs(d, kinds, source, tag, extra=()):

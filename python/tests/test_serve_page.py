@@ -193,6 +193,33 @@ def test_a_slow_model_comes_in_steps(page, server, inputs, tmp_path):
         "m.estimate_ms = 10; m.slow = false;")
 
 
+def test_a_slow_model_drags_with_smaller_coarse_frames(page, server, inputs, tmp_path):
+    """Coarse frames (dragging) are a quarter of the side, and smaller while the model's estimate
+    for them is over the latency goal: mean's estimate set to 200 s at 512² (50 s at the page's
+    256², 3.1 s at 64², 0.8 s at 32²), so the drag's coarse frames are 32², the last frame the
+    full one, `udvr render`'s image."""
+    page.execute_script(
+        "const m = window.udvr.state.info.models.find((m) => m.name === 'mean');"
+        "m.estimate_ms = 200000; m.slow = true; window.udvr.state.timings.length = 0;")
+    ActionChains(page).drag_and_drop_by_offset(main_canvas(page), 40, 16).perform()
+    wait_idle(page, 60)
+    sizes = page.execute_script(
+        "return window.udvr.state.timings.filter((t) => t.channel === 'main')"
+        ".map((t) => [t.kind, t.size]);")
+    coarse = {size for kind, size in sizes if kind == "coarse"}
+    assert coarse == {"32x32"}, sizes
+    page.execute_script(
+        "const m = window.udvr.state.info.models.find((m) => m.name === 'mean');"
+        "m.estimate_ms = 10; m.slow = false; window.udvr.state.timings.length = 0;")
+    ActionChains(page).drag_and_drop_by_offset(main_canvas(page), -40, -16).perform()
+    wait_idle(page, 60)
+    sizes = page.execute_script(
+        "return window.udvr.state.timings.filter((t) => t.channel === 'main')"
+        ".map((t) => [t.kind, t.size]);")
+    assert {size for kind, size in sizes if kind == "coarse"} == {"64x64"}, sizes
+    assert sizes[-1] == ["full", "256x256"], sizes
+
+
 def test_a_slow_gmm_mc_steps_through_realizations(page, server, inputs, tmp_path):
     """gmm-mc's cost is per realization (drawing one costs about the same at any size): its steps
     keep the image's size and cut the realizations. Its estimate set to 8 s at 512² (2 s at

@@ -19,18 +19,6 @@
 
 namespace udvr {
 
-/// What receives a joint distribution of (X, G) (data units; masses sum to 1 over the pieces of
-/// one point): point(x, g, m): mass m at (x, g); segment(xa, ga, xb, gb, m): m spread evenly
-/// along the segment from (xa, ga) to (xb, gb); normal(n, m): m × a bivariate normal;
-/// boxSpline(b, m): m × a bivariate box spline.
-template <class S>
-concept JointDistributionSink = requires(S& s, double v, const Normal2& n, const BoxSpline2& b) {
-    s.point(v, v, v);
-    s.segment(v, v, v, v, v);
-    s.normal(n, v);
-    s.boxSpline(b, v);
-};
-
 /// The joint distribution of `kernel` (any 2D kernel, or an AnyKernel2D) at a cell into `sink`:
 /// the kernel's own `jointDistribution` (model_kernels_2d.h).
 template <class Kernel, JointDistributionSink Sink>

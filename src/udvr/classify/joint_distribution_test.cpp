@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <type_traits>
 
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/model_families.h"
@@ -27,6 +28,7 @@ TEST(JointDistribution, Every2DKernelClassifiesAsTheExpectationOverItsDistributi
     // The fast forms (`uniform` and its alias `uniform-fast`, `gaussian`): their error against
     // the exact expectation, per family: [0] uniform, [1] gaussian.
     double fastSq[2] = {}, fastMax[2] = {};
+    int withDistribution[2] = {};  // kernels with reconstruct: [0] mean, [1] the quantile family
     int fastCount[2] = {};
     for (int seed = 0; seed < 4; ++seed) {
         CounterRng rng(811 + seed, 0, 0);
@@ -44,6 +46,18 @@ TEST(JointDistribution, Every2DKernelClassifiesAsTheExpectationOverItsDistributi
                                                                                           : -1;
             const int points = exactUniform ? 3 : 20;
             withKernel2D(m, kind, t, ClassifyOptions{}, [&](const auto& k) {
+                // The kernels that build their distribution over the lane type hand on a
+                // Distribution2D over double and lanes (distributions_2d.h; compile time).
+                using K = std::decay_t<decltype(k)>;
+                if constexpr (requires(const Cell<double>& c) {
+                                  k.template reconstruct<double>(c, true, RequireDistribution2D{});
+                              }) {
+                    [[maybe_unused]] const auto onLanes = [&](const Cell<lanes::Vf>& c) {
+                        k.template reconstruct<lanes::Vf>(c, lanes::allTrue<lanes::Vf>(),
+                                                          RequireDistribution2D{});
+                    };
+                    ++withDistribution[std::is_same_v<K, Quantile2DKernel>];
+                }
                 for (int i = 0; i < points; ++i) {
                     const Cell<double> cell =
                         cellAt<double>(CellGeometry(m.grid), static_cast<float>(3 * rng.uniform()),
@@ -77,6 +91,8 @@ TEST(JointDistribution, Every2DKernelClassifiesAsTheExpectationOverItsDistributi
             });
         }
     }
+    EXPECT_GT(withDistribution[0], 0);
+    EXPECT_GT(withDistribution[1], 0);
     for (int f = 0; f < 2; ++f)
         std::printf(
             "%s 2D (fast) against its exact expectation: max %.3g, RMS %.3g over %d values\n",

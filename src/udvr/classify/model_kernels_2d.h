@@ -1,9 +1,12 @@
 #pragma once
 // Kernels for 2D transfer functions (SPEC §9): x the value at the sample, y the gradient
 // magnitude G = n̂·Y along the mean gradient n̂ = μ_Y/|μ_Y| (+x where μ_Y = 0). The same
-// interface as the 1D kernels (model_kernels.h), so the same ray loop and probe serve them;
-// instead of `reconstruct` each has `jointDistribution`: its (X, G) at a cell as pieces into a
-// JointDistributionSink (joint_distribution.h).
+// interface as the 1D kernels (model_kernels.h), so the same ray loop and probe serve them.
+// Each has `jointDistribution`: its (X, G) at a cell as pieces into a JointDistributionSink
+// (joint_distribution.h). The kernels with lane bodies (mean, the quantile family) build that
+// distribution once, over the lane type, in `reconstruct<T>(cell, live, use)`
+// (distributions_2d.h): `load` takes a TF2's expectation over it, `jointDistribution` describes
+// it; the 2D gaussian and uniform build theirs in double only.
 //
 // Gradients come from grid gradients computed once per model (reconstruct/gradient_field.h):
 // the sample's gradient is their trilinear blend, which is SPEC §9's 32-voxel form exactly.
@@ -13,6 +16,7 @@
 #include <cmath>
 #include <tuple>
 
+#include "udvr/classify/distributions_2d.h"
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_fast.h"
@@ -119,9 +123,10 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             s.gradients.of(m.grid, m.mean.data(), 1, 0, 1, GradientLayout::ValueRows).data(),
             s.exact, s.fast);
     }
-    template <class T>
-    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r;
+    /// Its distribution at a cell: the point (x̄, |μ_Y|) (JointPoint), handed to use(d).
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
         T x, y[3];
         if constexpr (lanes::kIsVector<T>) {  // rows4 indexes in 64 bits: no gathersFit
             lanes::Vf q[4];                   // value, ∇ x, y, z
@@ -133,16 +138,20 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             meanGradientAt(c, live, y);
         }
         T n[3];
-        tf2At<T>(tf2<T>(), x, directionOf(y, n), live, r.v);
+        use(JointPoint<T>{x, directionOf(y, n)});
+    }
+    template <class T>
+    UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r;
+        reconstruct(c, live,
+                    [&](const auto& d) UDVR_INLINE_LAMBDA { expectedTf2(tf2<T>(), d, live, r.v); });
         detail::keepLive<T>(live, r.v);
         return r;
     }
-    /// Its joint distribution at a cell (joint_distribution.h): the point (x̄, |μ_Y|).
+    /// Its joint distribution at a cell (joint_distribution.h): reconstruct's, described.
     template <class Sink>
     void jointDistribution(const Cell<double>& c, Sink& sink) const {
-        double y[3], n[3];
-        meanGradientAt<double>(c, true, y);
-        sink.point(trilinear(geometry, rows, 4, c, true), directionOf(y, n), 1.0);
+        reconstruct<double>(c, true, [&](const auto& d) { describe(d, sink); });
     }
     void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = rows[4 * v]; }
     void prefetch(int v) const { prefetchRows(rows, v, 4); }
@@ -390,39 +399,42 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             [&](int i) { return trilinear(geometry, boundaryGradients + i, rowLength, c, live); });
         return count;
     }
-    /// polylineAt with each boundary blended on its own (Eq. 2).
-    template <class T>
-    UDVR_CPU_GPU UDVR_INLINE int polylineAt(const Cell<T>& c, lanes::MaskOf<T> live, T* x,
-                                            T* g) const {
-        return polylineAt(
-            c, live,
-            [&](int j) { return boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live); }, x,
-            g);
+    /// Its distribution from the boundaries at the sample (boundary(j), j < j1 − j0 + 1) and the
+    /// quantiles' X-widths (width(j), for Eq. 5's density weights), handed to use(d): the
+    /// polyline's segments (QuantilePolyline, Eq. 4: quantile-range, iqr, the quartile views) or
+    /// their midpoints (PolylineMidpoints, Eq. 5: quantile-mean(-mass)).
+    template <class T, class Boundary, class Width, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstructFrom(const Cell<T>& c, lanes::MaskOf<T> live,
+                                                  const Boundary& boundary, const Width& width,
+                                                  const Use& use) const {
+        T x[kMaxBoundaries2D], g[kMaxBoundaries2D];
+        const int count = polylineAt(c, live, boundary, x, g);
+        if (!quantileMean)
+            use(QuantilePolyline<T>{x, g, count, levels});
+        else
+            use(PolylineMidpoints<T, Width>{x, g, count, width, levels, densityWeights, zeroWidth});
     }
-    /// The classification from the polyline; width(j) the X-width of segment j (quantile-mean).
-    template <class T, class Width>
-    UDVR_CPU_GPU UDVR_INLINE void classifyPolyline(const T* x, const T* g, int count,
-                                                   const Width& width, lanes::MaskOf<T> live,
-                                                   T out[4]) const {
-        using S = lanes::ScalarOf<T>;
-        const auto& t = tf2<T>();
-        if (!quantileMean) {
-            expectedTf2QuantileRange<T>(t, x, g, count, levels, live, out);
-            return;
-        }
-        const T zero = lanes::splat<T>(static_cast<S>(zeroWidth));
-        quantileMeanWeighted<T>(
-            [&](int j, T v[4]) {
-                tf2At<T>(t, (x[j] + x[j + 1]) * S(0.5), (g[j] + g[j + 1]) * S(0.5), live, v);
+    /// reconstructFrom with each boundary and width blended on its own (Eq. 2).
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        reconstructFrom(
+            c, live,
+            [&](int j) UDVR_INLINE_LAMBDA {
+                return boundaryAt<T>(geometry, boundaries, stride, j0 + j, c, live);
             },
-            width, count - 1, levels, densityWeights, zero, live, out);
+            [&](int j) UDVR_INLINE_LAMBDA {
+                return widthAt<T>(geometry, boundaries, stride, j0 + j, c, live);
+            },
+            use);
     }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
-        T x[kMaxBoundaries2D], g[kMaxBoundaries2D];
-        const int count = j1 - j0 + 1;
+        const auto classify = [&](const auto& d)
+                                  UDVR_INLINE_LAMBDA { expectedTf2(tf2<T>(), d, live, r.v); };
         if constexpr (lanes::kIsVector<T>) {
+            const int count = j1 - j0 + 1;
             if (!gathersFit(stride) || !gathersFit(3 * (count + 1))) {
                 detail::exactLanes(*this, c, live, r.v);
                 return r;
@@ -438,43 +450,21 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
                 // TF2 at 256², 2022-2058 → 1983 ms).
                 live = live & !tf2ColumnsEmpty<T>(tf2<T>(), b[0], b[count - 1], live);
                 if (!lanes::anyOf(live)) return Classified<T>{};
-                polylineAt(
-                    c, live, [&](int j) { return b[j]; }, x, g);
-                classifyPolyline(
-                    x, g, count, [&](int j) { return w[j]; }, live, r.v);
+                reconstructFrom(
+                    c, live, [&](int j) UDVR_INLINE_LAMBDA { return b[j]; },
+                    [&](int j) UDVR_INLINE_LAMBDA { return w[j]; }, classify);
                 detail::keepLive<T>(live, r.v);
                 return r;
             }
         }
-        polylineAt(c, live, x, g);
-        classifyPolyline(
-            x, g, count,
-            [&](int j) { return widthAt<T>(geometry, boundaries, stride, j0 + j, c, live); }, live,
-            r.v);
+        reconstruct(c, live, classify);
         detail::keepLive<T>(live, r.v);
         return r;
     }
-    /// Its joint distribution at a cell: quantile-range (the quartile views, iqr) the polyline's
-    /// segments, each with its quantile's share of the population (Eq. 4); quantile-mean(-mass)
-    /// a point at each segment's midpoint with Eq. 5's weight (quantileMeanMasses).
+    /// Its joint distribution at a cell (joint_distribution.h): reconstruct's, described.
     template <class Sink>
     void jointDistribution(const Cell<double>& c, Sink& sink) const {
-        double x[kMaxBoundaries2D], g[kMaxBoundaries2D];
-        const int count = polylineAt<double>(c, true, x, g);
-        if (quantileMean) {
-            quantileMeanMasses(
-                levels, count - 1, densityWeights, zeroWidth,
-                [&](int j) {
-                    return widthAt<double>(geometry, boundaries, stride, j0 + j, c, true);
-                },
-                [&](int j, double mass) {
-                    sink.point(0.5 * (x[j] + x[j + 1]), 0.5 * (g[j] + g[j + 1]), mass);
-                });
-            return;
-        }
-        const double inv = levels.inverseTotal<double>(count);
-        for (int j = 1; j < count; ++j)
-            sink.segment(x[j - 1], g[j - 1], x[j], g[j], levels.mass(j) * inv);
+        reconstruct<double>(c, true, [&](const auto& d) { describe(d, sink); });
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);

@@ -125,6 +125,28 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
         // The next probe has 4x the pixels: it would take too long.
         if (fixedMs + 4.0 * std::max(ms - fixedMs, 0.0) > limits.maxProbeMs) break;
     }
+    // One probe of the frame's pixels (the next, 4x larger, would be over the limit): its time
+    // can be mostly what a frame costs at any size — with a 2D TF the raster's tables, ~15 ms
+    // on a quiet machine and 50-120 ms in `udvr serve` under load, which scaled by the pixels
+    // alone (1024x for 16² of 512²) gave 74 s for a 0.2 s frame. A 2x2 probe measures that
+    // part (as gmm-mc's first probe does), and the two are fitted as below.
+    if (runs.size() == 1 && sides.size() == 3 && runs[0][0] > 4.0) {
+        at.width = at.height = 2;
+        const auto started = Clock::now();
+        try {
+            double ms = probe(at);
+            if (4.0 * ms <= limits.maxProbeMs) ms = std::min(ms, probe(at));
+            runs.push_back({4.0, ms});
+            e.probeMs += ms;
+        } catch (const RenderCancelled&) {
+            if (s.cancel && s.cancel->load()) throw;
+            // Out of time: a frame takes at least as long as the probe of it.
+            e.probeMs += std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+            e.ms = runs[0][1] * perFrame;
+            e.lowerBound = true;
+            return e;
+        }
+    }
     if (runs.empty()) return e;
     if (runs.size() == 1 && sides.size() == 4) {  // only gmm-mc's 2x2: a frame takes longer
         e.ms = runs[0][1] * perFrame;

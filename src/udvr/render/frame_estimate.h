@@ -33,7 +33,8 @@ struct FrameEstimateLimits {
 /// four times that, stopping before a probe over limits.maxProbeMs (and before one as large as
 /// the frame); the time fitted as a + b·pixels (a, b >= 0, least squares over the probes; a:
 /// what a frame costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or
-/// b·pixels from one probe.
+/// where only the first fits, the line through it and a 2x2 probe (what a frame costs at any
+/// size).
 /// `monteCarlo` (gmm-mc): a 2x2 probe first where the 1/32 probes have 64 pixels or more (its
 /// time: what drawing the realizations costs at any size; if no larger probe fits the limit,
 /// the estimate is its time, a lower bound); the probes draw 4 realizations and the time scales

@@ -83,8 +83,31 @@ TEST(FrameEstimate, StopsBeforeAProbeOverTheLimit) {
             return 40.0 * at.width * at.height / 256.0;  // 16x16: 40 ms
         },
         limits);
-    EXPECT_EQ(probes, 2);  // the first probe twice (tables), no 32x32 (160 ms > 100)
+    // The first probe twice (tables), no 32x32 (160 ms > 100); then 2x2 twice (0.625 ms: quick).
+    EXPECT_EQ(probes, 4);
     EXPECT_NEAR(e.ms, 40.0 * 1024, 1e-9);
+    EXPECT_EQ(e.width, 16);
+}
+
+// One probe fits, and most of its time is what a frame costs at any size (a 2D TF's tables:
+// serve saw 72 ms for 16² of a 0.2 s 512² frame, estimated 74 s from the pixels alone): the 2x2
+// probe measures that part, and the estimate is the line through the two.
+TEST(FrameEstimate, OneProbeWithAFixedCostGetsATwoByTwoProbe) {
+    RenderSettings s;  // 512x512
+    FrameEstimateLimits limits;
+    limits.maxProbeMs = 200.0;
+    std::vector<int> sides;
+    const FrameEstimate e = estimateFrame(
+        s, false,
+        [&](const RenderSettings& at) {
+            sides.push_back(at.width);
+            return 70.0 + 0.0005 * at.width * at.height;
+        },
+        limits);
+    // 16² twice (the first probe), then 2x2 once (4 × its 70 ms is over the limit).
+    EXPECT_EQ(sides, (std::vector<int>{16, 16, 2}));
+    EXPECT_NEAR(e.ms, 70.0 + 0.0005 * 512 * 512, 1e-9);
+    EXPECT_FALSE(e.lowerBound);
     EXPECT_EQ(e.width, 16);
 }
 

@@ -1,0 +1,143 @@
+#pragma once
+// A 2D-TF model's joint distribution of (X, G) at a point (SPEC §9: X the value, G the gradient
+// magnitude along the mean gradient) as a value over the lane type T (double, float or
+// lanes::Vf) — the 2D counterpart of distributions.h (docs/architecture.md, "Distributions and
+// expectations"). A 2D kernel's `reconstruct<T>(cell, live, use)` builds it once and hands it to
+// `use`; each kind comes with
+//   - expectedTf2(tf, d, live, out): E[TF2(X, G)] over it (SPEC §9, before opacity correction),
+//     on any T — the render's classification;
+//   - describe(d, sink): its pieces of probability mass into a JointDistributionSink, in double
+//     — probe's description and expectedTf2Over (joint_distribution.h), the reference the
+//     render's classification is held to.
+// So the polyline of the quantile models is built by one function and Eq. 4 / Eq. 5 in 2D are
+// each taken by one. (The 2D gaussian and uniform have double bodies only; their distributions
+// are Normal2 and BoxSpline2 pieces, from their kernels' jointDistribution.)
+#include <concepts>
+
+#include "udvr/classify/expected_tf.h"
+#include "udvr/classify/expected_tf2.h"
+#include "udvr/classify/expected_tf2_gaussian.h"
+#include "udvr/classify/expected_tf2_uniform_exact.h"
+#include "udvr/classify/tf2_raster.h"
+#include "udvr/reconstruct/quantile_interp.h"
+#include "udvr/util/check.h"
+
+namespace udvr {
+
+/// What receives a joint distribution of (X, G) (data units; masses sum to 1 over the pieces of
+/// one point): point(x, g, m): mass m at (x, g); segment(xa, ga, xb, gb, m): m spread evenly
+/// along the segment from (xa, ga) to (xb, gb); normal(n, m): m × a bivariate normal;
+/// boxSpline(b, m): m × a bivariate box spline.
+template <class S>
+concept JointDistributionSink = requires(S& s, double v, const Normal2& n, const BoxSpline2& b) {
+    s.point(v, v, v);
+    s.segment(v, v, v, v, v);
+    s.normal(n, v);
+    s.boxSpline(b, v);
+};
+
+namespace detail {
+/// A JointDistributionSink that keeps nothing: the archetype Distribution2D is checked with.
+struct AnyJointSink {
+    void point(double, double, double) {}
+    void segment(double, double, double, double, double) {}
+    void normal(const Normal2&, double) {}
+    void boxSpline(const BoxSpline2&, double) {}
+};
+}  // namespace detail
+
+/// A point mass at (x, g) (the mean field and the ground truth, SPEC §9 `mean`).
+template <class T>
+struct JointPoint {
+    using Real = T;
+    T x, g;
+};
+template <JointDistributionSink Sink>
+void describe(const JointPoint<double>& d, Sink& sink) {
+    sink.point(d.x, d.g, 1.0);
+}
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void expectedTf2(const Tf2Raster<Real>& tf, const JointPoint<T>& d,
+                                          lanes::MaskOf<T> live, T out[4]) {
+    tf2At<T>(tf, d.x, d.g, live, out);
+}
+
+/// The rank-coupled quantile population in 2D (Eq. 4, SPEC §9): the polyline through the
+/// boundaries' (X_j, G_j), j < count, quantile j spread evenly along segment (j − 1, j) with mass
+/// levels.mass(j) of the population's total. x and g: the caller's arrays (alive while d is).
+template <class T>
+struct QuantilePolyline {
+    using Real = T;
+    const T* x;
+    const T* g;
+    int count;
+    QuantileLevels levels;
+};
+template <JointDistributionSink Sink>
+void describe(const QuantilePolyline<double>& d, Sink& sink) {
+    const double inv = d.levels.inverseTotal<double>(d.count);
+    for (int j = 1; j < d.count; ++j)
+        sink.segment(d.x[j - 1], d.g[j - 1], d.x[j], d.g[j], d.levels.mass(j) * inv);
+}
+/// Eq. 4: Σ_j mass_j × (mean of the TF2 along segment j) / Σ mass (expectedTf2QuantileRange:
+/// the exact walk of the raster's cells).
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void expectedTf2(const Tf2Raster<Real>& tf, const QuantilePolyline<T>& d,
+                                          lanes::MaskOf<T> live, T out[4]) {
+    expectedTf2QuantileRange<T>(tf, d.x, d.g, d.count, d.levels, live, out);
+}
+
+/// Eq. 5 in 2D: quantile j's point mass at the midpoint of the polyline's segment (j, j + 1),
+/// j < count − 1, weighted by quantileMeanWeight (density weights p_j ∝ mass_j / width(j), or the
+/// masses); widths ≤ zeroWidth (data units) are point masses of infinite density.
+template <class T, class Width>
+struct PolylineMidpoints {
+    using Real = T;
+    const T* x;
+    const T* g;
+    int count;
+    Width width;
+    QuantileLevels levels;
+    bool densityWeights;
+    double zeroWidth;
+};
+template <class Width, JointDistributionSink Sink>
+void describe(const PolylineMidpoints<double, Width>& d, Sink& sink) {
+    quantileMeanMasses(
+        d.levels, d.count - 1, d.densityWeights, d.zeroWidth, d.width, [&](int j, double mass) {
+            sink.point(0.5 * (d.x[j] + d.x[j + 1]), 0.5 * (d.g[j] + d.g[j + 1]), mass);
+        });
+}
+template <class T, class Real, class Width>
+UDVR_CPU_GPU UDVR_INLINE void expectedTf2(const Tf2Raster<Real>& tf,
+                                          const PolylineMidpoints<T, Width>& d,
+                                          lanes::MaskOf<T> live, T out[4]) {
+    using S = lanes::ScalarOf<T>;
+    quantileMeanWeighted<T>(
+        [&](int j, T v[4]) UDVR_INLINE_LAMBDA {
+            tf2At<T>(tf, (d.x[j] + d.x[j + 1]) * S(0.5), (d.g[j] + d.g[j + 1]) * S(0.5), live, v);
+        },
+        d.width, d.count - 1, d.levels, d.densityWeights,
+        lanes::splat<T>(static_cast<S>(d.zeroWidth)), live, out);
+}
+
+/// The contract of a 2D model's joint distribution at a point (what a 2D kernel's
+/// `reconstruct` hands on), over its real type D::Real: a TF2's expectation over it on that
+/// type, and over double also its description as pieces of probability mass.
+template <class D>
+concept Distribution2D = requires(const D& d,
+                                  const Tf2Raster<lanes::ScalarOf<typename D::Real>>& tf,
+                                  lanes::MaskOf<typename D::Real> live, typename D::Real* out) {
+    expectedTf2(tf, d, live, out);
+}
+&&(!std::is_same_v<typename D::Real, double> ||
+   requires(const D& d, detail::AnyJointSink& sink) { describe(d, sink); });
+/// A `use` for a 2D kernel's reconstruct that compiles only where it hands on a Distribution2D
+/// (joint_distribution_test.cpp instantiates it for every 2D kernel that has one, over double
+/// and lanes).
+struct RequireDistribution2D {
+    template <Distribution2D D>
+    void operator()(const D&) const {}
+};
+
+}  // namespace udvr
