@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "udvr/classify/expected_tf2_uniform.h"
+#include "udvr/classify/expected_tf2_uniform_exact.h"
 
 namespace udvr::testing {
 

@@ -96,7 +96,8 @@ AnyKernel2D makeUniform2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions
     return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                            o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
                            f.kind == ModelKind::UniformExact, kUniformTinyWidth * span(m, o),
-                           s.exact, s.fast, s.meanGradientPlanes());
+                           s.exact, s.fast, s.meanGradientPlanes(),
+                           f.kind == ModelKind::UniformExact ? nullptr : s.blurTables());
 }
 // Boundaries lo … hi of an array with `stride` floats per voxel, with their grid gradients.
 AnyKernel2D quantile2D(const ModelView& m, Tf2Setup& s, const ClassifyOptions& o, const float* data,

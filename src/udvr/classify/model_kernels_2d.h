@@ -16,7 +16,7 @@
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_fast.h"
 #include "udvr/classify/expected_tf2_gaussian.h"
-#include "udvr/classify/expected_tf2_uniform.h"
+#include "udvr/classify/expected_tf2_uniform_exact.h"
 #include "udvr/classify/model_kernels.h"
 #include "udvr/reconstruct/cell.h"
 #include "udvr/reconstruct/gradient.h"
@@ -206,22 +206,27 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
 /// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
 /// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
-/// is the paper's bivariate box spline. E[TF2] from a double body by expectedTf2UniformExact:
-/// `uniform-exact` converged (≤ 1e−6); `uniform` (and its alias `uniform-fast`) at the coarser
-/// kUniform2DFast settings (max 1.8e−4 measured; expected_tf2_uniform.h, docs/models.md).
+/// is the paper's bivariate box spline. E[TF2] from a double body: `uniform-exact` by
+/// expectedTf2UniformExact converged (≤ 1e−6); `uniform` (and its alias `uniform-fast`) from the
+/// prefiltered tables (Tf2BlurTables::boxSpline, expected_tf2_fast.h: the dominant boxes kept,
+/// the rest a normal with its Edgeworth κ4 term; max 9.1e−4 measured at interior points,
+/// 1.6e−3 at voxel faces, docs/models.md), or
+/// without tables by expectedTf2UniformExact at the coarser kUniform2DFast settings.
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     bool exact;        // `uniform-exact` (expectedTf2UniformExact), else the fast form
     double tinyWidth;  // data units: directions this narrow in X count for G only (exact)
     GradientGeometry gradientGeometry;
+    const Tf2BlurTables* tables;  // the fast form's tables (null: kUniform2DFast)
 
     Uniform2DKernel(const Grid3& grid, const float* a, const float* b, bool mm, bool ex,
                     double tiny, const Tf2Raster<double>& tfD, const Tf2Raster<float>& tfF,
-                    const MeanGradientView& meanGrad)
+                    const MeanGradientView& meanGrad, const Tf2BlurTables* blur = nullptr)
         : Kernel2DBase(grid, tfD, tfF, meanGrad),
           UniformVoxels{a, b, mm},
           exact(ex),
           tinyWidth(tiny),
-          gradientGeometry(grid) {}
+          gradientGeometry(grid),
+          tables(blur) {}
     /// The centre (X, G at t = 0) and the directions at a scalar cell; returns their count.
     UDVR_CPU_GPU int directionsAt(const Cell<double>& c, double& cx, double& cy,
                                   BoxDirection2 d[32]) const {
@@ -247,7 +252,12 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
             double cx, cy;
             BoxDirection2 d[32];
             const int n = directionsAt(c, cx, cy, d);
-            expectedTf2Uniform(tfExact, cx, cy, d, n, exact, tinyWidth, r.v);
+            if (tables && !exact) {
+                tables->boxSpline(tfExact, cx, cy, d, n, tinyWidth, r.v);
+            } else {
+                Tf2UniformExactOptions opt = exact ? Tf2UniformExactOptions{} : kUniform2DFast;
+                expectedTf2UniformExact(tfExact, cx, cy, d, n, tinyWidth, opt, r.v);
+            }
         } else {
             detail::exactWhere(*this, c, live, r.v);
         }
