@@ -358,7 +358,7 @@ namespace detail {
 /// Beyond this many σ the remainder of BoxSplineFast is taken as entirely on one side (its
 /// Gaussian mass beyond 7σ, 1.3e−12, is dropped): the moments' closed form then replaces a
 /// divided difference that would lose digits (level one below). The 2D kernel's cutoff
-/// (expected_tf2_uniform.h); the 1D kernel cuts at kBoxSplineNearSigmas.
+/// (expected_tf2_fast.h); the 1D kernel cuts at kBoxSplineNearSigmas.
 inline constexpr double kBoxSplineCutoffSigmas = 7.0;
 /// expectedTfUniformFast's cutoff: a node of a break beyond 5σ takes Φ, φ as 0 or 1, 0 without
 /// evaluating them (on lanes they are evaluated for the other nodes only, packed into full

@@ -17,10 +17,14 @@
 // ladder has no blur that small (σ·√((1 − |ρ|)/2) < kMinBlur cells in x or y) or the table would
 // be over kMaxTablePoints, the exact expectedTf2Gaussian.
 //
-// Box spline c + Σ t_i d_i: the widest kExactBoxes directions (by extent in raster cells) are
-// kept as boxes, the rest replaced by the normal of the same covariance; E = mean over an
-// m-point Gauss–Legendre rule per kept box (on [−1, 1], pieces ≤ the Gaussian rest's scale) of
-// the Gaussian expectation above. Errors: docs/models.md.
+// Box spline c + Σ t_i d_i (the fast 2D `uniform`): the box with the largest share of the
+// variance along itself (dᵀΣ⁻¹d/3, Σ the covariance of the boxes not kept yet) is kept while
+// that share is over kKeepShare (kKeepShareNext for the second and third), up to kMaxKept boxes;
+// the rest is replaced by the normal of the same covariance times its Edgeworth κ4 term (Series),
+// in the same table sum; E = mean over 3-point Gauss–Legendre nodes per kept box (pieces ≤
+// kPieceScale × the rest's std along it) of that sum. Where no table applies (the rest under
+// kMinBlur in an axis, e.g. every remaining box G-only at a voxel face, or a singular covariance),
+// expectedTf2UniformExact at the kUniform2DFast settings. Errors and cost: docs/models.md.
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -55,11 +59,17 @@ class Tf2BlurTables {
     /// applies.
     void gaussian(const Tf2Raster<double>& r, double mx, double my, double vxx, double vxy,
                   double vyy, double out[4]) const;
-    /// E over the box spline (cx, cy) + Σ t_i·d_i; `tinyWidth` goes to the exact evaluation
-    /// where it is taken.
-    /// False (out untouched) where the kept boxes would take over kMaxBoxPieces Gauss–Legendre
-    /// pieces (their product): the caller takes another rule there.
-    static constexpr int kMaxBoxPieces = 4;
+    /// E over the box spline (cx, cy) + Σ t_i·d_i (the fast 2D `uniform`, header comment).
+    /// Returns false where it took the exact evaluation (`tinyWidth` goes to it): no table
+    /// applies (the spread under kMinBlur cells along an axis once the kept box is out), a
+    /// singular covariance, non-finite data.
+    static constexpr double kKeepShare = 0.25;  // keep the box whose share dᵀΣ⁻¹d/3 is over
+    static constexpr double kKeepShareNext = 0.4;  // … and a second, third past this share
+    static constexpr int kMaxKept = 3;
+    static constexpr double kPieceScale = 1.0;     // GL pieces ≤ this × the rest's std along it
+    static constexpr int kMaxBoxPieces = 16;       // per kept box
+    static constexpr int kMaxNodes = 27;           // table sums a box spline may take
+    static constexpr double kMustKeepShare = 0.4;  // past it a box that leaves no table: exact
     bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d, int n,
                    double tinyWidth, double out[4]) const;
 
@@ -71,18 +81,27 @@ class Tf2BlurTables {
     const Pass& pass(int j) const;
     /// The table of levels (i, j), built on first use; null where it would be too large.
     const Table* table(int i, int j) const;
-    /// The table sum for N(m, Σ) in raster cells; false where no table applies. With `boxes`
-    /// (n of them, raster cells), the density is the Edgeworth series of a sum of those boxes
-    /// of covariance Σ to its κ4 term.
-    /// `quartic` holds the series' coefficients between calls with the same Σ and boxes
-    /// (computed on the first).
-    struct Quartic {
+    /// The Edgeworth correction of a sum of boxes t·d, t ~ U[−1, 1], whose Gaussian part has
+    /// the residual covariance Σr (the tables' blur taken out; the correction's derivatives
+    /// commute with the blur): the polynomial P (degree 4 in the offset e from the mean, raster
+    /// cells) with density φ_Σr·(1 + P) in the table sum, P·φ_Σr = Σ_b κ4/4!·(d_b·∇)⁴φ_Σr,
+    /// κ4(U[−1, 1]) = −2/15. (The series' second order, κ6/6!·(d·∇)⁶ and ½K4², was measured:
+    /// RMS 3.2e−4 against 4.5e−4 with every box in the series, but no better once the dominant
+    /// boxes are kept: max 5.2e−4 (to κ6) and 8.1e−4 (κ4²) against κ4's 3.9e−4 on 160 rough
+    /// cases; docs/models.md.)
+    struct Series {
         bool ready = false;
-        double c[5][5] = {};
+        double c[5][5] = {};  // c[i][j]: the coefficient of ex^i ey^j (i + j ≤ 4)
     };
+    static void edgeworthSeries(double rxx, double rxy, double ryy, const double (*boxes)[2], int n,
+                                Series& s);
+    /// The table sum for N(m, Σ) in raster cells; false where no table applies. With `boxes`
+    /// (n of them, raster cells), the density is the Edgeworth series (Series) of a sum of
+    /// those boxes of covariance Σ; `series` holds it between calls with the same Σ and boxes
+    /// (computed on the first).
     bool gaussianCells(double s0, double t0, double sxx, double sxy, double syy, double out[4],
                        const double (*boxes)[2] = nullptr, int n = 0,
-                       Quartic* quartic = nullptr) const;
+                       Series* series = nullptr) const;
 
     int width_ = 2, height_ = 2;
     double x0_ = 0, y0_ = 0, invDx_ = 1, invDy_ = 1;

@@ -1,6 +1,6 @@
 #pragma once
-// Shared by the tests of the `uniform` model's 2D TF classification (expectedTf2UniformExact,
-// the `uniform-fast` lattice rule): rasters sampled from a function, random box-spline cases,
+// Shared by the tests of the `uniform` model's 2D TF classification (expectedTf2UniformExact
+// and the fast form): rasters sampled from a function, random box-spline cases,
 // and the closed form of E[TF2] for bilinear α and c from the box spline's moments.
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "udvr/classify/expected_tf2_uniform.h"
+#include "udvr/classify/expected_tf2_uniform_exact.h"
 
 namespace udvr::testing {
 
@@ -17,7 +17,6 @@ namespace udvr::testing {
 struct Raster {
     std::vector<float> rgba;
     Tf2Raster<double> r;
-    Tf2Raster<float> rf;  // the same raster over float (`uniform-fast`)
     Raster(int W, int H, double x0, double x1, double y0, double y1,
            const std::function<void(double, double, double[4])>& f) {
         r.width = W, r.height = H, r.x0 = x0, r.y0 = y0;
@@ -29,10 +28,6 @@ struct Raster {
                 for (double c : v) rgba.push_back(static_cast<float>(c));
             }
         r.rgba = rgba.data();
-        rf.width = W, rf.height = H;
-        rf.x0 = static_cast<float>(x0), rf.y0 = static_cast<float>(y0);
-        rf.invDx = static_cast<float>(r.invDx), rf.invDy = static_cast<float>(r.invDy);
-        rf.rgba = rgba.data();
     }
 };
 

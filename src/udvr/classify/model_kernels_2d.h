@@ -21,7 +21,7 @@
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_fast.h"
 #include "udvr/classify/expected_tf2_gaussian.h"
-#include "udvr/classify/expected_tf2_uniform.h"
+#include "udvr/classify/expected_tf2_uniform_exact.h"
 #include "udvr/classify/model_kernels.h"
 #include "udvr/reconstruct/cell.h"
 #include "udvr/reconstruct/gradient.h"
@@ -236,22 +236,27 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
 /// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
 /// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
-/// is the paper's bivariate box spline. E[TF2] from a double body by expectedTf2UniformExact:
-/// `uniform-exact` converged (≤ 1e−6); `uniform` (and its alias `uniform-fast`) at the coarser
-/// kUniform2DFast settings (max 1.8e−4 measured; expected_tf2_uniform.h, docs/models.md).
+/// is the paper's bivariate box spline. E[TF2] from a double body: `uniform-exact` by
+/// expectedTf2UniformExact converged (≤ 1e−6); `uniform` (and its alias `uniform-fast`) from the
+/// prefiltered tables (Tf2BlurTables::boxSpline, expected_tf2_fast.h: the dominant boxes kept,
+/// the rest a normal with its Edgeworth κ4 term; max 9.1e−4 measured at interior points,
+/// 1.6e−3 at voxel faces, docs/models.md), or
+/// without tables by expectedTf2UniformExact at the coarser kUniform2DFast settings.
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     bool exact;        // `uniform-exact` (expectedTf2UniformExact), else the fast form
     double tinyWidth;  // data units: directions this narrow in X count for G only (exact)
     GradientGeometry gradientGeometry;
+    const Tf2BlurTables* tables;  // the fast form's tables (null: kUniform2DFast)
 
     Uniform2DKernel(const Grid3& grid, const float* a, const float* b, bool mm, bool ex,
                     double tiny, const Tf2Raster<double>& tfD, const Tf2Raster<float>& tfF,
-                    const MeanGradientView& meanGrad)
+                    const MeanGradientView& meanGrad, const Tf2BlurTables* blur = nullptr)
         : Kernel2DBase(grid, tfD, tfF, meanGrad),
           UniformVoxels{a, b, mm},
           exact(ex),
           tinyWidth(tiny),
-          gradientGeometry(grid) {}
+          gradientGeometry(grid),
+          tables(blur) {}
     /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
     /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
     template <class Setup>
@@ -260,7 +265,7 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
         return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
                                o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
                                row.exactForm, kUniformTinyWidth * dataSpan(m, o), s.exact, s.fast,
-                               s.meanGradientPlanes());
+                               s.meanGradientPlanes(), row.exactForm ? nullptr : s.blurTables());
     }
     /// The centre (X, G at t = 0) and the directions at a scalar cell; returns their count.
     UDVR_CPU_GPU int directionsAt(const Cell<double>& c, double& cx, double& cy,
@@ -287,7 +292,12 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
             double cx, cy;
             BoxDirection2 d[32];
             const int n = directionsAt(c, cx, cy, d);
-            expectedTf2Uniform(tfExact, cx, cy, d, n, exact, tinyWidth, r.v);
+            if (tables && !exact) {
+                tables->boxSpline(tfExact, cx, cy, d, n, tinyWidth, r.v);
+            } else {
+                Tf2UniformExactOptions opt = exact ? Tf2UniformExactOptions{} : kUniform2DFast;
+                expectedTf2UniformExact(tfExact, cx, cy, d, n, tinyWidth, opt, r.v);
+            }
         } else {
             detail::exactWhere(*this, c, live, r.v);
         }

@@ -506,7 +506,7 @@ TEST(Render, AViewOfBorrowedArraysRendersAsTheModel) {
         const ImageRgba a = renderVolume(m, kind, tangleTransferFunction(), s);
         const ImageRgba b = renderVolume(view, kind, tangleTransferFunction(), s);
         ASSERT_EQ(a.rgba, b.rgba) << modelFamily(kind).name;
-        // The uniform kinds' 2D frames cost milliseconds a sample (expected_tf2_uniform.h): a
+        // The uniform kinds' 2D frames cost milliseconds a sample (expected_tf2_fast.h): a
         // smaller image for them; uniform-fast is an alias of uniform (the same kernel).
         if (!modelFamily(kind).makeKernel2D || kind == ModelKind::UniformFast) continue;
         RenderSettings s2 = s;
