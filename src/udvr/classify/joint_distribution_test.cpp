@@ -103,6 +103,44 @@ TEST(JointDistribution, Every2DKernelClassifiesAsTheExpectationOverItsDistributi
     EXPECT_LE(fastMax[1], 1e-4);  // the Gaussian's tables
 }
 
+// The fast 2D `uniform` against `uniform-exact` on a cell's faces, edges and grid points (one
+// to three coordinates whole), where fewer than 8 corners have weight: within issue 33's 1e−3.
+// (The kernel takes the coarse exact settings there, because the tables' form was 1.6e−3 off on
+// such synthetic box splines, Tf2BlurTables.BoxSplineWithFewCorners…; on these random models
+// both forms measured 8.6e−6, so this test holds the contract, not that choice.)
+TEST(Uniform2D, FastFormWithin1e3OfExactOnFacesEdgesAndGridPoints) {
+    double worst = 0.0;
+    int count = 0;
+    for (int seed = 0; seed < 4; ++seed) {
+        CounterRng rng(907 + seed, 0, 0);
+        const std::array<int, 3> dims{4, 3, 3};
+        ModelVolume m = testing::randomModel(rng, dims, 8);
+        m.grid = testing::randomGrid(rng, dims);
+        const auto range = modelDataRange(m);
+        const TransferFunction2D t =
+            testing::randomTf2(rng, 10, 7, range.first, range.second, 0.0, 3.0);
+        for (int i = 0; i < 6; ++i) {
+            float at[3] = {static_cast<float>(3 * rng.uniform()),
+                           static_cast<float>(2 * rng.uniform()),
+                           static_cast<float>(2 * rng.uniform())};
+            const int whole = 1 + i % 3;  // axes on grid planes: a face, an edge, a grid point
+            for (int a = 0; a < whole; ++a) at[(a + i) % 3] = std::floor(at[(a + i) % 3]);
+            const Cell<double> cell = cellAt<double>(CellGeometry(m.grid), at[0], at[1], at[2]);
+            double e[2][4];
+            const ModelKind kinds[2] = {ModelKind::Uniform, ModelKind::UniformExact};
+            for (int k = 0; k < 2; ++k)
+                withKernel2D(m, kinds[k], t, ClassifyOptions{}, [&](const auto& kernel) {
+                    kernel.finish(kernel.template load<double>(cell, true), e[k]);
+                });
+            for (int ch = 0; ch < 4; ++ch) worst = std::max(worst, std::fabs(e[0][ch] - e[1][ch]));
+            ++count;
+        }
+    }
+    std::printf("uniform 2D (fast) on faces, edges and grid points: max |dE| %.3g over %d points\n",
+                worst, count);
+    EXPECT_LE(worst, 1e-3);
+}
+
 // JointMoments against the moments of draws from each piece's law (fixed seed, 4·10⁵ draws:
 // the means within 5 standard errors, the covariance entries within 3 %).
 TEST(JointDistribution, MomentsMatchMonteCarloOfEachPiece) {
