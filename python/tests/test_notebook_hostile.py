@@ -88,7 +88,9 @@ def test_constant_1e17_field_renders_with_the_default_tf():
 
 
 def test_progress_callback_exception_propagates_and_stops_the_build():
-    data = np.random.default_rng(0).random((20, 40, 40, 40), dtype=np.float32)
+    # Large enough that the whole build takes several of the callback's 0.1 s periods: 40³ took
+    # 0.063 s on an AVX-512 machine, so the only callback came at the end (stopped = whole).
+    data = np.random.default_rng(0).random((20, 96, 96, 96), dtype=np.float32)
     t = time.monotonic()
     udvr.build(data, quantiles=8, gmm=4, progress=None)
     whole = time.monotonic() - t
