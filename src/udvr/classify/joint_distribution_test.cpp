@@ -9,12 +9,23 @@
 #include <cstdio>
 #include <string>
 #include <type_traits>
+#include <utility>
 
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/model_families.h"
 
 namespace udvr {
 namespace {
+
+// A random 4×3×3 model (q = 8) on a random grid and a rough random TF2 (10×7) over its range.
+std::pair<ModelVolume, TransferFunction2D> randomModelAndTf2(CounterRng& rng) {
+    const std::array<int, 3> dims{4, 3, 3};
+    ModelVolume m = testing::randomModel(rng, dims, 8);
+    m.grid = testing::randomGrid(rng, dims);
+    const auto range = modelDataRange(m);
+    TransferFunction2D t = testing::randomTf2(rng, 10, 7, range.first, range.second, 0.0, 3.0);
+    return {std::move(m), std::move(t)};
+}
 
 // One joint distribution per 2D model (JointDistributionAt) and one TF2 expectation over any
 // of them (expectedTf2Over, piece by piece): every 2D kernel's double body equals it. The
@@ -32,12 +43,7 @@ TEST(JointDistribution, Every2DKernelClassifiesAsTheExpectationOverItsDistributi
     int fastCount[2] = {};
     for (int seed = 0; seed < 4; ++seed) {
         CounterRng rng(811 + seed, 0, 0);
-        const std::array<int, 3> dims{4, 3, 3};
-        ModelVolume m = testing::randomModel(rng, dims, 8);
-        m.grid = testing::randomGrid(rng, dims);
-        const auto range = modelDataRange(m);
-        const TransferFunction2D t =
-            testing::randomTf2(rng, 10, 7, range.first, range.second, 0.0, 3.0);
+        const auto [m, t] = randomModelAndTf2(rng);
         for (ModelKind kind : allModelKinds()) {
             if (!modelFamily(kind).makeKernel2D) continue;
             const bool exactUniform = kind == ModelKind::UniformExact;
@@ -113,12 +119,7 @@ TEST(Uniform2D, FastFormWithin1e3OfExactOnFacesEdgesAndGridPoints) {
     int count = 0;
     for (int seed = 0; seed < 4; ++seed) {
         CounterRng rng(907 + seed, 0, 0);
-        const std::array<int, 3> dims{4, 3, 3};
-        ModelVolume m = testing::randomModel(rng, dims, 8);
-        m.grid = testing::randomGrid(rng, dims);
-        const auto range = modelDataRange(m);
-        const TransferFunction2D t =
-            testing::randomTf2(rng, 10, 7, range.first, range.second, 0.0, 3.0);
+        const auto [m, t] = randomModelAndTf2(rng);
         for (int i = 0; i < 6; ++i) {
             float at[3] = {static_cast<float>(3 * rng.uniform()),
                            static_cast<float>(2 * rng.uniform()),
