@@ -195,8 +195,28 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
     }
 }
 
+std::shared_ptr<const Tf2RasterSet> sharedTf2Rasters(const TransferFunction2D& tf) {
+    static std::mutex mutex;
+    static std::shared_ptr<const Tf2RasterSet> last;
+    const std::lock_guard<std::mutex> lock(mutex);
+    const auto same = [&](const TransferFunction2D& t) {
+        return t.width == tf.width && t.height == tf.height && t.x0 == tf.x0 && t.x1 == tf.x1 &&
+               t.y0 == tf.y0 && t.y1 == tf.y1 && t.rgba == tf.rgba;
+    };
+    if (!last || !same(last->tf)) {
+        last.reset();  // the old set's memory goes back before the new one is built
+        last = std::make_shared<const Tf2RasterSet>(tf);
+    }
+    return last;
+}
+
 Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelView& m, GradientCache& cache)
-    : Tf2Rasters(tf), model(m), gradients(cache) {}
+    : held_(sharedTf2Rasters(tf)),
+      rasters(held_->rasters),
+      exact(rasters.exact),
+      fast(rasters.fast),
+      model(m),
+      gradients(cache) {}
 
 const Tf2BlurTables* Tf2Setup::blurTables() {
     if (!blurTables_) {

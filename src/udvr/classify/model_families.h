@@ -59,14 +59,38 @@ struct Tf2Rasters {
     Tf2Rasters& operator=(const Tf2Rasters&) = delete;
 };
 
-/// What a 2D kernel points into: the TF2 raster's views and the grid gradients it blends (from
-/// `gradients`, which outlives the setup).
-struct Tf2Setup : Tf2Rasters {
+/// A TF2 with its views (Tf2Rasters), which point into the copy of the TF2 it owns.
+struct Tf2RasterSet {
+    TransferFunction2D tf;
+    Tf2Rasters rasters;
+
+    explicit Tf2RasterSet(const TransferFunction2D& t) : tf(t), rasters(tf) {}
+};
+
+/// The views of `tf` (validated by the caller): the last ones made in the process where they
+/// are of an equal TF2 (size, domain and every point), else new ones. Frames of one TF2 (a
+/// camera move in `udvr serve`, `--frames`, a probe after a render) then build the tables
+/// (Tf2Rasters: 15–120 ms for a 256² TF2) once. Holds at most one set besides those in use.
+std::shared_ptr<const Tf2RasterSet> sharedTf2Rasters(const TransferFunction2D& tf);
+
+/// What a 2D kernel points into: the TF2 raster's views (sharedTf2Rasters) and the grid
+/// gradients it blends (from `gradients`, which outlives the setup).
+struct Tf2Setup {
+  private:
+    std::shared_ptr<const Tf2RasterSet> held_;  // keeps the views alive
+
+  public:
+    const Tf2Rasters& rasters;
+    const Tf2Raster<double>& exact;  // rasters.exact
+    const Tf2Raster<float>& fast;    // rasters.fast
     const ModelView& model;
     GradientCache& gradients;
 
-    /// Views of `tf` (validated by the caller) over `model`; both must outlive the setup.
+    /// Views of `tf` (validated by the caller) over `model`, which outlives the setup with
+    /// `cache`; `tf` need not.
     Tf2Setup(const TransferFunction2D& tf, const ModelView& model, GradientCache& cache);
+    Tf2Setup(const Tf2Setup&) = delete;
+    Tf2Setup& operator=(const Tf2Setup&) = delete;
     /// The `mean` array's grid gradients as planes (computed on first use).
     MeanGradientView meanGradientPlanes();
     /// The fast 2D gaussian's and uniform's prefiltered tables of the TF2: the last ones made
@@ -167,9 +191,9 @@ void withKernelBivariate(const ModelView& first, const ModelView& second, ModelK
     checkModelHasArrays(second, kind, options);
     if (!family.makeBivariate)
         UDVR_FAIL("model '" << family.name << "' has no bivariate classification yet");
-    const Tf2Rasters rasters(tf);
+    const std::shared_ptr<const Tf2RasterSet> views = sharedTf2Rasters(tf);
     const TfPiecesStorage none(reconstructionOnlyTf());
-    std::visit(f, family.makeBivariate(first, second, rasters, none, options, family));
+    std::visit(f, family.makeBivariate(first, second, views->rasters, none, options, family));
 }
 
 /// withKernel with default options.

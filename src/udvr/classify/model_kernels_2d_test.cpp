@@ -230,8 +230,8 @@ struct RowTableViews {
     Tf2Raster<double> byRows;
     explicit RowTableViews(const TransferFunction2D& t)
         : setup(t, unit, gradients), byRows(setup.exact) {
-        byRows.rowSameUpTo = setup.rowSameUpTo.data();
-        byRows.rowPrefix = setup.rowPrefix.data();
+        byRows.rowSameUpTo = setup.rasters.rowSameUpTo.data();
+        byRows.rowPrefix = setup.rasters.rowPrefix.data();
     }
 };
 
@@ -363,7 +363,7 @@ TEST(Tf2, SegmentMeanByLinearRunsMatchesTheWalkByCells) {
     const Tf2Setup setup(t, unit, gradients);
     ASSERT_NE(setup.fast.cellRun, nullptr);  // long runs: the float view walks by them
     Tf2Raster<double> byRuns = setup.exact;
-    byRuns.cellRun = setup.cellRuns.data();
+    byRuns.cellRun = setup.rasters.cellRuns.data();
     double worstDense = 0, worstRuns = 0, worstLanes = 0;
     for (int trial = 0; trial < 40; ++trial) {
         lanes::Vf p[4];
@@ -1007,7 +1007,7 @@ TEST(Tf2, EmptyColumnsHoldOnlyZeroOpacity) {
     GradientCache gradients;
     const Tf2Setup setup(t, unit, gradients);
     const std::vector<float> want = {3, 2, 1, 0, 0, 0, 0, 0, 4, 3, 2, 1, 0, 0, 0, 0, 0, 0, 0};
-    EXPECT_EQ(setup.columnEmptyRun, want);
+    EXPECT_EQ(setup.rasters.columnEmptyRun, want);
     const auto dataX = [&](double s) { return -2.0 + s * 5.0 / (w - 1); };  // s in cells
     // Ranges in cells: inside empty blocks, beyond the domain, across into α > 0, reversed.
     const std::pair<double, double> cases[] = {{0.1, 2.9}, {-5.0, 1.5}, {8.01, 11.99}, {8.5, 9.5},
@@ -1125,6 +1125,46 @@ TEST(Tf2, ModelsWithoutA2DClassificationAreUserErrors) {
     TransferFunction2D bad = t;
     bad.rgba[3] = 1.5f;
     EXPECT_THROW(probeModel(m, ModelKind::Mean, bad, {0.5, 0.5, 0.5}), UdvrError);
+}
+
+// The TF2's views are built once per TF2 (sharedTf2Rasters): a setup of an equal TF2 shares
+// them, one of a TF2 that differs in a single point, in its domain or in its size gets its
+// own, and each setup's views hold its own TF2's points after the other is made.
+TEST(Tf2, SetupsOfEqualTf2sShareTheirViewsAndEditsGetNewOnes) {
+    CounterRng rng(91, 0, 0);
+    const TransferFunction2D t = randomTf2(rng, 17, 11, -2.0, 3.0, 0.0, 4.0);
+    ModelVolume unit;
+    unit.grid.dims = {1, 1, 1};
+    unit.mean = {0.f};
+    GradientCache gradients;
+    const TransferFunction2D copy = t;  // equal content, other storage
+    const Tf2Setup a(t, unit, gradients), b(copy, unit, gradients);
+    EXPECT_EQ(&a.rasters, &b.rasters);
+    EXPECT_EQ(a.exact.rgba, b.exact.rgba);
+    TransferFunction2D edited = t, moved = t;
+    edited.rgba[(5 * 17 + 7) * 4 + 3] = edited.rgba[(5 * 17 + 7) * 4 + 3] > 0.5f ? 0.1f : 0.9f;
+    moved.x1 += 0.5;
+    const Tf2Setup c(edited, unit, gradients), d(moved, unit, gradients);
+    EXPECT_NE(&c.rasters, &a.rasters);
+    EXPECT_NE(&d.rasters, &c.rasters);
+    EXPECT_NE(&d.rasters, &a.rasters);
+    EXPECT_DOUBLE_EQ(d.exact.invDx, 16.0 / 5.5);
+    // Each setup classifies with its own TF2: the point (7, 5) in data units.
+    const double x = -2.0 + 7 * 5.0 / 16, y = 5 * 4.0 / 10;
+    for (const auto& [setup, tf] :
+         {std::pair<const Tf2Setup*, const TransferFunction2D*>{&a, &t}, {&c, &edited}}) {
+        const Tf2Raster<double>& r = setup->exact;
+        const double want = tf->point(7, 5)[3];
+        const double s = (x - r.x0) * r.invDx, u = (y - r.y0) * r.invDy;
+        const float* p = r.rgba + (static_cast<std::size_t>(std::lround(u)) * r.width +
+                                   static_cast<std::size_t>(std::lround(s))) *
+                                      4;
+        EXPECT_EQ(p[3], want);
+        EXPECT_NEAR(tf->classify(x, y).a, want, 1e-6);
+    }
+    // After an edit, a new setup of the first TF2 still equals the first's views in content.
+    const Tf2Setup again(t, unit, gradients);
+    EXPECT_EQ(std::vector<float>(again.exact.rgba, again.exact.rgba + t.rgba.size()), t.rgba);
 }
 
 }  // namespace

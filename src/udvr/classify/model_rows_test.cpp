@@ -91,17 +91,17 @@ TEST(ModelFamilies, FactoriesBuildTheRowsKernelTypes) {
     Tf2Setup setup(tf2, m, cache);
     const TfPiecesStorage none(reconstructionOnlyTf());
     const ClassifyOptions o;
-#define UDVR_CHECK_ROW(Enumerator, Kernel1D, Kernel2D, KernelBivariate, ...)               \
-    {                                                                                      \
-        const ModelFamily& f = modelFamily(ModelKind::Enumerator);                         \
-        const std::string what(f.name);                                                    \
-        expectColumn<Kernel1D>(                                                            \
-            f.makeKernel, [&] { return f.makeKernel(m, pieces, o, f); }, what + " 1D");    \
-        expectColumn<Kernel2D>(                                                            \
-            f.makeKernel2D, [&] { return f.makeKernel2D(m, setup, o, f); }, what + " 2D"); \
-        expectColumn<KernelBivariate>(                                                     \
-            f.makeBivariate, [&] { return f.makeBivariate(m, m, setup, none, o, f); },     \
-            what + " bivariate");                                                          \
+#define UDVR_CHECK_ROW(Enumerator, Kernel1D, Kernel2D, KernelBivariate, ...)                   \
+    {                                                                                          \
+        const ModelFamily& f = modelFamily(ModelKind::Enumerator);                             \
+        const std::string what(f.name);                                                        \
+        expectColumn<Kernel1D>(                                                                \
+            f.makeKernel, [&] { return f.makeKernel(m, pieces, o, f); }, what + " 1D");        \
+        expectColumn<Kernel2D>(                                                                \
+            f.makeKernel2D, [&] { return f.makeKernel2D(m, setup, o, f); }, what + " 2D");     \
+        expectColumn<KernelBivariate>(                                                         \
+            f.makeBivariate, [&] { return f.makeBivariate(m, m, setup.rasters, none, o, f); }, \
+            what + " bivariate");                                                              \
     }
     UDVR_MODEL_ROWS(UDVR_CHECK_ROW)
 #undef UDVR_CHECK_ROW
