@@ -45,48 +45,21 @@ std::vector<double> levelsOf(const QuantileLevels& levels, int count) {
     return {levels.levels, levels.levels + count};
 }
 
-// What probe reports of each model's parameters at a cell (SPEC §8), next to its distribution
-// (the kernel's reconstruction, distributionAt, which the plot and the point masses listed here
-// come from). One overload per kernel type that has parameters to print; `family` tells models that
-// share a kernel apart.
+// What probe reports of a model's parameters at a cell (SPEC §8), next to its distribution: the
+// kernel's reconstruction (reconstruct<double>, the object the plot and the point masses listed
+// here come from, distributionAt), one overload per distribution type (distributions.h) with
+// parameters to print. A new model over an existing distribution type needs nothing here. Only
+// the quantile-range family is read from its kernel: its JSON lists the model's whole boundary
+// vector, of which the distribution holds the population's window; `family` tells those apart.
 struct Describe {
     const ModelFamily& family;
     const Cell<double>& cell;
     const PointDistribution& dist;
     json& j;
 
-    /// A kernel without parameters of its own to print (the mean field; a new model until it
-    /// has an overload): its distribution says it all.
     template <class Kernel>
-    void operator()(const Kernel&) const {}
-    void operator()(const GaussianKernel& k) const {
-        k.reconstruct<double>(cell, true, [&](const NormalDistribution<double>& d) {
-            j["mean"] = d.mu;
-            j["stddev"] = d.sigma;
-        });
-    }
-    void operator()(const UniformKernel& k) const {
-        k.reconstruct<double>(cell, true, [&](const CornerBoxSpline<double>& d) {
-            json terms = json::array();
-            for (int c = 0; c < 8; ++c) {
-                if (d.w[c] == 0.0) continue;
-                terms.push_back(
-                    {{"weight", d.w[c]}, {"low", d.w[c] * d.lo[c]}, {"high", d.w[c] * d.hi[c]}});
-            }
-            const UniformSum u = d.sum();
-            j["terms"] = terms;
-            j["mean"] = u.mean();
-            j["stddev"] = std::sqrt(u.variance());
-            j["low"] = u.shift;
-            j["high"] = u.shift + u.total;
-        });
-    }
-    void operator()(const GmmOrderedKernel& k) const {
-        k.reconstruct<double>(cell, true, [&](const NormalMixture<double>& d) {
-            j["weights"] = std::vector<double>(d.pi, d.pi + d.k);
-            j["means"] = std::vector<double>(d.mu, d.mu + d.k);
-            j["sigmas"] = std::vector<double>(d.sigma, d.sigma + d.k);
-        });
+    void operator()(const Kernel& k) const {
+        k.template reconstruct<double>(cell, true, [&](const auto& d) { parameters(d); });
     }
     void operator()(const QuantileRangeKernel& k) const {
         std::vector<double> b(static_cast<std::size_t>(k.stride));
@@ -96,13 +69,41 @@ struct Describe {
         if (family.population.second > family.population.first) j["population"] = {k.j0, k.j1};
         if (k.levels.levels) j["levels"] = levelsOf(k.levels, k.stride);
     }
-    void operator()(const QuantileMeanKernel& k) const {
-        const int q = k.q;
-        std::vector<double> b(static_cast<std::size_t>(q) + 1);
-        for (int i = 0; i <= q; ++i)
-            b[i] = boundaryAt<double>(k.geometry, k.quantiles, q + 1, i, cell, true);
+
+  private:
+    /// A distribution without parameters of its own to print (the mean field's point mass):
+    /// its distribution says it all.
+    template <class D>
+    void parameters(const D&) const {}
+    void parameters(const NormalDistribution<double>& d) const {
+        j["mean"] = d.mu;
+        j["stddev"] = d.sigma;
+    }
+    void parameters(const CornerBoxSpline<double>& d) const {
+        json terms = json::array();
+        for (int c = 0; c < 8; ++c) {
+            if (d.w[c] == 0.0) continue;
+            terms.push_back(
+                {{"weight", d.w[c]}, {"low", d.w[c] * d.lo[c]}, {"high", d.w[c] * d.hi[c]}});
+        }
+        const UniformSum u = d.sum();
+        j["terms"] = terms;
+        j["mean"] = u.mean();
+        j["stddev"] = std::sqrt(u.variance());
+        j["low"] = u.shift;
+        j["high"] = u.shift + u.total;
+    }
+    void parameters(const NormalMixture<double>& d) const {
+        j["weights"] = std::vector<double>(d.pi, d.pi + d.k);
+        j["means"] = std::vector<double>(d.mu, d.mu + d.k);
+        j["sigmas"] = std::vector<double>(d.sigma, d.sigma + d.k);
+    }
+    template <class Boundary, class Width>
+    void parameters(const QuantileMidpoints<double, Boundary, Width>& d) const {
+        std::vector<double> b(static_cast<std::size_t>(d.q) + 1);
+        for (int i = 0; i <= d.q; ++i) b[i] = d.boundary(i);
         j["boundaries"] = b;
-        if (k.levels.levels) j["levels"] = levelsOf(k.levels, q + 1);
+        if (d.levels.levels) j["levels"] = levelsOf(d.levels, d.q + 1);
         // Eq. 5's point masses: the midpoints m_j and their weights p_j, as the kernel weighs.
         std::vector<double> mids, probs;
         for (const auto& a : dist.atoms) {
@@ -112,21 +113,22 @@ struct Describe {
         j["midpoints"] = mids;
         j["probabilities"] = probs;
     }
-    void operator()(const MembersKernel& k) const {
+    template <class Values>
+    void parameters(const EqualMasses<double, Values>& d) const {
         // The members' values at the point, each a point mass 1/n (the TF is averaged over them).
         std::vector<double> f;
         for (const auto& a : dist.atoms) f.push_back(a.x);
         double mean = 0.0, ss = 0.0;
         for (double x : f) mean += x;
-        mean /= k.n;
+        mean /= d.n;
         for (double x : f) ss += (x - mean) * (x - mean);
         const auto [lo, hi] = std::minmax_element(f.begin(), f.end());
-        j["members"] = k.n;
+        j["members"] = d.n;
         j["member_values"] = f;
         j["min"] = *lo;
         j["max"] = *hi;
         j["mean"] = mean;
-        j["stddev"] = k.n > 1 ? std::sqrt(ss / (k.n - 1)) : 0.0;  // ddof = 1, as SPEC §2's σ
+        j["stddev"] = d.n > 1 ? std::sqrt(ss / (d.n - 1)) : 0.0;  // ddof = 1, as SPEC §2's σ
     }
 };
 
