@@ -1,4 +1,4 @@
-// NRRD (field_io.cpp): the input is the header with attached data (raw, gzip or ascii), or a
+// NRRD (nrrd_io.cpp): the input is the header with attached data (raw, gzip or ascii), or a
 // detached header, kPartSeparator, and the data file it names ("data file: data.raw").
 #include "checks.h"
 #include "fuzz_target.h"

@@ -1,4 +1,4 @@
-// Headerless raw fields (field_io.cpp) with their layout from the input's first bytes:
+// Headerless raw fields (raw_io.cpp) with their layout from the input's first bytes:
 //   byte 0: bits 0-3 the type name (of kTypes), bit 4 big-endian, bit 5 dims as 3 × int32
 //           (else 3 bytes, each 1 + b % 16), bit 6 spacing and origin as 6 doubles;
 //   then the dims, the doubles where asked for, and the file's bytes.

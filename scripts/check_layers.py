@@ -8,6 +8,9 @@
 2. No two directories include each other, directly or around a longer cycle.
 3. The ParaView plugin (paraview/) includes only core headers of udvr: ParaView's process
    carries ParaView's own VTK, and io/ links Debian's (two VTKs in one process clash).
+4. netCDF-C's and HDF5's headers are included only by the files of NETCDF_FILES: every call
+   into those libraries is then made there, where it holds netcdfLibraryMutex, the lock the
+   HDF5 probe forks under (docs/architecture.md, "NetCDF, HDF5 and threads").
 
 Prints each violation with the chain of includes that makes it, and exits 1 if there is any.
     python3 scripts/check_layers.py [SRC_ROOT]      (default: src/ beside this script's folder)
@@ -21,6 +24,10 @@ ABOVE_CORE = ("io", "eval", "cmd", "serve")
 FOREIGN = re.compile(
     r"^(vtk|netcdf|hdf5|H5|png\.h|pngconf|zlib\.h|zconf|cairo|httplib|CLI/|pybind11|Python\.h|mpi)",
     re.IGNORECASE)
+# The only files that may include netCDF-C's or HDF5's headers (rule 4); tests write fixtures.
+NETCDF_HEADER = re.compile(r"^(netcdf|hdf5|H5)", re.IGNORECASE)
+NETCDF_FILES = ("udvr/io/netcdf_access.h", "udvr/io/netcdf_access.cpp", "udvr/io/netcdf_io.cpp",
+                "udvr/io/netcdf_io_test.cpp")
 INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^>"]+)[>"]', re.MULTILINE)
 
 
@@ -88,6 +95,13 @@ def plugin_violations(repo):
     return out
 
 
+def netcdf_violations(graph):
+    """(file, header) for each netCDF-C or HDF5 header included outside NETCDF_FILES."""
+    return [(rel, target) for rel, incs in sorted(graph.items()) for kind, target in incs
+            if rel not in NETCDF_FILES and ((kind == "system" and NETCDF_HEADER.match(target)) or
+                                            target == "udvr/io/netcdf_access.h")]
+
+
 def directory_cycles(graph):
     """Each cycle of the directory graph (as a list of directories), with one include per edge."""
     edges = {}
@@ -145,6 +159,10 @@ def main():
     for rel, target in plugin_violations(src.parent):
         print("the ParaView plugin includes a header above the core: %s -> %s" % (rel, target))
         bad += 1
+    for rel, target in netcdf_violations(graph):
+        print("netCDF-C/HDF5 called outside the files that hold netcdfLibraryMutex: %s includes "
+              "<%s> (only %s may)" % (rel, target, ", ".join(NETCDF_FILES)))
+        bad += 1
     cycles, edges = directory_cycles(graph)
     for comp in cycles:
         print("directory cycle among %s:" % ", ".join(comp))
@@ -157,7 +175,8 @@ def main():
         print("check_layers: %d violation(s) in %d files" % (bad, len(graph)))
         return 1
     print("check_layers: %d files; the core (%s) reaches no io/eval/cmd/serve or foreign header; "
-          "no directory cycle; paraview/ includes only the core" % (len(graph), ", ".join(CORE)))
+          "no directory cycle; paraview/ includes only the core; netCDF-C/HDF5 only in io/netcdf_*"
+          % (len(graph), ", ".join(CORE)))
     return 0
 
 

@@ -56,7 +56,7 @@ struct TransferFunction2D {
     /// integrals, TfPieces).
     std::vector<float> rowPrefixIntegrals() const;
     /// The banded segment walk's prefix tables (Tf2Raster::bandPrefix; layout and use in
-    /// detail::bandRunSum, tf2_segment_walk.h): per band of cells between two lines of one axis
+    /// detail::bandRunSum, tf2_banded_walk.h): per band of cells between two lines of one axis
     /// and per line of the other, kTf2BandMoments doubles, the prefix sums along the band of its
     /// cells' moments of α and α·c with the cross fraction linear along the band. Bands between
     /// x lines first ((W − 1)·H records), then bands between y lines ((H − 1)·W records):

@@ -37,6 +37,13 @@ void requireFile(const std::filesystem::path& path);
 std::size_t checkedDataBytes(const std::filesystem::path& path, const std::array<int, 3>& dims,
                              std::size_t valueSize);
 
+/// The whole file as bytes (requireFile first); a UdvrError naming it when it cannot be read.
+std::string readWholeFile(const std::filesystem::path& path);
+/// `actual` bytes of data must be exactly `expected` (what the dims and type ask for): else a
+/// UdvrError naming the file, "truncated <what>" or "dims do not match the <what> size".
+void requireByteCount(const std::filesystem::path& path, std::size_t expected, std::size_t actual,
+                      const std::string& what);
+
 /// Whether an input names a glob pattern (has * ? or [); one that is itself a file is read as one.
 bool isGlobPattern(const std::string& s);
 /// The files a glob pattern matches, in glob(3)'s order; a UdvrError when none.
@@ -54,6 +61,11 @@ ScalarField readFieldImpl(const std::filesystem::path& path, const FieldReadOpti
 /// Print a note on its own stderr line; nothing for an empty one.
 void printNote(const std::string& note);
 
+/// A headerless raw file in the given layout (raw_io.cpp), read whole / a slab at a time.
+ScalarField readRaw(const std::filesystem::path& path, const RawLayout& layout);
+SlabReader openRawSlabs(const std::filesystem::path& path, const RawLayout& layout);
+/// A NRRD file (nrrd_io.cpp); *geometryNote as readFieldImpl (an orientation that is ignored).
+ScalarField readNrrd(const std::filesystem::path& path, std::string* geometryNote);
 /// .vti through VTK's XML reader (vti_io.cpp); *geometryNote as readFieldImpl.
 ScalarField readFieldVti(const std::filesystem::path& path, const std::string& var,
                          std::string* geometryNote);
@@ -86,7 +98,7 @@ void storeMember(Ensemble& e, int m, std::span<const float> values);
 /// (netcdf_io.cpp), for listArrays.
 std::vector<ArrayInfo> listArraysVti(const std::filesystem::path& path);
 std::vector<ArrayInfo> listArraysNetcdf(const std::filesystem::path& path);
-/// The value type of a NRRD file as uint8 … float64 (field_io.cpp).
+/// The value type of a NRRD file as uint8 … float64 (nrrd_io.cpp).
 std::string nrrdTypeName(const std::filesystem::path& path);
 
 }  // namespace udvr::detail

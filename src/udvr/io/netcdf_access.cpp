@@ -87,6 +87,12 @@ std::recursive_mutex& netcdfLibraryMutex() {
     return mutex;
 }
 bool gInProbeChild = false;
+thread_local int tNetcdfLockDepth = 0;
+
+namespace {
+constexpr const char* kLockContract =
+    "a netCDF-C call without netcdfLibraryMutex (the contract of netcdf_access.h)";
+}  // namespace
 
 /// netCDF-C says only "NetCDF: HDF error" when HDF5 cannot read a NetCDF-4 file; that is how a
 /// truncated or damaged one fails, so say so.
@@ -98,6 +104,7 @@ std::string ncErrorText(int status) {
 }
 
 void ncCheck(int status, const fs::path& path, const std::string& what) {
+    UDVR_CHECK_MSG(netcdfLockHeld(), kLockContract);
     if (status != NC_NOERR) {
         UDVR_FAIL(path.string() << ": " << what << ": " << ncErrorText(status));
     }
@@ -105,6 +112,7 @@ void ncCheck(int status, const fs::path& path, const std::string& what) {
 
 /// For the writer: a FileError "cannot write PATH: what: reason" (a positive status is errno).
 void ncWriteCheck(int status, const fs::path& path, const std::string& what) {
+    UDVR_CHECK_MSG(netcdfLockHeld(), kLockContract);
     if (status != NC_NOERR) {
         UDVR_FILE_FAIL("cannot write "
                        << path.string() << ": " << what << ": "
@@ -503,6 +511,7 @@ void releaseLeftoverHdf5Objects() {
 thread_local const fs::path* tGuardedPath = nullptr;
 
 int openForRead(const fs::path& path) {
+    UDVR_CHECK_MSG(netcdfLockHeld(), kLockContract);
     detail::requireFile(path);
     releaseLeftoverHdf5Objects();
     const bool hdf5 = checkHdf5Size(path);

@@ -26,16 +26,26 @@ std::recursive_mutex& netcdfLibraryMutex();
 /// True in probeHdf5's child only: the lock it inherited belongs to the parent's thread id, and
 /// the child, which has one thread, takes no lock at all.
 extern bool gInProbeChild;
+/// How many NetcdfLocks this thread holds (netcdfLockHeld).
+extern thread_local int tNetcdfLockDepth;
 /// Holds netcdfLibraryMutex (none in the probe's child).
 class NetcdfLock {
   public:
     explicit NetcdfLock(std::recursive_mutex& mutex) {
         if (!gInProbeChild) lock_ = std::unique_lock<std::recursive_mutex>(mutex);
+        ++tNetcdfLockDepth;
     }
+    ~NetcdfLock() { --tNetcdfLockDepth; }
+    NetcdfLock(const NetcdfLock&) = delete;
+    NetcdfLock& operator=(const NetcdfLock&) = delete;
 
   private:
     std::unique_lock<std::recursive_mutex> lock_;
 };
+/// Whether this thread may call into netCDF-C/HDF5 now: it holds a NetcdfLock (or is the probe's
+/// child, which has one thread). ncCheck, ncWriteCheck and openForRead check it, so a call made
+/// without the lock is an internal error rather than a race with the probe's fork().
+inline bool netcdfLockHeld() { return gInProbeChild || tNetcdfLockDepth > 0; }
 
 /// Closes the file on scope exit (also when an error unwinds).
 struct NcFile {
