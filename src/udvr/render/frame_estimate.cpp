@@ -89,9 +89,8 @@ FrameEstimate estimateFrame(const RenderSettings& s, bool monteCarlo,
     double fixedMs = 0.0;  // the 2x2 gmm-mc probe's time
     // A 2x2 frame first, its time not fitted (gmm-mc's first 2x2 probe does it too): it builds
     // what a frame builds once and later frames reuse (the skipping tables, a TF2's tables), so
-    // that no probe's first run carries it. With a 2D TF at 128² (probes from 4x4), without it
-    // and the second runs below: tooth quantile-range 133 ms estimated for 803 ms, iqr 30 for
-    // 353; with them 2244/1874 and 495/821 (load 7-9).
+    // that no probe's first run carries it (a first probe over maxProbeMs runs once: fitted
+    // with a warm 2x2 probe, its build said 1452 s for a 6.6 s frame, FrameEstimate tests).
     if (sides.front() != std::array<int, 2>{2, 2} && sides.front()[0] < s.width &&
         sides.front()[1] < s.height) {
         at.width = at.height = 2;
