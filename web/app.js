@@ -196,6 +196,7 @@ function schedule(coarse) {
     // A full frame over the latency goal comes in steps, coarse first (progressiveSteps).
     const step = coarse ? 0 : progressiveSteps(v.params);
     v.pending = {kind: coarse ? 'coarse' : step > 0 ? 'step' : 'full', eventTime, step};
+    v.decided = {...v.pending};  // revisited when the estimates change (redecideSteps)
     pump(v);
   }
   updateCommand();
@@ -245,8 +246,9 @@ function pump(v) {
                  `shown ${latency.toFixed(0)} ms after the input`;
         v.caption.textContent = captionOf(v);
         v.figure.classList.toggle('coarse', kind !== 'full');
-        // The next finer step, unless a newer input has asked for something else.
-        if (kind === 'step' && !v.pending && v.shownSeq === seq)
+        // The next finer step, unless a newer input (or new estimates) asked for something else.
+        const newest = Math.max(...v.inFlight.keys()) === seq;
+        if (kind === 'step' && !v.pending && v.shownSeq === seq && newest)
           v.pending = {kind: step > 1 ? 'step' : 'full', eventTime, step: step - 1};
       })
       .catch(showError)
@@ -552,6 +554,7 @@ async function startTf2() {
     editor2.select(-1);
     editor2.setHistogram(await getJson('/api/histogram2d', {bins: 128}));  // the domain may differ
     schedule(false);
+    refreshEstimates();
   });
 }
 
@@ -587,32 +590,68 @@ function markOption(o, m) {
   else delete o.dataset.slow;
 }
 
-// The estimates are for one TF (the server drops them when it changes): after an edit, ask
-// again (its probes take their turn at the server after the frames already asked for) and mark
-// the picker anew. One at a time; an edit meanwhile asks once more after it.
-let estimatesAgain = false;
-async function refreshEstimates() {
-  if (state.estimating) {
-    estimatesAgain = true;
+// The estimates are for one TF (the server drops them when it changes): after an edit (1D or 2D,
+// posted, loaded or a preset) the page asks again, marks the picker anew and revisits the views'
+// progressive-step decisions. Debounced (an edit within ESTIMATES_DEBOUNCE_MS of the last waits
+// with it), and never more than one request in flight: a newer edit aborts the older request
+// (the server's probes stop when their client goes: its estimates were for a TF already gone)
+// and asks once its own debounce ends.
+const ESTIMATES_DEBOUNCE_MS = 300;
+const estimates = {timer: 0, abort: null, inFlight: null, generation: 0};
+function refreshEstimates() {
+  state.estimating = true;
+  const generation = ++estimates.generation;
+  if (estimates.abort) estimates.abort.abort();
+  clearTimeout(estimates.timer);
+  estimates.timer = setTimeout(async () => {
+    if (estimates.inFlight) await estimates.inFlight;  // the aborted one settles first
+    if (generation !== estimates.generation) return;  // a newer edit took over meanwhile
+    const abort = new AbortController();
+    estimates.abort = abort;
+    estimates.inFlight = askEstimates(abort.signal, generation);
+    await estimates.inFlight;
+    estimates.inFlight = null;
+    if (generation === estimates.generation) {
+      estimates.abort = null;
+      state.estimating = false;
+    }
+  }, ESTIMATES_DEBOUNCE_MS);
+}
+
+async function askEstimates(signal, generation) {
+  let info;
+  try {
+    info = await getJson('/api/state', {estimates: 1}, {signal});
+  } catch (e) {
+    if (!signal.aborted) showError(e);
     return;
   }
-  state.estimating = true;
-  try {
-    do {
-      estimatesAgain = false;
-      const info = await getJson('/api/state', {estimates: 1});
-      for (const fresh of info.models) {
-        const m = modelInfo(fresh.name);
-        if (!m) continue;
-        for (const k of ['estimate_ms', 'estimate_lower_bound', 'slow']) m[k] = fresh[k];
-        const o = [...$('model').options].find((o) => o.value === m.name);
-        if (o) markOption(o, m);
-      }
-    } while (estimatesAgain);
-  } catch (e) {
-    showError(e);
-  } finally {
-    state.estimating = false;
+  if (generation !== estimates.generation) return;
+  for (const fresh of info.models) {
+    const m = modelInfo(fresh.name);
+    if (!m) continue;
+    for (const k of ['estimate_ms', 'estimate_lower_bound', 'slow']) m[k] = fresh[k];
+    const o = [...$('model').options].find((o) => o.value === m.name);
+    if (o) markOption(o, m);
+  }
+  redecideSteps();
+}
+
+// A view whose full frame was asked for with the old TF's estimates, and whose progressive-step
+// decision differs with the new ones, asks again: a model the new TF made slow comes in steps
+// (its full frame, on its way, is cancelled), one made quick skips its remaining steps. A view
+// already showing its full frame, or dragging (coarse), is left as it is.
+function redecideSteps() {
+  for (const v of state.views.values()) {
+    if (!v.decided || v.decided.kind === 'coarse') continue;
+    const steps = progressiveSteps(v.params);
+    if (steps === v.decided.step) continue;
+    const pending = v.pending && v.pending.kind !== 'coarse';
+    const working = [...v.inFlight.values()].some((kind) => kind !== 'coarse');
+    if (!pending && !working) continue;
+    v.pending = {kind: steps > 0 ? 'step' : 'full', eventTime: v.decided.eventTime, step: steps};
+    v.decided = {...v.pending};
+    pump(v);
   }
 }
 

@@ -269,6 +269,145 @@ def test_a_tf_edit_reads_the_estimates_again(page, server, inputs, tmp_path):
         assert ("(progressive)" in text) == bool(fresh[name]["slow"]), (name, text)
 
 
+# The page's fetch, wrapped: /api/state?estimates=1 is held while `hold` (as a server whose probes
+# take long; an abort ends it) and its answer passed through `fake`; the main view's full 256²
+# frames are held while `holdFull` (still on their way when the estimates come).
+WRAP_FETCH = """
+const real = window.fetch.bind(window);
+const log = window.est = {sent: 0, aborted: 0, answered: 0, inFlight: 0, maxInFlight: 0,
+                          hold: true, holdFull: false, fake: null};
+const until = (done, signal) => new Promise((resolve, reject) => {
+  const tick = () => {
+    if (signal && signal.aborted) reject(new DOMException('aborted', 'AbortError'));
+    else if (done()) resolve();
+    else setTimeout(tick, 5);
+  };
+  tick();
+});
+window.fetch = async (url, options = {}) => {
+  const u = String(url);
+  if (u.startsWith('/api/state') && u.includes('estimates=1')) {
+    log.sent++, log.inFlight++, log.maxInFlight = Math.max(log.maxInFlight, log.inFlight);
+    try {
+      try {
+        await until(() => !log.hold, options.signal);
+      } catch (e) {
+        log.aborted++;
+        throw e;
+      }
+      const r = await real(url, options);
+      const j = await r.json();
+      if (log.fake) log.fake(j);
+      log.answered++;
+      return new Response(JSON.stringify(j), {status: 200});
+    } finally {
+      log.inFlight--;
+    }
+  }
+  const r = await real(url, options);
+  if (u.startsWith('/api/render') && u.includes('channel=main') && u.includes('size=256x256') &&
+      !u.includes('realizations'))
+    await until(() => !log.holdFull);
+  return r;
+};
+"""
+
+EDIT_TF = """
+const e = window.udvr.editor; let best = 0;
+e.tf.points.forEach((p, i) => { if (p[1] > e.tf.points[best][1]) best = i; });
+e.tf.points[best][1] *= 0.9;
+e.onChange('commit');
+"""
+
+
+def wait_for(driver, script, timeout=20):
+    end = time.time() + timeout
+    while time.time() < end:
+        if driver.execute_script(script):
+            return
+        time.sleep(0.02)
+    raise AssertionError(f"not so after {timeout} s: {script}; "
+                         f"{driver.execute_script('return window.est')}")
+
+
+def test_tf_edits_supersede_the_estimates_and_redecide_the_steps(server, inputs, tmp_path):
+    """After TF edits the page asks for the estimates once the edits pause (debounced), never
+    with two requests on their way: a newer edit aborts the older request. The new estimates
+    re-mark the picker and re-decide the views' steps: mean, quick with the old TF, is 8 s at
+    512² with the new one (faked), so its full frame, asked for with the old estimate and still
+    on its way, gives way to a 128² step and then the full frame (`udvr render`'s image)."""
+    driver = open_page(server.url)
+    try:
+        Select(driver.find_element("id", "model")).select_by_value("mean")
+        wait_idle(driver)
+        driver.execute_script(WRAP_FETCH)
+        driver.execute_script(EDIT_TF)
+        wait_for(driver, "return window.est.sent === 1")  # the first edit's request, held
+        driver.execute_script(EDIT_TF + "window.udvr.state.timings.length = 0;"
+                              "window.est.holdFull = true;")
+        driver.execute_script(EDIT_TF)
+        wait_for(driver, "return window.est.sent === 2")
+        time.sleep(0.6)  # twice the debounce: the last two edits asked once
+        est = driver.execute_script("return window.est")
+        assert (est["sent"], est["aborted"], est["maxInFlight"]) == (2, 1, 1), est
+        driver.execute_script(
+            "window.est.fake = (j) => { const m = j.models.find((m) => m.name === 'mean');"
+            " m.estimate_ms = 8000; m.slow = true; }; window.est.hold = false;")
+        wait_for(driver, "return window.est.answered === 1")
+        # The step comes while the full frames asked for with the old estimates are held.
+        wait_for(driver, "return window.udvr.state.timings.some((t) => t.kind === 'step')")
+        driver.execute_script("window.est.holdFull = false;")
+        wait_idle(driver)
+        main = driver.execute_script(
+            "return window.udvr.state.timings.filter((t) => t.channel === 'main')"
+            ".map((t) => [t.kind, t.size]);")
+        assert main == [["step", "128x128"], ["full", "256x256"]], main
+        text = [o.text for o in Select(driver.find_element("id", "model")).options
+                if o.get_attribute("value") == "mean"][0]
+        assert "about 8.0 s (progressive)" in text, text
+        est = driver.execute_script("return window.est")
+        assert (est["sent"], est["aborted"], est["maxInFlight"]) == (2, 1, 1), est
+        assert_page_is_cli(driver, server, inputs, tmp_path)
+    finally:
+        driver.quit()
+
+
+def test_tf2_edits_read_the_estimates_again(tf2_page, inputs, tmp_path):
+    """With a 2D TF, an edit in the editor and a loaded widget file each have the page ask for
+    the estimates again: its models' estimates (mean's faked as 8 s and slow before each) become
+    the server's for the new TF2 (whatever they are under this machine's load)."""
+    server, driver = tf2_page
+
+    def fake():
+        driver.execute_script(
+            "const m = window.udvr.state.info.models.find((m) => m.name === 'mean');"
+            "m.estimate_ms = 8000; m.slow = true;")
+
+    def check():
+        wait_idle(driver, 60)
+        kept = {m["name"]: m for m in server.json("/api/state")["models"]}
+        assert kept["mean"]["estimate_ms"] is not None  # asked for this TF2
+        mine = driver.execute_script(
+            "return window.udvr.state.info.models.map((m) => [m.name, m.estimate_ms, m.slow]);")
+        for name, ms, slow in mine:
+            assert [ms, slow] == [kept[name]["estimate_ms"], kept[name]["slow"]], name
+
+    fake()
+    driver.execute_script("const e = window.udvr.editor2; e.doc.widgets[0].rgba[3] *= 0.5;"
+                          "e.onChange('commit');")
+    check()
+    loaded = tmp_path / "loaded_tf2.json"
+    doc = json.loads(TANGLE_TF2.read_text())
+    doc["widgets"][0]["rgba"][3] *= 0.25
+    loaded.write_text(json.dumps(doc))
+    fake()
+    driver.find_element("id", "tf2-load").send_keys(str(loaded))
+    end = time.time() + 20
+    while time.time() < end and "loaded_tf2.json" not in driver.find_element("id", "status").text:
+        time.sleep(0.05)
+    check()
+
+
 def test_picker_marks_models_over_the_goal(inputs):
     """With a 2D TF the uniform kernel's 512² frame takes minutes: its option says so."""
     s = Server(inputs.model, "--tf2", TANGLE_TF2)

@@ -38,6 +38,13 @@ constexpr double kProbeBuildMs = 100.0;
 // Models without a measured value take these defaults per TF kind.
 constexpr std::array<double, 3> kDefaultNsPerStep{40.0, 100.0, 300.0};
 
+/// tooth2d's fast 2D gaussian, ns per pixel × ray step at the reference speed: `tooth2d --quick`
+/// on 2026-12-02 (AVX-512, load 7, speed probe 199 ms): 37.2 and 29.8 s for its two 96² frames
+/// of 320 steps, 5700 ns at the reference speed (the row's 200 ns, from the tangle, made the plan
+/// 28x short there; the uniform frames the plan still listed and the run no longer renders had
+/// hidden it).
+constexpr double kTooth2dGaussianNs = 5700.0;
+
 /// gmm-mc: ns per model voxel and realization (drawing the realization), see above.
 constexpr double kGmmMcNsPerVoxel = 94.0;
 
@@ -177,9 +184,19 @@ Work planExperiment(const std::string& name, const Sizes& s, const ExperimentOpt
         frame(K::Mean, steps, 1, TfKind::TwoD);
         for (int k : {4, 2}) {
             w += buildWork(bricks(v, k), k * k * k, 0, DensityEstimate::Empirical, true);
-            for (K m :
-                 {K::Mean, K::UniformFast, K::Gaussian, K::QuantileRange, K::QuantileMean, K::Iqr})
-                frame(m, steps, 1, TfKind::TwoD);
+            for (K m : kTooth2dModels) {
+                if (m != K::Gaussian) {
+                    frame(m, steps, 1, TfKind::TwoD);
+                    continue;
+                }
+                // The fast 2D gaussian visits every raster cell under ±7σ: its cost goes with the
+                // TF2's raster and the σ of the bricks, not with quantile-mean's frame as the
+                // row's factor (from the tangle) has it; on the tooth (raster 64×32) it took
+                // 30–37 s a 96² frame at a probe speed of 2.0 (load 7): kTooth2dGaussianNs.
+                Work g = frameWork(m, px, steps, 0.0, 1, 1, TfKind::TwoD);
+                g.frameMs *= kTooth2dGaussianNs / modelFamily(K::Gaussian).nsPerStep[1];
+                w += g;
+            }
         }
     } else if (name == "fiber" || name == "fiber-isabel") {
         const bool isabel = name == "fiber-isabel";

@@ -24,16 +24,6 @@ constexpr int kTf2RasterX = 64, kTf2RasterY = 32;
 /// Brick sizes the volume is reduced by, and the quantile count of the reduced models.
 constexpr int kBricks[] = {4, 2};
 constexpr int kQuantiles = 8;
-/// The models with a 2D (value × gradient magnitude) kernel that the experiment renders; the
-/// gaussian in its fast form (`gaussian`: the prefiltered tables of expected_tf2_fast.h, within
-/// 3e−6 of `gaussian-exact`). Not the paper's uniform: since issue 33 `uniform` with a TF2 is
-/// held to ~1e−3 of the exact box spline; its table form (expected_tf2_fast.h, docs/models.md)
-/// still costs ~500× quantile-mean's frame on the tangle (many samples take the exact
-/// evaluation), too slow for these frames; the 256-point lattice rule the experiment took
-/// before (`uniform-fast`, up to 2.3e−2 off) is deleted.
-constexpr ModelKind kModels[] = {ModelKind::Mean, ModelKind::Gaussian, ModelKind::QuantileRange,
-                                 ModelKind::QuantileMean, ModelKind::Iqr};
-
 fs::path tf2Path(const ExperimentOptions& options) {
     const fs::path tfDir = options.tfDir.empty() ? locateTfDir() : options.tfDir;
     return tfDir.parent_path() / "tf2" / kTf2File;
@@ -114,7 +104,7 @@ ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& option
             item.image = downsampleImage(renderTf2Plot(tf2, &hist, po), 2);
             run.addPanelItem(std::move(item));
         }
-        for (ModelKind kind : kModels) {
+        for (ModelKind kind : kTooth2dModels) {
             const ResultRow row = run.add(reduced[r], kind, k * k * k, brickLabel(k));
             rmse[{k, row.model}] = row.rmse;
         }
@@ -130,7 +120,7 @@ ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& option
     for (int k : kBricks) {
         const double mean = rmse.at({k, "mean"});
         std::string worse, detail = "RMSE mean " + fmt("%.5f", mean);
-        for (ModelKind kind : kModels) {
+        for (ModelKind kind : kTooth2dModels) {
             if (kind == ModelKind::Mean) continue;
             const std::string name(modelName(kind));
             const double v = rmse.at({k, name});

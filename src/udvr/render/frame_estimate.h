@@ -29,7 +29,8 @@ struct FrameEstimateLimits {
     double deadlineMs = 0.0;
 };
 
-/// Probes of frame `s` at 1/32 of its size along each axis (at least 2 pixels), then twice and
+/// A 2x2 warm-up frame (not fitted: it builds what later frames reuse), then probes of frame `s`
+/// at 1/32 of its size along each axis (at least 2 pixels), then twice and
 /// four times that, stopping before a probe over limits.maxProbeMs (and before one as large as
 /// the frame); the time fitted as a + b·pixels (a, b >= 0, least squares over the probes; a:
 /// what a frame costs whatever its size, e.g. drawing a gmm-mc realization's voxels), or
