@@ -10,12 +10,14 @@
 //     — probe's description and expectedTf2Over (joint_distribution.h), the reference the
 //     render's classification is held to.
 // So the polyline of the quantile models is built by one function and Eq. 4 / Eq. 5 in 2D are
-// each taken by one. (The 2D gaussian and uniform have double bodies only; their distributions
-// are Normal2 and BoxSpline2 pieces, from their kernels' jointDistribution.)
+// each taken by one. The 2D gaussian's is JointNormal, over lanes too; the 2D uniform has a double
+// body only (its BoxSpline2 pieces come from its kernel's jointDistribution).
+#include <bit>
 #include <concepts>
 
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2.h"
+#include "udvr/classify/expected_tf2_fast.h"
 #include "udvr/classify/expected_tf2_gaussian.h"
 #include "udvr/classify/expected_tf2_uniform_exact.h"
 #include "udvr/classify/tf2_raster.h"
@@ -119,6 +121,51 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2(const Tf2Raster<Real>& tf,
         },
         d.width, d.count - 1, d.levels, d.densityWeights,
         lanes::splat<T>(static_cast<S>(d.zeroWidth)), live, out);
+}
+
+/// The 2D gaussian's (X, G) (SPEC §9): the bivariate normal N((mx, mg), [[vxx, vxg], [vxg, vgg]])
+/// of the 32-voxel form, a point where neither has variance. Its E[TF2] is taken over the TF2 in
+/// double, `exact`: by the prefiltered tables where `tables` (`gaussian`, Tf2BlurTables::gaussian:
+/// over lanes the table sums in float) or else exactly (`gaussian-exact`, expectedTf2Gaussian, per
+/// lane in double) — so the raster of T's real type that expectedTf2 is handed is not read.
+template <class T>
+struct JointNormal {
+    using Real = T;
+    T mx, mg, vxx, vxg, vgg;
+    const Tf2Raster<double>* exact;
+    const Tf2BlurTables* tables;  // null: exactly
+};
+template <JointDistributionSink Sink>
+void describe(const JointNormal<double>& d, Sink& sink) {
+    if (d.vxx > 0.0 || d.vgg > 0.0)
+        sink.normal(Normal2{d.mx, d.mg, d.vxx, d.vxg, d.vgg}, 1.0);
+    else
+        sink.point(d.mx, d.mg, 1.0);
+}
+template <class T, class Real>
+UDVR_INLINE void expectedTf2(const Tf2Raster<Real>&, const JointNormal<T>& d, lanes::MaskOf<T> live,
+                             T out[4]) {
+    if constexpr (lanes::kIsVector<T>) {
+        if (d.tables) {
+            const lanes::Vf m[5] = {d.mx, d.mg, d.vxx, d.vxg, d.vgg};
+            d.tables->gaussian(*d.exact, m, live, out);
+            return;
+        }
+        for (std::uint32_t b = lanes::bits(live); b; b &= b - 1) {
+            const int l = std::countr_zero(b);
+            double v[4];
+            expectedTf2Gaussian(*d.exact, d.mx[l], d.mg[l], d.vxx[l], d.vxg[l], d.vgg[l], v);
+            for (int ch = 0; ch < 4; ++ch) out[ch][l] = static_cast<float>(v[ch]);
+        }
+    } else {
+        if (!live) return;
+        double v[4];
+        if (d.tables)
+            d.tables->gaussian(*d.exact, d.mx, d.mg, d.vxx, d.vxg, d.vgg, v);
+        else
+            expectedTf2Gaussian(*d.exact, d.mx, d.mg, d.vxx, d.vxg, d.vgg, v);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = static_cast<T>(v[ch]);
+    }
 }
 
 /// The contract of a 2D model's joint distribution at a point (what a 2D kernel's

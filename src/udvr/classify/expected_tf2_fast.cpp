@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstring>
 
 #include "udvr/classify/expected_tf2_gaussian.h"
+#include "udvr/util/fast_math.h"
 #include "udvr/util/normal_cdf.h"
 
 namespace udvr {
@@ -74,7 +76,30 @@ struct Tf2BlurTables::Axis {
 /// A table: (α·c_r, α·c_g, α·c_b, α) at the grid points of levels (i, j), float.
 struct Tf2BlurTables::Table {
     int nx = 0, ny = 0;
-    std::vector<float> v;  // ((q·nx + p)·4 + ch)
+    std::vector<float> v;  // (q·4 + ch)·nx + p: per row q the four channels' planes (a row's
+                           // points of one channel are contiguous: the lanes' loads)
+};
+
+namespace {
+/// `gaussian`'s blurs and window (the header comment's are share ½ and kRadius, which the box
+/// spline keeps): the blur takes up to kGaussianShare·(1 − |ρ|) of each axis' variance, so
+/// Σ − D ≥ (1 − s)/s·D and the summand's spectrum falls as exp(−½(1 − s)ωᵀDω): aliasing ≤
+/// exp(−(1 − s)·2π²/kSpacing²) = 2e−5; the window's radius leaves out mass exp(−4.25²/2) =
+/// 1.2e−4 (the weights are normalised). About half the points of the ½ / 4.75 sums; the error
+/// against `gaussian-exact` is in docs/models.md.
+constexpr double kGaussianShare = 0.65;
+constexpr double kGaussianRadius = 4.25;
+}  // namespace
+
+/// The table sum's setup for N(m, Σ) in raster cells (gaussianCells): given the blur's largest
+/// share of each axis' variance (b² ≤ share·(1 − |ρ|)·σ²) and the window's radius, the table,
+/// the residual's inverse covariance (A, B; B, C) and the rows q0 … q1 of the window.
+struct Tf2BlurTables::Window {
+    double share = 0.5, radius = kRadius;
+    const Table* t = nullptr;
+    double rxx = 0, ryy = 0, A = 0, B = 0, C = 0;
+    double hx = 0, hy = 0, xStart = 0, yStart = 0;
+    int q0 = 0, q1 = -1;
 };
 
 /// The y pass of a level: per grid row q and channel, Σ_R My[q][R]·Q[R][P] over the x basis P,
@@ -270,8 +295,9 @@ const Tf2BlurTables::Table* Tf2BlurTables::table(int i, int j) const {
                     for (int P = a; P < b; ++P) acc += wx[P] * zc[P];
                     s[ch] = acc;
                 }
-                float* o = t->v.data() + (static_cast<std::size_t>(qy) * t->nx + px) * 4;
-                for (int ch = 0; ch < 4; ++ch) o[ch] = static_cast<float>(s[ch]);
+                float* o = t->v.data() + static_cast<std::size_t>(qy) * 4 * t->nx + px;
+                for (int ch = 0; ch < 4; ++ch)
+                    o[static_cast<std::size_t>(ch) * t->nx] = static_cast<float>(s[ch]);
             }
         }
         gTableBytes += t->v.size() * sizeof(float);
@@ -327,13 +353,11 @@ void Tf2BlurTables::edgeworthSeries(double rxx, double rxy, double ryy, const do
     s.ready = true;
 }
 
-bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
-                                  double out[4], const double (*boxes)[2], int nBoxes,
-                                  Series* seriesIn) const {
+bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Window& w) const {
     if (!(sxx > 0.0 && syy > 0.0)) return false;
     const double sx = std::sqrt(sxx), sy = std::sqrt(syy);
     const double rho = std::clamp(sxy / (sx * sy), -1.0, 1.0);
-    const double f = std::sqrt(0.5 * (1.0 - std::abs(rho)));
+    const double f = std::sqrt(w.share * (1.0 - std::abs(rho)));
     const double bxMax = f * sx, byMax = f * sy;
     if (!(bxMax >= kMinBlur && byMax >= kMinBlur)) return false;
     const auto levelOf = [](double b, int levels) {
@@ -345,17 +369,31 @@ bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, 
     while (i > 0 && ax_->levels[i].blur > bxMax) --i;
     while (j > 0 && ay_->levels[j].blur > byMax) --j;
     const Axis::Level &lx = ax_->levels[i], &ly = ay_->levels[j];
-    const Table* t = table(i, j);
-    if (!t) return false;
-    const double rxx = sxx - lx.blur * lx.blur, ryy = syy - ly.blur * ly.blur;
-    const double det = rxx * ryy - sxy * sxy;
+    w.t = table(i, j);
+    if (!w.t) return false;
+    w.rxx = sxx - lx.blur * lx.blur, w.ryy = syy - ly.blur * ly.blur;
+    const double det = w.rxx * w.ryy - sxy * sxy;
     if (!(det > 0.0)) return false;
-    const double A = ryy / det, B = -sxy / det, C = rxx / det;
-    const double R2 = kRadius * kRadius;
-    const double hx = lx.spacing, hy = ly.spacing;
-    const double ey = kRadius * std::sqrt(ryy);
-    const int q0 = static_cast<int>(std::ceil((t0 - ey - ly.start) / hy));
-    const int q1 = static_cast<int>(std::floor((t0 + ey - ly.start) / hy));
+    w.A = w.ryy / det, w.B = -sxy / det, w.C = w.rxx / det;
+    w.hx = lx.spacing, w.hy = ly.spacing;
+    w.xStart = lx.start, w.yStart = ly.start;
+    const double ey = w.radius * std::sqrt(w.ryy);
+    w.q0 = static_cast<int>(std::ceil((t0 - ey - ly.start) / w.hy));
+    w.q1 = static_cast<int>(std::floor((t0 + ey - ly.start) / w.hy));
+    return true;
+}
+
+bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
+                                  double out[4], const double (*boxes)[2], int nBoxes,
+                                  Series* seriesIn) const {
+    Window win;
+    if (!boxes) win.share = kGaussianShare, win.radius = kGaussianRadius;  // else the box spline's
+    if (!windowOf(t0, sxx, sxy, syy, win)) return false;
+    const Table* t = win.t;
+    const double rxx = win.rxx, ryy = win.ryy, A = win.A, B = win.B, C = win.C;
+    const double R2 = win.radius * win.radius;
+    const double hx = win.hx, hy = win.hy;
+    const int q0 = win.q0, q1 = win.q1;
     const double g = std::exp(-A * hx * hx);
     Series local;
     Series& series = seriesIn ? *seriesIn : local;
@@ -363,24 +401,25 @@ bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, 
     const double(&c)[5][5] = series.c;
     double acc[4] = {}, wsum = 0.0;
     for (int q = q0; q <= q1; ++q) {
-        const double e = ly.start + q * hy - t0;
+        const double e = win.yStart + q * hy - t0;
         const double disc = B * B * e * e - A * (C * e * e - R2);
         if (!(disc > 0.0)) continue;
         const double sq = std::sqrt(disc);
         const double dlo = (-B * e - sq) / A, dhi = (-B * e + sq) / A;
-        const int p0 = static_cast<int>(std::ceil((s0 + dlo - lx.start) / hx));
-        const int p1 = static_cast<int>(std::floor((s0 + dhi - lx.start) / hx));
+        const int p0 = static_cast<int>(std::ceil((s0 + dlo - win.xStart) / hx));
+        const int p1 = static_cast<int>(std::floor((s0 + dhi - win.xStart) / hx));
         if (p1 < p0) continue;
         const int qc = std::clamp(q, 0, t->ny - 1);
         const float* row = t->v.data() + static_cast<std::size_t>(qc) * t->nx * 4;
-        double d = lx.start + p0 * hx - s0;
+        const std::size_t plane = static_cast<std::size_t>(t->nx);
+        double d = win.xStart + p0 * hx - s0;
         double w = std::exp(-0.5 * (A * d * d + 2.0 * B * e * d + C * e * e));
         double ratio = std::exp(-0.5 * (A * (2.0 * d * hx + hx * hx) + 2.0 * B * e * hx));
         double s[4] = {}, ws = 0.0;
         if (nBoxes == 0) {
             for (int p = p0; p <= p1; ++p) {
-                const float* v = row + static_cast<std::size_t>(std::clamp(p, 0, t->nx - 1)) * 4;
-                for (int ch = 0; ch < 4; ++ch) s[ch] += w * v[ch];
+                const float* v = row + std::clamp(p, 0, t->nx - 1);
+                for (int ch = 0; ch < 4; ++ch) s[ch] += w * v[ch * plane];
                 ws += w;
                 w *= ratio;
                 ratio *= g;
@@ -393,10 +432,10 @@ bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, 
             }
             poly[0] += 1.0;
             for (int p = p0; p <= p1; ++p, d += hx) {
-                const float* v = row + static_cast<std::size_t>(std::clamp(p, 0, t->nx - 1)) * 4;
+                const float* v = row + std::clamp(p, 0, t->nx - 1);
                 const double corr =
                     poly[0] + d * (poly[1] + d * (poly[2] + d * (poly[3] + d * poly[4])));
-                for (int ch = 0; ch < 4; ++ch) s[ch] += w * corr * v[ch];
+                for (int ch = 0; ch < 4; ++ch) s[ch] += w * corr * v[ch * plane];
                 ws += w;
                 w *= ratio;
                 ratio *= g;
@@ -418,6 +457,87 @@ void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, double mx, double my, d
                       vyy * r.invDy * r.invDy, out))
         return;
     expectedTf2Gaussian(r, mx, my, vxx, vxy, vyy, out);
+}
+
+bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double sxy, double syy,
+                                       float out[4]) const {
+    using lanes::Vf;
+    constexpr int W = lanes::kWidth;
+    Window win;
+    win.share = kGaussianShare, win.radius = kGaussianRadius;
+    if (!windowOf(t0, sxx, sxy, syy, win)) return false;
+    const Table* t = win.t;
+    const int nx = t->nx;
+    const double A = win.A, B = win.B, C = win.C, hx = win.hx;
+    const double R2 = win.radius * win.radius, invA = 1.0 / A, invHx = 1.0 / hx;
+    const lanes::Vi iota = lanes::iota();
+    const Vf kf = lanes::toFloat(iota);
+    // The exponent along a row is a parabola in the point's index k, c2·(k − kv)² + top: in float
+    // about its vertex kv the terms stay under kRadius²/2 (no cancellation of large ones).
+    const double c2 = -0.5 * A * hx * hx;
+    const Vf c2v = lanes::splat<Vf>(static_cast<float>(c2));
+    Vf acc[4] = {}, wsum = {};
+    for (int q = win.q0; q <= win.q1; ++q) {
+        const double e = win.yStart + q * win.hy - t0;
+        const double disc = B * B * e * e - A * (C * e * e - R2);
+        if (!(disc > 0.0)) continue;
+        const double sq = std::sqrt(disc);
+        const double dlo = (-B * e - sq) * invA, dhi = (-B * e + sq) * invA;
+        const int p0 = static_cast<int>(std::ceil((s0 + dlo - win.xStart) * invHx));
+        const int p1 = static_cast<int>(std::floor((s0 + dhi - win.xStart) * invHx));
+        if (p1 < p0) continue;
+        // d = d0 + k·hx (k = p − p0): −½(A d² + 2B e d + C e²), vertex at d = −B e / A.
+        const double d0 = win.xStart + p0 * hx - s0;
+        const double kv = (-B * e * invA - d0) * invHx;
+        const double top = -0.5 * (C - B * B * invA) * e * e;
+        const Vf kvv = lanes::splat<Vf>(static_cast<float>(kv));
+        const Vf topv = lanes::splat<Vf>(static_cast<float>(top));
+        const float* row = t->v.data() + static_cast<std::size_t>(std::clamp(q, 0, t->ny - 1)) * 4 *
+                                             static_cast<std::size_t>(nx);
+        const int n = p1 - p0 + 1;
+        for (int k = 0; k < n; k += W) {
+            const lanes::Mask in = iota < (n - k);
+            const Vf dk = kf + static_cast<float>(k) - kvv;
+            const Vf x = lanes::min(c2v * dk * dk + topv, Vf{});
+            const Vf w = lanes::select(in, detail::expNonPositive(x), Vf{});
+            const int p = p0 + k;
+            Vf v[4];
+            if (p >= 0 && p + W <= nx) {
+                for (int ch = 0; ch < 4; ++ch)
+                    v[ch] = lanes::load(row + static_cast<std::size_t>(ch) * nx + p);
+            } else {
+                const lanes::Vi idx =
+                    lanes::min(lanes::max(iota + p, lanes::Vi{}), lanes::splati(nx - 1));
+                for (int ch = 0; ch < 4; ++ch)
+                    v[ch] = lanes::gather(row + static_cast<std::size_t>(ch) * nx, idx, in);
+            }
+            for (int ch = 0; ch < 4; ++ch) acc[ch] = lanes::fma(w, v[ch], acc[ch]);
+            wsum += w;
+        }
+    }
+    const float total = lanes::sum(wsum);
+    if (!(total > 0.0f)) return false;
+    for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::sum(acc[ch]) / total;
+    return true;
+}
+
+void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], lanes::Mask live,
+                             lanes::Vf out[4]) const {
+    for (std::uint32_t b = lanes::bits(live); b; b &= b - 1) {
+        const int l = std::countr_zero(b);
+        const double mx = m[0][l], my = m[1][l], vxx = m[2][l], vxy = m[3][l], vyy = m[4][l];
+        const double s0 = (mx - r.x0) * r.invDx, t0 = (my - r.y0) * r.invDy;
+        float v[4];
+        if (std::isfinite(s0) && std::isfinite(t0) && std::abs(s0) < 1e9 && std::abs(t0) < 1e9 &&
+            gaussianCellsLanes(s0, t0, vxx * r.invDx * r.invDx, vxy * r.invDx * r.invDy,
+                               vyy * r.invDy * r.invDy, v)) {
+            for (int ch = 0; ch < 4; ++ch) out[ch][l] = v[ch];
+            continue;
+        }
+        double e[4];
+        expectedTf2Gaussian(r, mx, my, vxx, vxy, vyy, e);
+        for (int ch = 0; ch < 4; ++ch) out[ch][l] = static_cast<float>(e[ch]);
+    }
 }
 
 bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,

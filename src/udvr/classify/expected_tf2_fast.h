@@ -9,7 +9,9 @@
 // (beyond, the blurred clamped TF2 is constant to Φ(−kPad)); built on first use per blur pair.
 //
 // Gaussian N(m, Σ) (raster cells): Σ = D + Σr with D = diag(bx², by²) from the ladder, bx ≤
-// σx·√((1 − |ρ|)/2) and likewise by, so that Σr ≥ D (Σ/2 − D is PSD). Then E[TF2] =
+// σx·√((1 − |ρ|)/2) and likewise by, so that Σr ≥ D (Σ/2 − D is PSD). (The numbers here are the
+// box spline's sums; `gaussian` itself takes a share 0.65 and radius 4.25: aliasing ≤ 2e−5,
+// about half the points — expected_tf2_fast.cpp, kGaussianShare.) Then E[TF2] =
 // E[T_D(m + Z_r)], Z_r ~ N(0, Σr): the Gaussian-weighted sum of the table T_D over its grid points
 // within the ellipse of radius kRadius of Σr, weights normalised. That sum is the trapezoid rule
 // of a product whose spectrum falls as exp(−½ωᵀ(D⁻¹ + Σr⁻¹)⁻¹ω) ≤ exp(−¼ωᵀDω): at the grid's
@@ -32,6 +34,7 @@
 
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_uniform_exact.h"
+#include "udvr/util/lanes.h"
 
 namespace udvr {
 
@@ -59,6 +62,13 @@ class Tf2BlurTables {
     /// applies.
     void gaussian(const Tf2Raster<double>& r, double mx, double my, double vxx, double vxy,
                   double vyy, double out[4]) const;
+    /// gaussian over lanes (the render's batches), moments m = (mx, my, vxx, vxy, vyy) per lane:
+    /// each live lane's table sum with a row's points in float lanes (the weights by
+    /// expNonPositive about the row's vertex, float sums; within 2e−6 of the double sum,
+    /// Tf2BlurTables.LaneGaussianMatchesDouble); lanes where no table applies take
+    /// expectedTf2Gaussian in double. Dead lanes of `out` are left as they are.
+    void gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], lanes::Mask live,
+                  lanes::Vf out[4]) const;
     /// E over the box spline (cx, cy) + Σ t_i·d_i (the fast 2D `uniform`, header comment).
     /// Returns false where it took the exact evaluation (`tinyWidth` goes to it): no table
     /// applies (the spread under kMinBlur cells along an axis once the kept box is out), a
@@ -77,6 +87,13 @@ class Tf2BlurTables {
     struct Axis;
     struct Table;
     struct Pass;
+    struct Window;
+    /// The table and window of the table sum for N(·, Σ) in raster cells; false where no table
+    /// applies.
+    bool windowOf(double t0, double sxx, double sxy, double syy, Window& w) const;
+    /// gaussianCells without boxes, a row's points over float lanes (gaussian over lanes).
+    bool gaussianCellsLanes(double s0, double t0, double sxx, double sxy, double syy,
+                            float out[4]) const;
     /// The y pass of level j (the table rows' sums over the y basis), built on first use.
     const Pass& pass(int j) const;
     /// The table of levels (i, j), built on first use; null where it would be too large.

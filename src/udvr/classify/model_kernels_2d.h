@@ -6,7 +6,7 @@
 // (joint_distribution.h). The kernels with lane bodies (mean, the quantile family) build that
 // distribution once, over the lane type, in `reconstruct<T>(cell, live, use)`
 // (distributions_2d.h): `load` takes a TF2's expectation over it, `jointDistribution` describes
-// it; the 2D gaussian and uniform build theirs in double only.
+// it; so does the 2D gaussian (JointNormal); the 2D uniform builds its in double only.
 //
 // Gradients come from grid gradients computed once per model (reconstruct/gradient_field.h):
 // the sample's gradient is their trilinear blend, which is SPEC §9's 32-voxel form exactly.
@@ -159,10 +159,10 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
 
 /// Gaussian with a TF2 (SPEC §9): independent normal voxels X_i ~ N(μ_i, σ_i²); (X, G) =
 /// Σ_i (w_i, u_i) X_i over the 32-voxel form (u_i = n̂·g_i) is bivariate normal with means
-/// (Σ w_i μ_i, n̂·μ_Y) and covariance Σ_i (w_i, u_i)ᵀ(w_i, u_i) σ_i². E[TF2] by the prefiltered
-/// tables (`gaussian`: Tf2BlurTables::gaussian, expected_tf2_fast.h) or, without them
-/// (`gaussian-exact`), by expectedTf2Gaussian; in double (lanes and float threads take the
-/// double body).
+/// (Σ w_i μ_i, n̂·μ_Y) and covariance Σ_i (w_i, u_i)ᵀ(w_i, u_i) σ_i² (JointNormal,
+/// distributions_2d.h). E[TF2] by the prefiltered tables (`gaussian`: Tf2BlurTables::gaussian,
+/// expected_tf2_fast.h; over lanes the moments and the table sums in float) or, without them
+/// (`gaussian-exact`), by expectedTf2Gaussian in double (lanes take the double body).
 struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     const float* mean;
     const float* stddev;
@@ -200,31 +200,109 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             m[4] += u * u * var;
         }
     }
+    /// The moments over lanes (momentsAt's, in float). Lanes whose cell and its 24 outer
+    /// neighbours all lie where the grid gradients are central differences (base index i with
+    /// 1 ≤ i ≤ dims − 3 on each axis) take the 32-voxel form in closed form: corner o's u is
+    /// Σ_a k_a·(±w of the corner across axis a: + where o_a = 1), the outer voxel beyond corner o
+    /// along a has u = ±k_a·w_o, k_a = n̂_a/(2·spacing_a), with σ² gathered per voxel; the rest
+    /// (faces of the grid, one-sided differences) take momentsAt per lane. Needs gathersFit(1).
+    void momentsLanes(const Cell<lanes::Vf>& c, lanes::Mask live, lanes::Vf m[5]) const {
+        using lanes::Vf, lanes::Vi;
+        using Vd = detail::Lanes<lanes::kWidth>::D;
+        // (i, j, k) of each lane's base voxel: (n + ½)·(1/d) in double is n/d to well under
+        // ½/d for n < 2⁵¹, so its truncation is the quotient.
+        const auto divide = [](Vi n, std::int64_t d) {
+            const Vd q = (__builtin_convertvector(n, Vd) + 0.5) * (1.0 / static_cast<double>(d));
+            return __builtin_convertvector(q, Vi);
+        };
+        const Vi base = lanes::select(live, c.base, Vi{});
+        const Vi k = divide(base, geometry.stride[2]);
+        const Vi rem = base - k * geometry.stride32[2];
+        const Vi j = divide(rem, geometry.stride[1]);
+        const Vi i = rem - j * geometry.stride32[1];
+        const Vi idx[3] = {i, j, k};
+        lanes::Mask fast = live;
+        for (int a = 0; a < 3; ++a) fast = fast & (idx[a] >= 1) & (idx[a] <= geometry.dims[a] - 3);
+        if (lanes::anyOf(fast)) {
+            Vf n[3];
+            m[1] = meanDirectionAt(c, fast, n);
+            m[0] = trilinear(geometry, mean, 1, c, fast);
+            const Vf one = lanes::splat<Vf>(1.0f);
+            const Vf f[3][2] = {{one - c.fx, c.fx}, {one - c.fy, c.fy}, {one - c.fz, c.fz}};
+            Vf kk[3];
+            for (int a = 0; a < 3; ++a)
+                kk[a] = n[a] * static_cast<float>(0.5 * gradientGeometry.invSpacing[a]);
+            Vf w[8];
+            for (int o = 0; o < 8; ++o) w[o] = f[0][o & 1] * f[1][(o >> 1) & 1] * f[2][o >> 2];
+            Vf vxx{}, vxg{}, vgg{};
+            for (int o = 0; o < 8; ++o) {
+                int off = 0;
+                for (int a = 0; a < 3; ++a)
+                    if ((o >> a) & 1) off += geometry.stride32[a];
+                const Vi at = c.base + off;
+                const Vf s = lanes::gather(stddev, at, fast), var = s * s;
+                Vf u{};
+                for (int a = 0; a < 3; ++a) {
+                    const Vf across = kk[a] * w[o ^ (1 << a)];
+                    u = ((o >> a) & 1) ? u + across : u - across;
+                }
+                vxx = lanes::fma(w[o] * w[o], var, vxx);
+                vxg = lanes::fma(w[o] * u, var, vxg);
+                vgg = lanes::fma(u * u, var, vgg);
+                for (int a = 0; a < 3; ++a) {  // the outer voxel beyond corner o along a
+                    const bool up = (o >> a) & 1;
+                    const Vf so = lanes::gather(
+                        stddev, at + (up ? geometry.stride32[a] : -geometry.stride32[a]), fast);
+                    const Vf uo = kk[a] * w[o];
+                    vgg = lanes::fma(uo * uo, so * so, vgg);
+                }
+            }
+            m[2] = vxx;
+            m[3] = vxg;
+            m[4] = vgg;
+        }
+        for (std::uint32_t b = lanes::bits(live & !fast); b; b &= b - 1) {
+            const int l = std::countr_zero(b);
+            double md[5];
+            momentsAt(laneCell(c, l), md);
+            for (int q = 0; q < 5; ++q) m[q][l] = static_cast<float>(md[q]);
+        }
+    }
+    /// Its distribution at a cell: the bivariate normal of the 32-voxel form, handed to use(d).
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        T m[5] = {};
+        if constexpr (lanes::kIsVector<T>) {
+            momentsLanes(c, live, m);
+        } else if constexpr (std::is_same_v<T, double>) {
+            momentsAt(c, m);
+        } else {
+            double md[5];
+            momentsAt(Cell<double>{c.base, c.fx, c.fy, c.fz}, md);
+            for (int k = 0; k < 5; ++k) m[k] = static_cast<T>(md[k]);
+        }
+        use(JointNormal<T>{m[0], m[1], m[2], m[3], m[4], &tfExact, tables});
+    }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r{};
-        if constexpr (std::is_same_v<T, double>) {
-            double m[5];
-            momentsAt(c, m);
-            if (tables)
-                tables->gaussian(tfExact, m[0], m[1], m[2], m[3], m[4], r.v);
-            else
-                expectedTf2Gaussian(tfExact, m[0], m[1], m[2], m[3], m[4], r.v);
-        } else {
-            detail::exactWhere(*this, c, live, r.v);
+        if constexpr (lanes::kIsVector<T>) {
+            // gaussian-exact (the reference) and batches past int32 gathers: the double body.
+            if (!tables || !gathersFit(1)) {
+                detail::exactWhere(*this, c, live, r.v);
+                return r;
+            }
         }
+        reconstruct(c, live,
+                    [&](const auto& d) UDVR_INLINE_LAMBDA { expectedTf2(tf2<T>(), d, live, r.v); });
+        detail::keepLive<T>(live, r.v);
         return r;
     }
-    /// Its joint distribution at a cell: the bivariate normal of the 32-voxel form (a point
-    /// where it has no variance).
+    /// Its joint distribution at a cell (joint_distribution.h): reconstruct's, described.
     template <class Sink>
     void jointDistribution(const Cell<double>& c, Sink& sink) const {
-        double m[5];
-        momentsAt(c, m);
-        if (m[2] > 0.0 || m[4] > 0.0)
-            sink.normal(Normal2{m[0], m[1], m[2], m[3], m[4]}, 1.0);
-        else
-            sink.point(m[0], m[1], 1.0);
+        reconstruct<double>(c, true, [&](const auto& d) { describe(d, sink); });
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);

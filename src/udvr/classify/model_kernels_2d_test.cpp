@@ -10,9 +10,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <set>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "udvr/classify/classify_test_util.h"
@@ -984,6 +986,75 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
                 });
             }
         }
+}
+
+// The 2D gaussian's lane body (issue 33: moments in closed form over the lanes whose 32 voxels
+// have central differences, table sums in float) on random 9×8×7 models, grids and TF2s: its
+// moments against momentsAt per lane (relative to their scale), its classification against the
+// double body and against `gaussian-exact`'s double body (the exact evaluation; issue 33 asks
+// 1e−3). Measured 2026-12-02 (AVX-512): moments 4.2e−7, lanes − double body 1.6e−7, lanes −
+// gaussian-exact 4.6e−5; held to 1e−5, 5e−5 and 1e−3.
+TEST(Tf2, GaussianLanesMatchTheDoubleBodyAndTheExactKernel) {
+    using lanes::Vf;
+    CounterRng rng(33, 2, 0);
+    const std::array<int, 3> dims{9, 8, 7};
+    double worstMoment = 0.0, worstBody = 0.0, worstExact = 0.0;
+    int closedForm = 0, lanesSeen = 0;
+    for (int model = 0; model < 6; ++model) {
+        ModelVolume m = testing::randomModel(rng, dims, 2);
+        m.grid = randomGrid(rng, dims);
+        const auto range = modelDataRange(m);
+        const TransferFunction2D t = randomTf2(rng, 12, 9, range.first, range.second, 0.0, 3.0);
+        with2D(m, ModelKind::GaussianExact, t, [&](const auto& exact) {
+            with2D(m, ModelKind::Gaussian, t, [&](const auto& k) {
+                if constexpr (std::is_same_v<std::decay_t<decltype(k)>, Gaussian2DKernel>) {
+                    for (int trial = 0; trial < 40; ++trial) {
+                        Vf p[3];
+                        testing::randomPoints(rng, dims, p);
+                        const Cell<Vf> cell = cellAt<Vf>(k.geometry, p[0], p[1], p[2]);
+                        const lanes::Mask live = lanes::allTrue<Vf>();
+                        Vf mv[5];
+                        k.momentsLanes(cell, live, mv);
+                        Vf got[4];
+                        k.finish(k.template load<Vf>(cell, live), got);
+                        for (int l = 0; l < lanes::kWidth; ++l) {
+                            const Cell<double> c = laneCell(cell, l);
+                            double md[5];
+                            k.momentsAt(c, md);
+                            const double scaleX = std::abs(md[0]) + std::sqrt(md[2]) + 1e-30;
+                            const double scaleG = std::abs(md[1]) + std::sqrt(md[4]) + 1e-30;
+                            const double scale[5] = {scaleX, scaleG, scaleX * scaleX,
+                                                     scaleX * scaleG, scaleG * scaleG};
+                            for (int q = 0; q < 5; ++q)
+                                worstMoment =
+                                    std::max(worstMoment, std::abs(mv[q][l] - md[q]) / scale[q]);
+                            bool interior = true;
+                            const std::array<int, 3> ijk = voxelIndices(k.geometry, c.base);
+                            for (int a = 0; a < 3; ++a)
+                                interior = interior && ijk[a] >= 1 && ijk[a] <= dims[a] - 3;
+                            closedForm += interior;
+                            ++lanesSeen;
+                            double body[4], ref[4];
+                            k.finish(k.template load<double>(c, true), body);
+                            exact.finish(exact.template load<double>(c, true), ref);
+                            for (int ch = 0; ch < 4; ++ch) {
+                                worstBody = std::max(worstBody, std::abs(got[ch][l] - body[ch]));
+                                worstExact = std::max(worstExact, std::abs(got[ch][l] - ref[ch]));
+                            }
+                        }
+                    }
+                }
+            });
+        });
+    }
+    std::printf(
+        "gaussian lanes: %d of %d lanes in closed form; moments %.3g, lanes - double "
+        "body %.3g, lanes - gaussian-exact %.3g\n",
+        closedForm, lanesSeen, worstMoment, worstBody, worstExact);
+    EXPECT_GT(closedForm, lanesSeen / 20);  // the closed form is exercised (11 % measured)
+    EXPECT_LE(worstMoment, 1e-5);
+    EXPECT_LE(worstBody, 5e-5);
+    EXPECT_LE(worstExact, 1e-3);
 }
 
 // Columns of cells with α = 0 in every row (point columns 0…3 and 8…12: cells 0…2 and 8…11):
