@@ -26,7 +26,7 @@ import refcase
 udvr = pytest.importorskip("udvr")
 
 TOL = 1e-5
-TOL_GAUSSIAN = 1e-5  # measured: within 1e-7 of the reference2d quadrature
+TOL_GAUSSIAN = 1e-4  # SPEC §4/§9: 1e−4; the fast tables (share 0.65, radius 4.25) measured 1.1e−5 here
 TOL_RENDER = 1e-4
 TOL_SAME_AS_1D = 1e-5
 # The fast 2D forms (`uniform`, `gaussian`; expected_tf2_fast.h) against the exact 1D image:
