@@ -78,19 +78,22 @@ int main(int argc, char** argv) {
         return 1;
     }
     const std::filesystem::path out = argv[2], tmp = out.string() + ".tmp";
+    std::error_code ec;
     {
         std::ofstream file(tmp, std::ios::binary);
         file << xml;
-        if (!file.flush()) {
+        file.close();
+        if (file.fail()) {
+            std::filesystem::remove(tmp, ec);
             std::cerr << "udvr_paraview_menu: cannot write " << tmp.string() << "\n";
             return 1;
         }
     }
-    std::error_code ec;
     std::filesystem::rename(tmp, out, ec);
     if (ec) {
         std::cerr << "udvr_paraview_menu: cannot rename to " << out.string() << ": " << ec.message()
                   << "\n";
+        std::filesystem::remove(tmp, ec);
         return 1;
     }
     return 0;

@@ -195,7 +195,9 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
     }
 }
 
-std::shared_ptr<const Tf2RasterSet> sharedTf2Rasters(const TransferFunction2D& tf) {
+std::shared_ptr<const Tf2Rasters> sharedTf2Rasters(const TransferFunction2D& tf) {
+    if (static_cast<std::size_t>(tf.width) * tf.height > kMaxCachedTf2Points)
+        return std::make_shared<const Tf2Rasters>(tf);
     static std::mutex mutex;
     static std::shared_ptr<const Tf2RasterSet> last;
     const std::lock_guard<std::mutex> lock(mutex);
@@ -207,12 +209,12 @@ std::shared_ptr<const Tf2RasterSet> sharedTf2Rasters(const TransferFunction2D& t
         last.reset();  // the old set's memory goes back before the new one is built
         last = std::make_shared<const Tf2RasterSet>(tf);
     }
-    return last;
+    return {last, &last->rasters};  // shares the set's ownership
 }
 
 Tf2Setup::Tf2Setup(const TransferFunction2D& tf, const ModelView& m, GradientCache& cache)
     : held_(sharedTf2Rasters(tf)),
-      rasters(held_->rasters),
+      rasters(*held_),
       exact(rasters.exact),
       fast(rasters.fast),
       model(m),

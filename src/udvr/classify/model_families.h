@@ -67,17 +67,22 @@ struct Tf2RasterSet {
     explicit Tf2RasterSet(const TransferFunction2D& t) : tf(t), rasters(tf) {}
 };
 
-/// The views of `tf` (validated by the caller): the last ones made in the process where they
-/// are of an equal TF2 (size, domain and every point), else new ones. Frames of one TF2 (a
-/// camera move in `udvr serve`, `--frames`, a probe after a render) then build the tables
-/// (Tf2Rasters: 15–120 ms for a 256² TF2) once. Holds at most one set besides those in use.
-std::shared_ptr<const Tf2RasterSet> sharedTf2Rasters(const TransferFunction2D& tf);
+/// Largest TF2 (points) whose views sharedTf2Rasters keeps between calls: ~100 MiB with the
+/// banded walk's tables (kMaxTf2BandPrefixPoints), held after the last frame.
+inline constexpr std::size_t kMaxCachedTf2Points = kMaxTf2BandPrefixPoints;
+
+/// The views of `tf` (validated by the caller). Up to kMaxCachedTf2Points: the last ones made
+/// in the process where they are of an equal TF2 (size, domain and every point), else new ones
+/// kept for the next call; frames of one TF2 (a camera move in `udvr serve`, `--frames`, a
+/// probe after a render) then build the tables (Tf2Rasters: 15–120 ms for a 256² TF2) once.
+/// Larger TF2s get views of their own over `tf` itself, which must then outlive them.
+std::shared_ptr<const Tf2Rasters> sharedTf2Rasters(const TransferFunction2D& tf);
 
 /// What a 2D kernel points into: the TF2 raster's views (sharedTf2Rasters) and the grid
 /// gradients it blends (from `gradients`, which outlives the setup).
 struct Tf2Setup {
   private:
-    std::shared_ptr<const Tf2RasterSet> held_;  // keeps the views alive
+    std::shared_ptr<const Tf2Rasters> held_;  // keeps the views alive (sharedTf2Rasters)
 
   public:
     const Tf2Rasters& rasters;
@@ -86,8 +91,8 @@ struct Tf2Setup {
     const ModelView& model;
     GradientCache& gradients;
 
-    /// Views of `tf` (validated by the caller) over `model`, which outlives the setup with
-    /// `cache`; `tf` need not.
+    /// Views of `tf` (validated by the caller) over `model`; `tf`, `model` and `cache` outlive
+    /// the setup.
     Tf2Setup(const TransferFunction2D& tf, const ModelView& model, GradientCache& cache);
     Tf2Setup(const Tf2Setup&) = delete;
     Tf2Setup& operator=(const Tf2Setup&) = delete;
@@ -191,9 +196,9 @@ void withKernelBivariate(const ModelView& first, const ModelView& second, ModelK
     checkModelHasArrays(second, kind, options);
     if (!family.makeBivariate)
         UDVR_FAIL("model '" << family.name << "' has no bivariate classification yet");
-    const std::shared_ptr<const Tf2RasterSet> views = sharedTf2Rasters(tf);
+    const std::shared_ptr<const Tf2Rasters> views = sharedTf2Rasters(tf);
     const TfPiecesStorage none(reconstructionOnlyTf());
-    std::visit(f, family.makeBivariate(first, second, views->rasters, none, options, family));
+    std::visit(f, family.makeBivariate(first, second, *views, none, options, family));
 }
 
 /// withKernel with default options.

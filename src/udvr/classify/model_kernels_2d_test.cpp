@@ -1236,6 +1236,15 @@ TEST(Tf2, SetupsOfEqualTf2sShareTheirViewsAndEditsGetNewOnes) {
     // After an edit, a new setup of the first TF2 still equals the first's views in content.
     const Tf2Setup again(t, unit, gradients);
     EXPECT_EQ(std::vector<float>(again.exact.rgba, again.exact.rgba + t.rgba.size()), t.rgba);
+    // Past kMaxCachedTf2Points a TF2's views are its own, over the caller's points: nothing
+    // of it is kept after its frames.
+    TransferFunction2D large = randomTf2(rng, 520, 510, -2.0, 3.0, 0.0, 4.0);
+    ASSERT_GT(static_cast<std::size_t>(large.width) * large.height, kMaxCachedTf2Points);
+    const Tf2Setup e(large, unit, gradients), f(large, unit, gradients);
+    EXPECT_NE(&e.rasters, &f.rasters);
+    EXPECT_EQ(e.exact.rgba, large.rgba.data());
+    const Tf2Setup g(t, unit, gradients);  // the cached set of `t` was not replaced
+    EXPECT_EQ(&g.rasters, &again.rasters);
 }
 
 }  // namespace
