@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -116,13 +117,14 @@ struct Tf2ColumnPieces {
     static constexpr std::size_t kMaxStored = 1 << 15;  // coefficient sets kept (36 doubles each)
     const Tf2Raster<double>& r;
     std::vector<Piece> pieces;
+    double g0 = 0, support = 0, L = 0;      // the window in g (expectedTf2UniformOnGrid)
     int sLo = 0, sHi = 0;                   // strips sLo … sHi
     std::vector<std::pair<int, int>> live;  // (strip − sLo, piece) where α is not 0 throughout
     std::vector<double> coef;               // [live entry][ch·3 + p][d], if ≤ kMaxStored entries
 
-    Tf2ColumnPieces(const Tf2Raster<double>& rIn, double g0, double support, double L, int sLoIn,
-                    int sHiIn)
-        : r(rIn), sLo(sLoIn), sHi(sHiIn) {
+    Tf2ColumnPieces(const Tf2Raster<double>& rIn, double g0In, double supportIn, double LIn,
+                    int sLoIn, int sHiIn)
+        : r(rIn), g0(g0In), support(supportIn), L(LIn), sLo(sLoIn), sHi(sHiIn) {
         const double dy = 1.0 / r.invDy;
         // Piece ends in g: the window's edges and the rows inside the support, then the margin.
         std::vector<double> ends{0.0};
@@ -140,16 +142,22 @@ struct Tf2ColumnPieces {
             pieces.push_back({0.0, L, g0 + 0.5 * L, g0 + 0.5 * L});
         else if (L > support)  // margin: α, c linear from the support's top back to its bottom
             pieces.push_back({support, L - support, g0 + support, g0});
+        // Each (strip, piece) filled once: kept while at most kMaxStored are live, after that
+        // only listed (transforms then fills them again per term).
         const int np = static_cast<int>(pieces.size());
         double e[36];
         for (int s = 0; s <= sHi - sLo; ++s)
-            for (int q = 0; q < np; ++q)
-                if (fill(s, q, e)) live.emplace_back(s, q);
-        if (live.size() <= kMaxStored) {
-            coef.resize(36 * live.size());
-            for (std::size_t i = 0; i < live.size(); ++i)
-                fill(live[i].first, live[i].second, &coef[36 * i]);
-        }
+            for (int q = 0; q < np; ++q) {
+                if (!fill(s, q, e)) continue;
+                live.emplace_back(s, q);
+                if (live.size() <= kMaxStored) coef.insert(coef.end(), e, e + 36);
+            }
+        if (live.size() > kMaxStored) coef = {};
+    }
+    /// Whether these pieces serve a grid of the same window (g0, support, L) over strips sLo …
+    /// sHi (a wider range of strips serves too: the strips outside the grid's add nothing).
+    bool covers(double g0In, double supportIn, double LIn, int sLoIn, int sHiIn) const {
+        return g0 == g0In && support == supportIn && L == LIn && sLo <= sLoIn && sHi >= sHiIn;
     }
 
     /// The coefficients of strip sLo + s on piece q; false where α = 0 throughout (all 0).
@@ -215,7 +223,8 @@ struct Tf2ColumnPieces {
 /// there were binned corners (else the result does not depend on xCells).
 bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, double cy,
                               const BoxDirection2* d, int n, double tinyWidth, int xCells,
-                              Tf2UniformExactOptions& opt, double out[4]) {
+                              Tf2UniformExactOptions& opt, std::optional<Tf2ColumnPieces>& shared,
+                              double out[4]) {
     // Corners (a ≠ 0): the widest w apart; the rest binned. y-only: R.
     int widest = -1;
     std::vector<BoxDirection2> corners;
@@ -261,7 +270,11 @@ bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, double cy,
         return std::clamp(static_cast<int>(std::floor((x - r.x0) * r.invDx)), -1, r.width - 1);
     };
     const int sLo = stripOf(xL), sHi = stripOf(xR);
-    const detail::Tf2ColumnPieces cols(r, g0, support, L, sLo, sHi);
+    // The column pieces depend on the window and the strips only: the coarse grid (called
+    // first, with the wider range of strips) builds them and the fine grid reuses them.
+    if (!shared || !shared->covers(g0, support, L, sLo, sHi))
+        shared.emplace(r, g0, support, L, sLo, sHi);
+    const Tf2ColumnPieces& cols = *shared;
     const auto stripStart = [&](int s) { return s < 0 ? xL : std::max(xL, r.x0 + s * sx); };
 
     std::vector<Cplx> P(N), Pn(N), Q, cum(sHi - sLo + 2), W;
@@ -290,7 +303,7 @@ bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, double cy,
             Cplx J[3];
             detail::powerPhaseIntegrals(x1 - xs, x2 - xs, om * mw * (xs - cx), om * mw, J);
             const double f1 = r.invDx, f2 = r.invDx * r.invDx;
-            const Cplx* q = &Q[(s - sLo) * 12];
+            const Cplx* q = &Q[(s - cols.sLo) * 12];
             for (int ch = 0; ch < 4; ++ch)
                 v[ch] =
                     q[ch * 3] * J[0] + q[ch * 3 + 1] * (J[1] * f1) + q[ch * 3 + 2] * (J[2] * f2);
@@ -314,7 +327,7 @@ bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, double cy,
                     detail::powerPhaseIntegrals(u0, u1, 0.0, om * mw, J);
                     // T̂(x_j + u) = Σ_p q_p f^p, f = f0 + u/sx: as a quadratic in u.
                     const double f0 = (cx - xs + off) * r.invDx, f1 = r.invDx;
-                    const Cplx* q = &Q[(s - sLo) * 12];
+                    const Cplx* q = &Q[(s - cols.sLo) * 12];
                     for (int ch = 0; ch < 4; ++ch) {
                         const Cplx q0 = q[ch * 3], q1 = q[ch * 3 + 1], q2 = q[ch * 3 + 2];
                         lam[4 * j + ch] +=
@@ -349,7 +362,7 @@ bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, double cy,
         } else {  // X the point cx
             const int s = stripOf(cx);
             const double f = s < 0 || s >= r.width - 1 ? 0.0 : (cx - (r.x0 + s * sx)) * r.invDx;
-            const Cplx* q = &Q[(s - sLo) * 12];
+            const Cplx* q = &Q[(s - cols.sLo) * 12];
             for (int ch = 0; ch < 4; ++ch)
                 lam[4 * H + ch] = q[ch * 3] + f * (q[ch * 3 + 1] + f * q[ch * 3 + 2]);
         }
@@ -375,10 +388,15 @@ void expectedTf2UniformExact(const Tf2Raster<double>& r, double cx, double cy,
                              Tf2UniformExactOptions& opt, double out[4]) {
     opt.kUsed = 0;
     opt.refinement = 0.0;
-    if (!detail::expectedTf2UniformOnGrid(r, cx, cy, d, n, tinyWidth, 2 * opt.xCells, opt, out))
-        return;
+    // The coarse grid first: its wider strip range lets the fine grid share its column pieces.
+    std::optional<detail::Tf2ColumnPieces> cols;
     double coarse[4];
-    detail::expectedTf2UniformOnGrid(r, cx, cy, d, n, tinyWidth, opt.xCells, opt, coarse);
+    if (!detail::expectedTf2UniformOnGrid(r, cx, cy, d, n, tinyWidth, opt.xCells, opt, cols,
+                                          coarse)) {
+        for (int ch = 0; ch < 4; ++ch) out[ch] = coarse[ch];  // no binned corners: no grid
+        return;
+    }
+    detail::expectedTf2UniformOnGrid(r, cx, cy, d, n, tinyWidth, 2 * opt.xCells, opt, cols, out);
     for (int ch = 0; ch < 4; ++ch) {
         opt.refinement = std::max(opt.refinement, std::abs(out[ch] - coarse[ch]));
         out[ch] += (out[ch] - coarse[ch]) / 3.0;
