@@ -35,7 +35,7 @@ void powerPhaseIntegrals(double s1, double s2, double phi, double rho, Cplx J[3]
     const double h = len / pieces;
     // e^{iθ} at the nodes by rotation: the first piece's centre, then one step per piece.
     Cplx base = std::polar(1.0, phi + rho * (s1 + 0.5 * h));
-    const Cplx step = std::polar(1.0, rho * h);
+    const Cplx step = std::polar(1.0, rho * h);  // |ρh| ≤ 1: the pieces' rule above
     Cplx off[3];
     for (int n = 0; n < 3; ++n) off[n] = std::polar(0.5 * h * kW[n], rho * kX[n] * 0.5 * h);
     for (int q = 0; q < pieces; ++q, base *= step) {
@@ -351,12 +351,15 @@ bool expectedTf2UniformOnGrid(const Tf2Raster<double>& r, double cx, double cy,
                 partial(s, stripStart(s), x, v);
                 for (int ch = 0; ch < 4; ++ch) v[ch] += cum[4 * (s - sLo) + ch];
             };
-            for (int j = lo; j <= hi; ++j) {
+            // The phase e^{−iω·mw·(x_j − cx)}/(2aw) by rotation from node lo (one step a node:
+            // ≤ 2·H ulps of drift, ~1e−13).
+            Cplx ph = std::polar(1.0 / (2.0 * aw), -om * mw * ((lo - H) * dx));
+            const Cplx step = std::polar(1.0, -om * mw * dx);
+            for (int j = lo; j <= hi; ++j, ph *= step) {
                 const double xj = cx + (j - H) * dx;
                 Cplx c1[4], c0[4];
                 C(xj + aw, c1);
                 C(xj - aw, c0);
-                const Cplx ph = std::polar(1.0 / (2.0 * aw), -om * mw * (xj - cx));
                 for (int ch = 0; ch < 4; ++ch) lam[4 * j + ch] = ph * (c1[ch] - c0[ch]);
             }
         } else {  // X the point cx
