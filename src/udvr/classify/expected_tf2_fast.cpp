@@ -32,6 +32,14 @@ struct Tf2BlurTables::Axis {
             if (b > widest) break;
         }
     }
+    /// The bytes its levels hold.
+    std::size_t bytes() const {
+        std::size_t n = 0;
+        for (const Level& l : levels)
+            n += l.values.size() * sizeof(double) +
+                 (l.first.size() + l.size.size() + l.offset.size()) * sizeof(int);
+        return n;
+    }
     Level level(double b) const {
         Level l;
         l.blur = b;
@@ -132,6 +140,24 @@ bool Tf2BlurTables::matches(const Tf2Raster<double>& r) const {
            r.invDx == invDx_ && r.invDy == invDy_ && hashOf(r) == hash_;
 }
 
+namespace {
+/// The bytes of every Tf2BlurTables' built y passes and tables in the process, and their cap:
+/// past it a table is not built and its samples take the exact evaluation (`udvr serve` keeps
+/// the tables of earlier TF2s alive in its render cache; its soak test saw 529 MiB resident
+/// without a cap). At the cap which samples take the exact path depends on the order they come
+/// in (the two agree to ~3e−6, docs/models.md).
+std::atomic<std::size_t> gTableBytes{0};
+constexpr std::size_t kMaxTableBytes = std::size_t{160} << 20;
+/// Reserves `bytes` under the cap; false (nothing reserved) where they do not fit.
+bool reserveTableBytes(std::size_t bytes) {
+    std::size_t now = gTableBytes.load();
+    do {
+        if (now + bytes > kMaxTableBytes) return false;
+    } while (!gTableBytes.compare_exchange_weak(now, now + bytes));
+    return true;
+}
+}  // namespace
+
 Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
     : width_(r.width),
       height_(r.height),
@@ -141,8 +167,23 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
       invDy_(r.invDy),
       hash_(hashOf(r)) {
     const int W = r.width, H = r.height, BW = 2 * W - 1, BH = 2 * H - 1;
+    // The coefficients and ladders under the cap, or no tables (available() false: levels 0).
+    if (static_cast<std::size_t>(W) * H > kMaxRasterPoints) return;
+    const std::size_t qBytes = static_cast<std::size_t>(BW) * BH * 4 * sizeof(double) +
+                               static_cast<std::size_t>(BH) * 2 * sizeof(int);
+    if (!reserveTableBytes(qBytes)) return;
+    baseBytes_ = qBytes;
     ax_ = std::make_unique<Axis>(W, 8.0 * std::max(W, H));
     ay_ = std::make_unique<Axis>(H, 8.0 * std::max(W, H));
+    const std::size_t axisBytes = ax_->bytes() + ay_->bytes();
+    if (!reserveTableBytes(axisBytes)) {
+        gTableBytes -= baseBytes_;
+        baseBytes_ = 0;
+        ax_.reset();
+        ay_.reset();
+        return;
+    }
+    baseBytes_ += axisBytes;
     levelsX_ = static_cast<int>(ax_->levels.size());
     levelsY_ = static_cast<int>(ay_->levels.size());
     once_ = std::make_unique<std::once_flag[]>(static_cast<std::size_t>(levelsX_ * levelsY_));
@@ -189,31 +230,13 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
     }
 }
 
-namespace {
-/// The bytes of every Tf2BlurTables' built y passes and tables in the process, and their cap:
-/// past it a table is not built and its samples take the exact evaluation (`udvr serve` keeps
-/// the tables of earlier TF2s alive in its render cache; its soak test saw 529 MiB resident
-/// without a cap). At the cap which samples take the exact path depends on the order they come
-/// in (the two agree to ~3e−6, docs/models.md).
-std::atomic<std::size_t> gTableBytes{0};
-constexpr std::size_t kMaxTableBytes = std::size_t{160} << 20;
-/// Reserves `bytes` under the cap; false (nothing reserved) where they do not fit.
-bool reserveTableBytes(std::size_t bytes) {
-    std::size_t now = gTableBytes.load();
-    do {
-        if (now + bytes > kMaxTableBytes) return false;
-    } while (!gTableBytes.compare_exchange_weak(now, now + bytes));
-    return true;
-}
-}  // namespace
-
 Tf2BlurTables::~Tf2BlurTables() {
     std::size_t bytes = 0;
     for (int k = 0; k < levelsX_ * levelsY_; ++k)
         if (tables_[k]) bytes += tables_[k]->v.size() * sizeof(float);
     for (int j = 0; j < levelsY_; ++j)
         if (passes_[j]) bytes += passes_[j]->z.size() * sizeof(float);
-    gTableBytes -= bytes;
+    gTableBytes -= bytes + baseBytes_;
 }
 
 const Tf2BlurTables::Pass& Tf2BlurTables::pass(int j) const {
@@ -354,6 +377,7 @@ void Tf2BlurTables::edgeworthSeries(double rxx, double rxy, double ryy, const do
 }
 
 bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Window& w) const {
+    if (!available()) return false;
     if (!(sxx > 0.0 && syy > 0.0)) return false;
     const double sx = std::sqrt(sxx), sy = std::sqrt(syy);
     const double rho = std::clamp(sxy / (sx * sy), -1.0, 1.0);

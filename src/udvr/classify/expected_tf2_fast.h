@@ -46,6 +46,13 @@ class Tf2BlurTables {
     static constexpr double kPad = 6.0;       // blurs beyond the domain on each side
     static constexpr double kRadius = 4.75;   // the residual's window: mass outside 1.2e−5
     static constexpr std::size_t kMaxTablePoints = std::size_t{1} << 21;
+    /// Largest TF2 (points) that gets tables: its biquadratic coefficients take 4·(2W − 1)·(2H − 1)
+    /// doubles (33 MiB at 512², 134 MiB at 1024²) and are counted under the process's table cap
+    /// (expected_tf2_fast.cpp) with the axes' ladders. A larger TF2, or one whose coefficients
+    /// do not fit under the cap, gets none: every sample takes the exact evaluation.
+    static constexpr std::size_t kMaxRasterPoints = std::size_t{1} << 20;
+    /// Whether the tables exist (else every evaluation is the exact one).
+    bool available() const { return baseBytes_ > 0; }
 
     /// Of the TF2 `r` (copied: the tables outlive it).
     explicit Tf2BlurTables(const Tf2Raster<double>& r);
@@ -120,6 +127,7 @@ class Tf2BlurTables {
                        const double (*boxes)[2] = nullptr, int n = 0,
                        Series* series = nullptr) const;
 
+    std::size_t baseBytes_ = 0;  // q_, qRange_ and the axes, reserved under the cap (0: none)
     int width_ = 2, height_ = 2;
     double x0_ = 0, y0_ = 0, invDx_ = 1, invDy_ = 1;
     std::uint64_t hash_ = 0;

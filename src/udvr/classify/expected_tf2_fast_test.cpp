@@ -8,8 +8,10 @@
 
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <sstream>
+#include <vector>
 
 #include "udvr/classify/expected_tf2_gaussian.h"
 #include "udvr/classify/expected_tf2_uniform_test_util.h"
@@ -56,6 +58,40 @@ TEST(Tf2BlurTables, GaussianWithin1e3OfTheExactEvaluation) {
     std::printf("gaussian: max |dE| %.3g, RMS %.3g over %d values\n", worst, std::sqrt(sq / count),
                 count);
     EXPECT_LE(worst, 1e-3);
+}
+
+// The tables' own arrays are bounded: a TF2 over kMaxRasterPoints gets none, and three 700²
+// TF2s' coefficients (3 × 63 MiB) cannot all fit under the process's 160 MiB cap. Where there
+// are none, gaussian() and boxSpline() give the exact evaluations' values.
+TEST(Tf2BlurTables, LargeTf2sGetNoTablesAndTakeTheExactEvaluation) {
+    std::mt19937_64 g(37);
+    const testing::Raster big = roughRaster(g, 1030, 1025);
+    const Tf2BlurTables none(big.r);
+    EXPECT_FALSE(none.available());
+    double got[4], want[4];
+    none.gaussian(big.r, 0.4, 0.6, 1e-4, 2e-5, 4e-4, got);
+    expectedTf2Gaussian(big.r, 0.4, 0.6, 1e-4, 2e-5, 4e-4, want);
+    for (int ch = 0; ch < 4; ++ch) EXPECT_EQ(got[ch], want[ch]);
+    const BoxDirection2 d[3] = {{0.003, 0.001}, {0.002, -0.002}, {0.0, 0.004}};
+    EXPECT_FALSE(none.boxSpline(big.r, 0.5, 0.5, d, 3, 0.0, got));
+    Tf2UniformExactOptions opt = kUniform2DFast;
+    expectedTf2UniformExact(big.r, 0.5, 0.5, d, 3, 0.0, opt, want);
+    for (int ch = 0; ch < 4; ++ch) EXPECT_EQ(got[ch], want[ch]);
+
+    const testing::Raster mid = roughRaster(g, 700, 700);
+    std::vector<std::unique_ptr<Tf2BlurTables>> held;
+    int available = 0;
+    for (int k = 0; k < 3; ++k) {
+        held.push_back(std::make_unique<Tf2BlurTables>(mid.r));
+        available += held.back()->available();
+    }
+    EXPECT_LE(available, 2);
+    const Tf2BlurTables& last = *held.back();
+    if (!last.available()) {
+        last.gaussian(mid.r, 0.3, 0.7, 0.01, 0.0, 0.02, got);
+        expectedTf2Gaussian(mid.r, 0.3, 0.7, 0.01, 0.0, 0.02, want);
+        for (int ch = 0; ch < 4; ++ch) EXPECT_EQ(got[ch], want[ch]);
+    }
 }
 
 // The lane gaussian (float moments in, a row's points in float lanes) against the double one
