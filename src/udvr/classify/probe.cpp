@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <tuple>
+#include <type_traits>
 
 #include "udvr/classify/joint_distribution.h"
 #include "udvr/classify/point_distribution.h"
@@ -72,9 +73,14 @@ struct Describe {
 
   private:
     /// A distribution without parameters of its own to print (the mean field's point mass):
-    /// its distribution says it all.
+    /// its distribution says it all. Only the types listed here: a new distribution type is a
+    /// compile error until it gets an overload (or is listed as having none).
     template <class D>
-    void parameters(const D&) const {}
+    void parameters(const D&) const {
+        static_assert(std::is_same_v<D, PointMass<double>>,
+                      "probe: give this distribution type a Describe::parameters overload, or "
+                      "list it as one without parameters of its own");
+    }
     void parameters(const NormalDistribution<double>& d) const {
         j["mean"] = d.mu;
         j["stddev"] = d.sigma;
