@@ -27,6 +27,7 @@
 #include "udvr/stats/value_summary.h"
 #include "udvr/util/build_info.h"
 #include "udvr/util/check.h"
+#include "udvr/util/json_text.h"
 #include "udvr/util/text_parse.h"
 
 namespace udvr::serve {
@@ -149,12 +150,7 @@ bool isToken(const std::string& s) {
 // in (they may have come from --tf2-domain or --tf2-resolution, or the default resolution).
 std::string completeWidgetJson(const std::string& text, const std::string& what,
                                const TransferFunction2D& tf) {
-    json doc;
-    try {
-        doc = json::parse(text);
-    } catch (const json::exception&) {
-        UDVR_FAIL(what << ": not valid JSON");
-    }
+    json doc = parseJsonText(text, what);
     doc["domain"] = {tf.x0, tf.x1, tf.y0, tf.y1};
     doc["resolution"] = {tf.width, tf.height};
     return doc.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
