@@ -146,6 +146,25 @@ bool isToken(const std::string& s) {
     return true;
 }
 
+// Whether `family` is the first row with its 1D kernel type (model_rows.h): a family's own
+// model, not a view of another's (the quartiles, iqr) or an alias or a reference form of it.
+// The page's probe plot shows these. (A row's factory is one function per kernel type.)
+bool leadsItsKernel(const ModelFamily& family) {
+    if (!family.makeKernel) return false;
+    for (const ModelFamily& f : modelFamilies())
+        if (f.makeKernel == family.makeKernel) return &f == &family;
+    return false;
+}
+
+// The model a probe of `family` reports: itself where it has a kernel, else (gmm-mc) the first
+// row with a kernel over the same arrays; null for none.
+const ModelFamily* probedAs(const ModelFamily& family) {
+    if (family.makeKernel) return &family;
+    for (const ModelFamily& f : modelFamilies())
+        if (f.makeKernel && f.arrays == family.arrays) return &f;
+    return nullptr;
+}
+
 // Widget JSON as `udvr render --tf2` reads it, with the raster's domain and resolution written
 // in (they may have come from --tf2-domain or --tf2-resolution, or the default resolution).
 std::string completeWidgetJson(const std::string& text, const std::string& what,
@@ -274,6 +293,9 @@ ApiResponse Api::getState(const ApiRequest& request) {
         if (!reason.empty()) row["reason"] = reason;
         if (reason.empty()) available.push_back(kind);
         row["probe"] = !family.realizations;
+        const ModelFamily* probed = probedAs(family);
+        row["probe_as"] = probed ? json(std::string(probed->name)) : json(nullptr);
+        row["plot"] = leadsItsKernel(family);
         // Averaged realizations (gmm-mc): its cost is per realization, so its progressive steps
         // (the page) cut the realizations rather than the image.
         row["realizations"] = family.realizations;
