@@ -2,7 +2,7 @@
 // view is one `udvr render` command line), progressive frames, the model picker, the quartile
 // view, the ground truth with its difference and RMSE, the TF editor and the click probe.
 import {ApiError, getJson, getRender, getText, postJson} from './api.js';
-import {PLOT_MODELS, PLOT_STEPS, drawProbePlot, plotRange} from './probe_plot.js';
+import {PLOT_STEPS, drawProbePlot, plotModels, plotRange} from './probe_plot.js';
 import {TfEditor, colourAt, opacityAt, parseParaViewTf, toParaViewJson} from './tf_editor.js';
 import {Tf2Editor} from './tf2_editor.js';
 
@@ -327,12 +327,13 @@ async function probeAt(canvas, e) {
   const [w, h] = state.size;
   const x = Math.min(w - 1, Math.floor((e.clientX - r.left) / r.width * w));
   const y = Math.min(h - 1, Math.floor((e.clientY - r.top) / r.height * h));
-  const model = modelInfo(state.model).probe ? state.model : 'gmm-ordered';
+  // A model without a distribution at a point (gmm-mc) is probed as the server says.
+  const model = modelInfo(state.model).probe_as || plotModels(state.info.models)[0].name;
   state.probing++;
   try {
     const hit = await getJson('/api/probe', {model, size: sizeText(), ...cameraParams(), x, y});
     const models = {[model]: hit};
-    for (const m of PLOT_MODELS) {
+    for (const m of plotModels(state.info.models)) {
       if (models[m.name] || !modelInfo(m.name).available) continue;
       models[m.name] = await getJson('/api/probe', {model: m.name, point: hit.point.join(',')});
     }
@@ -354,7 +355,7 @@ async function probeAt(canvas, e) {
 // With --tf2: the TF2 along the plot's x at y = the probed model's mean gradient magnitude E[G]
 // at the point (with --second: field 2's mean there), GET /api/tf2/row; else null.
 async function tf2RowOf(p) {
-  const range = plotRange(p.models);
+  const range = plotRange(p.models, plotModels(state.info.models));
   if (!state.info.tf2 || !range) return null;
   const g = p.models[p.model].gradient_magnitude;
   const row = await getJson('/api/tf2/row', {y: g.mean, lo: range[0], hi: range[1], n: PLOT_STEPS + 1});
@@ -388,7 +389,7 @@ function beneathOf(p) {
 function showProbe() {
   const p = state.probe;
   if (!p) return;
-  drawProbePlot($('probe-plot'), p.models, beneathOf(p));
+  drawProbePlot($('probe-plot'), p.models, plotModels(state.info.models), beneathOf(p));
   $('probe-tf2').textContent = p.tf2Row ? p.tf2Row.note : '';
   const table = $('probe-table');
   table.replaceChildren();

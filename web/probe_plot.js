@@ -1,60 +1,40 @@
-// The distribution at a probed point, as the paper's Fig. 2: the quantile boundaries as a
-// piecewise-constant PDF, the Gaussian, the GMM and the uniform, over the TF's opacity (with a
-// 2D TF: its opacity along x at one y, which the caller chooses and labels). Each curve comes
-// from the JSON of /api/probe (that of `udvr probe --json`) for its model.
+// The distribution at a probed point, as the paper's Fig. 2: each plotted model's density at the
+// point (its point masses as spikes), over the TF's opacity (with a 2D TF: its opacity along x
+// at one y, which the caller chooses and labels). Which models are plotted (`plot` of
+// /api/state's models: each 1D kernel type's first row) and each curve (`plot` of /api/probe's
+// JSON: that of `udvr probe --json`, the same object `udvr probe --plot` draws) come from the
+// server, so no model is named here.
 
-export const PLOT_MODELS = [
-  {name: 'quantile-range', colour: '#1b7837', label: 'quantiles'},
-  {name: 'gaussian', colour: '#2166ac', label: 'Gaussian'},
-  {name: 'gmm-ordered', colour: '#b2182b', label: 'GMM'},
-  {name: 'uniform', colour: '#8c510a', label: 'uniform'},
-];
+// The curves' colours, in the order of the plotted models.
+const PALETTE = ['#8c510a', '#2166ac', '#b2182b', '#1b7837', '#762a83', '#e08214', '#4d4d4d'];
 
-const normal = (x, m, s) => Math.exp(-0.5 * ((x - m) / s) ** 2) / (s * Math.sqrt(2 * Math.PI));
-
-// Density of the model described by probe JSON `j` at x (null where it has no density).
-export function densityOf(name, j) {
-  if (name === 'gaussian') return j.stddev > 0 ? (x) => normal(x, j.mean, j.stddev) : null;
-  if (name === 'uniform') {
-    const w = j.high - j.low;
-    return w > 0 ? (x) => (x >= j.low && x <= j.high ? 1 / w : 0) : null;
-  }
-  if (name === 'gmm-ordered') {
-    return (x) => j.weights.reduce(
-        (s, w, k) => s + (j.sigmas[k] > 0 ? w * normal(x, j.means[k], j.sigmas[k]) : 0), 0);
-  }
-  if (name === 'quantile-range') {
-    const b = j.boundaries, q = b.length - 1;
-    const level = (k) => (j.levels ? j.levels[k] : k / q);
-    return (x) => {
-      for (let k = 1; k <= q; ++k)
-        if (x >= b[k - 1] && x <= b[k] && b[k] > b[k - 1])
-          return (level(k) - level(k - 1)) / (b[k] - b[k - 1]);
-      return 0;
-    };
-  }
-  return null;
+// The models to plot ({name, colour, label}) from /api/state's models.
+export function plotModels(models) {
+  return models.filter((m) => m.plot)
+      .map((m, k) => ({name: m.name, colour: PALETTE[k % PALETTE.length], label: m.name}));
 }
 
-function rangeOf(name, j) {
-  if (name === 'gaussian') return [j.mean - 4 * j.stddev, j.mean + 4 * j.stddev];
-  if (name === 'uniform') return [j.low, j.high];
-  if (name === 'gmm-ordered')
-    return [Math.min(...j.means.map((m, k) => m - 4 * j.sigmas[k])),
-            Math.max(...j.means.map((m, k) => m + 4 * j.sigmas[k]))];
-  if (name === 'quantile-range') return [j.boundaries[0], j.boundaries[j.boundaries.length - 1]];
-  return [j.value, j.value];
+// Density of the distribution described by probe JSON `j` at x: its continuous part's bin
+// averages over [lo, hi], 0 outside (null where it has none: point masses only).
+export function densityOf(j) {
+  const {lo, hi, density} = j.plot;
+  if (density.length === 0) return null;
+  const n = density.length;
+  return (x) => (x >= lo && x <= hi ? density[Math.min(n - 1, Math.floor((x - lo) / (hi - lo) * n))] : 0);
 }
+
+const rangeOf = (j) => [j.plot.lo, j.plot.hi];
 
 export const PLOT_STEPS = 400;  // the curves' x steps over the plot's range
 
-// The plot's x range [lo, hi] for `probes` ({name: json}): every model's, padded; null for none.
-export function plotRange(probes) {
-  const names = PLOT_MODELS.filter((m) => probes[m.name]);
+// The plot's x range [lo, hi] for `probes` ({name: json}) of the models `plotted`
+// (plotModels): every model's, padded; null for none.
+export function plotRange(probes, plotted) {
+  const names = plotted.filter((m) => probes[m.name]);
   if (names.length === 0) return null;
   let lo = Infinity, hi = -Infinity;
   for (const m of names) {
-    const [a, b] = rangeOf(m.name, probes[m.name]);
+    const [a, b] = rangeOf(probes[m.name]);
     lo = Math.min(lo, a), hi = Math.max(hi, b);
   }
   if (!(hi > lo)) lo -= 0.5, hi += 0.5;
@@ -62,21 +42,21 @@ export function plotRange(probes) {
   return [lo - pad, hi + pad];
 }
 
-// Draw `probes` ({name: json}) over the TF `beneath`: {alpha(x), colour(x) → [r, g, b], label}
-// (label: what the dashed opacity is, or empty).
-export function drawProbePlot(canvas, probes, beneath) {
+// Draw `probes` ({name: json}) of the models `plotted` (plotModels) over the TF `beneath`:
+// {alpha(x), colour(x) → [r, g, b], label} (label: what the dashed opacity is, or empty).
+export function drawProbePlot(canvas, probes, plotted, beneath) {
   const ctx = canvas.getContext('2d');
   const W = canvas.width, H = canvas.height;
   const box = {x: 36, y: 10, w: W - 46, h: H - 58};
   ctx.clearRect(0, 0, W, H);
-  const range = plotRange(probes);
+  const range = plotRange(probes, plotted);
   if (!range) return;
   const [lo, hi] = range, N = PLOT_STEPS;
-  const names = PLOT_MODELS.filter((m) => probes[m.name]);
+  const names = plotted.filter((m) => probes[m.name]);
   const xs = Array.from({length: N + 1}, (_, i) => lo + (hi - lo) * i / N);
   const curves = names.map((m) => {
-    const f = densityOf(m.name, probes[m.name]);
-    return {m, ys: f ? xs.map(f) : null};
+    const f = densityOf(probes[m.name]);
+    return {m, ys: f ? xs.map(f) : null, atoms: probes[m.name].plot.atoms};
   });
   const top = Math.max(1e-300, ...curves.flatMap((c) => (c.ys ? c.ys : [])));
   const px = (x) => box.x + (x - lo) / (hi - lo) * box.w;
@@ -98,17 +78,18 @@ export function drawProbePlot(canvas, probes, beneath) {
     ctx.fillStyle = `rgb(${c.map((v) => Math.round(255 * v)).join(',')})`;
     ctx.fillRect(box.x + i, box.y + box.h + 4, 1, 8);
   }
-  for (const {m, ys} of curves) {
+  for (const {m, ys, atoms} of curves) {
     ctx.strokeStyle = m.colour;
     ctx.lineWidth = 1.6;
-    if (!ys) {  // a point mass: a spike at the value
-      const x = px(probes[m.name].value);
+    // Point masses: spikes at their values, the largest mass the plot's full height.
+    const heaviest = Math.max(0, ...atoms.map(([, mass]) => mass));
+    for (const [x, mass] of atoms) {
       ctx.beginPath();
-      ctx.moveTo(x, box.y + box.h);
-      ctx.lineTo(x, box.y);
+      ctx.moveTo(px(x), box.y + box.h);
+      ctx.lineTo(px(x), box.y + box.h - mass / heaviest * box.h);
       ctx.stroke();
-      continue;
     }
+    if (!ys) continue;
     ctx.beginPath();
     ys.forEach((y, i) => (i ? ctx.lineTo(px(xs[i]), py(y)) : ctx.moveTo(px(xs[i]), py(y))));
     ctx.stroke();

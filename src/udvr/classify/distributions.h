@@ -317,6 +317,15 @@ inline constexpr bool hasFloatLimit = requires(const D& d) {
     tooWideForFloat(d, 1.f);
 };
 
+/// What the distribution kinds of every TF kind share (Distribution1D, distributions_2d.h's
+/// Distribution2D): over double, D also describes itself as pieces into a `Sink` (probe's
+/// description, the reference expectations); over float and lanes it need not.
+template <class D, class Sink>
+concept DescribedInDouble =
+    !std::is_same_v<typename D::Real, double> || requires(const D& d, Sink& sink) {
+    describe(d, sink);
+};
+
 /// The contract of a model's distribution at a point (what a kernel's `reconstruct` hands on),
 /// over its real type D::Real: a 1D TF's expectation over it on that type, and over double also
 /// its description as pieces of probability mass.
@@ -325,13 +334,6 @@ concept Distribution1D = requires(const D& d, const detail::TfFor<typename D::Re
                                   lanes::MaskOf<typename D::Real> live, typename D::Real* out) {
     expectedTf(tf, d, live, out);
 }
-&&(!std::is_same_v<typename D::Real, double> ||
-   requires(const D& d, detail::AnySink& sink) { describe(d, sink); });
-/// A `use` for a kernel's reconstruct that compiles only where it hands on a Distribution1D
-/// (probe_test.cpp instantiates it for every kernel, over double and lanes).
-struct RequireDistribution1D {
-    template <Distribution1D D>
-    void operator()(const D&) const {}
-};
+&&DescribedInDouble<D, detail::AnySink>;
 
 }  // namespace udvr

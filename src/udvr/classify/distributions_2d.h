@@ -15,6 +15,7 @@
 #include <bit>
 #include <concepts>
 
+#include "udvr/classify/distributions.h"
 #include "udvr/classify/expected_tf.h"
 #include "udvr/classify/expected_tf2.h"
 #include "udvr/classify/expected_tf2_fast.h"
@@ -89,25 +90,24 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2(const Tf2Raster<Real>& tf, const Quant
     expectedTf2QuantileRange<T>(tf, d.x, d.g, d.count, d.levels, live, out);
 }
 
-/// Eq. 5 in 2D: quantile j's point mass at the midpoint of the polyline's segment (j, j + 1),
-/// j < count − 1, weighted by quantileMeanWeight (density weights p_j ∝ mass_j / width(j), or the
-/// masses); widths ≤ zeroWidth (data units) are point masses of infinite density.
+/// Eq. 5 in 2D: quantile j's point mass at the midpoint of the segment (j, j + 1) of the
+/// quantiles' polyline (its vertices and levels), j < count − 1, weighted by quantileMeanWeight
+/// (density weights p_j ∝ mass_j / width(j), or the masses); widths ≤ zeroWidth (data units) are
+/// point masses of infinite density.
 template <class T, class Width>
 struct PolylineMidpoints {
     using Real = T;
-    const T* x;
-    const T* g;
-    int count;
+    QuantilePolyline<T> polyline;
     Width width;
-    QuantileLevels levels;
     bool densityWeights;
     double zeroWidth;
 };
 template <class Width, JointDistributionSink Sink>
 void describe(const PolylineMidpoints<double, Width>& d, Sink& sink) {
+    const QuantilePolyline<double>& p = d.polyline;
     quantileMeanMasses(
-        d.levels, d.count - 1, d.densityWeights, d.zeroWidth, d.width, [&](int j, double mass) {
-            sink.point(0.5 * (d.x[j] + d.x[j + 1]), 0.5 * (d.g[j] + d.g[j + 1]), mass);
+        p.levels, p.count - 1, d.densityWeights, d.zeroWidth, d.width, [&](int j, double mass) {
+            sink.point(0.5 * (p.x[j] + p.x[j + 1]), 0.5 * (p.g[j] + p.g[j + 1]), mass);
         });
 }
 template <class T, class Real, class Width>
@@ -115,11 +115,12 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2(const Tf2Raster<Real>& tf,
                                           const PolylineMidpoints<T, Width>& d,
                                           lanes::MaskOf<T> live, T out[4]) {
     using S = lanes::ScalarOf<T>;
+    const QuantilePolyline<T>& p = d.polyline;
     quantileMeanWeighted<T>(
         [&](int j, T v[4]) UDVR_INLINE_LAMBDA {
-            tf2At<T>(tf, (d.x[j] + d.x[j + 1]) * S(0.5), (d.g[j] + d.g[j + 1]) * S(0.5), live, v);
+            tf2At<T>(tf, (p.x[j] + p.x[j + 1]) * S(0.5), (p.g[j] + p.g[j + 1]) * S(0.5), live, v);
         },
-        d.width, d.count - 1, d.levels, d.densityWeights,
+        d.width, p.count - 1, p.levels, d.densityWeights,
         lanes::splat<T>(static_cast<S>(d.zeroWidth)), live, out);
 }
 
@@ -177,14 +178,6 @@ concept Distribution2D = requires(const D& d,
                                   lanes::MaskOf<typename D::Real> live, typename D::Real* out) {
     expectedTf2(tf, d, live, out);
 }
-&&(!std::is_same_v<typename D::Real, double> ||
-   requires(const D& d, detail::AnyJointSink& sink) { describe(d, sink); });
-/// A `use` for a 2D kernel's reconstruct that compiles only where it hands on a Distribution2D
-/// (joint_distribution_test.cpp instantiates it for every 2D kernel that has one, over double
-/// and lanes).
-struct RequireDistribution2D {
-    template <Distribution2D D>
-    void operator()(const D&) const {}
-};
+&&DescribedInDouble<D, detail::AnyJointSink>;
 
 }  // namespace udvr

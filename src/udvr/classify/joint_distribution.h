@@ -2,8 +2,8 @@
 // A 2D-TF model's joint distribution of (X, G) at a point (SPEC §9: X the value, G the gradient
 // magnitude along the mean gradient), apart from the expectation of a TF2 over it — the 2D
 // counterpart of point_distribution.h (docs/architecture.md, "Distributions and
-// expectations"). Each 2D kernel's `jointDistribution` member reconstructs its random vector
-// once, in double, as pieces of probability mass into a JointDistributionSink: points (the mean
+// expectations"). jointDistributionAt reconstructs a 2D kernel's random vector once, in
+// double, as pieces of probability mass into a JointDistributionSink: points (the mean
 // field, Eq. 5's midpoints), segments (the rank-coupled quantile population, Eq. 4), bivariate
 // normals and bivariate box splines. Its consumers are the sinks:
 //   - JointPointDistribution stores the pieces: expectedTf2Over, the expectation of a TF2 over
@@ -20,10 +20,17 @@
 namespace udvr {
 
 /// The joint distribution of `kernel` (any 2D kernel, or an AnyKernel2D) at a cell into `sink`:
-/// the kernel's own `jointDistribution` (model_kernels_2d.h).
+/// the kernel's reconstruction in double (model_kernels_2d.h), described as pieces
+/// (distributions_2d.h); a kernel without one (the 2D uniform) gives its own
+/// `jointDistribution`.
 template <class Kernel, JointDistributionSink Sink>
 void jointDistributionAt(const Kernel& kernel, const Cell<double>& cell, Sink& sink) {
-    visitKernel(kernel, [&](const auto& k) { k.jointDistribution(cell, sink); });
+    visitKernel(kernel, [&](const auto& k) {
+        if constexpr (requires { k.jointDistribution(cell, sink); })
+            k.jointDistribution(cell, sink);
+        else
+            k.template reconstruct<double>(cell, true, [&](const auto& d) { describe(d, sink); });
+    });
 }
 
 /// Means and covariance of (X, G) over a joint distribution given as pieces. Each piece comes

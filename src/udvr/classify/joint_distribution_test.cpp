@@ -56,11 +56,12 @@ TEST(JointDistribution, Every2DKernelClassifiesAsTheExpectationOverItsDistributi
                 // Distribution2D over double and lanes (distributions_2d.h; compile time).
                 using K = std::decay_t<decltype(k)>;
                 if constexpr (requires(const Cell<double>& c) {
-                                  k.template reconstruct<double>(c, true, RequireDistribution2D{});
+                                  k.template reconstruct<double>(c, true,
+                                                                 []<Distribution2D D>(const D&) {});
                               }) {
                     [[maybe_unused]] const auto onLanes = [&](const Cell<lanes::Vf>& c) {
                         k.template reconstruct<lanes::Vf>(c, lanes::allTrue<lanes::Vf>(),
-                                                          RequireDistribution2D{});
+                                                          []<Distribution2D D>(const D&) {});
                     };
                     ++withDistribution[std::is_same_v<K, Quantile2DKernel>];
                 }

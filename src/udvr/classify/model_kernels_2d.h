@@ -2,11 +2,12 @@
 // Kernels for 2D transfer functions (SPEC §9): x the value at the sample, y the gradient
 // magnitude G = n̂·Y along the mean gradient n̂ = μ_Y/|μ_Y| (+x where μ_Y = 0). The same
 // interface as the 1D kernels (model_kernels.h), so the same ray loop and probe serve them.
-// Each has `jointDistribution`: its (X, G) at a cell as pieces into a JointDistributionSink
-// (joint_distribution.h). The kernels with lane bodies (mean, the quantile family) build that
+// Each gives its (X, G) at a cell as pieces into a JointDistributionSink (jointDistributionAt,
+// joint_distribution.h). The kernels with lane bodies (mean, the quantile family) build that
 // distribution once, over the lane type, in `reconstruct<T>(cell, live, use)`
-// (distributions_2d.h): `load` takes a TF2's expectation over it, `jointDistribution` describes
-// it; so does the 2D gaussian (JointNormal); the 2D uniform builds its in double only.
+// (distributions_2d.h): `load` takes a TF2's expectation over it (detail::classify2DOver),
+// jointDistributionAt describes reconstruct<double>'s; so does the 2D gaussian (JointNormal).
+// The 2D uniform builds its in double only, in its `jointDistribution` member.
 //
 // Gradients come from grid gradients computed once per model (reconstruct/gradient_field.h):
 // the sample's gradient is their trilinear blend, which is SPEC §9's 32-voxel form exactly.
@@ -102,6 +103,20 @@ struct Kernel2DBase : GridKernel {
     }
 };
 
+namespace detail {
+/// out ← E[TF2] over the joint distribution that the 2D kernel k reconstructs at a cell, in the
+/// `live` lanes (0 elsewhere): the one expectation of its kind (distributions_2d.h) over the
+/// raster of T's real type.
+template <class T, class K>
+UDVR_CPU_GPU UDVR_INLINE void classify2DOver(const K& k, const Cell<T>& c, lanes::MaskOf<T> live,
+                                             T out[4]) {
+    k.reconstruct(c, live, [&](const auto& d) UDVR_INLINE_LAMBDA {
+        expectedTf2(k.template tf2<T>(), d, live, out);
+    });
+    keepLive<T>(live, out);
+}
+}  // namespace detail
+
 /// Mean field and ground truth with a TF2 (SPEC §9 `mean`): TF2(x̄, |μ_Y|). Value and gradient
 /// come from one row of 4 floats per voxel (gridGradients' ValueRows): a batch reads the rows
 /// with plain loads and blends the four floats at once (rows4; 512² tangle, one thread:
@@ -143,15 +158,8 @@ struct Mean2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r;
-        reconstruct(c, live,
-                    [&](const auto& d) UDVR_INLINE_LAMBDA { expectedTf2(tf2<T>(), d, live, r.v); });
-        detail::keepLive<T>(live, r.v);
+        detail::classify2DOver<T>(*this, c, live, r.v);
         return r;
-    }
-    /// Its joint distribution at a cell (joint_distribution.h): reconstruct's, described.
-    template <class Sink>
-    void jointDistribution(const Cell<double>& c, Sink& sink) const {
-        reconstruct<double>(c, true, [&](const auto& d) { describe(d, sink); });
     }
     void voxelSupport(std::size_t v, float& lo, float& hi) const { lo = hi = rows[4 * v]; }
     void prefetch(int v) const { prefetchRows(rows, v, 4); }
@@ -294,15 +302,8 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
                 return r;
             }
         }
-        reconstruct(c, live,
-                    [&](const auto& d) UDVR_INLINE_LAMBDA { expectedTf2(tf2<T>(), d, live, r.v); });
-        detail::keepLive<T>(live, r.v);
+        detail::classify2DOver<T>(*this, c, live, r.v);
         return r;
-    }
-    /// Its joint distribution at a cell (joint_distribution.h): reconstruct's, described.
-    template <class Sink>
-    void jointDistribution(const Cell<double>& c, Sink& sink) const {
-        reconstruct<double>(c, true, [&](const auto& d) { describe(d, sink); });
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const double s = kSupportSigmas * static_cast<double>(stddev[voxel]);
@@ -326,24 +327,21 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     GradientGeometry gradientGeometry;
     const Tf2BlurTables* tables;  // the fast form's tables (null: kUniform2DFast)
 
-    Uniform2DKernel(const Grid3& grid, const float* a, const float* b, bool mm, bool ex,
-                    double tiny, const Tf2Raster<double>& tfD, const Tf2Raster<float>& tfF,
-                    const MeanGradientView& meanGrad, const Tf2BlurTables* blur = nullptr)
-        : Kernel2DBase(grid, tfD, tfF, meanGrad),
-          UniformVoxels{a, b, mm},
-          exact(ex),
-          tinyWidth(tiny),
-          gradientGeometry(grid),
-          tables(blur) {}
     /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
     /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
+    /// (An aggregate: its bases, then its members in declaration order.)
     template <class Setup>
     static Uniform2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions& o,
                                 const ModelRow& row) {
-        return Uniform2DKernel(m.grid, o.uniformMinMax ? m.min.data() : m.mean.data(),
-                               o.uniformMinMax ? m.max.data() : m.stddev.data(), o.uniformMinMax,
-                               row.exactForm, kUniformTinyWidth * dataSpan(m, o), s.exact, s.fast,
-                               s.meanGradientPlanes(), row.exactForm ? nullptr : s.blurTables());
+        const bool minMax = o.uniformMinMax;
+        return {Kernel2DBase(m.grid, s.exact, s.fast, s.meanGradientPlanes()),
+                UniformVoxels{minMax ? m.min.data() : m.mean.data(),
+                              minMax ? m.max.data() : m.stddev.data(), minMax},
+                {},
+                row.exactForm,
+                kUniformTinyWidth * dataSpan(m, o),
+                GradientGeometry(m.grid),
+                row.exactForm ? nullptr : s.blurTables()};
     }
     /// The centre (X, G at t = 0) and the directions at a scalar cell; returns their count.
     /// `corners` (where given): how many voxels have a trilinear weight > 0 (8 inside a cell;
@@ -417,25 +415,11 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     bool densityWeights;             // quantile-mean: 1/w_j weights (else equal)
     double zeroWidth;                // quantile-mean: widths at or below are point masses
 
-    /// `levelsIn`: the model's t_0 … t_q (null: even).
-    Quantile2DKernel(const Grid3& grid, const float* b, int s, int lo, int hi, const float* bGrad,
-                     const double* levelsIn, bool qm, bool density, double zero,
-                     const Tf2Raster<double>& exact, const Tf2Raster<float>& fast)
-        : Kernel2DBase(grid, exact, fast,
-                       {bGrad, 3 * (hi - lo + 2), static_cast<std::size_t>(hi - lo + 2)}),
-          boundaries(b),
-          stride(s),
-          j0(lo),
-          j1(hi),
-          boundaryGradients(bGrad),
-          levels{levelsIn, lo},
-          quantileMean(qm),
-          densityWeights(density),
-          zeroWidth(zero) {}
     /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
     /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
     /// The iqr array's two boundaries, the row's population of the quantiles (Eq. 4), or all
-    /// of them at their midpoints (Eq. 5, the quantile-mean rows).
+    /// of them at their midpoints (Eq. 5, the quantile-mean rows). (An aggregate: its bases,
+    /// then its members in declaration order; the mean's gradients lead `gradients`' rows.)
     template <class Setup>
     static Quantile2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions& o,
                                  const ModelRow& row) {
@@ -458,9 +442,19 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             s.gradients
                 .of(m.grid, data, stride, lo, hi - lo + 1, GradientLayout::VoxelRows, m.mean.data())
                 .data();
-        return Quantile2DKernel(m.grid, data, stride, lo, hi, gradients, levels, quantileMean,
-                                row.quantileMeanWeights == QuantileMeanWeights::Density,
-                                kQuantileZeroWidth * dataSpan(m, o), s.exact, s.fast);
+        const int rows = hi - lo + 2;
+        return {Kernel2DBase(m.grid, s.exact, s.fast,
+                             {gradients, 3 * rows, static_cast<std::size_t>(rows)}),
+                {},
+                data,
+                stride,
+                lo,
+                hi,
+                gradients,
+                QuantileLevels{levels, lo},
+                quantileMean,
+                row.quantileMeanWeights == QuantileMeanWeights::Density,
+                kQuantileZeroWidth * dataSpan(m, o)};
     }
 
     /// The polyline's vertices X[0 … count−1], G[…] at a cell, X_j = boundary(j); returns count.
@@ -510,7 +504,8 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
         if (!quantileMean)
             use(QuantilePolyline<T>{x, g, count, levels});
         else
-            use(PolylineMidpoints<T, Width>{x, g, count, width, levels, densityWeights, zeroWidth});
+            use(PolylineMidpoints<T, Width>{
+                {x, g, count, levels}, width, densityWeights, zeroWidth});
     }
     /// reconstructFrom with each boundary and width blended on its own (Eq. 2).
     template <class T, class Use>
@@ -555,14 +550,8 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
                 return r;
             }
         }
-        reconstruct(c, live, classify);
-        detail::keepLive<T>(live, r.v);
+        detail::classify2DOver<T>(*this, c, live, r.v);
         return r;
-    }
-    /// Its joint distribution at a cell (joint_distribution.h): reconstruct's, described.
-    template <class Sink>
-    void jointDistribution(const Cell<double>& c, Sink& sink) const {
-        reconstruct<double>(c, true, [&](const auto& d) { describe(d, sink); });
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);

@@ -41,6 +41,25 @@ ProbeDistribution plotOf(const PointDistribution& dist) {
     return d;
 }
 
+// The plot as JSON ("plot", what `udvr serve`'s page draws): the continuous part's density as
+// kPlotBins averages ΔCDF/Δx over even bins of [lo, hi] (none without a continuous part) and
+// the point masses [x, mass].
+constexpr int kPlotBins = 256;
+static_assert(kCdfSamples % kPlotBins == 0);
+
+json plotJson(const ProbeDistribution& d) {
+    json density = json::array();
+    if (!d.cdfY.empty()) {
+        const int per = kCdfSamples / kPlotBins;
+        const double width = (d.hi - d.lo) / kPlotBins;
+        for (int b = 0; b < kPlotBins; ++b)
+            density.push_back((d.cdfY[(b + 1) * per] - d.cdfY[b * per]) / width);
+    }
+    json atoms = json::array();
+    for (std::size_t i = 0; i < d.atoms.size(); ++i) atoms.push_back({d.atoms[i], d.atomMass[i]});
+    return {{"lo", d.lo}, {"hi", d.hi}, {"density", density}, {"atoms", atoms}};
+}
+
 /// The model's levels t_0 … t_{count−1} (uneven levels only: levels.levels is set).
 std::vector<double> levelsOf(const QuantileLevels& levels, int count) {
     return {levels.levels, levels.levels + count};
@@ -146,6 +165,7 @@ void describeDistribution(const ModelFamily& family, const Kernel& k, const Cell
     distributionAt(k, cell, dist);
     Describe{family, cell, dist, r.json}(k);
     r.distribution = plotOf(dist);
+    r.json["plot"] = plotJson(r.distribution);
 }
 
 }  // namespace

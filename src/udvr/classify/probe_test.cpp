@@ -100,7 +100,7 @@ TEST(PointDistribution, EveryKernelClassifiesAsTheExpectationOverItsDistribution
             withKernel(m, kind, tf, [&](const auto& k) {
                 [[maybe_unused]] const auto onLanes = [&](const Cell<lanes::Vf>& c) {
                     k.template reconstruct<lanes::Vf>(c, lanes::allTrue<lanes::Vf>(),
-                                                      RequireDistribution1D{});
+                                                      []<Distribution1D D>(const D&) {});
                 };
                 for (int i = 0; i < 20; ++i) {
                     const Cell<double> cell =
@@ -109,7 +109,7 @@ TEST(PointDistribution, EveryKernelClassifiesAsTheExpectationOverItsDistribution
                                        static_cast<float>(2 * rng.uniform()));
                     double kernel[4], over[4];
                     k.finish(k.template load<double>(cell, true), kernel);
-                    k.template reconstruct<double>(cell, true, RequireDistribution1D{});
+                    k.template reconstruct<double>(cell, true, []<Distribution1D D>(const D&) {});
                     PointDistribution d;
                     distributionAt(k, cell, d);
                     double mass = d.continuousMass();

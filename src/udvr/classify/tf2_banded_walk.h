@@ -356,15 +356,7 @@ UDVR_CPU_GPU UDVR_INLINE void bandedWalk(const Tf2Raster<Real>& r, Source& sourc
         }
         uP = lanes::select(atP, lineParameter<T>(pa, dp, lineP, stepP), uP);
         u0 = u1;
-        const M walked = active;
-        active = active & (u0 < uEnd);
-        if constexpr (Source::kMany) {
-            const M finished = walked & !active;
-            if (lanes::anyOf(finished)) {
-                if constexpr (Source::kPooled) source.flush(finished, out);
-                active = active | begin(finished);
-            }
-        }
+        active = stillWalking<Source, M>(source, active, u0 < uEnd, begin, out);
     }
     if constexpr (Source::kPooled) source.collect(out);
 }

@@ -233,15 +233,8 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, Source& sour
         jump = jump & (uJump > u1);
         if (lanes::anyOf(jump))  // restart the line walk where the segment leaves the block
             goOnFrom(jump, uJump, lanes::fma(uJump, ds, sa), lanes::fma(uJump, dt, ta));
-        const auto walked = active;
-        active = active & (u0 < S(1));
-        if constexpr (Source::kMany) {
-            const auto finished = walked & !active;
-            if (lanes::anyOf(finished)) {
-                if constexpr (Source::kPooled) source.flush(finished, out);
-                active = active | begin(finished);
-            }
-        }
+        active =
+            detail::stillWalking<Source, lanes::MaskOf<T>>(source, active, u0 < S(1), begin, out);
     }
     if constexpr (Source::kPooled) source.collect(out);
 }

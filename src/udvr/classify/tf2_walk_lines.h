@@ -1,7 +1,7 @@
 #pragma once
 // What the walks of a segment over a raster TF2 share (SPEC §9; tf2_segment_walk.h): the next
-// raster line a coordinate crosses and the segment parameter where it does, and the source of
-// one segment. Over T ∈ {double, float, lanes::Vf}.
+// raster line a coordinate crosses and the segment parameter where it does, the lanes still
+// walking after a step, and the source of one segment. Over T ∈ {double, float, lanes::Vf}.
 #include <cmath>
 #include <limits>
 
@@ -72,6 +72,25 @@ UDVR_CPU_GPU UDVR_INLINE T lineParameter(T s0, T ds, lanes::IntOf<T> line, lanes
         l = static_cast<T>(line);
     const T u = (l - s0) / lanes::select(step != 0, ds, lanes::splat<T>(S(1)));
     return lanes::select(step != 0, u, lanes::splat<T>(std::numeric_limits<S>::infinity()));
+}
+
+/// The lanes still walking after a step of a walk over `source`'s segments (tf2_cell_walk.h,
+/// tf2_banded_walk.h): those of `active` in `on` (their segment goes on); with Source::kMany
+/// each lane that has just finished its segment hands its sums on (Source::kPooled: flush) and
+/// starts its next segment in place (begin(m): the lanes of m that have one).
+template <class Source, class M, class T, class Begin>
+UDVR_CPU_GPU UDVR_INLINE M stillWalking(Source& source, M active, M on, const Begin& begin,
+                                        T out[4]) {
+    const M walked = active;
+    active = active & on;
+    if constexpr (Source::kMany) {
+        const M finished = walked & !active;
+        if (lanes::anyOf(finished)) {
+            if constexpr (Source::kPooled) source.flush(finished, out);
+            active = active | begin(finished);
+        }
+    }
+    return active;
 }
 
 /// One segment, weight 1: the source of tf2MeanAlongSegment's walk.

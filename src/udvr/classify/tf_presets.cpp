@@ -60,6 +60,17 @@ const Preset* findPreset(std::string_view name) {
     return nullptr;
 }
 
+// The basis of the ramp from the median over `values` (finite, non-empty): their robust range,
+// whether they are constant, their median; no opacity curve.
+DefaultTfBasis rampBasis(std::span<const float> values) {
+    const ValueSummary summary = summarizeValues(values);
+    DefaultTfBasis basis;
+    basis.range = robustRange(summary);
+    basis.constant = !(summary.max > summary.min);
+    basis.median = summary.percentile(50);
+    return basis;
+}
+
 }  // namespace
 
 std::vector<std::string> transferFunctionPresetNames() {
@@ -104,21 +115,12 @@ TransferFunction1D transferFunctionPreset(std::string_view name, std::array<doub
 
 PresetOverValues transferFunctionPresetOver(std::string_view name, std::span<const float> values,
                                             const std::optional<std::array<double, 2>>& range) {
-    const ValueSummary summary = summarizeValues(values);
-    DefaultTfBasis basis;
-    basis.range = robustRange(summary);
-    basis.constant = !(summary.max > summary.min);
-    basis.median = summary.percentile(50);
-    return transferFunctionPresetOver(name, basis, range);
+    return transferFunctionPresetOver(name, rampBasis(values), range);
 }
 
 DefaultTfBasis defaultTfBasis(const Grid3& grid, std::span<const float> values) {
     UDVR_CHECK(values.size() == grid.pointCount());
-    const ValueSummary summary = summarizeValues(values);
-    DefaultTfBasis basis;
-    basis.range = robustRange(summary);
-    basis.constant = !(summary.max > summary.min);
-    basis.median = summary.percentile(50);
+    DefaultTfBasis basis = rampBasis(values);
     if (basis.constant || values.size() < 64) return basis;
     // Boundary emphasis (Kindlmann & Durkin 1998): the mean gradient magnitude g(v) of the
     // points whose value falls in each of kBins bins over the range; values where g(v) stands

@@ -11,6 +11,7 @@
 #include <variant>
 
 #include "udvr/util/check.h"
+#include "udvr/util/json_text.h"
 
 namespace udvr {
 
@@ -170,15 +171,7 @@ Tf2Widget parseWidget(const json& w, const Context& c) {
 }  // namespace
 
 Tf2WidgetFile parseTf2Widgets(const std::string& text, const std::string& what) {
-    json doc;
-    try {
-        doc = json::parse(text);
-    } catch (const json::exception& e) {
-        std::string msg = e.what();
-        for (char& ch : msg)
-            if (ch == '\n') ch = ' ';
-        UDVR_FAIL(what << ": not valid JSON (" << msg << ")");
-    }
+    json doc = parseJsonText(text, what);
     const Context top{what, ""};
     if (!doc.is_object())
         UDVR_FAIL(

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "udvr/util/check.h"
+#include "udvr/util/json_text.h"
 
 namespace udvr {
 namespace {
@@ -30,12 +31,7 @@ std::vector<double> numberArray(const json& obj, const char* key, const std::str
 }  // namespace
 
 TransferFunction1D parseTransferFunction(const std::string& text, const std::string& what) {
-    json doc;
-    try {
-        doc = json::parse(text);
-    } catch (const json::exception& e) {  // parse_error, or out_of_range for a number like 1e999
-        UDVR_FAIL(what << ": not valid JSON (" << e.what() << ")");
-    }
+    json doc = parseJsonText(text, what);
     // A list of objects (ParaView's preset files) or one bare object; the first object with
     // RGBPoints is used.
     const json* obj = nullptr;

@@ -10,6 +10,8 @@
 #include <thread>
 #include <vector>
 
+#include "udvr/util/watcher_thread.h"
+
 namespace udvr {
 namespace {
 
@@ -34,14 +36,7 @@ class Deadline {
             }
         });
     }
-    ~Deadline() {
-        {
-            std::lock_guard lock(mutex_);
-            stop_ = true;
-        }
-        wake_.notify_all();
-        watcher_.join();
-    }
+    ~Deadline() { stopWatcher(mutex_, stop_, wake_, watcher_); }
     Deadline(const Deadline&) = delete;
     Deadline& operator=(const Deadline&) = delete;
     const std::atomic<bool>* flag() const { return &flag_; }

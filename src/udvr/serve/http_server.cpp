@@ -25,6 +25,7 @@
 #include "udvr/serve/request_guard.h"
 #include "udvr/serve/web_assets.h"
 #include "udvr/util/check.h"
+#include "udvr/util/watcher_thread.h"
 
 namespace udvr::serve {
 namespace {
@@ -75,14 +76,7 @@ class Registry {
     explicit Registry(int maxConnections) : max_(maxConnections) {
         watcher_ = std::thread([this] { watch(); });
     }
-    ~Registry() {
-        {
-            std::lock_guard lock(mutex_);
-            stop_ = true;
-        }
-        changed_.notify_all();
-        watcher_.join();
-    }
+    ~Registry() { stopWatcher(mutex_, stop_, changed_, watcher_); }
     Registry(const Registry&) = delete;
     Registry& operator=(const Registry&) = delete;
 
