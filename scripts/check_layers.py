@@ -11,6 +11,11 @@
 4. netCDF-C's and HDF5's headers are included only by the files of NETCDF_FILES: every call
    into those libraries is then made there, where it holds netcdfLibraryMutex, the lock the
    HDF5 probe forks under (docs/architecture.md, "NetCDF, HDF5 and threads").
+5. One SIMD vocabulary: only the files of SIMD_FILES (util/lanes.h and its test) include an
+   intrinsics header (<immintrin.h>, <arm_neon.h> …), name an intrinsic or its register types
+   (_mm256_loadu_ps, __m512, __mmask16, vfmaq_f32, float32x4_t …) or define a vector type
+   (vector_size); everything else says it in lanes.h's vocabulary (Vf, Vec<E, W>, loadHalves …).
+   Comments and string literals are not checked.
 
 Prints each violation with the chain of includes that makes it, and exits 1 if there is any.
     python3 scripts/check_layers.py [SRC_ROOT]      (default: src/ beside this script's folder)
@@ -28,6 +33,15 @@ FOREIGN = re.compile(
 NETCDF_HEADER = re.compile(r"^(netcdf|hdf5|H5)", re.IGNORECASE)
 NETCDF_FILES = ("udvr/io/netcdf_access.h", "udvr/io/netcdf_access.cpp", "udvr/io/netcdf_io.cpp",
                 "udvr/io/netcdf_io_test.cpp")
+# The only files that may use intrinsics or define vector types (rule 5).
+SIMD_FILES = ("udvr/util/lanes.h", "udvr/util/lanes_test.cpp")
+SIMD_HEADER = re.compile(r"^(\w*intrin\.h|arm_neon\.h|arm_sve\.h|arm_acle\.h)$")
+SIMD_USE = re.compile(
+    r"\b(_mm\d*_\w+|__m(64|128|256|512)[a-z]*|__mmask\d+|(__)?vector_size(__)?|ext_vector_type|"
+    r"v\w+q_[fsu]\d+|(float|int|uint)\d+x\d+_t)\b")
+# Rule 5 also covers the C++ beside the library: benchmarks, tests, bindings, the plugin.
+SIMD_OTHER_DIRS = ("bench", "tests", "python", "paraview", "fuzz")
+CXX_SUFFIXES = (".h", ".hpp", ".cpp", ".cc", ".cxx", ".cu")
 INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^>"]+)[>"]', re.MULTILINE)
 
 
@@ -102,6 +116,56 @@ def netcdf_violations(graph):
                                             target == "udvr/io/netcdf_access.h")]
 
 
+def strip_comments_and_strings(text):
+    """text with its comments and string/char literals blanked (newlines kept, so line numbers
+    stay)."""
+    out, i, n = [], 0, len(text)
+    while i < n:
+        c = text[i]
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+        elif text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            j = n if j < 0 else j + 2
+            out.append("\n" * text.count("\n", i, j))
+            i = j
+        elif c in "\"'":
+            j = i + 1
+            while j < n and text[j] != c and text[j] != "\n":
+                j += 2 if text[j] == "\\" else 1
+            out.append(c + c)
+            i = j + 1
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def simd_violations(src):
+    """(file, line, what) for each intrinsics header, intrinsic or vector type outside
+    SIMD_FILES, in src/udvr and the C++ of SIMD_OTHER_DIRS (file relative to src, or to the
+    repository for those)."""
+    files = [(path, path.relative_to(src).as_posix()) for path in sorted((src / "udvr").rglob("*"))]
+    for d in SIMD_OTHER_DIRS:
+        files += [(path, path.relative_to(src.parent).as_posix())
+                  for path in sorted((src.parent / d).rglob("*"))]
+    out = []
+    for path, rel in files:
+        if rel in SIMD_FILES or path.suffix not in CXX_SUFFIXES or not path.is_file():
+            continue
+        code = strip_comments_and_strings(path.read_text(errors="replace"))
+        for number, line in enumerate(code.split("\n"), 1):
+            include = re.match(r"\s*#\s*include\s*<([^>]+)>", line)
+            if include:
+                if SIMD_HEADER.match(include.group(1)):
+                    out.append((rel, number, "<%s>" % include.group(1)))
+                continue
+            for m in SIMD_USE.finditer(line):
+                out.append((rel, number, m.group(0)))
+    return out
+
+
 def directory_cycles(graph):
     """Each cycle of the directory graph (as a list of directories), with one include per edge."""
     edges = {}
@@ -163,6 +227,10 @@ def main():
         print("netCDF-C/HDF5 called outside the files that hold netcdfLibraryMutex: %s includes "
               "<%s> (only %s may)" % (rel, target, ", ".join(NETCDF_FILES)))
         bad += 1
+    for rel, number, what in simd_violations(src):
+        print("SIMD outside util/lanes.h: %s:%d uses %s (intrinsics and vector types belong in "
+              "util/lanes.h, the one SIMD vocabulary)" % (rel, number, what))
+        bad += 1
     cycles, edges = directory_cycles(graph)
     for comp in cycles:
         print("directory cycle among %s:" % ", ".join(comp))
@@ -175,8 +243,8 @@ def main():
         print("check_layers: %d violation(s) in %d files" % (bad, len(graph)))
         return 1
     print("check_layers: %d files; the core (%s) reaches no io/eval/cmd/serve or foreign header; "
-          "no directory cycle; paraview/ includes only the core; netCDF-C/HDF5 only in io/netcdf_*"
-          % (len(graph), ", ".join(CORE)))
+          "no directory cycle; paraview/ includes only the core; netCDF-C/HDF5 only in io/netcdf_*; "
+          "intrinsics and vector types only in util/lanes.h" % (len(graph), ", ".join(CORE)))
     return 0
 
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "udvr/util/fast_math.h"
+#include "udvr/util/lanes.h"
 #include "udvr/util/normal_cdf.h"
 
 namespace udvr {
@@ -57,7 +58,7 @@ void tf2NormalAlongB(const Tf2Axes& ax, double a, double m, double s, double out
     // a register of pieces at a time (independent sums, one horizontal sum per chunk): one
     // piece after the other waited for the last one's sums.
     constexpr int kChunk = 32;
-    using V = detail::VRd;
+    using V = lanes::VRd;
     constexpr int kW = sizeof(V) / sizeof(double);
     static_assert(kChunk % kW == 0);
     // Index 0: the chunk's first line (the last one of the previous chunk); 1 … count: the next.
@@ -79,8 +80,8 @@ void tf2NormalAlongB(const Tf2Axes& ax, double a, double m, double s, double out
         }
     };
     const auto line = [&](int k, int at) {  // line k's values at a into val[·][at]
-        using F4 = float __attribute__((vector_size(16)));
-        using D4 = double __attribute__((vector_size(32)));
+        using F4 = lanes::Vec<float, 4>;
+        using D4 = lanes::Vec<double, 4>;
         F4 lo, hi;  // the point's 4 channels on A-lines ia, ia + 1
         std::memcpy(&lo, ax.point(ia, k), sizeof lo);
         std::memcpy(&hi, ax.point(ia + 1, k), sizeof hi);

@@ -216,7 +216,7 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     /// (faces of the grid, one-sided differences) take momentsAt per lane. Needs gathersFit(1).
     void momentsLanes(const Cell<lanes::Vf>& c, lanes::Mask live, lanes::Vf m[5]) const {
         using lanes::Vf, lanes::Vi;
-        using Vd = detail::Lanes<lanes::kWidth>::D;
+        using Vd = lanes::Vec<double, lanes::kWidth>;
         // (i, j, k) of each lane's base voxel: (n + ½)·(1/d) in double is n/d to well under
         // ½/d for n < 2⁵¹, so its truncation is the quotient.
         const auto divide = [](Vi n, std::int64_t d) {

@@ -176,10 +176,11 @@ UDVR_INLINE void rows4(const CellGeometry& g, const float* data, const Cell<lane
                      fz = detail::pairHalves<l>(c.fz);
             Vf row[4];
             for (int r = 0; r < 4; ++r) {
-                const __m256 a = _mm256_loadu_ps(p0 ? p0 + 4 * rowOffset[r] : kZero);
-                const __m256 b = _mm256_loadu_ps(p1 ? p1 + 4 * rowOffset[r] : kZero);
-                const Vf v = _mm512_castpd_ps(_mm512_insertf64x4(
-                    _mm512_castpd256_pd512(_mm256_castps_pd(a)), _mm256_castps_pd(b), 1));
+                // Named, not passed as arguments (which GCC evaluates right to left): in this
+                // order GCC 12 emits the same code as for two loads in statements.
+                const float* lo = p0 ? p0 + 4 * rowOffset[r] : kZero;
+                const float* hi = p1 ? p1 + 4 * rowOffset[r] : kZero;
+                const Vf v = lanes::loadHalves(lo, hi);
                 // x: each half's corner 1 against corner 0 (blocks swapped within halves)
                 const Vf swapped = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14,
                                                            15, 8, 9, 10, 11);

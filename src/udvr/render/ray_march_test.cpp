@@ -12,6 +12,7 @@
 #include <array>
 #include <climits>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <span>
 #include <string>
@@ -187,6 +188,62 @@ TEST(Lanes, LoadFirstStopsAtTheLastElement) {
             EXPECT_EQ(v[l], l < n ? p[l] : 0.f) << n << " " << l;
     }
     munmap(mem, 2 * page);
+}
+
+// loadHalves(lo, hi) puts lo's kWidth/2 floats below hi's and reads nothing past either: both
+// rows end at a page that may not be read.
+TEST(Lanes, LoadHalvesJoinsTwoRowsReadingNothingPastThem) {
+    const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+    void* mem = mmap(nullptr, 2 * page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    ASSERT_NE(mem, MAP_FAILED);
+    char* bytes = static_cast<char*>(mem);
+    ASSERT_EQ(mprotect(bytes + page, page, PROT_NONE), 0);
+    constexpr int kHalf = lanes::kWidth / 2;
+    float* end = reinterpret_cast<float*>(bytes + page);
+    float* hi = end - kHalf;
+    float* lo = end - 3 * kHalf;  // a gap of kHalf floats between the rows
+    for (int i = 0; i < kHalf; ++i)
+        lo[i] = static_cast<float>(10 + i), hi[i] = -1.5f * static_cast<float>(i);
+    for (int i = 0; i < kHalf; ++i) lo[kHalf + i] = 999.f;
+    const Vf v = lanes::loadHalves(lo, hi);
+    for (int l = 0; l < lanes::kWidth; ++l) EXPECT_EQ(v[l], l < kHalf ? lo[l] : hi[l - kHalf]) << l;
+    munmap(mem, 2 * page);
+}
+
+// less and selectBits on vectors wider than a register (compared a register at a time) against
+// the lane-by-lane operators, NaN lanes included.
+TEST(Lanes, LessAndSelectBitsOfWideVectorsMatchTheOperators) {
+    using V = lanes::Vec<double, 16>;
+    using W = lanes::Vec<float, 32>;
+    std::mt19937 rng(7);
+    std::uniform_int_distribution<int> pick(-2, 2);
+    for (int trial = 0; trial < 50; ++trial) {
+        V a, b;
+        W fa, fb;
+        for (int l = 0; l < 16; ++l) {
+            a[l] = pick(rng);
+            b[l] = l == trial % 16 ? std::numeric_limits<double>::quiet_NaN() : pick(rng);
+        }
+        for (int l = 0; l < 32; ++l) {
+            fa[l] = static_cast<float>(pick(rng));
+            fb[l] = static_cast<float>(pick(rng));
+        }
+        const auto m = lanes::less(a, b);
+        const V s = lanes::selectBits(m, a, b);
+        const auto fm = lanes::less(fa, fb);
+        const W fs = lanes::selectBits(fm, fa, fb);
+        for (int l = 0; l < 16; ++l) {
+            EXPECT_EQ(m[l], a[l] < b[l] ? -1 : 0) << l;
+            if (std::isnan(b[l]))
+                EXPECT_TRUE(std::isnan(s[l])) << l;  // NaN compares false: b's lane
+            else
+                EXPECT_EQ(s[l], a[l] < b[l] ? a[l] : b[l]) << l;
+        }
+        for (int l = 0; l < 32; ++l) {
+            EXPECT_EQ(fm[l], fa[l] < fb[l] ? -1 : 0) << l;
+            EXPECT_EQ(fs[l], fa[l] < fb[l] ? fa[l] : fb[l]) << l;
+        }
+    }
 }
 
 TEST(Lanes, MinAndMaxOverLiveLanes) {

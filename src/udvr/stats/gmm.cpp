@@ -4,11 +4,13 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 
 #include "udvr/util/check.h"
 #include "udvr/util/fast_math.h"
+#include "udvr/util/lanes.h"
 #include "udvr/util/random.h"
 
 namespace udvr {
@@ -17,12 +19,12 @@ namespace {
 // 16 voxels per vector: two AVX2 registers (or one AVX-512 register) per operation, so the long
 // dependency chain of one sample (max → exp → sum → division → sums) overlaps with another's.
 constexpr int kLanes = 16;
-using VF = detail::Lanes<kLanes>::F;
-using VI = detail::Lanes<kLanes>::I;
-using VD = detail::Lanes<kLanes>::D;
-using VL = detail::Lanes<kLanes>::L;
-using detail::lanesLess;
-using detail::selectBits;
+using VF = lanes::Vec<float, kLanes>;
+using VI = lanes::Vec<std::int32_t, kLanes>;
+using VD = lanes::Vec<double, kLanes>;
+using VL = lanes::Vec<std::int64_t, kLanes>;
+using lanes::less;  // a < b and mask ? a : b, a register at a time
+using lanes::selectBits;
 using lanes::splat;
 constexpr double kHalfLog2Pi = 0.91893853320467274178;  // ½·log(2π)
 
@@ -246,10 +248,9 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
             const VD invVar = 1.0 / var[k];
             const VD ratio = pi[k] * pi[k] * invVar;
             a[k] = __builtin_convertvector(
-                0.5 *
-                    detail::logPositiveD(selectBits(lanesLess(VD{}, ratio), ratio, splat<VD>(1.0))),
+                0.5 * detail::logPositiveD(selectBits(less(VD{}, ratio), ratio, splat<VD>(1.0))),
                 VF);
-            a[k] = selectBits(lanesLess(VF{}, __builtin_convertvector(pi[k], VF)), a[k],
+            a[k] = selectBits(less(VF{}, __builtin_convertvector(pi[k], VF)), a[k],
                               negInf);  // dead stays dead
             b[k] = __builtin_convertvector(-0.5 * invVar, VF);
             m[k] = __builtin_convertvector(mu[k], VF);
@@ -275,7 +276,7 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
                     e[k] = a[k] + b[k] * (dx * dx);
                 }
                 VF mx = e[0];
-                for (int k = 1; k < K; ++k) mx = selectBits(lanesLess(mx, e[k]), e[k], mx);
+                for (int k = 1; k < K; ++k) mx = selectBits(less(mx, e[k]), e[k], mx);
                 VF sum{};
                 for (int k = 0; k < K; ++k) {
                     e[k] = detail::expNonPositive(e[k] - mx);
@@ -319,9 +320,9 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
         // evaluated at, then (after the M-step, which every lane takes: cheaper than selecting)
         // loaded with the next voxel.
         const VD delta = ll - prevLl;
-        const VL converged = lanesLess(VD{}, iterations) & lanesLess(delta, tolerance) &
-                             lanesLess(-tolerance, delta);
-        const VL stop = active & (converged | ~lanesLess(iterations, maxIterations));
+        const VL converged =
+            less(VD{}, iterations) & less(delta, tolerance) & less(-tolerance, delta);
+        const VL stop = active & (converged | ~less(iterations, maxIterations));
         const VL takeMask = active & ~stop;
         iterations = selectBits(takeMask, iterations + 1.0, iterations);
         prevLl = selectBits(takeMask, ll, prevLl);
@@ -344,11 +345,11 @@ void emMany(std::size_t count, std::size_t n, const float* samples, const GmmOpt
         // Idle lanes (zero samples, one component at 0 with variance 1) stay as they are.
         for (int k = 0; k < K; ++k) {
             const VD nkS = nkD[k];
-            const VL live = lanesLess(splat<VD>(1e-6), nkS);
+            const VL live = less(splat<VD>(1e-6), nkS);
             const VD inv = splat<VD>(1.0) / selectBits(live, nkS, splat<VD>(1.0));
             const VD shift = s1D[k] * inv;
             VD v = s2D[k] * inv - shift * shift;
-            v = selectBits(lanesLess(floorVar, v), v, floorVar);
+            v = selectBits(less(floorVar, v), v, floorVar);
             const VD muF = __builtin_convertvector(m[k], VD);  // the μ the pass used
             const VD nPi = selectBits(live, nkS * splat<VD>(invN), splat<VD>(0.0));
             const VD nMu = selectBits(live, muF + shift, mu[k]);

@@ -9,6 +9,7 @@
 #include "udvr/util/check.h"
 #include "udvr/util/choice.h"
 #include "udvr/util/fast_math.h"
+#include "udvr/util/lanes.h"
 
 namespace udvr {
 
@@ -146,12 +147,12 @@ KdeCdfPdf kdeCdfPdf(std::span<const float> sorted, double h, double x) {
         sorted.begin());
     const double invH = 1.0 / h;
     // 8 kernels per step (fast_math.h); the lanes past `last` in the final step are masked off.
-    using V8d = detail::V8d;
-    const V8d xv = lanes::splat<detail::V8d>(x), invHv = lanes::splat<detail::V8d>(invH);
+    using lanes::V8d;
+    const V8d xv = lanes::splat<V8d>(x), invHv = lanes::splat<V8d>(invH);
     V8d cdf{}, pdf{};
     for (std::size_t i = first; i < last; i += 8) {
         const std::size_t m = std::min<std::size_t>(8, last - i);
-        detail::V8f s{};
+        lanes::V8f s{};
         std::memcpy(&s, sorted.data() + i, m * sizeof(float));
         const V8d u = (xv - __builtin_convertvector(s, V8d)) * invHv;
         const NormalAt<V8d> normal = normalAt(u, detail::ExpNonPositiveOf{});

@@ -1,16 +1,13 @@
 #pragma once
-// Vector math for the per-voxel estimators of stats/ and the batched ray loop of render/
-// (GCC/Clang vector extensions, which include the __m512 of the intrinsics: one or more
-// AVX registers per vector where the target has them). GCC does not vectorise the floating-point
-// reductions and transcendental calls of EM and of the KDE sums by itself, so the hot loops are
-// written on these types directly. The functions are templates over the lane count: 16-lane
-// vectors give two independent dependency chains per operation on AVX2 (or one zmm on AVX-512),
-// which the latency-bound EM loop needs. Error bounds are tested in fast_math_test.cpp.
+// Vector math for the per-voxel estimators of stats/ and the batched ray loop of render/, over the
+// vectors of util/lanes.h (`lanes::Vec<E, W>` of any width, `lanes::Vf`; one or more registers per
+// vector). GCC does not vectorise the floating-point reductions and transcendental calls of EM and
+// of the KDE sums by itself, so the hot loops are written on these types directly. The functions
+// are templates over the vector type: 16-lane vectors give two independent dependency chains per
+// operation on AVX2 (or one zmm on AVX-512), which the latency-bound EM loop needs. Error bounds
+// are tested in fast_math_test.cpp.
 #include <bit>
 #include <cmath>
-#include <cstddef>
-#include <cstdint>
-#include <cstring>
 #include <type_traits>
 
 #include "udvr/util/lanes.h"
@@ -18,69 +15,8 @@
 
 namespace udvr::detail {
 
-/// Vector types of W lanes: float, int32, double, int64.
-template <int W>
-struct Lanes {
-    // typedef, not using: GCC drops a value-dependent vector_size on an alias declaration.
-    typedef float F __attribute__((vector_size(4 * W)));
-    typedef std::int32_t I __attribute__((vector_size(4 * W)));
-    typedef double D __attribute__((vector_size(8 * W)));
-    typedef std::int64_t L __attribute__((vector_size(8 * W)));
-};
-static_assert(sizeof(Lanes<16>::F) == 64 && sizeof(Lanes<8>::L) == 64);
-
-using V8f = Lanes<8>::F;
-using V8i = Lanes<8>::I;
-using V8d = Lanes<8>::D;
-using V8l = Lanes<8>::L;
-
 // Every lane = s: the one `splat` of util/lanes.h, for vectors of any width.
 using lanes::splat;
-
-/// Bytes of the target's vector register.
-#if defined(__AVX512F__)
-inline constexpr std::size_t kRegisterBytes = 64;
-#elif defined(__AVX__)
-inline constexpr std::size_t kRegisterBytes = 32;
-#else
-inline constexpr std::size_t kRegisterBytes = 16;
-#endif
-
-/// a < b lane by lane (the mask of a vector comparison: all ones or 0; false for NaN),
-/// compared a register at a time. GCC 12 lowers comparisons of vectors wider than a register
-/// (16 doubles on AVX-512) into one scalar compare and branch per lane; on the GMM's
-/// 16-double parameters this made the per-iteration work cost more than a 20-sample E-step.
-template <class V>
-inline auto lanesLess(V a, V b) {
-    using M = decltype(a < b);
-    if constexpr (sizeof(V) <= kRegisterBytes) {
-        return a < b;
-    } else {
-        using E = std::remove_cvref_t<decltype(a[0])>;
-        typedef E H __attribute__((vector_size(sizeof(V) / 2)));
-        H a2[2], b2[2];
-        std::memcpy(a2, &a, sizeof a);
-        std::memcpy(b2, &b, sizeof b);
-        const auto lo = lanesLess(a2[0], b2[0]);
-        const auto hi = lanesLess(a2[1], b2[1]);
-        M m;
-        std::memcpy(&m, &lo, sizeof lo);
-        std::memcpy(reinterpret_cast<char*>(&m) + sizeof lo, &hi, sizeof hi);
-        return m;
-    }
-}
-
-/// mask ? a : b lane by lane for a comparison mask. Vectors wider than a register take bit
-/// operations (as for lanesLess, GCC 12 lowers their ?: lane by lane); a register-wide one keeps
-/// ?: (a blend under a mask register on AVX-512: the bit operations cost the EM 30 % there).
-template <class V, class M>
-inline V selectBits(M mask, V a, V b) {
-    static_assert(sizeof(V) == sizeof(M));
-    if constexpr (sizeof(V) <= kRegisterBytes)
-        return mask ? a : b;
-    else
-        return std::bit_cast<V>((std::bit_cast<M>(a) & mask) | (std::bit_cast<M>(b) & ~mask));
-}
 
 /// c₀xⁿ + c₁xⁿ⁻¹ + … + cₙ by Horner's scheme, highest degree first (p ← p·x + cᵢ, in that
 /// order of operations).
@@ -110,7 +46,7 @@ template <class VF>
 inline VF expNonPositive(VF x) {
     using VI = decltype(x < x);
     const VF clamp = splat<VF>(kExpClampBelow);
-    const VF xc = selectBits(lanesLess(x, clamp), clamp, x);
+    const VF xc = lanes::selectBits(lanes::less(x, clamp), clamp, x);
     const VF shifter = splat<VF>(0x1.8p23f);  // adding it rounds to an integer
     const VF t = xc * 1.44269504f + shifter;  // low mantissa bits: 2^22 + n
     const VF n = t - shifter;
@@ -120,9 +56,6 @@ inline VF expNonPositive(VF x) {
     const VI bits = (std::bit_cast<VI>(t) + 127) << 23;
     return p * std::bit_cast<VF>(bits);
 }
-
-/// Doubles of one vector register (8 on AVX-512, 4 on AVX2, 2 on SSE2/NEON).
-using VRd = double __attribute__((vector_size(kRegisterBytes)));
 
 /// Splits positive normal floats s = 2^e·f with f ∈ [1, 2): returns f, adds e to `expo`.
 template <class VF, class VI>
@@ -163,9 +96,9 @@ inline VD logPositiveD(VD s) {
     const VL bits = std::bit_cast<VL>(s);
     VD e = __builtin_convertvector((bits >> 52) - 1023, VD);
     VD f = std::bit_cast<VD>((bits & 0x000FFFFFFFFFFFFFLL) | 0x3FF0000000000000LL);
-    const VL big = lanesLess(splat<VD>(1.4142135623730951), f);
-    f = selectBits(big, f * 0.5, f);
-    e = selectBits(big, e + 1.0, e);
+    const VL big = lanes::less(splat<VD>(1.4142135623730951), f);
+    f = lanes::selectBits(big, f * 0.5, f);
+    e = lanes::selectBits(big, e + 1.0, e);
     const VD t = (f - 1.0) / (f + 1.0);
     const VD t2 = t * t;
     const VD p = horner(t2, 1.0 / 19, 1.0 / 17, 1.0 / 15, 1.0 / 13, 1.0 / 11, 1.0 / 9, 1.0 / 7,

@@ -9,12 +9,16 @@
 #include <cstdio>
 #include <limits>
 
+#include "udvr/util/lanes.h"
 #include "udvr/util/normal_cdf.h"
 
 namespace udvr::detail {
 namespace {
 
-using V16f = Lanes<16>::F;
+using lanes::V8d;
+using lanes::V8f;
+using lanes::V8i;
+using V16f = lanes::Vec<float, 16>;
 
 TEST(FastMath, ExpFloatRelativeErrorBelow2_5e7) {
     double worst = 0.0;

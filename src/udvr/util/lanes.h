@@ -10,12 +10,18 @@
 // here, each with a portable fallback: gathers, small-table lookups (permutes), masked loads,
 // FMA, square roots, mask bits, reductions and the kWidth×kWidth transpose.
 //
+// This header is the one place that defines vector types (`Vf`, `Vi`, `Vu`, and `Vec<E, W>` of
+// any element and width: the per-voxel estimators' 8- and 16-lane vectors, util/fast_math.h's
+// math runs over them) and the one place that calls intrinsics; scripts/check_layers.py fails on
+// either anywhere else.
+//
 // The generic classification bodies (classify/, reconstruct/) take a value type T that is either
 // a scalar (double for the exact path and probe, float for one GPU thread) or Vf; the overloads
 // below give scalars the same vocabulary (select, anyOf, fma …), so one body serves all of them.
 #include <bit>
 #include <cmath>
 #include <concepts>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <tuple>
@@ -55,10 +61,39 @@ using Vi = std::int32_t __attribute__((vector_size(4 * kWidth)));   // kWidth in
 using Vu = std::uint32_t __attribute__((vector_size(4 * kWidth)));  // kWidth uint32 (bit tables)
 using Mask = Vi;                                                    // lanes −1 (true) or 0
 
+/// W lanes of E (float, int32, double, int64 …) for the code that is not the ray batch: the
+/// per-voxel estimators of stats/ (EM, KDE sums: 8 or 16 lanes, two dependency chains per
+/// operation on AVX2), double companions of a batch (Vec<double, kWidth>). Vec<float, kWidth> is
+/// Vf.
+template <class E, int W>
+struct VectorOf {
+    static_assert(W >= 1 && (W & (W - 1)) == 0, "a power-of-two lane count");
+    // typedef, not using: GCC drops a value-dependent vector_size on an alias declaration.
+    typedef E type __attribute__((vector_size(sizeof(E) * W)));
+};
+template <class E, int W>
+using Vec = typename VectorOf<E, W>::type;
+static_assert(std::is_same_v<Vec<float, kWidth>, Vf> && sizeof(Vec<double, 8>) == 64);
+using V8f = Vec<float, 8>;
+using V8i = Vec<std::int32_t, 8>;
+using V8d = Vec<double, 8>;
+using V8l = Vec<std::int64_t, 8>;
+
+/// Bytes of the target's vector register.
+#if defined(__AVX512F__)
+inline constexpr std::size_t kRegisterBytes = 64;
+#elif defined(__AVX__)
+inline constexpr std::size_t kRegisterBytes = 32;
+#else
+inline constexpr std::size_t kRegisterBytes = 16;
+#endif
+/// Doubles of one vector register (8 on AVX-512, 4 on AVX2, 2 on SSE2/NEON).
+using VRd = Vec<double, static_cast<int>(kRegisterBytes / sizeof(double))>;
+
 /// Whether T is a lane vector (else a scalar).
 template <class T>
 inline constexpr bool kIsVector = std::is_same_v<T, Vf>;
-/// Whether T is any GCC vector (Vf, or the wider float/double vectors of util/fast_math.h).
+/// Whether T is any GCC vector (Vf, or any Vec<E, W>).
 template <class T>
 concept AnyVector = !std::is_arithmetic_v<T> && requires(T v) {
     { v[0] + 0 } -> std::convertible_to<double>;
@@ -82,7 +117,7 @@ template <class T>
 using ScalarOf = typename ElementOf<T>::type;
 
 // ---- construction --------------------------------------------------------------------------
-/// Every lane = s (scalars: s itself); T is Vf, a scalar, or any vector of util/fast_math.h.
+/// Every lane = s (scalars: s itself); T is Vf, a scalar, or any Vec<E, W>.
 template <class T>
 UDVR_CPU_GPU inline T splat(ScalarOf<T> s) {
     if constexpr (AnyVector<T>)
@@ -150,6 +185,42 @@ UDVR_CPU_GPU inline T select(bool m, T a, T b) {
 }
 inline Vf select(Mask m, Vf a, Vf b) { return m ? a : b; }
 inline Vi select(Mask m, Vi a, Vi b) { return m ? a : b; }
+
+/// a < b lane by lane for any Vec (the mask of a vector comparison: all ones or 0; false for
+/// NaN), compared a register at a time. GCC 12 lowers comparisons of vectors wider than a
+/// register (16 doubles on AVX-512) into one scalar compare and branch per lane; on the GMM's
+/// 16-double parameters this made the per-iteration work cost more than a 20-sample E-step.
+template <class V>
+inline auto less(V a, V b) {
+    using M = decltype(a < b);
+    if constexpr (sizeof(V) <= kRegisterBytes) {
+        return a < b;
+    } else {
+        using E = ScalarOf<V>;
+        using H = Vec<E, static_cast<int>(sizeof(V) / sizeof(E) / 2)>;
+        H a2[2], b2[2];
+        std::memcpy(a2, &a, sizeof a);
+        std::memcpy(b2, &b, sizeof b);
+        const auto lo = less(a2[0], b2[0]);
+        const auto hi = less(a2[1], b2[1]);
+        M m;
+        std::memcpy(&m, &lo, sizeof lo);
+        std::memcpy(reinterpret_cast<char*>(&m) + sizeof lo, &hi, sizeof hi);
+        return m;
+    }
+}
+
+/// mask ? a : b lane by lane for any Vec and a comparison mask. Vectors wider than a register
+/// take bit operations (as for less, GCC 12 lowers their ?: lane by lane); a register-wide one
+/// keeps ?: (a blend under a mask register on AVX-512: the bit operations cost the EM 30 % there).
+template <class V, class M>
+inline V selectBits(M mask, V a, V b) {
+    static_assert(sizeof(V) == sizeof(M));
+    if constexpr (sizeof(V) <= kRegisterBytes)
+        return mask ? a : b;
+    else
+        return std::bit_cast<V>((std::bit_cast<M>(a) & mask) | (std::bit_cast<M>(b) & ~mask));
+}
 
 /// a·b + c: one rounding where the target has FMA, two otherwise (scalars: always two, the
 /// exact double path's arithmetic).
@@ -406,6 +477,30 @@ inline Vf loadFirst(const float* p, int n) {
     return r;
 #endif
 }
+#if defined(__AVX512F__)
+namespace detail {
+/// (a, b): a in floats 0 … 7, b in floats 8 … 15.
+UDVR_INLINE Vf joinHalves(__m256 a, __m256 b) {
+    return _mm512_castpd_ps(
+        _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(a)), _mm256_castps_pd(b), 1));
+}
+}  // namespace detail
+#endif
+/// lo[0 … kWidth/2 − 1] in lanes 0 … kWidth/2 − 1 and hi[0 … kWidth/2 − 1] in the lanes above:
+/// two short rows of memory in one register (AVX-512: two 256-bit loads and an insert; AVX: two
+/// 128-bit ones; elsewhere two copies).
+UDVR_INLINE Vf loadHalves(const float* lo, const float* hi) {
+#if defined(__AVX512F__)
+    return detail::joinHalves(_mm256_loadu_ps(lo), _mm256_loadu_ps(hi));
+#elif defined(__AVX__)
+    return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(lo)), _mm_loadu_ps(hi), 1);
+#else
+    Vf v;
+    std::memcpy(&v, lo, sizeof v / 2);
+    std::memcpy(reinterpret_cast<char*>(&v) + sizeof v / 2, hi, sizeof v / 2);
+    return v;
+#endif
+}
 /// Packs the lanes of v in m to the front of dst and returns how many there are (kWidth floats
 /// are written; those past the count are unspecified), so that work on a few lanes of many
 /// batches runs on full vectors (classify/expected_tf.h, the fast box spline). Without AVX-512
@@ -558,8 +653,7 @@ inline void gatherRow8(const float* base, Vi idx, Mask live, Vf out[8]) {
         const auto hi = static_cast<__mmask8>(0u - (m >> (l + 8) & 1u));
         const __m256 a = _mm256_maskz_loadu_ps(lo, base + at[l]);
         const __m256 b = _mm256_maskz_loadu_ps(hi, base + at[l + 8]);
-        r[l] = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(a)),
-                                                   _mm256_castps_pd(b), 1));
+        r[l] = detail::joinHalves(a, b);
     }
     // The 8×8 transpose of AVX2 (transpose below) in both halves at once.
     transposeBlocks4(r, u);
