@@ -10,8 +10,8 @@
 //     — probe's description and expectedTf2Over (joint_distribution.h), the reference the
 //     render's classification is held to.
 // So the polyline of the quantile models is built by one function and Eq. 4 / Eq. 5 in 2D are
-// each taken by one. The 2D gaussian's is JointNormal, over lanes too; the 2D uniform has a double
-// body only (its BoxSpline2 pieces come from its kernel's jointDistribution).
+// each taken by one. The 2D gaussian's is JointNormal, the 2D uniform's JointBoxSpline: both
+// built over lanes too.
 #include <bit>
 #include <concepts>
 
@@ -24,6 +24,7 @@
 #include "udvr/classify/tf2_raster.h"
 #include "udvr/reconstruct/quantile_interp.h"
 #include "udvr/util/check.h"
+#include "udvr/util/fast_math.h"
 
 namespace udvr {
 
@@ -165,6 +166,73 @@ UDVR_INLINE void expectedTf2(const Tf2Raster<Real>&, const JointNormal<T>& d, la
             d.tables->gaussian(*d.exact, d.mx, d.mg, d.vxx, d.vxg, d.vgg, v);
         else
             expectedTf2Gaussian(*d.exact, d.mx, d.mg, d.vxx, d.vxg, d.vgg, v);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = static_cast<T>(v[ch]);
+    }
+}
+
+/// The 2D uniform's (X, G) (SPEC §9): the bivariate box spline (cx, cg) + Σ_i t_i·(a_i, b_i),
+/// t_i ~ U[−1, 1] independent, of the 32-voxel form (direction i: voxel i's trilinear weight w_i
+/// and gradient coefficient u_i = n̂·g_i times its half width h_i; data units). Its values are
+/// doubles on every T (Wide: kWidth doubles on lanes), the inputs of the double evaluation of
+/// its E[TF2]: float sums would move the centre's G, a sum of ~32 terms u_i·mid_i that cancel
+/// to |μ_Y|, by float roundings of the values (docs/models.md). E[TF2] per lane in double:
+/// `tables` (the fast `uniform`, Tf2BlurTables::boxSpline) where the sample's 8 corners have
+/// weight (allCorners), else expectedTf2UniformExact, converged (`converged`: uniform-exact) or at
+/// the coarse kUniform2DFast settings. Directions with |a| ≤ tinyWidth count for G only.
+template <class T>
+struct JointBoxSpline {
+    using Real = T;
+    using Wide = std::conditional_t<lanes::kIsVector<T>, lanes::Vec<double, lanes::kWidth>, double>;
+    Wide cx{}, cg{};
+    Wide a[32], b[32];
+    lanes::IntOf<T> count{};        // directions per lane (≤ 32)
+    lanes::MaskOf<T> allCorners{};  // lanes whose 8 corners have trilinear weight > 0
+    double tinyWidth = 0.0;
+    const Tf2Raster<double>* raster = nullptr;
+    const Tf2BlurTables* tables = nullptr;  // null: expectedTf2UniformExact
+    bool converged = false;                 // uniform-exact: its default (converged) settings
+};
+namespace detail {
+/// E[(α·c, α)] over one lane's box spline (JointBoxSpline) in double.
+template <class T>
+void boxSplineExpectation(const JointBoxSpline<T>& s, double cx, double cg, const BoxDirection2* d,
+                          int n, bool allCorners, double out[4]) {
+    if (s.tables && !s.converged && allCorners) {
+        s.tables->boxSpline(*s.raster, cx, cg, d, n, s.tinyWidth, out);
+    } else {
+        Tf2UniformExactOptions opt = s.converged ? Tf2UniformExactOptions{} : kUniform2DFast;
+        expectedTf2UniformExact(*s.raster, cx, cg, d, n, s.tinyWidth, opt, out);
+    }
+}
+}  // namespace detail
+template <JointDistributionSink Sink>
+void describe(const JointBoxSpline<double>& s, Sink& sink) {
+    BoxSpline2 b;
+    b.cx = s.cx;
+    b.cg = s.cg;
+    b.n = s.count;
+    for (int i = 0; i < s.count; ++i) b.d[i] = {s.a[i], s.b[i]};
+    b.tinyWidth = s.tinyWidth;
+    sink.boxSpline(b, 1.0);
+}
+/// E[TF2] over the box spline, per live lane in double (the raster of T's real type is not read).
+template <class T, class Real>
+void expectedTf2(const Tf2Raster<Real>&, const JointBoxSpline<T>& s, lanes::MaskOf<T> live,
+                 T out[4]) {
+    BoxDirection2 d[32];
+    double v[4];
+    if constexpr (lanes::kIsVector<T>) {
+        for (std::uint32_t m = lanes::bits(live); m; m &= m - 1) {
+            const int l = std::countr_zero(m);
+            const int n = s.count[l];
+            for (int i = 0; i < n; ++i) d[i] = {s.a[i][l], s.b[i][l]};
+            detail::boxSplineExpectation(s, s.cx[l], s.cg[l], d, n, s.allCorners[l] != 0, v);
+            for (int ch = 0; ch < 4; ++ch) out[ch][l] = static_cast<float>(v[ch]);
+        }
+    } else {
+        if (!live) return;
+        for (int i = 0; i < s.count; ++i) d[i] = {s.a[i], s.b[i]};
+        detail::boxSplineExpectation(s, s.cx, s.cg, d, s.count, s.allCorners, v);
         for (int ch = 0; ch < 4; ++ch) out[ch] = static_cast<T>(v[ch]);
     }
 }

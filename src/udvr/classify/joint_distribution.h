@@ -21,15 +21,11 @@ namespace udvr {
 
 /// The joint distribution of `kernel` (any 2D kernel, or an AnyKernel2D) at a cell into `sink`:
 /// the kernel's reconstruction in double (model_kernels_2d.h), described as pieces
-/// (distributions_2d.h); a kernel without one (the 2D uniform) gives its own
-/// `jointDistribution`.
+/// (distributions_2d.h).
 template <class Kernel, JointDistributionSink Sink>
 void jointDistributionAt(const Kernel& kernel, const Cell<double>& cell, Sink& sink) {
     visitKernel(kernel, [&](const auto& k) {
-        if constexpr (requires { k.jointDistribution(cell, sink); })
-            k.jointDistribution(cell, sink);
-        else
-            k.template reconstruct<double>(cell, true, [&](const auto& d) { describe(d, sink); });
+        k.template reconstruct<double>(cell, true, [&](const auto& d) { describe(d, sink); });
     });
 }
 

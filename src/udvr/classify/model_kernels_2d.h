@@ -6,14 +6,16 @@
 // joint_distribution.h). The kernels with lane bodies (mean, the quantile family) build that
 // distribution once, over the lane type, in `reconstruct<T>(cell, live, use)`
 // (distributions_2d.h): `load` takes a TF2's expectation over it (detail::classify2DOver),
-// jointDistributionAt describes reconstruct<double>'s; so does the 2D gaussian (JointNormal).
-// The 2D uniform builds its in double only, in its `jointDistribution` member.
+// jointDistributionAt describes reconstruct<double>'s; so do the 2D gaussian (JointNormal) and
+// the 2D uniform (JointBoxSpline).
 //
 // Gradients come from grid gradients computed once per model (reconstruct/gradient_field.h):
 // the sample's gradient is their trilinear blend, which is SPEC §9's 32-voxel form exactly.
 // The mean gradient μ_Y blends the grid gradients of the `mean` array (every model); the quantile
 // models blend, per boundary j, the grid gradients of the field of every voxel's boundary j
 // (the rank coupling: all voxels at the same rank).
+#include <array>
+#include <bit>
 #include <cmath>
 #include <tuple>
 
@@ -84,6 +86,29 @@ struct Kernel2DBase : GridKernel {
         T y[3];
         meanGradientAt(c, live, y);
         return directionOf(y, n);
+    }
+    /// The live lanes whose cell's 32-voxel form has only central differences: base voxel
+    /// (i, j, k) with 1 ≤ i ≤ dims − 3 on each axis (the cell and its 24 outer neighbours inside
+    /// the grid). Needs gathersFit(1).
+    lanes::Mask interiorLanes(const Cell<lanes::Vf>& c, lanes::Mask live) const {
+        using lanes::Vi;
+        using Vd = lanes::Vec<double, lanes::kWidth>;
+        // (i, j, k) of each lane's base voxel: (n + ½)·(1/d) in double is n/d to well under
+        // ½/d for n < 2⁵¹, so its truncation is the quotient.
+        const auto divide = [](Vi n, std::int64_t d) {
+            const Vd q = (__builtin_convertvector(n, Vd) + 0.5) * (1.0 / static_cast<double>(d));
+            return __builtin_convertvector(q, Vi);
+        };
+        const Vi base = lanes::select(live, c.base, Vi{});
+        const Vi k = divide(base, geometry.stride[2]);
+        const Vi rem = base - k * geometry.stride32[2];
+        const Vi j = divide(rem, geometry.stride[1]);
+        const Vi i = rem - j * geometry.stride32[1];
+        const Vi idx[3] = {i, j, k};
+        lanes::Mask inside = live;
+        for (int a = 0; a < 3; ++a)
+            inside = inside & (idx[a] >= 1) & (idx[a] <= geometry.dims[a] - 3);
+        return inside;
     }
     /// n̂ and |μ_Y| of a given μ_Y = y (meanDirectionAt).
     template <class T>
@@ -216,21 +241,7 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     /// (faces of the grid, one-sided differences) take momentsAt per lane. Needs gathersFit(1).
     void momentsLanes(const Cell<lanes::Vf>& c, lanes::Mask live, lanes::Vf m[5]) const {
         using lanes::Vf, lanes::Vi;
-        using Vd = lanes::Vec<double, lanes::kWidth>;
-        // (i, j, k) of each lane's base voxel: (n + ½)·(1/d) in double is n/d to well under
-        // ½/d for n < 2⁵¹, so its truncation is the quotient.
-        const auto divide = [](Vi n, std::int64_t d) {
-            const Vd q = (__builtin_convertvector(n, Vd) + 0.5) * (1.0 / static_cast<double>(d));
-            return __builtin_convertvector(q, Vi);
-        };
-        const Vi base = lanes::select(live, c.base, Vi{});
-        const Vi k = divide(base, geometry.stride[2]);
-        const Vi rem = base - k * geometry.stride32[2];
-        const Vi j = divide(rem, geometry.stride[1]);
-        const Vi i = rem - j * geometry.stride32[1];
-        const Vi idx[3] = {i, j, k};
-        lanes::Mask fast = live;
-        for (int a = 0; a < 3; ++a) fast = fast & (idx[a] >= 1) & (idx[a] <= geometry.dims[a] - 3);
+        const lanes::Mask fast = interiorLanes(c, live);
         if (lanes::anyOf(fast)) {
             Vf n[3];
             m[1] = meanDirectionAt(c, fast, n);
@@ -313,13 +324,49 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     void prefetch(int) const {}
 };
 
+namespace detail {
+/// A voxel of the 32-voxel gradient form at a cell whose 8 corners have weight and whose grid
+/// gradients are all central differences: corner `corner` (axis −1) or the voxel beyond corner
+/// `corner` along `axis`.
+struct FormVoxel {
+    int corner = 0, axis = -1;
+};
+/// Those 32 voxels in gradientFormAt's slot order (each corner, then its stencil's upper and
+/// lower neighbour per axis), so sums over them take the scalar body's order.
+constexpr std::array<FormVoxel, 32> interiorFormVoxels() {
+    std::array<FormVoxel, 32> v{};
+    int count = 0;
+    const auto slot = [&](int corner, int axis) {
+        for (int s = 0; s < count; ++s)
+            if (v[s].corner == corner && v[s].axis == axis) return;
+        v[count++] = {corner, axis};
+    };
+    for (int o = 0; o < 8; ++o) {
+        slot(o, -1);
+        for (int a = 0; a < 3; ++a) {
+            const int bit = 1 << a;
+            if (o & bit) {
+                slot(o, a);         // upper neighbour: beyond the cell
+                slot(o ^ bit, -1);  // lower: the corner across
+            } else {
+                slot(o | bit, -1);
+                slot(o, a);
+            }
+        }
+    }
+    return v;
+}
+inline constexpr std::array<FormVoxel, 32> kInteriorFormVoxels = interiorFormVoxels();
+}  // namespace detail
+
 /// Uniform with a TF2 (SPEC §9): independent uniform voxels X_i ~ U[lo_i, hi_i] (μ ± √3σ, or
 /// [min, max] with `--uniform-width minmax`); (X, G) = Σ_i (w_i, u_i) X_i over the 32-voxel form
-/// is the paper's bivariate box spline. E[TF2] from a double body: `uniform-exact` by
-/// expectedTf2UniformExact converged (≤ 1e−6); `uniform` (and its alias `uniform-fast`) from the
-/// prefiltered tables (Tf2BlurTables::boxSpline, expected_tf2_fast.h: the dominant boxes kept,
-/// the rest a normal with its Edgeworth κ4 term; max 9.1e−4 measured at interior points,
-/// 1.6e−3 at voxel faces, docs/models.md), or
+/// is the paper's bivariate box spline (JointBoxSpline, distributions_2d.h), reconstructed once
+/// per sample over the lane type (`reconstruct`; its values in double on every T). E[TF2] per
+/// lane in double: `uniform-exact` by expectedTf2UniformExact converged (≤ 1e−6); `uniform`
+/// (and its alias `uniform-fast`) from the prefiltered tables (Tf2BlurTables::boxSpline,
+/// expected_tf2_fast.h: the dominant boxes kept, the rest a normal with its Edgeworth κ4 term;
+/// max 9.1e−4 measured at interior points, 1.6e−3 at voxel faces, docs/models.md), or
 /// without tables by expectedTf2UniformExact at the coarser kUniform2DFast settings.
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     bool exact;        // `uniform-exact` (expectedTf2UniformExact), else the fast form
@@ -367,35 +414,136 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
         }
         return f.count;
     }
+    /// directionsAt into lane l of s (or into s on a scalar T).
+    template <class T>
+    UDVR_CPU_GPU void directionsInto(const Cell<double>& c, JointBoxSpline<T>& s, int l) const {
+        double cx, cy;
+        BoxDirection2 d[32];
+        int corners = 0;
+        const int n = directionsAt(c, cx, cy, d, &corners);
+        if constexpr (lanes::kIsVector<T>) {
+            s.cx[l] = cx;
+            s.cg[l] = cy;
+            for (int i = 0; i < n; ++i) {
+                s.a[i][l] = d[i].a;
+                s.b[i][l] = d[i].b;
+            }
+            s.count[l] = n;
+            s.allCorners[l] = corners == 8 ? -1 : 0;
+        } else {
+            s.cx = cx;
+            s.cg = cy;
+            for (int i = 0; i < n; ++i) {
+                s.a[i] = d[i].a;
+                s.b[i] = d[i].b;
+            }
+            s.count = n;
+            s.allCorners = corners == 8;
+        }
+    }
+    /// directionsAt over lanes, the values in double lanes: the lanes whose 8 corners have weight
+    /// and whose 32 voxels have central differences (interiorLanes) in closed form — corner o's
+    /// gradient coefficient along axis a is ±w of the corner across a times 1/(2·spacing_a) (+
+    /// where o_a = 1), the voxel beyond corner o along a has ±w_o/(2·spacing_a) there — in
+    /// directionsAt's order and arithmetic, so each lane's values are its scalar body's
+    /// (Uniform2D.LaneBoxSplineIsTheDoubleOnePerLane); the rest take directionsAt per lane.
+    /// Needs gathersFit(1).
+    void directionsLanes(const Cell<lanes::Vf>& c, lanes::Mask live,
+                         JointBoxSpline<lanes::Vf>& s) const {
+        using Vd = JointBoxSpline<lanes::Vf>::Wide;
+        using lanes::Vf, lanes::Vi;
+        const lanes::Mask fast = interiorLanes(c, live) & (c.fx > 0.0f) & (c.fx < 1.0f) &
+                                 (c.fy > 0.0f) & (c.fy < 1.0f) & (c.fz > 0.0f) & (c.fz < 1.0f);
+        if (lanes::anyOf(fast)) {
+            const Vd one = lanes::splat<Vd>(1.0);
+            const Vd fx = __builtin_convertvector(c.fx, Vd), fy = __builtin_convertvector(c.fy, Vd),
+                     fz = __builtin_convertvector(c.fz, Vd);
+            Vd w[8];  // trilinearWeights' product
+            for (int k = 0; k < 8; ++k)
+                w[k] = ((k & 1) ? fx : one - fx) * ((k & 2) ? fy : one - fy) *
+                       ((k & 4) ? fz : one - fz);
+            Vd n[3] = {};
+            for (std::uint32_t b = lanes::bits(fast); b; b &= b - 1) {
+                const int l = std::countr_zero(b);
+                double nl[3];
+                meanDirectionAt(laneCell(c, l), true, nl);
+                for (int a = 0; a < 3; ++a) n[a][l] = nl[a];
+            }
+            double scale[3];  // gradientFormAt's stencil scale of a central difference
+            for (int a = 0; a < 3; ++a) scale[a] = gradientGeometry.invSpacing[a] / 2;
+            Vd cx{}, cy{};
+            for (int i = 0; i < 32; ++i) {
+                const detail::FormVoxel v = detail::kInteriorFormVoxels[i];
+                int off = 0;
+                for (int a = 0; a < 3; ++a)
+                    if ((v.corner >> a) & 1) off += geometry.stride32[a];
+                Vd wi{}, coeff[3] = {};
+                if (v.axis < 0) {
+                    wi = w[v.corner];
+                    for (int a = 0; a < 3; ++a) {
+                        const int bit = 1 << a;
+                        coeff[a] = (v.corner & bit) ? w[v.corner ^ bit] * scale[a]
+                                                    : -(w[v.corner | bit] * scale[a]);
+                    }
+                } else {
+                    const bool up = (v.corner >> v.axis) & 1;
+                    off += up ? geometry.stride32[v.axis] : -geometry.stride32[v.axis];
+                    coeff[v.axis] =
+                        up ? w[v.corner] * scale[v.axis] : -(w[v.corner] * scale[v.axis]);
+                }
+                const Vi at = c.base + off;
+                const Vd p = __builtin_convertvector(lanes::gather(first, at, fast), Vd);
+                const Vd q = __builtin_convertvector(lanes::gather(second, at, fast), Vd);
+                Vd lo = p, hi = q;  // UniformVoxels::interval
+                if (!minMax) {
+                    const Vd h = 1.7320508075688772 * q;
+                    lo = p - h;
+                    hi = p + h;
+                }
+                const Vd u = n[0] * coeff[0] + n[1] * coeff[1] + n[2] * coeff[2];
+                const Vd mid = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+                cx += wi * mid;
+                cy += u * mid;
+                s.a[i] = wi * h;
+                s.b[i] = u * h;
+            }
+            s.cx = cx;
+            s.cg = cy;
+            s.count = lanes::select(fast, lanes::splat<Vi>(32), s.count);
+            s.allCorners = fast;
+        }
+        for (std::uint32_t b = lanes::bits(live & !fast); b; b &= b - 1) {
+            const int l = std::countr_zero(b);
+            directionsInto(laneCell(c, l), s, l);
+        }
+    }
+    /// Its distribution at a cell: the bivariate box spline of the 32-voxel form
+    /// (JointBoxSpline), handed to use(d).
+    template <class T, class Use>
+    UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
+                                              const Use& use) const {
+        JointBoxSpline<T> s;
+        s.tinyWidth = tinyWidth;
+        s.raster = &tfExact;
+        s.tables = exact ? nullptr : tables;
+        s.converged = exact;
+        if constexpr (lanes::kIsVector<T>)
+            directionsLanes(c, live, s);
+        else
+            directionsInto(Cell<double>{c.base, c.fx, c.fy, c.fz}, s, 0);
+        use(s);
+    }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r{};
-        if constexpr (std::is_same_v<T, double>) {
-            double cx, cy;
-            BoxDirection2 d[32];
-            int corners = 0;
-            const int n = directionsAt(c, cx, cy, d, &corners);
-            // On a cell's faces, edges and grid points (fewer than 8 corners) the tables' form
-            // was 1.6e−3 off (Tf2BlurTables.BoxSplineWithFewCorners…): the coarse exact settings
-            // answer there (1.8e−4; Uniform2D.FastFormWithin1e3OfExactOnFacesEdgesAndGridPoints).
-            if (tables && !exact && corners == 8) {
-                tables->boxSpline(tfExact, cx, cy, d, n, tinyWidth, r.v);
-            } else {
-                Tf2UniformExactOptions opt = exact ? Tf2UniformExactOptions{} : kUniform2DFast;
-                expectedTf2UniformExact(tfExact, cx, cy, d, n, tinyWidth, opt, r.v);
+        if constexpr (lanes::kIsVector<T>) {
+            if (!gathersFit(1)) {  // batches past int32 gathers: the double body
+                detail::exactWhere(*this, c, live, r.v);
+                return r;
             }
-        } else {
-            detail::exactWhere(*this, c, live, r.v);
         }
+        reconstruct(c, live, [&](const auto& d) { expectedTf2(tf2<T>(), d, live, r.v); });
         return r;
-    }
-    /// Its joint distribution at a cell: the bivariate box spline of the 32-voxel form.
-    template <class Sink>
-    void jointDistribution(const Cell<double>& c, Sink& sink) const {
-        BoxSpline2 b;
-        b.n = directionsAt(c, b.cx, b.cg, b.d);
-        b.tinyWidth = tinyWidth;
-        sink.boxSpline(b, 1.0);
     }
     using UniformVoxels::voxelSupport;
     void prefetch(int) const {}
