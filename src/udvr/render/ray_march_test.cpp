@@ -171,15 +171,35 @@ TEST(Lanes, TestBitsReadsOnlyLiveLanes) {
     }
 }
 
+// A readable page followed by one that may not be read (PROT_NONE): a load past end() faults.
+class PageBeforeAGuard {
+  public:
+    PageBeforeAGuard() : page_(static_cast<std::size_t>(sysconf(_SC_PAGESIZE))) {
+        mem_ = mmap(nullptr, 2 * page_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (mem_ == MAP_FAILED) return;
+        guarded_ = mprotect(static_cast<char*>(mem_) + page_, page_, PROT_NONE) == 0;
+    }
+    ~PageBeforeAGuard() {
+        if (mem_ != MAP_FAILED) munmap(mem_, 2 * page_);
+    }
+    PageBeforeAGuard(const PageBeforeAGuard&) = delete;
+    PageBeforeAGuard& operator=(const PageBeforeAGuard&) = delete;
+    bool ok() const { return mem_ != MAP_FAILED && guarded_; }
+    /// One past the readable page's last float.
+    float* end() const { return reinterpret_cast<float*>(static_cast<char*>(mem_) + page_); }
+
+  private:
+    std::size_t page_;
+    void* mem_ = MAP_FAILED;
+    bool guarded_ = false;
+};
+
 // loadFirst(p, n) reads nothing past p[n − 1]: p[n − 1] is the last float before a page that
 // may not be read.
 TEST(Lanes, LoadFirstStopsAtTheLastElement) {
-    const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
-    void* mem = mmap(nullptr, 2 * page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    ASSERT_NE(mem, MAP_FAILED);
-    char* bytes = static_cast<char*>(mem);
-    ASSERT_EQ(mprotect(bytes + page, page, PROT_NONE), 0);
-    float* end = reinterpret_cast<float*>(bytes + page);
+    const PageBeforeAGuard mem;
+    ASSERT_TRUE(mem.ok());
+    float* end = mem.end();
     for (int i = 1; i <= lanes::kWidth; ++i) end[-i] = static_cast<float>(100 + i);
     for (int n = 0; n <= lanes::kWidth; ++n) {
         const float* p = end - n;
@@ -187,19 +207,15 @@ TEST(Lanes, LoadFirstStopsAtTheLastElement) {
         for (int l = 0; l < lanes::kWidth; ++l)
             EXPECT_EQ(v[l], l < n ? p[l] : 0.f) << n << " " << l;
     }
-    munmap(mem, 2 * page);
 }
 
 // loadHalves(lo, hi) puts lo's kWidth/2 floats below hi's and reads nothing past either: both
 // rows end at a page that may not be read.
 TEST(Lanes, LoadHalvesJoinsTwoRowsReadingNothingPastThem) {
-    const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
-    void* mem = mmap(nullptr, 2 * page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    ASSERT_NE(mem, MAP_FAILED);
-    char* bytes = static_cast<char*>(mem);
-    ASSERT_EQ(mprotect(bytes + page, page, PROT_NONE), 0);
+    const PageBeforeAGuard mem;
+    ASSERT_TRUE(mem.ok());
     constexpr int kHalf = lanes::kWidth / 2;
-    float* end = reinterpret_cast<float*>(bytes + page);
+    float* end = mem.end();
     float* hi = end - kHalf;
     float* lo = end - 3 * kHalf;  // a gap of kHalf floats between the rows
     for (int i = 0; i < kHalf; ++i)
@@ -207,7 +223,6 @@ TEST(Lanes, LoadHalvesJoinsTwoRowsReadingNothingPastThem) {
     for (int i = 0; i < kHalf; ++i) lo[kHalf + i] = 999.f;
     const Vf v = lanes::loadHalves(lo, hi);
     for (int l = 0; l < lanes::kWidth; ++l) EXPECT_EQ(v[l], l < kHalf ? lo[l] : hi[l - kHalf]) << l;
-    munmap(mem, 2 * page);
 }
 
 // less and selectBits on vectors wider than a register (compared a register at a time) against
