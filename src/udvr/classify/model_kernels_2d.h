@@ -542,7 +542,7 @@ struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
                 return r;
             }
         }
-        reconstruct(c, live, [&](const auto& d) { expectedTf2(tf2<T>(), d, live, r.v); });
+        detail::classify2DOver<T>(*this, c, live, r.v);
         return r;
     }
     using UniformVoxels::voxelSupport;
