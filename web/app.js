@@ -8,12 +8,11 @@ import {Tf2Editor} from './tf2_editor.js';
 
 const $ = (id) => document.getElementById(id);
 const COARSE = 4;  // coarse frames: 1/4 of the width and height
-const QUARTILES = ['quartile-lower', 'quartile-middle', 'quartile-upper'];
 const HOME = {azimuth: 30, elevation: 20, zoom: 1};  // SPEC §5's default camera
 
 const state = {
   info: null,
-  model: 'mean',
+  model: null,            // the picked model's name (the server's defaults.model at start)
   camera: {...HOME},
   size: [512, 512],
   quartiles: false,
@@ -49,6 +48,15 @@ function sizeText() {
 
 function modelInfo(name) {
   return state.info.models.find((m) => m.name === name);
+}
+
+// The quartile view's models (SPEC §4): those covering a proper part of the quantile population
+// ([lo, hi] ⊂ [0, 1], from the server's model table), in rank order.
+function quartileViews() {
+  return state.info.models
+      .filter((m) => m.population && (m.population[0] > 0 || m.population[1] < 1))
+      .sort((a, b) => a.population[0] - b.population[0])
+      .map((m) => m.name);
 }
 
 // A view's full frame, estimated: the server's probe of the model at its default view
@@ -137,7 +145,7 @@ function showInfo(text) {
 function wantedViews() {
   const list = [{channel: 'main', title: modelInfo(state.model).label, params: {model: state.model}}];
   if (state.quartiles)
-    for (const q of QUARTILES) list.push({channel: q, title: q, params: {model: q}});
+    for (const q of quartileViews()) list.push({channel: q, title: q, params: {model: q}});
   if (state.info.truth) {
     list.push({channel: 'truth', title: 'ground truth', params: {model: state.model, source: 'truth'}});
     list.push({channel: 'diff', title: 'difference', params: {model: state.model, source: 'diff'}});
@@ -667,16 +675,16 @@ async function start() {
     picker.add(o);
     markOption(o, m);
   }
-  const preferred = ['quantile-range', 'mean'].find((n) => modelInfo(n).available) || 'mean';
-  state.model = preferred;
-  picker.value = preferred;
+  state.model = state.info.defaults.model;
+  picker.value = state.model;
   picker.addEventListener('change', () => {
     state.model = picker.value;
     buildViews();
     schedule(false);
   });
   const quartiles = $('quartiles');
-  quartiles.disabled = !modelInfo('quartile-lower').available;
+  const views = quartileViews();
+  quartiles.disabled = views.length === 0 || !views.every((n) => modelInfo(n).available);
   quartiles.addEventListener('change', () => {
     state.quartiles = quartiles.checked;
     buildViews();

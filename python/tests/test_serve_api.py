@@ -132,6 +132,23 @@ def test_state_lists_every_model(server):
     assert by["quantile-mean"]["label"] == "quantile-mean (q=8)" and by["quantile-mean"]["available"]
     assert not by["members"]["available"] and by["members"]["reason"]
     assert state["truth"] and state["model"]["dims"] == [32, 32, 32]
+    # The page names no model: it starts on defaults.model (the whole quantile population) and
+    # its quartile view is the rows covering proper parts of [0, 1] (model_rows.h).
+    assert state["defaults"]["model"] == "quantile-range"
+    populations = {m["name"]: m["population"] for m in state["models"] if m["population"]}
+    assert populations == {"quantile-range": [0, 1], "quartile-lower": [0, 0.25],
+                           "quartile-middle": [0.25, 0.75], "quartile-upper": [0.75, 1]}
+
+
+def test_a_plain_field_starts_on_the_first_available_model(inputs):
+    s = Server(inputs.truth, "--tf", inputs.tf)
+    try:
+        state = s.json("/api/state")
+        available = [m["name"] for m in state["models"] if m["available"]]
+        assert available[0] == "mean" and "quantile-range" not in available
+        assert state["defaults"]["model"] == "mean"
+    finally:
+        s.stop()
 
 
 BAD = [

@@ -49,6 +49,17 @@ bool leadsItsKernel(const ModelFamily& family) {
     return false;
 }
 
+// The model the page starts on: the first available one that classifies by the whole quantile
+// population (Eq. 4, the paper's nonparametric model: quantile-range), else the first available
+// row (the mean field where its array is there), else the table's first row.
+std::string_view startModelOf(const std::vector<ModelKind>& available) {
+    for (ModelKind kind : available) {
+        const auto [lo, hi] = modelFamily(kind).population;
+        if (lo == 0.0 && hi == 1.0) return modelFamily(kind).name;
+    }
+    return modelFamily(available.empty() ? allModelKinds().front() : available.front()).name;
+}
+
 // The model a probe of `family` reports: itself where it has a kernel, else (gmm-mc) the first
 // row with a kernel over the same arrays; null for none.
 const ModelFamily* probedAs(const ModelFamily& family) {
@@ -160,6 +171,11 @@ ApiResponse Api::getState(const ApiRequest& request) {
         const ModelFamily* probed = probedAs(family);
         row["probe_as"] = probed ? json(std::string(probed->name)) : json(nullptr);
         row["plot"] = leadsItsKernel(family);
+        // The rank interval a quantile-range-family model covers (SPEC §4): the page's quartile
+        // view is the available models whose intervals are proper parts of [0, 1].
+        row["population"] = family.population.second > family.population.first
+                                ? json::array({family.population.first, family.population.second})
+                                : json(nullptr);
         // Averaged realizations (gmm-mc): its cost is per realization, so its progressive steps
         // (the page) cut the realizations rather than the image.
         row["realizations"] = family.realizations;
@@ -194,6 +210,7 @@ ApiResponse Api::getState(const ApiRequest& request) {
     }
     const auto [tf, version] = currentTf();
     const Tf2State tf2 = currentTf2();
+    const std::string startModel(startModelOf(available));
     json presets = json::array();
     for (const auto& name : transferFunctionPresetNames()) presets.push_back(name);
     json state{{"version", std::string(build::versionLine())},
@@ -220,7 +237,8 @@ ApiResponse Api::getState(const ApiRequest& request) {
                {"latency_goal_ms", kFrameGoalMs},
                {"estimate_size", "512x512"},
                {"defaults",
-                {{"size", "512x512"},
+                {{"model", startModel},
+                 {"size", "512x512"},
                  {"azimuth", 30.0},
                  {"elevation", 20.0},
                  {"zoom", 1.0},
