@@ -386,8 +386,11 @@ bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Wind
     const double f = std::sqrt(w.share * (1.0 - std::abs(rho)));
     const double bxMax = f * sx, byMax = f * sy;
     if (!(bxMax >= kMinBlur && byMax >= kMinBlur)) return false;
+    // The ladder's level ⌊2·log2(b/kMinBlur) + 1e−9⌋: the exponent of (b/kMinBlur)²·2^(1e−9), a
+    // double ≥ 1 (std::log2 took 3.4 % of a gaussian frame).
     const auto levelOf = [](double b, int levels) {
-        const int k = static_cast<int>(std::floor(2.0 * std::log2(b / kMinBlur) + 1e-9));
+        const double y = b / kMinBlur, y2 = y * y * (1.0 + 6.931471805599453e-10);
+        const int k = static_cast<int>(std::bit_cast<std::uint64_t>(y2) >> 52) - 1023;
         return std::clamp(k, 0, levels - 1);
     };
     int i = levelOf(bxMax, levelsX_), j = levelOf(byMax, levelsY_);
