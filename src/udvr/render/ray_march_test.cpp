@@ -81,6 +81,28 @@ TEST(Lanes, PrefixProductAndSum) {
     }
 }
 
+// The double lanes' sqrt, floor, ceil and conversions give each lane what the scalar functions
+// give it (the 2D gaussian's row setups rely on it: its images equal the scalar setups' bit for
+// bit).
+TEST(Lanes, DoubleLanesRoundAndConvertAsScalars) {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-40.0, 40.0);
+    for (int trial = 0; trial < 200; ++trial) {
+        lanes::V8d x;
+        for (int l = 0; l < 8; ++l) x[l] = trial % 4 ? u(rng) : std::round(u(rng)) + (l % 2) * 0.5;
+        const lanes::V8d s = lanes::sqrt(x * x), f = lanes::floor(x), c = lanes::ceil(x);
+        const lanes::V8i t = lanes::truncToInt(c);
+        const lanes::V8f h = lanes::toFloat(x);
+        for (int l = 0; l < 8; ++l) {
+            EXPECT_EQ(s[l], std::sqrt(x[l] * x[l])) << l;
+            EXPECT_EQ(f[l], std::floor(x[l])) << l;
+            EXPECT_EQ(c[l], std::ceil(x[l])) << l;
+            EXPECT_EQ(t[l], static_cast<int>(std::ceil(x[l]))) << l;
+            EXPECT_EQ(h[l], static_cast<float>(x[l])) << l;
+        }
+    }
+}
+
 TEST(Lanes, Transpose) {
     constexpr int n = lanes::kWidth;
     Vf r[n];

@@ -254,6 +254,49 @@ inline Vf sqrt(Vf x) {
     return r;
 #endif
 }
+/// Square root, floor and ceiling of 8 double lanes (the 2D gaussian's row setups,
+/// classify/expected_tf2_fast.cpp): each lane as std::sqrt, std::floor, std::ceil give it.
+inline V8d sqrt(V8d x) {
+#if defined(__AVX512F__)
+    return _mm512_sqrt_pd(x);
+#elif defined(__AVX__)
+    __m256d h[2];
+    std::memcpy(h, &x, sizeof x);
+    h[0] = _mm256_sqrt_pd(h[0]), h[1] = _mm256_sqrt_pd(h[1]);
+    std::memcpy(&x, h, sizeof x);
+    return x;
+#else
+    for (int i = 0; i < 8; ++i) x[i] = std::sqrt(x[i]);
+    return x;
+#endif
+}
+namespace detail {
+/// x rounded to an integer toward −∞ (Up false) or +∞ (Up true), lane by lane.
+template <bool Up>
+inline V8d roundToward(V8d x) {
+#if defined(__AVX512F__)
+    return _mm512_roundscale_pd(
+        x, (Up ? _MM_FROUND_TO_POS_INF : _MM_FROUND_TO_NEG_INF) | _MM_FROUND_NO_EXC);
+#elif defined(__AVX__)
+    __m256d h[2];
+    std::memcpy(h, &x, sizeof x);
+    for (__m256d& v : h)
+        v = Up ? _mm256_round_pd(v, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC)
+               : _mm256_round_pd(v, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    std::memcpy(&x, h, sizeof x);
+    return x;
+#else
+    for (int i = 0; i < 8; ++i) x[i] = Up ? std::ceil(x[i]) : std::floor(x[i]);
+    return x;
+#endif
+}
+}  // namespace detail
+inline V8d floor(V8d x) { return detail::roundToward<false>(x); }
+inline V8d ceil(V8d x) { return detail::roundToward<true>(x); }
+/// Int of a double truncated toward 0, lane by lane (lanes in range).
+inline V8i truncToInt(V8d v) { return __builtin_convertvector(v, V8i); }
+/// Float of a double, lane by lane (rounded to nearest, as static_cast<float>).
+inline V8f toFloat(V8d v) { return __builtin_convertvector(v, V8f); }
 template <class T>
 UDVR_CPU_GPU inline T min(T a, T b) {
     return b < a ? b : a;
