@@ -606,6 +606,97 @@ void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], l
     }
 }
 
+bool Tf2BlurTables::boxSeriesCellsLanes(const Window& win, double s0, double t0,
+                                        const Series& series, double out[4]) const {
+    using lanes::Vf;
+    constexpr int W = lanes::kWidth;
+    const Table* t = win.t;
+    const int nx = t->nx;
+    const double A = win.A, B = win.B, C = win.C, hx = win.hx, hy = win.hy;
+    const double R2 = win.radius * win.radius, invA = 1.0 / A, invHx = 1.0 / hx;
+    const double ey = win.radius * std::sqrt(win.ryy);
+    const int q0 = static_cast<int>(std::ceil((t0 - ey - win.yStart) / hy));
+    const int q1 = static_cast<int>(std::floor((t0 + ey - win.yStart) / hy));
+    const lanes::Vi iota = lanes::iota();
+    const Vf kf = lanes::toFloat(iota);
+    const double(&c)[5][5] = series.c;
+    // The exponent along a row is a parabola in the point's index k, c2·(k − kv)² + top (≤ 0,
+    // as in gaussianCellsLanes); the correction 1 + P a quartic in k, Horner in float.
+    const double c2 = -0.5 * A * hx * hx;
+    const Vf c2v = lanes::splat<Vf>(static_cast<float>(c2));
+    Vf acc[4] = {}, wsum = {};
+    for (int q = q0; q <= q1; ++q) {
+        const double e = win.yStart + q * hy - t0;
+        const double disc = B * B * e * e - A * (C * e * e - R2);
+        if (!(disc > 0.0)) continue;
+        const double sq = std::sqrt(disc);
+        const double dlo = (-B * e - sq) * invA, dhi = (-B * e + sq) * invA;
+        const int p0 = static_cast<int>(std::ceil((s0 + dlo - win.xStart) * invHx));
+        const int p1 = static_cast<int>(std::floor((s0 + dhi - win.xStart) * invHx));
+        if (p1 < p0) continue;
+        const double d0 = win.xStart + p0 * hx - s0;
+        const double kv = (-B * e * invA - d0) * invHx;
+        const double top = -0.5 * (C - B * B * invA) * e * e;
+        // The correction at this row in d, then about the row's vertex dv = −B·e/A in
+        // u = k − kv (d = dv + hx·u): Σ_j pk[j]·u^j, whose terms stay near the value's size
+        // (the whitened Hermite form's, not the large cancelling ones of a far origin).
+        double pd[5];
+        for (int px = 0; px <= 4; ++px) {
+            pd[px] = 0.0;
+            for (int py = 4 - px; py >= 0; --py) pd[px] = pd[px] * e + c[px][py];
+        }
+        pd[0] += 1.0;
+        double pk[5] = {};
+        {
+            // Taylor shift: p(dv + hx·u) = Σ_j (Σ_{i ≥ j} C(i, j) pd[i] dv^{i−j}) hx^j u^j.
+            static constexpr double kBin[5][5] = {
+                {1}, {1, 1}, {1, 2, 1}, {1, 3, 3, 1}, {1, 4, 6, 4, 1}};
+            const double dv = -B * e * invA;
+            const double dvp[5] = {1.0, dv, dv * dv, dv * dv * dv, dv * dv * dv * dv};
+            double hp = 1.0;
+            for (int j = 0; j <= 4; ++j, hp *= hx) {
+                double v = 0.0;
+                for (int i = j; i <= 4; ++i) v += kBin[i][j] * pd[i] * dvp[i - j];
+                pk[j] = v * hp;
+            }
+        }
+        Vf pkv[5];
+        for (int j = 0; j <= 4; ++j) pkv[j] = lanes::splat<Vf>(static_cast<float>(pk[j]));
+        const Vf kvv = lanes::splat<Vf>(static_cast<float>(kv));
+        const Vf topv = lanes::splat<Vf>(static_cast<float>(top));
+        const float* row = t->v.data() + static_cast<std::size_t>(std::clamp(q, 0, t->ny - 1)) * 4 *
+                                             static_cast<std::size_t>(nx);
+        const int n = p1 - p0 + 1;
+        for (int k = 0; k < n; k += W) {
+            const lanes::Mask in = iota < (n - k);
+            const Vf dk = kf + static_cast<float>(k) - kvv;
+            const Vf x = lanes::min(c2v * dk * dk + topv, Vf{});
+            const Vf w = lanes::select(in, detail::expNonPositive(x), Vf{});
+            const Vf corr = lanes::fma(
+                lanes::fma(lanes::fma(lanes::fma(pkv[4], dk, pkv[3]), dk, pkv[2]), dk, pkv[1]), dk,
+                pkv[0]);
+            const Vf wc = w * corr;
+            const int p = p0 + k;
+            Vf v[4];
+            if (p >= 0 && p + W <= nx) {
+                for (int ch = 0; ch < 4; ++ch)
+                    v[ch] = lanes::load(row + static_cast<std::size_t>(ch) * nx + p);
+            } else {
+                const lanes::Vi idx =
+                    lanes::min(lanes::max(iota + p, lanes::Vi{}), lanes::splati(nx - 1));
+                for (int ch = 0; ch < 4; ++ch)
+                    v[ch] = lanes::gather(row + static_cast<std::size_t>(ch) * nx, idx, in);
+            }
+            for (int ch = 0; ch < 4; ++ch) acc[ch] = lanes::fma(wc, v[ch], acc[ch]);
+            wsum += w;
+        }
+    }
+    const double total = lanes::sum(wsum);
+    if (!(total > 0.0)) return false;
+    for (int ch = 0; ch < 4; ++ch) out[ch] = lanes::sum(acc[ch]) / total;
+    return true;
+}
+
 bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                               const BoxDirection2* d, int n, double tinyWidth,
                               double out[4]) const {
@@ -697,6 +788,10 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         static constexpr double kW[3] = {0.5555555555555556, 0.8888888888888888,
                                          0.5555555555555556};
         double acc[4] = {};
+        // The residual's table, inverse covariance and series are the same at every node.
+        Window win;
+        ok = windowOf(t0, rxx, rxy, ryy, win);
+        if (ok) edgeworthSeries(win.rxx, rxy, win.ryy, rest, nRest, series);
         for (int node = 0; node < total && ok; ++node) {
             double s = s0, t = t0, w = 1.0;
             for (int i = 0, rem = node; i < nKept; ++i) {
@@ -707,7 +802,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 s += u * dc[kept[i]][0], t += u * dc[kept[i]][1], w *= 0.5 * h * kW[k % 3];
             }
             double v[4];
-            ok = gaussianCells(s, t, rxx, rxy, ryy, v, rest, nRest, &series);
+            ok = boxSeriesCellsLanes(win, s, t, series, v);
             for (int ch = 0; ch < 4; ++ch) acc[ch] += w * v[ch];
         }
         if (ok) {

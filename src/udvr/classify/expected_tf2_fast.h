@@ -127,6 +127,14 @@ class Tf2BlurTables {
                        const double (*boxes)[2] = nullptr, int n = 0,
                        Series* series = nullptr) const;
 
+    /// boxSpline's table sum at one Gauss–Legendre node (s0, t0): gaussianCells with the
+    /// Edgeworth correction `series` over the window `win` (windowOf, the residual's table and
+    /// inverse covariance, the same at every node of a sample; its rows are set here from t0),
+    /// a row's points in float lanes (weights by expNonPositive about the row's vertex, the
+    /// quartic correction by Horner in float); false where no weight falls in the window.
+    bool boxSeriesCellsLanes(const Window& win, double s0, double t0, const Series& series,
+                             double out[4]) const;
+
     std::size_t baseBytes_ = 0;  // q_, qRange_ and the axes, reserved under the cap (0: none)
     int width_ = 2, height_ = 2;
     double x0_ = 0, y0_ = 0, invDx_ = 1, invDy_ = 1;
