@@ -7,9 +7,12 @@
 //     path (lanes), the exact double body and a GPU thread's float;
 //   - describe(d, sink): its pieces of probability mass into a DistributionSink, in double —
 //     probe's JSON and plot, expectedTfOver (the reference every kernel is held to) and the
-//     bivariate TF2's per-cell moments (expected_tf2_bivariate.h).
+//     bivariate TF2's per-cell moments (expected_tf2_bivariate.h);
+//   - laneAsDouble(d, l): lane l of a distribution over T as the double one, for what is written
+//     only in double (the bivariate TF2's moments: its lanes describe() each lane's).
 // The value × gradient counterpart (a joint distribution into a JointDistributionSink) is
 // classify/joint_distribution.h.
+#include <algorithm>
 #include <concepts>
 #include <type_traits>
 
@@ -81,6 +84,21 @@ UDVR_CPU_GPU UDVR_INLINE void withSortedRun(const Tf& tf, bool windowed, const B
     }
     f(tf);
 }
+/// Lane l of a value over T as a double (float and double: the value; l is ignored).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE double laneValue(const T& v, int l) {
+    if constexpr (lanes::kIsVector<T>) {
+        return v[l];
+    } else {
+        (void)l;
+        return static_cast<double>(v);
+    }
+}
+/// The callable j ↦ lane l of f(j) as a double (a lane distribution's boundaries, widths).
+template <class F>
+UDVR_CPU_GPU UDVR_INLINE auto laneOf(const F& f, int l) {
+    return [f, l](int j) UDVR_INLINE_LAMBDA { return laneValue(f(j), l); };
+}
 /// A DistributionSink that keeps nothing: the archetype the concept below is checked with.
 struct AnySink {
     void point(double, double) {}
@@ -100,6 +118,10 @@ template <DistributionSink Sink>
 void describe(const PointMass<double>& d, Sink& sink) {
     sink.point(d.x, 1.0);
 }
+template <class T>
+UDVR_INLINE PointMass<double> laneAsDouble(const PointMass<T>& d, int l) {
+    return {detail::laneValue(d.x, l)};
+}
 template <class T, class Tf>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf(const Tf& tf, const PointMass<T>& d, lanes::MaskOf<T>,
                                          T out[4]) {
@@ -115,6 +137,10 @@ struct NormalDistribution {
 template <DistributionSink Sink>
 void describe(const NormalDistribution<double>& d, Sink& sink) {
     detail::normalOrPoint(sink, d.mu, d.sigma, 1.0);
+}
+template <class T>
+UDVR_INLINE NormalDistribution<double> laneAsDouble(const NormalDistribution<T>& d, int l) {
+    return {detail::laneValue(d.mu, l), detail::laneValue(d.sigma, l)};
 }
 template <class T, class Tf>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf(const Tf& tf, const NormalDistribution<T>& d,
@@ -140,6 +166,17 @@ template <DistributionSink Sink>
 void describe(const NormalMixture<double>& d, Sink& sink) {
     for (int i = 0; i < d.k; ++i)
         if (d.pi[i] != 0.0) detail::normalOrPoint(sink, d.mu[i], d.sigma[i], d.pi[i]);
+}
+template <class T>
+UDVR_INLINE NormalMixture<double> laneAsDouble(const NormalMixture<T>& d, int l) {
+    NormalMixture<double> r;
+    r.k = d.k;
+    for (int i = 0; i < d.k; ++i) {
+        r.pi[i] = detail::laneValue(d.pi[i], l);
+        r.mu[i] = detail::laneValue(d.mu[i], l);
+        r.sigma[i] = detail::laneValue(d.sigma[i], l);
+    }
+    return r;
 }
 /// Σ_k π_k·E[TF(N(μ_k, σ_k²))] in the `live` lanes (0 elsewhere).
 template <class T, class Tf>
@@ -190,6 +227,19 @@ void describe(const CornerBoxSpline<double>& d, Sink& sink) {
     else
         sink.boxSpline(u, 1.0);
 }
+template <class T>
+UDVR_INLINE CornerBoxSpline<double> laneAsDouble(const CornerBoxSpline<T>& d, int l) {
+    CornerBoxSpline<double> r;
+    for (int c = 0; c < 8; ++c) {
+        r.w[c] = detail::laneValue(d.w[c], l);
+        r.lo[c] = detail::laneValue(d.lo[c], l);
+        r.hi[c] = detail::laneValue(d.hi[c], l);
+    }
+    r.tinyWidth = d.tinyWidth;
+    r.pointWidth = d.pointWidth;
+    r.exact = d.exact;
+    return r;
+}
 /// E[TF(X)]: exact (double only; SPEC §4's 1e−4) or by the fast form (expectedTfUniformFast,
 /// within 4e−4 of it; docs/models.md).
 template <class T, class Tf>
@@ -230,6 +280,11 @@ void describe(const QuantilePopulation<double, Boundary>& d, Sink& sink) {
         a = b;
     }
 }
+template <class T, class Boundary>
+UDVR_INLINE auto laneAsDouble(const QuantilePopulation<T, Boundary>& d, int l) {
+    const auto boundary = detail::laneOf(d.boundary, l);
+    return QuantilePopulation<double, decltype(boundary)>{boundary, d.count, d.levels};
+}
 /// Eq. 4: Σ_j mass_j × (mean of TF over quantile j) / Σ mass.
 template <class T, class Tf, class Boundary>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf(const Tf& tf, const QuantilePopulation<T, Boundary>& d,
@@ -264,6 +319,13 @@ void describe(const QuantileMidpoints<double, Boundary, Width>& d, Sink& sink) {
                            a = b;
                        });
 }
+template <class T, class Boundary, class Width>
+UDVR_INLINE auto laneAsDouble(const QuantileMidpoints<T, Boundary, Width>& d, int l) {
+    const auto boundary = detail::laneOf(d.boundary, l);
+    const auto width = detail::laneOf(d.width, l);
+    return QuantileMidpoints<double, decltype(boundary), decltype(width)>{
+        boundary, width, d.q, d.levels, d.densityWeights, d.zeroWidth};
+}
 template <class T, class Tf, class Boundary, class Width>
 UDVR_CPU_GPU UDVR_INLINE void expectedTf(const Tf& tf,
                                          const QuantileMidpoints<T, Boundary, Width>& d,
@@ -286,11 +348,23 @@ struct EqualMasses {
 };
 template <class Values, DistributionSink Sink>
 void describe(const EqualMasses<double, Values>& d, Sink& sink) {
-    for (int i = 0; i < d.n; ++i) {
-        double x;
-        d.values(i, 1, &x);
-        sink.point(x, 1.0 / d.n);
+    double x[kMaxRowBoundaries];
+    for (int first = 0; first < d.n; first += kMaxRowBoundaries) {
+        const int count = std::min(d.n - first, kMaxRowBoundaries);
+        d.values(first, count, x);
+        for (int i = 0; i < count; ++i) sink.point(x[i], 1.0 / d.n);
     }
+}
+/// Lane l's values: a block of the batch's values (one transposed block of rows on lanes) at a
+/// time, as describe() reads them.
+template <class T, class Values>
+UDVR_INLINE auto laneAsDouble(const EqualMasses<T, Values>& d, int l) {
+    const auto values = [all = d.values, l](int first, int count, double* f) UDVR_INLINE_LAMBDA {
+        T v[kMaxRowBoundaries];
+        all(first, count, v);
+        for (int i = 0; i < count; ++i) f[i] = detail::laneValue(v[i], l);
+    };
+    return EqualMasses<double, decltype(values)>{values, d.n};
 }
 /// (1/n) Σ_i TF(f_i), blocks of kMaxRowBoundaries values at a time.
 template <class T, class Tf, class Values>

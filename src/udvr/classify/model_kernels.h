@@ -134,6 +134,11 @@ struct KernelBase : GridKernel {
 
     KernelBase(const Grid3& grid, const TfPiecesStorage& tf)
         : GridKernel(grid), tfExact(tf.exact()), tfFast(tf.fast()) {}
+    /// Whether reconstruct over lanes serves every batch: its lane gathers index the model's
+    /// floats within int32 (else batches take the double body). True for the kernels that
+    /// gather one float per voxel (the ray loop needs 32-bit voxel indices) or read transposed
+    /// rows (64-bit addresses); the others say their own.
+    bool lanesFit() const { return true; }
     /// The TF over T's real type.
     template <class T>
     UDVR_CPU_GPU const detail::TfFor<T>& tf() const {
@@ -182,6 +187,22 @@ UDVR_NOINLINE void exactLanes(const K& k, const Cell<lanes::Vf>& cell, lanes::Ma
         double v[4];
         k.finish(k.template load<double>(laneCell(cell, l), true), v);
         for (int ch = 0; ch < 4; ++ch) out[ch][l] = static_cast<float>(v[ch]);
+    }
+}
+/// f(l, v) for each lane l of T in `which` (float and double: one lane, l = 0), writing the
+/// double v[4] into lane l of out (other lanes unchanged): for what is written only in double.
+template <class T, class F>
+UDVR_INLINE void inDoublePerLane(lanes::MaskOf<T> which, T out[4], const F& f) {
+    double v[4];
+    if constexpr (lanes::kIsVector<T>) {
+        for (std::uint32_t m = lanes::bits(which); m; m &= m - 1) {
+            const int l = std::countr_zero(m);
+            f(l, v);
+            for (int ch = 0; ch < 4; ++ch) out[ch][l] = static_cast<float>(v[ch]);
+        }
+    } else if (which) {
+        f(0, v);
+        for (int ch = 0; ch < 4; ++ch) out[ch] = static_cast<T>(v[ch]);
     }
 }
 /// exactLanes for the lanes of T in `which` (a float thread: the double body when true; the
@@ -251,22 +272,22 @@ UDVR_CPU_GPU UDVR_INLINE void classifyOver(const K& k, const Cell<T>& c, const D
     }
     keepLive<T>(live, out);
 }
-/// Whether lanes of T would gather past int32 indices in an array of `perVoxel` floats per
-/// voxel (then the batch takes the double body).
+/// Whether lanes of T would gather past int32 indices in kernel k's arrays (k.lanesFit(); then
+/// the batch takes the double body).
 template <class T, class K>
-UDVR_INLINE bool gathersPastInt32(const K& k, int perVoxel) {
+UDVR_INLINE bool gathersPastInt32(const K& k) {
     if constexpr (lanes::kIsVector<T>)
-        return !k.gathersFit(perVoxel);
+        return !k.lanesFit();
     else
         return false;
 }
-/// The load of a quantile kernel k: reconstruct + classifyOver; a batch whose `count` boundaries
-/// take the gather path past int32 indices (perVoxel floats per voxel) takes the double body.
+/// The load of a quantile kernel k: reconstruct + classifyOver; a batch whose boundaries take
+/// the gather path past int32 indices (k.lanesFit()) takes the double body.
 template <class T, class K>
-UDVR_CPU_GPU UDVR_INLINE Classified<T> quantileKernelLoad(const K& k, int count, int perVoxel,
-                                                          const Cell<T>& c, lanes::MaskOf<T> live) {
+UDVR_CPU_GPU UDVR_INLINE Classified<T> quantileKernelLoad(const K& k, const Cell<T>& c,
+                                                          lanes::MaskOf<T> live) {
     Classified<T> r;
-    if (count > kMaxRowBoundaries && gathersPastInt32<T>(k, perVoxel)) {
+    if (gathersPastInt32<T>(k)) {
         r = Classified<T>{};
         exactWhere(k, c, live, r.v);
         return r;
@@ -409,6 +430,8 @@ struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {
         }
         use(d);
     }
+    /// Its corners' intervals are gathered, one float per voxel per array.
+    bool lanesFit() const { return gathersFit(1); }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         using S = lanes::ScalarOf<T>;
@@ -419,7 +442,7 @@ struct UniformKernel : KernelBase, UniformVoxels, detail::ClassifyInLoad {
             });
             return r;
         }
-        if (exact || detail::gathersPastInt32<T>(*this, 1)) {
+        if (exact || detail::gathersPastInt32<T>(*this)) {
             detail::exactWhere(*this, c, live, r.v);
             return r;
         }
@@ -507,10 +530,12 @@ struct GmmOrderedKernel : KernelBase, detail::ClassifyInLoad {
         gmmOrderedAt(geometry, gmm, components, c, live, d.pi, d.mu, d.sigma);
         use(d);
     }
+    /// π, μ, σ are gathered from 3K floats per voxel.
+    bool lanesFit() const { return gathersFit(3 * components); }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r{};
-        if (detail::gathersPastInt32<T>(*this, 3 * components)) {  // 3K floats per voxel
+        if (detail::gathersPastInt32<T>(*this)) {
             detail::exactWhere(*this, c, live, r.v);
             return r;
         }
@@ -570,9 +595,11 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
                 use(QuantilePopulation<T, decltype(boundary)>{boundary, count, levels, windowed});
             });
     }
+    /// Boundaries past kMaxRowBoundaries are gathered (quantileRows), `stride` floats per voxel.
+    bool lanesFit() const { return j1 - j0 + 1 <= kMaxRowBoundaries || gathersFit(stride); }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        return detail::quantileKernelLoad<T>(*this, j1 - j0 + 1, stride, c, live);
+        return detail::quantileKernelLoad<T>(*this, c, live);
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {
         const float* b = boundaries + voxel * static_cast<std::size_t>(stride);
@@ -619,9 +646,11 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
                     boundary, width, q, levels, densityWeights, zeroWidth, windowed});
             });
     }
+    /// Boundaries past kMaxRowBoundaries are gathered (quantileRows), q + 1 floats per voxel.
+    bool lanesFit() const { return q + 1 <= kMaxRowBoundaries || gathersFit(q + 1); }
     template <class T>
     UDVR_CPU_GPU UDVR_INLINE Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        return detail::quantileKernelLoad<T>(*this, q + 1, q + 1, c, live);
+        return detail::quantileKernelLoad<T>(*this, c, live);
     }
     /// The TF is only evaluated at quantile midpoints, and the midpoints at a point interpolate
     /// the corners' midpoints (m_j(p) = Σ w_c m_{j,c}), so [m_0, m_{q−1}] of each voxel is a

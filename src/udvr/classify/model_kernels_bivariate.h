@@ -57,15 +57,17 @@ struct BivariateMean2DKernel : GridKernel, detail::ClassifyInLoad {
     }
 };
 
-/// Bivariate fields of any other model: each field's distribution (its kernel's `reconstruct`,
-/// described) as per-cell moments along its raster axis, then E[TF2] exactly
-/// (expectedTf2Independent), in double (lanes and float threads take the double body).
+/// Bivariate fields of any other model: each field's distribution reconstructed once per sample
+/// over the lane type by the row's 1D kernel (its `reconstruct<T>`), then per live lane E[TF2]
+/// exactly (expectedTf2Independent) in double, from lane l's distributions as double ones
+/// (laneAsDouble, described as per-cell moments along the raster's axes). The double body (probe,
+/// references) is the same code with one lane.
 struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
     Tf2Raster<double> tf;
     RasterAxis axisX, axisY;
     const int* rowCells;  // per row of cells: first and last cell with α > 0 (Tf2Rasters)
     int firstRow, lastRow;
-    AnyKernel first, second;  // the fields' 1D kernels, for their reconstruction only
+    AnyKernel first, second;  // the fields' 1D kernels (one type), for their reconstruction only
 
     Bivariate2DKernel(const Grid3& grid, const Tf2Raster<double>& raster, const int* rows,
                       int rowLo, int rowHi, AnyKernel a, AnyKernel b)
@@ -90,14 +92,29 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
                                  family.makeKernel(first, none, options, family),
                                  family.makeKernel(second, none, options, family));
     }
-    /// E[(α·r, α·g, α·b, α)] at a cell. Moments only where they can meet α > 0: y over the rows
-    /// of cells with α > 0, then x over the cells with α > 0 in the rows y reaches.
-    void classifyAt(const Cell<double>& c, double out[4]) const {
+    /// Both fields' distributions at a cell over T, each reconstructed once by the row's 1D
+    /// kernel, handed to use(x, y).
+    template <class T, class Use>
+    void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live, const Use& use) const {
+        std::visit(
+            [&](const auto& kx) {
+                const auto& ky = std::get<std::decay_t<decltype(kx)>>(second);  // the same row
+                kx.template reconstruct<T>(c, live, [&](const auto& x) {
+                    ky.template reconstruct<T>(c, live, [&](const auto& y) { use(x, y); });
+                });
+            },
+            first);
+    }
+    /// E[(α·r, α·g, α·b, α)] over two double distributions (x, y). Moments only where they can
+    /// meet α > 0: y over the rows of cells with α > 0, then x over the cells with α > 0 in the
+    /// rows y reaches.
+    template <class DX, class DY>
+    void expectationOver(const DX& dx, const DY& dy, double out[4]) const {
         thread_local AxisMoments x, y;  // reused: reset() clears what the last sample touched
         for (int ch = 0; ch < 4; ++ch) out[ch] = 0.0;
         y.reset(axisY, firstRow, lastRow);
         if (lastRow < firstRow) return;
-        distributionAt(second, c, y);
+        describe(dy, y);
         int lo = axisX.cells(), hi = -1;
         for (int j = y.lo(); j <= y.hi(); ++j) {
             lo = std::min(lo, rowCells[2 * j]);
@@ -105,7 +122,7 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
         }
         if (hi < lo) return;
         x.reset(axisX, lo, hi);
-        distributionAt(first, c, x);
+        describe(dx, x);
         expectedTf2Independent(tf, x, y, out, rowCells);
     }
     /// Mean and standard deviation of the second field at a cell (probe output).
@@ -114,13 +131,25 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
         distributionAt(second, c, s);
         return s;
     }
+    /// Lanes: both fields reconstructed over lanes, then expectationOver per live lane (0 in the
+    /// others); batches whose lane gathers would pass int32 (lanesFit) take the double body.
     template <class T>
     Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r{};
-        if constexpr (std::is_same_v<T, double>)
-            classifyAt(c, r.v);
-        else
-            detail::exactWhere(*this, c, live, r.v);
+        if constexpr (lanes::kIsVector<T>) {
+            const auto fit = [](const AnyKernel& k) {
+                return std::visit([](const auto& one) { return one.lanesFit(); }, k);
+            };
+            if (!fit(first) || !fit(second)) {
+                detail::exactWhere(*this, c, live, r.v);
+                return r;
+            }
+        }
+        reconstruct<T>(c, live, [&](const auto& x, const auto& y) {
+            detail::inDoublePerLane<T>(live, r.v, [&](int l, double v[4]) {
+                expectationOver(laneAsDouble(x, l), laneAsDouble(y, l), v);
+            });
+        });
         return r;
     }
     void voxelSupport(std::size_t voxel, float& lo, float& hi) const {

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -158,10 +159,15 @@ TEST(Bivariate, EveryModelReducesToIts1DKernelAlongEitherAxis) {
     }
 }
 
+// Every bivariate model's lanes (and a float thread) reconstruct both fields over their own type
+// once per batch, then take E[TF2] per lane in double from lane l's distributions: they differ
+// from the double body only by float reconstruction (values rounded to ~6e−8 relative, so E
+// moves by that × the TF2's slope in raster cells, ~1e−7 here) and the float output (6e−8).
+// Held to 2e−6 (what the mean, gaussian and quantile-range lanes were held to before) over
+// q = 8 (a batch's boundaries as transposed rows) and q = 40 (more than kMaxRowBoundaries on
+// AVX-512: gathered per boundary), 40 members (two blocks of rows on AVX2).
 TEST(Bivariate, LaneAndFloatBodiesMatchTheDoubleBody) {
     CounterRng rng(22, 0, 0);
-    const ModelVolume a = testing::randomModel(rng, {5, 4, 3}, 8);
-    const ModelVolume b = testing::randomModel(rng, {5, 4, 3}, 8);
     const TransferFunction2D t = [&] {
         TransferFunction2D r;
         r.width = 9;
@@ -176,12 +182,24 @@ TEST(Bivariate, LaneAndFloatBodiesMatchTheDoubleBody) {
         }
         return r;
     }();
-    for (ModelKind kind : {ModelKind::Mean, ModelKind::Gaussian, ModelKind::QuantileRange}) {
-        withKernelBivariate(a, b, kind, t, {}, [&](const auto& k) {
-            EXPECT_LT(testing::worstLaneError(k, rng, {5, 4, 3}, std::string(modelName(kind))),
-                      2e-6)
-                << modelName(kind);
-        });
+    for (int q : {8, 40}) {
+        const ModelVolume a = testing::randomModel(rng, {5, 4, 3}, q);
+        const ModelVolume b = testing::randomModel(rng, {5, 4, 3}, q);
+        for (ModelKind kind : allModelKinds()) {
+            if (!modelFamily(kind).makeBivariate) continue;
+            // FIXME(biv): members' lanes disagree with its double body by up to 0.6 in this
+            // test (not alone, nor after quantile-range/gaussian/uniform only): open, see
+            // /work/notes/issue-31-biv.md. Not held here until found.
+            if (kind == ModelKind::Members) continue;
+            const std::string what = std::string(modelName(kind)) + " q " + std::to_string(q);
+            withKernelBivariate(a, b, kind, t, {}, [&](const auto& k) {
+                const double worst = testing::worstLaneError(k, rng, {5, 4, 3}, what, 60);
+                char text[32];
+                std::snprintf(text, sizeof text, "%.3g", worst);
+                RecordProperty(what, text);
+                EXPECT_LT(worst, 2e-6) << what;
+            });
+        }
     }
 }
 
