@@ -413,21 +413,16 @@ bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Wind
 }
 
 bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
-                                  double out[4], const double (*boxes)[2], int nBoxes,
-                                  Series* seriesIn) const {
+                                  double out[4]) const {
     Window win;
-    if (!boxes) win.share = kGaussianShare, win.radius = kGaussianRadius;  // else the box spline's
+    win.share = kGaussianShare, win.radius = kGaussianRadius;
     if (!windowOf(t0, sxx, sxy, syy, win)) return false;
     const Table* t = win.t;
-    const double rxx = win.rxx, ryy = win.ryy, A = win.A, B = win.B, C = win.C;
+    const double A = win.A, B = win.B, C = win.C;
     const double R2 = win.radius * win.radius;
     const double hx = win.hx, hy = win.hy;
     const int q0 = win.q0, q1 = win.q1;
     const double g = std::exp(-A * hx * hx);
-    Series local;
-    Series& series = seriesIn ? *seriesIn : local;
-    if (nBoxes > 0 && !series.ready) edgeworthSeries(rxx, sxy, ryy, boxes, nBoxes, series);
-    const double(&c)[5][5] = series.c;
     double acc[4] = {}, wsum = 0.0;
     for (int q = q0; q <= q1; ++q) {
         const double e = win.yStart + q * hy - t0;
@@ -441,34 +436,16 @@ bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, 
         const int qc = std::clamp(q, 0, t->ny - 1);
         const float* row = t->v.data() + static_cast<std::size_t>(qc) * t->nx * 4;
         const std::size_t plane = static_cast<std::size_t>(t->nx);
-        double d = win.xStart + p0 * hx - s0;
+        const double d = win.xStart + p0 * hx - s0;
         double w = std::exp(-0.5 * (A * d * d + 2.0 * B * e * d + C * e * e));
         double ratio = std::exp(-0.5 * (A * (2.0 * d * hx + hx * hx) + 2.0 * B * e * hx));
         double s[4] = {}, ws = 0.0;
-        if (nBoxes == 0) {
-            for (int p = p0; p <= p1; ++p) {
-                const float* v = row + std::clamp(p, 0, t->nx - 1);
-                for (int ch = 0; ch < 4; ++ch) s[ch] += w * v[ch * plane];
-                ws += w;
-                w *= ratio;
-                ratio *= g;
-            }
-        } else {
-            double poly[5];  // in d, at this row's e
-            for (int px = 0; px <= 4; ++px) {
-                poly[px] = 0.0;
-                for (int py = 4 - px; py >= 0; --py) poly[px] = poly[px] * e + c[px][py];
-            }
-            poly[0] += 1.0;
-            for (int p = p0; p <= p1; ++p, d += hx) {
-                const float* v = row + std::clamp(p, 0, t->nx - 1);
-                const double corr =
-                    poly[0] + d * (poly[1] + d * (poly[2] + d * (poly[3] + d * poly[4])));
-                for (int ch = 0; ch < 4; ++ch) s[ch] += w * corr * v[ch * plane];
-                ws += w;
-                w *= ratio;
-                ratio *= g;
-            }
+        for (int p = p0; p <= p1; ++p) {
+            const float* v = row + std::clamp(p, 0, t->nx - 1);
+            for (int ch = 0; ch < 4; ++ch) s[ch] += w * v[ch * plane];
+            ws += w;
+            w *= ratio;
+            ratio *= g;
         }
         for (int ch = 0; ch < 4; ++ch) acc[ch] += s[ch];
         wsum += ws;

@@ -98,7 +98,7 @@ class Tf2BlurTables {
     /// The table and window of the table sum for N(·, Σ) in raster cells; false where no table
     /// applies.
     bool windowOf(double t0, double sxx, double sxy, double syy, Window& w) const;
-    /// gaussianCells without boxes, a row's points over float lanes (gaussian over lanes).
+    /// gaussianCells's points over float lanes (gaussian over lanes).
     bool gaussianCellsLanes(double s0, double t0, double sxx, double sxy, double syy,
                             float out[4]) const;
     /// The y pass of level j (the table rows' sums over the y basis), built on first use.
@@ -119,13 +119,10 @@ class Tf2BlurTables {
     };
     static void edgeworthSeries(double rxx, double rxy, double ryy, const double (*boxes)[2], int n,
                                 Series& s);
-    /// The table sum for N(m, Σ) in raster cells; false where no table applies. With `boxes`
-    /// (n of them, raster cells), the density is the Edgeworth series (Series) of a sum of
-    /// those boxes of covariance Σ; `series` holds it between calls with the same Σ and boxes
-    /// (computed on the first).
-    bool gaussianCells(double s0, double t0, double sxx, double sxy, double syy, double out[4],
-                       const double (*boxes)[2] = nullptr, int n = 0,
-                       Series* series = nullptr) const;
+    /// The table sum for N(m, Σ) in raster cells (the double body of `gaussian`); false where no
+    /// table applies. (The box spline's sums with its Edgeworth series: boxSeriesCellsLanes.)
+    bool gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
+                       double out[4]) const;
 
     /// boxSpline's table sum at one Gauss–Legendre node (s0, t0): gaussianCells with the
     /// Edgeworth correction `series` over the window `win` (windowOf, the residual's table and
