@@ -336,6 +336,22 @@ namespace {
 constexpr double kHermite[5][5] = {{1}, {0, 1}, {-1, 0, 1}, {0, -3, 0, 1}, {3, 0, -6, 0, 1}};
 constexpr double kBinomial[5][5] = {{1}, {1, 1}, {1, 2, 1}, {1, 3, 3, 1}, {1, 4, 6, 4, 1}};
 
+/// The 4 channel planes (nx floats each, from `row`) at points p … p + W − 1 into v: one load
+/// each where `whole` (the caller's check that the lanes it weights lie within the row; lanes
+/// past them read the next plane or the tables' padding: finite), else gathered at p clamped to
+/// the row for the lanes in `in`.
+UDVR_INLINE void loadPlanes(const float* row, int nx, int p, bool whole, lanes::Mask in,
+                            lanes::Vi iota, lanes::Vf v[4]) {
+    if (whole) {
+        for (int ch = 0; ch < 4; ++ch)
+            v[ch] = lanes::load(row + static_cast<std::size_t>(ch) * nx + p);
+    } else {
+        const lanes::Vi idx = lanes::min(lanes::max(iota + p, lanes::Vi{}), lanes::splati(nx - 1));
+        for (int ch = 0; ch < 4; ++ch)
+            v[ch] = lanes::gather(row + static_cast<std::size_t>(ch) * nx, idx, in);
+    }
+}
+
 /// Series of the boxes `boxes` (raster cells) over the residual Gaussian N(0, Σr): in the
 /// whitened coordinates ζ = L⁻¹e (Σr = LLᵀ) the fourth derivatives of φ are
 /// He_i(ζ1)·He_{4−i}(ζ2)·φ and the directions δ_b = L⁻¹d_b; the operator's coefficients, then
@@ -502,18 +518,8 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
             const lanes::Mask in = iota < n;
             const Vf w = lanes::select(in, detail::expNonPositive(x), Vf{});
             const float* row = chunkRow[c];
-            Vf v[4];
-            if (p >= 0 && p + n <= nx) {
-                // Lanes from n on (n ≤ W) read the next plane or row, or the table's W floats of
-                // padding: finite, weighted 0.
-                for (int ch = 0; ch < 4; ++ch)
-                    v[ch] = lanes::load(row + static_cast<std::size_t>(ch) * nx + p);
-            } else {
-                const lanes::Vi idx =
-                    lanes::min(lanes::max(iota + p, lanes::Vi{}), lanes::splati(nx - 1));
-                for (int ch = 0; ch < 4; ++ch)
-                    v[ch] = lanes::gather(row + static_cast<std::size_t>(ch) * nx, idx, in);
-            }
+            Vf v[4];  // lanes from n on (n ≤ W) are weighted 0
+            loadPlanes(row, nx, p, p >= 0 && p + n <= nx, in, iota, v);
             for (int ch = 0; ch < 4; ++ch) acc[ch] = lanes::fma(w, v[ch], acc[ch]);
             wsum += w;
         }
@@ -655,15 +661,7 @@ bool Tf2BlurTables::boxSeriesCellsLanes(const Window& win, double s0, double t0,
             const Vf wc = w * corr;
             const int p = p0 + k;
             Vf v[4];
-            if (p >= 0 && p + W <= nx) {
-                for (int ch = 0; ch < 4; ++ch)
-                    v[ch] = lanes::load(row + static_cast<std::size_t>(ch) * nx + p);
-            } else {
-                const lanes::Vi idx =
-                    lanes::min(lanes::max(iota + p, lanes::Vi{}), lanes::splati(nx - 1));
-                for (int ch = 0; ch < 4; ++ch)
-                    v[ch] = lanes::gather(row + static_cast<std::size_t>(ch) * nx, idx, in);
-            }
+            loadPlanes(row, nx, p, p >= 0 && p + W <= nx, in, iota, v);
             for (int ch = 0; ch < 4; ++ch) acc[ch] = lanes::fma(wc, v[ch], acc[ch]);
             wsum += w;
         }
