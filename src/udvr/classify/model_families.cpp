@@ -77,7 +77,7 @@ std::size_t valuesPerVoxel(ModelArray a, const ModelView& m) {
 
 }  // namespace
 
-Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
+Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf, Tf2SegmentWalk walk) {
     exact.width = fast.width = tf.width;
     exact.height = fast.height = tf.height;
     exact.x0 = tf.x0;
@@ -108,9 +108,11 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf) {
         fast.cellRun = cellRuns.data();
     else
         cellRuns.clear();
-    // The banded walk's prefix tables (exact, O(min(x, y crossings)) pieces a segment) for the
-    // float view; the double view keeps the cell-by-cell walk (probe, references).
-    if (static_cast<std::size_t>(tf.width) * tf.height <= kMaxTf2BandPrefixPoints) {
+    // With Tf2SegmentWalk::banded, the banded walk's prefix tables (exact, O(min(x, y
+    // crossings)) pieces a segment) for the float view; the double view keeps the cell-by-cell
+    // walk (probe, references).
+    if (walk == Tf2SegmentWalk::banded &&
+        static_cast<std::size_t>(tf.width) * tf.height <= kMaxTf2BandPrefixPoints) {
         bandPrefix = tf.bandPrefixMoments();
         fast.bandPrefix = bandPrefix.data();
         // Per band, its cells with α > 0 (first, one past the last): x bands, then y bands.

@@ -31,10 +31,18 @@ inline constexpr std::size_t kMaxTf2RowPrefixPoints = std::size_t{1} << 22;
 /// 22 MB for 256²); larger ones walk cell by cell. Bounds what a TF2 edit (serve) allocates.
 inline constexpr std::size_t kMaxTf2BandPrefixPoints = std::size_t{1} << 18;
 
+/// How the float view of a TF2 (Tf2Rasters::fast) walks a segment: cell by cell (by runs of
+/// linear cells where they pay), or banded (the prefix tables of TransferFunction2D::
+/// bandPrefixMoments: O(min(x, y crossings)) pieces a segment, exact as well). Renders walk
+/// cell by cell: on the 64³ tangle with data/tf2/tangle.json the banded walk measured
+/// 10–25 % slower (quantile-range, iqr; AVX-512 and x86-64-v3, docs/models.md), and its tables
+/// cost 22 MB and ~40 ms per TF2 at 256². The banded walk stays for its tests and benchmarks.
+enum class Tf2SegmentWalk { cellByCell, banded };
+
 /// Views of a validated TF2 for the kernels: the raster over double and float, with the
 /// distances of empty cells (TransferFunction2D::emptyCellDistances); the float view also
-/// walks segments by runs of linear cells (kTf2RunTolerance), the double one cell by cell.
-/// `tf` must outlive them.
+/// walks segments by runs of linear cells (kTf2RunTolerance) or banded (Tf2SegmentWalk), the
+/// double one cell by cell. `tf` must outlive them.
 struct Tf2Rasters {
     Tf2Raster<double> exact;
     Tf2Raster<float> fast;
@@ -45,8 +53,8 @@ struct Tf2Rasters {
     /// (Tf2Raster::rowSameUpTo, rowPrefix): where at least half of the bands with α > 0 have
     /// identical rows, up to kMaxTf2RowPrefixPoints; else empty.
     std::vector<float> rowSameUpTo, rowPrefix;
-    /// The float view's banded walk tables (Tf2Raster::bandPrefix), up to
-    /// kMaxTf2BandPrefixPoints; else empty.
+    /// The float view's banded walk tables (Tf2Raster::bandPrefix) with Tf2SegmentWalk::banded,
+    /// up to kMaxTf2BandPrefixPoints; else empty.
     std::vector<double> bandPrefix;
     std::vector<float> bandCells;  // Tf2Raster::bandCells, with bandPrefix
     /// Per row of cells j: the first and last cell with α > 0 at a corner (first > last: none);
@@ -54,7 +62,8 @@ struct Tf2Rasters {
     std::vector<int> rowCells;
     int firstRow = 0, lastRow = -1;
 
-    explicit Tf2Rasters(const TransferFunction2D& tf);
+    explicit Tf2Rasters(const TransferFunction2D& tf,
+                        Tf2SegmentWalk walk = Tf2SegmentWalk::cellByCell);
     Tf2Rasters(const Tf2Rasters&) = delete;
     Tf2Rasters& operator=(const Tf2Rasters&) = delete;
 };
@@ -67,9 +76,9 @@ struct Tf2RasterSet {
     explicit Tf2RasterSet(const TransferFunction2D& t) : tf(t), rasters(tf) {}
 };
 
-/// Largest TF2 (points) whose views sharedTf2Rasters keeps between calls: ~100 MiB with the
-/// banded walk's tables (kMaxTf2BandPrefixPoints), held after the last frame.
-inline constexpr std::size_t kMaxCachedTf2Points = kMaxTf2BandPrefixPoints;
+/// Largest TF2 (points) whose views sharedTf2Rasters keeps between calls (512²: ~3 MiB of
+/// cell tables and 8 MiB of row prefix integrals, held after the last frame).
+inline constexpr std::size_t kMaxCachedTf2Points = std::size_t{1} << 18;
 
 /// The views of `tf` (validated by the caller). Up to kMaxCachedTf2Points: the last ones made
 /// in the process where they are of an equal TF2 (size, domain and every point), else new ones

@@ -23,22 +23,17 @@ namespace {
 using testing::randomTf2;
 
 /// A TF2's views: `walk` the cell-by-cell walk (no runs, no tables), `banded` the same with the
-/// prefix tables; `fast` the float view as the kernels get it.
-ModelVolume oneVoxel() {  // only the raster views matter here
-    ModelVolume m;
-    m.grid.dims = {1, 1, 1};
-    m.mean = {0.f};
-    return m;
-}
+/// prefix tables; `setup.fast` the float view as the kernels get it when they walk banded.
 
 struct BandedViews {
-    ModelVolume unit = oneVoxel();
-    GradientCache gradients;
-    Tf2Setup setup;
+    Tf2Rasters setup;                         // its float view walks banded
     Tf2Raster<double> walk, banded, clipped;  // clipped: banded, skipping cells with α = 0
     std::vector<double> tables;
     explicit BandedViews(const TransferFunction2D& t)
-        : setup(t, unit, gradients), walk(setup.exact), banded(setup.exact), clipped(setup.exact) {
+        : setup(t, Tf2SegmentWalk::banded),
+          walk(setup.exact),
+          banded(setup.exact),
+          clipped(setup.exact) {
         walk.cellRun = nullptr;
         walk.rowPrefix = walk.rowSameUpTo = nullptr;
         tables = t.bandPrefixMoments();
@@ -195,14 +190,18 @@ TEST(Tf2BandedWalk, LinearTf2GivesTheClosedFormFarFromTheOrigin) {
 
 // The tables' memory bound (kMaxTf2BandPrefixPoints, 2^18 points = 512²: 84 MiB): a raster at
 // the bound gets them, one row more walks cell by cell (a TF2 edit in serve allocates no more).
+// Without Tf2SegmentWalk::banded (renders) no raster gets them.
 TEST(Tf2BandedWalk, TablesStopAtTheirPointBound) {
     CounterRng rng(33, 9, 0);
     for (const auto& [w, h, tables] : {std::tuple{512, 512, true}, std::tuple{512, 513, false}}) {
         ASSERT_EQ(static_cast<std::size_t>(w) * h <= kMaxTf2BandPrefixPoints, tables);
         const TransferFunction2D t = roughTf2(rng, w, h, false);
-        const Tf2Rasters r(t);
+        const Tf2Rasters r(t, Tf2SegmentWalk::banded);
         EXPECT_EQ(r.fast.bandPrefix != nullptr, tables) << w << "x" << h;
         EXPECT_LE(r.bandPrefix.size() * sizeof(double), std::size_t{84} << 20);
+        const Tf2Rasters cells(t);
+        EXPECT_EQ(cells.fast.bandPrefix, nullptr);
+        EXPECT_TRUE(cells.bandPrefix.empty() && cells.bandCells.empty());
     }
 }
 
