@@ -3,7 +3,7 @@
 .cpp, tests included):
 
 1. The core — util/, data/, stats/, reconstruct/, classify/, render/ — reaches, directly or
-   through other headers, no header under io/, eval/, cmd/, serve/ and no foreign library
+   through other headers (quoted includes beside the file, "../io/x.h", count as well), no header under io/, eval/, cmd/, serve/ and no foreign library
    header (VTK, NetCDF, HDF5, libpng, zlib, Cairo, cpp-httplib, CLI11, pybind11, MPI).
 2. No two directories include each other, directly or around a longer cycle.
 3. The ParaView plugin (paraview/) includes only core headers of udvr: ParaView's process
@@ -13,7 +13,8 @@
    HDF5 probe forks under (docs/architecture.md, "NetCDF, HDF5 and threads").
 5. One SIMD vocabulary: only the files of SIMD_FILES (util/lanes.h and its test) include an
    intrinsics header (<immintrin.h>, <arm_neon.h> …), name an intrinsic or its register types
-   (_mm256_loadu_ps, __m512, __mmask16, vfmaq_f32, float32x4_t …) or define a vector type
+   (_mm256_loadu_ps, __m512, __mmask16, vfmaq_f32, float32x4_t, a register shuffle by
+   __builtin_shufflevector or __builtin_ia32_* …) or define a vector type
    (vector_size); everything else says it in lanes.h's vocabulary (Vf, Vec<E, W>, loadHalves …).
    Comments and string literals are not checked.
 
@@ -38,6 +39,7 @@ SIMD_FILES = ("udvr/util/lanes.h", "udvr/util/lanes_test.cpp")
 SIMD_HEADER = re.compile(r"^(\w*intrin\.h|arm_neon\.h|arm_sve\.h|arm_acle\.h)$")
 SIMD_USE = re.compile(
     r"\b(_mm\d*_\w+|__m(64|128|256|512)[a-z]*|__mmask\d+|(__)?vector_size(__)?|ext_vector_type|"
+    r"__builtin_shufflevector|__builtin_ia32_\w+|"
     r"v\w+q_[fsu]\d+|(float|int|uint)\d+x\d+_t)\b")
 # Rule 5 also covers the C++ beside the library: benchmarks, tests, bindings, the plugin.
 SIMD_OTHER_DIRS = ("bench", "tests", "python", "paraview", "fuzz")
@@ -57,8 +59,16 @@ def scan(src):
             target = m.group(2)
             if target.startswith("udvr/"):
                 edges.append(("udvr", target))
-            else:
-                edges.append(("system", target))
+                continue
+            # A quoted include found beside the including file ("../io/x.h") is that file.
+            beside = (path.parent / target).resolve()
+            if m.group(1) == '"' and beside.is_file():
+                try:
+                    edges.append(("udvr", beside.relative_to(src.resolve()).as_posix()))
+                    continue
+                except ValueError:  # outside src/: a header of the build or another tree
+                    pass
+            edges.append(("system", target))
         graph[rel] = edges
     return graph
 

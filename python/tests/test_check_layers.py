@@ -77,3 +77,25 @@ def test_core_reaching_io_and_directory_cycles_fail(tmp_path):
     assert r.returncode == 1, r.stdout
     assert "core reaches a forbidden header: udvr/render/a.h -> udvr/io/b.h" in r.stdout
     assert "directory cycle among io, render" in r.stdout
+
+
+def test_relative_includes_and_register_shuffles_are_seen(tmp_path):
+    # A quoted include beside the file ("../io/b.h") is followed like "udvr/io/b.h"; a register
+    # shuffle by __builtin_shufflevector or an __builtin_ia32_* builtin is per-ISA SIMD.
+    r = check(tmp_path, {
+        "src/udvr/util/lanes.h": LANES,
+        "src/udvr/util/sneaky.h": '#pragma once\n#include "../io/b.h"\n',
+        "src/udvr/io/b.h": '#pragma once\n#include <vtkImageData.h>\n',
+        "src/udvr/reconstruct/rows.h": (
+            '#pragma once\n#include "udvr/util/lanes.h"\n'
+            "inline Vf f(Vf v) { return __builtin_shufflevector(v, v, 1, 0); }\n"
+            "inline Vf g(Vf v) { return __builtin_ia32_sqrtps512(v); }\n"),
+        "src/udvr/render/ok.h": '#pragma once\n#include "missing_beside.h"\n',
+    })
+    assert r.returncode == 1, r.stdout
+    assert "core reaches a forbidden header: udvr/util/sneaky.h -> udvr/io/b.h" in r.stdout
+    bad = sorted(line.split(": ", 1)[1].split(" (")[0]
+                 for line in r.stdout.splitlines() if line.startswith("SIMD outside"))
+    assert bad == ["udvr/reconstruct/rows.h:3 uses __builtin_shufflevector",
+                   "udvr/reconstruct/rows.h:4 uses __builtin_ia32_sqrtps512"], r.stdout
+    assert "render/ok.h" not in r.stdout

@@ -132,17 +132,6 @@ UDVR_INLINE void boundaryRows(const CellGeometry& g, const float* data, int stri
     if (rowCount < count) b[count - 1] = b[count - 2] + w[count - 2];
 }
 
-#if defined(__AVX512F__)
-namespace detail {
-/// (v_L × 8, v_{L+1} × 8): lane L's value in the low half, lane L + 1's in the high one.
-template <int L>
-UDVR_INLINE lanes::Vf pairHalves(lanes::Vf v) {
-    return __builtin_shufflevector(v, v, L, L, L, L, L, L, L, L, L + 1, L + 1, L + 1, L + 1, L + 1,
-                                   L + 1, L + 1, L + 1);
-}
-}  // namespace detail
-#endif
-
 /// boundaryRows for an array of exactly 4 floats per voxel (gridGradients' ValueRows), all 4:
 /// out[k] = the trilinear blend of float k, bit for bit as boundaryRows and trilinear (lerps
 /// along x, then y, then z); lanes outside `live` are 0. On AVX-512 with x-neighbours adjacent,
@@ -172,8 +161,8 @@ UDVR_INLINE void rows4(const CellGeometry& g, const float* data, const Cell<lane
             const float* p0 = both & 1u ? data + 4 * static_cast<std::ptrdiff_t>(base[l]) : nullptr;
             const float* p1 =
                 both & 2u ? data + 4 * static_cast<std::ptrdiff_t>(base[l + 1]) : nullptr;
-            const Vf fx = detail::pairHalves<l>(c.fx), fy = detail::pairHalves<l>(c.fy),
-                     fz = detail::pairHalves<l>(c.fz);
+            const Vf fx = lanes::pairHalves<l>(c.fx), fy = lanes::pairHalves<l>(c.fy),
+                     fz = lanes::pairHalves<l>(c.fz);
             Vf row[4];
             for (int r = 0; r < 4; ++r) {
                 // Named, not passed as arguments (which GCC evaluates right to left): in this
@@ -182,9 +171,7 @@ UDVR_INLINE void rows4(const CellGeometry& g, const float* data, const Cell<lane
                 const float* hi = p1 ? p1 + 4 * rowOffset[r] : kZero;
                 const Vf v = lanes::loadHalves(lo, hi);
                 // x: each half's corner 1 against corner 0 (blocks swapped within halves)
-                const Vf swapped = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14,
-                                                           15, 8, 9, 10, 11);
-                row[r] = lerp(v, swapped, fx);
+                row[r] = lerp(v, lanes::swapBlocksInHalves(v), fx);
             }
             z[P] = lerp(lerp(row[0], row[1], fy), lerp(row[2], row[3], fy), fz);
         };
@@ -193,18 +180,10 @@ UDVR_INLINE void rows4(const CellGeometry& g, const float* data, const Cell<lane
         }
         (std::make_integer_sequence<int, 8>{});
         // q[m]: samples m, 4 + m, 8 + m, 12 + m in blocks 0 … 3.
-        const auto blocks02 = [](Vf a, Vf b) {  // (a₀, a₂, b₀, b₂)
-            return __builtin_shufflevector(a, b, 0, 1, 2, 3, 8, 9, 10, 11, 16, 17, 18, 19, 24, 25,
-                                           26, 27);
-        };
-        const Vf a02 = blocks02(z[0], z[2]), a46 = blocks02(z[4], z[6]);
-        const Vf b02 = blocks02(z[1], z[3]), b46 = blocks02(z[5], z[7]);
-        const auto blocks13 = [](Vf a, Vf b) {  // (a₁, a₃, b₁, b₃)
-            return __builtin_shufflevector(a, b, 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22, 23, 28, 29,
-                                           30, 31);
-        };
-        const Vf q[4] = {blocks02(a02, a46), blocks13(a02, a46), blocks02(b02, b46),
-                         blocks13(b02, b46)};
+        const Vf a02 = lanes::evenBlocks(z[0], z[2]), a46 = lanes::evenBlocks(z[4], z[6]);
+        const Vf b02 = lanes::evenBlocks(z[1], z[3]), b46 = lanes::evenBlocks(z[5], z[7]);
+        const Vf q[4] = {lanes::evenBlocks(a02, a46), lanes::oddBlocks(a02, a46),
+                         lanes::evenBlocks(b02, b46), lanes::oddBlocks(b02, b46)};
         // 4×4 transpose within each block: out[k] block j = float k of samples 4j … 4j + 3.
         lanes::transposeBlocks4(q, out);
         for (int k = 0; k < 4; ++k) out[k] = lanes::select(live, out[k], Vf{});

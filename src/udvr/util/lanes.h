@@ -668,6 +668,28 @@ inline void transpose(Vf r[kWidth]) {
 }
 
 #if defined(__AVX512F__)
+// ---- 16-lane shuffles by 128-bit block (AVX-512's four blocks of 4 floats) -------------------
+/// (v_L × 8, v_{L+1} × 8): lane L's value in the low 256-bit half, lane L + 1's in the high one.
+template <int L>
+UDVR_INLINE Vf pairHalves(Vf v) {
+    static_assert(L >= 0 && L + 1 < kWidth);
+    return __builtin_shufflevector(v, v, L, L, L, L, L, L, L, L, L + 1, L + 1, L + 1, L + 1, L + 1,
+                                   L + 1, L + 1, L + 1);
+}
+/// v's blocks (b₁, b₀, b₃, b₂): the two blocks of each 256-bit half swapped.
+UDVR_INLINE Vf swapBlocksInHalves(Vf v) {
+    return __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11);
+}
+/// (a₀, a₂, b₀, b₂): the even blocks of a, then of b.
+UDVR_INLINE Vf evenBlocks(Vf a, Vf b) {
+    return __builtin_shufflevector(a, b, 0, 1, 2, 3, 8, 9, 10, 11, 16, 17, 18, 19, 24, 25, 26, 27);
+}
+/// (a₁, a₃, b₁, b₃): the odd blocks of a, then of b.
+UDVR_INLINE Vf oddBlocks(Vf a, Vf b) {
+    return __builtin_shufflevector(a, b, 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22, 23, 28, 29, 30,
+                                   31);
+}
+
 /// The 4×4 transpose within each 128-bit block of four registers: block j of out[k] holds
 /// float k of block j of in[0], in[1], in[2], in[3] (unpacks, then 64-bit pair shuffles).
 inline void transposeBlocks4(const Vf in[4], Vf out[4]) {
