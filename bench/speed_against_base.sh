@@ -20,13 +20,18 @@ if [ ! -f "$W/model.vti" ]; then
     "$MAIN/udvr" build "$W/ens3.nc" -o "$W/model3.vti"
 fi
 load() { cut -d' ' -f1 /proc/loadavg; }
-frame() {  # side build label args...
-    local side=$1 dir=$2 label=$3
-    shift 3
+frameOf() {  # side build label input args...
+    local side=$1 dir=$2 label=$3 input=$4
+    shift 4
     local ms
-    ms=$(UDVR_NO_PROGRESS=1 "$dir/udvr" render "$W/model.vti" "$@" --threads 1 -o "$W/o.png" 2>&1 |
+    ms=$(UDVR_NO_PROGRESS=1 "$dir/udvr" render "$input" "$@" --threads 1 -o "$W/o.png" 2>&1 |
          grep -oE "median_ms=[0-9.]+" | head -1)
     echo "$side,$label,$(load),${ms#median_ms=}"
+}
+frame() {  # side build label args...  (the model built from the 64³ tangle's ensemble)
+    local side=$1 dir=$2 label=$3
+    shift 3
+    frameOf "$side" "$dir" "$label" "$W/model.vti" "$@"
 }
 for r in $(seq "$ROUNDS"); do
     for side in base main; do
@@ -37,6 +42,21 @@ for r in $(seq "$ROUNDS"); do
         for m in mean quantile-range quantile-mean iqr quartile-middle; do
             frame "$side" "$dir" "2d-$m-128" --model "$m" --tf2 "$TF2" --size 128 --frames 3
         done
+        # The models render_bench's list leaves out, by the CLI (1D: the default TF, 128²):
+        # the quartile views, members (of the ensemble the model was built from) and the exact
+        # uniform kernel (`uniform` itself before issue 33 made it the fast form).
+        for m in quartile-lower quartile-middle quartile-upper; do
+            frame "$side" "$dir" "1d-$m-128" --model "$m" --size 128 --frames 3
+        done
+        frameOf "$side" "$dir" 1d-members-128 "$W/ens.nc" --model members --size 128 --frames 3
+        exact=uniform-exact
+        [ "$side" = base ] && exact=uniform
+        frame "$side" "$dir" 1d-uniform-exact-64 --model "$exact" --size 64 --frames 1
+        for m in quartile-lower quartile-upper; do
+            frame "$side" "$dir" "2d-$m-128" --model "$m" --tf2 "$TF2" --size 128 --frames 3
+        done
+        frameOf "$side" "$dir" 2d-members-64 "$W/ens.nc" --model members --tf2 "$TF2" --size 64 \
+            --frames 1
         frame "$side" "$dir" 2d-gaussian-16 --model gaussian --tf2 "$TF2" --size 16 --frames 1
         # uniform-fast with a TF2: the lattice rule before issue 33, since then an alias of
         # `uniform` (within 1e-3 of uniform-exact, ~20 ms a sample): 8², one frame.

@@ -54,7 +54,8 @@ struct AnyJointSink {
 template <class T>
 struct JointPoint {
     using Real = T;
-    T x, g;
+    T x;  // the TF2's x: the value (or field 1), data units
+    T g;  // the TF2's y: the gradient magnitude (or field 2)
 };
 template <JointDistributionSink Sink>
 void describe(const JointPoint<double>& d, Sink& sink) {

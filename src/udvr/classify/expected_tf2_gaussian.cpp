@@ -232,10 +232,7 @@ void expectedTf2Gaussian(const Tf2Raster<double>& r, double mx, double my, doubl
     std::vector<double> cuts;
     detail::tf2ConditionalOuter(
         r, swapped, ma - kL * sa, ma + kL * sa, sa, ma, mb, beta, s, cuts,
-        [&](double a) {
-            const double z = (a - ma) / sa;
-            return std::exp(-0.5 * z * z) * 0.3989422804014327 / sa;
-        },
+        [&](double a) { return normalPdf((a - ma) / sa) / sa; },
         [&, ax = detail::Tf2Axes{r, swapped}](double a, double m, double v[4]) {
             if (s > 1e-13 * ax.db()) {
                 detail::tf2NormalAlongB(ax, a, m, s, v);

@@ -6,6 +6,7 @@
 #include <limits>
 #include <mutex>
 #include <string>
+#include <tuple>
 #include <type_traits>
 
 #include "udvr/reconstruct/gradient_field.h"
@@ -286,6 +287,15 @@ const ModelFamily& familyWithKernel(const ModelView& model, ModelKind kind,
         UDVR_FAIL("model '" << family.name << "' has no " << what
                             << ": it is rendered as the average of mean-field realizations");
     return family;
+}
+
+QuantileBoundarySource quantileBoundariesOf(const ModelView& model, const ModelRow& row,
+                                            const ClassifyOptions& options) {
+    if (row.arrays & kArrayIqr) return {model.iqr.data(), 2, 0, 1, nullptr};
+    int lo = 0, hi = model.quantileCount;
+    if (row.quantileMeanWeights == QuantileMeanWeights::None)
+        std::tie(lo, hi) = quantilePopulation(row.kind, model, options);
+    return {model.quantiles.data(), model.quantileCount + 1, lo, hi, model.levelsOrNull()};
 }
 
 std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,

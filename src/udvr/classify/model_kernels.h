@@ -91,6 +91,19 @@ void checkModelHasArrays(const ModelView& model, ModelKind kind,
 std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,
                                        const ClassifyOptions& options = {});
 
+/// The boundaries a quantile row of the model table classifies over (the 1D and 2D kernels
+/// take them from here): the iqr array's two (stride 2, even levels), else the model's quantile
+/// boundaries with the row's population [lo, hi] (quantilePopulation; quantile-mean rows: all,
+/// 0 … q) and the model's levels (null: even).
+struct QuantileBoundarySource {
+    const float* data;
+    int stride;  // floats per voxel
+    int lo, hi;  // boundary indices of the population
+    const double* levels;
+};
+QuantileBoundarySource quantileBoundariesOf(const ModelView& model, const ModelRow& row,
+                                            const ClassifyOptions& options);
+
 /// The data range's width that scales a model's zero-width thresholds (SPEC §4):
 /// options.dataSpan where set, else the model's own (modelDataRange).
 inline double dataSpan(const ModelView& model, const ClassifyOptions& options) {
@@ -576,12 +589,8 @@ struct QuantileRangeKernel : KernelBase, detail::ClassifyInLoad {
     /// The kernel over `model` for a row of the model table (model_rows.h).
     static QuantileRangeKernel make(const ModelView& m, const TfPiecesStorage& tf,
                                     const ClassifyOptions& o, const ModelRow& row) {
-        // The iqr array's two boundaries, or the row's population of the quantiles.
-        if (row.arrays & kArrayIqr)
-            return QuantileRangeKernel(m.grid, m.iqr.data(), 2, 0, 1, nullptr, tf);
-        const auto pop = quantilePopulation(row.kind, m, o);
-        return QuantileRangeKernel(m.grid, m.quantiles.data(), m.quantileCount + 1, pop.first,
-                                   pop.second, m.levelsOrNull(), tf);
+        const QuantileBoundarySource b = quantileBoundariesOf(m, row, o);
+        return QuantileRangeKernel(m.grid, b.data, b.stride, b.lo, b.hi, b.levels, tf);
     }
     /// Its distribution at a cell (Eq. 2 and 4): the rank population j0 … j1, each quantile
     /// uniform between its boundaries with its share of the population's mass.

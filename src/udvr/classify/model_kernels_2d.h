@@ -571,18 +571,8 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     template <class Setup>
     static Quantile2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions& o,
                                  const ModelRow& row) {
-        const float* data = m.quantiles.data();
-        int stride = m.quantileCount + 1, lo = 0, hi = m.quantileCount;
-        const double* levels = m.levelsOrNull();
+        const auto [data, stride, lo, hi, levels] = quantileBoundariesOf(m, row, o);
         const bool quantileMean = row.quantileMeanWeights != QuantileMeanWeights::None;
-        if (row.arrays & kArrayIqr) {
-            data = m.iqr.data();
-            stride = 2;
-            hi = 1;
-            levels = nullptr;
-        } else if (!quantileMean) {
-            std::tie(lo, hi) = quantilePopulation(row.kind, m, o);
-        }
         if (hi - lo + 1 > kMaxBoundaries2D)
             UDVR_FAIL("2D transfer functions handle at most "
                       << kMaxBoundaries2D - 1 << " quantiles, the model has " << hi - lo);

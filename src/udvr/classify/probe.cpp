@@ -7,6 +7,7 @@
 
 #include "udvr/classify/joint_distribution.h"
 #include "udvr/classify/point_distribution.h"
+#include "udvr/stats/model_volume.h"
 
 namespace udvr {
 namespace {
@@ -290,13 +291,8 @@ ModelVolume probeNeighbourhood(const ModelVolume& m, const Cell<double>& cell,
             }
         return out;
     };
-    c.mean = cut(m.mean, 1);
-    c.stddev = cut(m.stddev, 1);
-    c.min = cut(m.min, 1);
-    c.max = cut(m.max, 1);
-    c.quantiles = cut(m.quantiles, static_cast<std::size_t>(m.quantileCount) + 1);
-    c.iqr = cut(m.iqr, 2);
-    c.gmm = cut(m.gmm, 3 * static_cast<std::size_t>(m.gmmComponents));
+    for (const ModelFileArray& a : kModelFileArrays)
+        c.*a.values = cut(m.*a.values, static_cast<std::size_t>(a.floatsPerVoxel(m)));
     c.members = cut(m.members, static_cast<std::size_t>(m.memberCount));
     return c;
 }

@@ -163,7 +163,7 @@ inline void normalCdfPdfNear(VF u, VF& cdf, VF& pdf) {
     q = q * t - 0.003566060126321572f;
     const VF tail = g * q * 0.5f;  // Φ(−|u|)
     cdf = u >= 0.f ? 1.f - tail : tail;
-    pdf = g * 0.39894228040143267794f;
+    pdf = g * static_cast<float>(kInvSqrt2Pi);
 }
 
 /// Sum of the lanes in double (pairwise: short dependency chains).

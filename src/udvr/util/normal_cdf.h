@@ -12,6 +12,13 @@
 
 namespace udvr {
 
+/// 1/√(2π): φ(0), the standard normal density's peak.
+inline constexpr double kInvSqrt2Pi = 0.39894228040143267794;
+
+/// φ(u) = e^(−u²/2)/√(2π), the standard normal density (normalAt gives it with Φ, sharing the
+/// exp; this is φ alone).
+UDVR_CPU_GPU inline double normalPdf(double u) { return std::exp(-0.5 * u * u) * kInvSqrt2Pi; }
+
 /// Φ(u) and φ(u) of the standard normal distribution, and the upper tail 1 − Φ(u) computed as
 /// such (no digits lost to 1 − Φ where Φ is near 1).
 struct NormalCdfPdf {
@@ -81,7 +88,7 @@ UDVR_CPU_GPU inline NormalAt<T> normalAt(T u, Exp exp = {}) {
     const T tail = S(0.5) * g * detail::erfcxNonNegative(a * S(0.70710678118654752440));
     const auto pos = u >= S(0);
     const T rest = S(1) - tail;
-    return {pos ? rest : tail, pos ? tail : rest, S(0.39894228040143267794) * g, pos};
+    return {pos ? rest : tail, pos ? tail : rest, S(kInvSqrt2Pi) * g, pos};
 }
 
 /// Φ(u) and φ(u) in double, |Φ error| < 1e−9 for all finite u.
