@@ -132,25 +132,15 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
         return s;
     }
     /// Lanes: both fields reconstructed over lanes, then expectationOver per live lane (0 in the
-    /// others); batches whose lane gathers would pass int32 (lanesFit), and members, take the
-    /// double body.
+    /// others); batches whose lane gathers would pass int32 (lanesFit) take the double body.
     template <class T>
     Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
         Classified<T> r{};
-        if constexpr (!std::is_same_v<T, double>) {
-            // members: its lanes were measured up to 0.6 off this double body on random models
-            // (cause not found, docs/models.md), so its lanes and float threads take the double
-            // body until it is.
-            const bool members = std::holds_alternative<MembersKernel>(first) ||
-                                 std::holds_alternative<MembersKernel>(second);
-            bool fit = true;
-            if constexpr (lanes::kIsVector<T>) {
-                const auto fits = [](const AnyKernel& k) {
-                    return std::visit([](const auto& one) { return one.lanesFit(); }, k);
-                };
-                fit = fits(first) && fits(second);
-            }
-            if (members || !fit) {
+        if constexpr (lanes::kIsVector<T>) {
+            const auto fit = [](const AnyKernel& k) {
+                return std::visit([](const auto& one) { return one.lanesFit(); }, k);
+            };
+            if (!fit(first) || !fit(second)) {
                 detail::exactWhere(*this, c, live, r.v);
                 return r;
             }

@@ -187,9 +187,8 @@ TEST(Bivariate, LaneAndFloatBodiesMatchTheDoubleBody) {
         const ModelVolume b = testing::randomModel(rng, {5, 4, 3}, q);
         for (ModelKind kind : allModelKinds()) {
             if (!modelFamily(kind).makeBivariate) continue;
-            // members' lanes and float threads take the double body (their reconstruction over
-            // lanes was up to 0.6 off it here, cause not found: docs/models.md), so it is held
-            // here too.
+            // members was up to 0.6 off here: GCC 12 kept inDoublePerLane's lane bits in a
+            // stack slot written 16 bits and read 32 wide (lanes 16–31 ran; lanes::bits).
             const std::string what = std::string(modelName(kind)) + " q " + std::to_string(q);
             withKernelBivariate(a, b, kind, t, {}, [&](const auto& k) {
                 const double worst = testing::worstLaneError(k, rng, {5, 4, 3}, what, 60);

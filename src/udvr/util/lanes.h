@@ -143,7 +143,18 @@ inline void store(std::int32_t* p, Vi v) { std::memcpy(p, &v, sizeof v); }
 /// Bit i = lane i of m.
 inline std::uint32_t bits(Mask m) {
 #if defined(__AVX512F__)
-    return _mm512_cmplt_epi32_mask(std::bit_cast<__m512i>(m), _mm512_setzero_si512());
+    const __mmask16 k = _mm512_cmplt_epi32_mask(std::bit_cast<__m512i>(m), _mm512_setzero_si512());
+#if defined(__GNUC__) && !defined(__clang__)
+    // GCC 12 -O3 wrong code: it may keep the widened value in a stack slot written by a 16-bit
+    // `kmovw %k, mem` and read back 32 bits wide (`tzcnt`/`blsr mem`), so bits 16–31 are stale
+    // stack bytes (seen: Bivariate2DKernel's members lanes iterated lanes 16–31 in
+    // inDoublePerLane). An opaque 32-bit register move (kmovw zero-extends) keeps it a u32.
+    std::uint32_t b;
+    asm("kmovw %1, %0" : "=r"(b) : "k"(k));
+    return b;
+#else
+    return k;
+#endif
 #elif defined(__AVX__)
     return static_cast<std::uint32_t>(_mm256_movemask_ps(std::bit_cast<__m256>(m)));
 #elif defined(__SSE2__)
