@@ -714,13 +714,17 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         kept[nKept++] = k;
         rxx = nxx, rxy = nxy, ryy = nyy;
     }
-    // Per kept box: Gauss–Legendre pieces no longer than kPieceScale × the rest's std along it;
-    // their product rule over the kept boxes' t. The last kept box goes back to the rest while
+    // Per kept box: ⌈kPieceScale · √(dᵀΣr⁻¹d)⌉ Gauss–Legendre pieces over t ∈ [−1, 1] (the
+    // rest-smoothed integrand's scale along the box is 1/√(dᵀΣr⁻¹d) in t, below); their product
+    // rule over the kept boxes' t. The last kept box goes back to the rest while
     // the rule would take over kMaxNodes table sums or the rest would leave no table (its blur
     // under kMinBlur along an axis: gaussianCells' condition) — unless its share is over
     // kMustKeepShare, too dominant for the series: there the exact evaluation at the coarse
     // settings takes the sample (at voxel faces, where the rest is G-only, and on the tangle
-    // where a corner dominates and the rest is thin).
+    // where a corner dominates and the rest is thin). The first kept box never goes back for
+    // the node count: past kMaxNodes it keeps kMaxNodes nodes, pieces longer than the rule's
+    // (measured against uniform-exact on real tangle samples: a dominant box under-resolved so
+    // is closer than in the series, docs/models.md; two or three boxes under-resolved are not).
     int nodes[kMaxKept] = {}, total = 1;
     const auto plan = [&] {
         total = 1;
@@ -728,10 +732,15 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         const double sx = std::sqrt(rxx), sy = std::sqrt(ryy);
         const double f = std::sqrt(0.5 * (1.0 - std::min(std::abs(rxy) / (sx * sy), 1.0)));
         if (!(f * sx >= kMinBlur && f * sy >= kMinBlur)) return false;
+        const double det = rxx * ryy - rxy * rxy;
         for (int i = 0; i < nKept; ++i) {
-            const double ka = dc[kept[i]][0], kb = dc[kept[i]][1], len2 = ka * ka + kb * kb;
-            const double along = (ka * ka * rxx + 2.0 * ka * kb * rxy + kb * kb * ryy) / len2;
-            const double scale = std::sqrt(along / len2);
+            // The integrand along t is the TF2 smoothed by the rest: its spectrum in t falls as
+            // exp(−½ν²/(dᵀΣr⁻¹d)), so its scale in t is 1/√(dᵀΣr⁻¹d) (never coarser than the
+            // rest's std along d over |d|, which this used until 2026-12-03 and which on the
+            // tangle's thin-in-x rests left real samples 2.6e−2 off uniform-exact).
+            const double ka = dc[kept[i]][0], kb = dc[kept[i]][1];
+            const double scale =
+                1.0 / std::sqrt((ryy * ka * ka - 2.0 * rxy * ka * kb + rxx * kb * kb) / det);
             nodes[i] =
                 3 * std::clamp(static_cast<int>(std::ceil(kPieceScale / scale)), 1, kMaxBoxPieces);
             total *= nodes[i];
@@ -739,9 +748,14 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         return true;
     };
     bool fits = ok && plan();
+    static_assert(kMaxNodes % 3 == 0 && kMaxNodes <= 3 * kMaxBoxPieces);
     while (ok && nKept > 0 && (!fits || total > kMaxNodes)) {
         if (!fits && shares[nKept - 1] > kMustKeepShare) {
             ok = false;
+            break;
+        }
+        if (fits && nKept == 1) {
+            nodes[0] = total = kMaxNodes;
             break;
         }
         const double a = dc[kept[nKept - 1]][0], b = dc[kept[nKept - 1]][1];

@@ -23,10 +23,12 @@
 // variance along itself (dᵀΣ⁻¹d/3, Σ the covariance of the boxes not kept yet) is kept while
 // that share is over kKeepShare (kKeepShareNext for the second and third), up to kMaxKept boxes;
 // the rest is replaced by the normal of the same covariance times its Edgeworth κ4 term (Series),
-// in the same table sum; E = mean over 3-point Gauss–Legendre nodes per kept box (pieces ≤
-// kPieceScale × the rest's std along it) of that sum. Where no table applies (the rest under
-// kMinBlur in an axis, e.g. every remaining box G-only at a voxel face, or a singular covariance),
-// expectedTf2UniformExact at the kUniform2DFast settings. Errors and cost: docs/models.md.
+// in the same table sum; E = mean over 3-point Gauss–Legendre nodes per kept box (⌈kPieceScale ·
+// √(dᵀΣr⁻¹d)⌉ pieces over t ∈ [−1, 1]: 1/√(dᵀΣr⁻¹d) is the scale of the rest-smoothed TF2 along
+// the box; the first kept box at most kMaxNodes nodes) of that sum. Where no table applies (the
+// rest under kMinBlur in an axis, e.g. every remaining box G-only at a voxel face, or a singular
+// covariance), expectedTf2UniformExact at the kUniform2DFast settings. Errors and cost:
+// docs/models.md.
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -83,9 +85,9 @@ class Tf2BlurTables {
     static constexpr double kKeepShare = 0.25;  // keep the box whose share dᵀΣ⁻¹d/3 is over
     static constexpr double kKeepShareNext = 0.4;  // … and a second, third past this share
     static constexpr int kMaxKept = 3;
-    static constexpr double kPieceScale = 1.0;     // GL pieces ≤ this × the rest's std along it
-    static constexpr int kMaxBoxPieces = 16;       // per kept box
-    static constexpr int kMaxNodes = 27;           // table sums a box spline may take
+    static constexpr double kPieceScale = 1.0;  // ⌈this · √(dᵀΣr⁻¹d)⌉ GL pieces a box
+    static constexpr int kMaxBoxPieces = 16;    // per kept box
+    static constexpr int kMaxNodes = 27;        // table sums a box spline may take
     static constexpr double kMustKeepShare = 0.4;  // past it a box that leaves no table: exact
     bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d, int n,
                    double tinyWidth, double out[4]) const;

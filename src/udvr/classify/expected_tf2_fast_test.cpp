@@ -162,6 +162,24 @@ double boxSplineWorst(const Tf2Raster<double>& r, int cases, Draw draw, int& fal
     return worst;
 }
 
+/// The widget TF2 data/tf2/tangle.json (256²); width 0 where the file is missing.
+TransferFunction2D tangleTf2() {
+    std::ifstream in(UDVR_FUZZ_REGRESSIONS_DIR "/../../data/tf2/tangle.json");
+    if (!in) return {};
+    std::stringstream text;
+    text << in.rdbuf();
+    return transferFunction2DFromWidgets(text.str(), "tangle.json");
+}
+
+/// The raster of `tf` (which must outlive it).
+Tf2Raster<double> rasterOf(const TransferFunction2D& tf) {
+    Tf2Raster<double> r;
+    r.width = tf.width, r.height = tf.height, r.x0 = tf.x0, r.y0 = tf.y0;
+    r.invDx = (tf.width - 1) / (tf.x1 - tf.x0), r.invDy = (tf.height - 1) / (tf.y1 - tf.y0);
+    r.rgba = tf.rgba.data();
+    return r;
+}
+
 // The fast 2D `uniform` (boxSpline) against `uniform-exact` at interior points (8 corners, 0–23
 // G-only directions): rough random rasters of 10×7 to 66×42 points over [−1, 1]² (every point's
 // (c, α) random; corners narrow, |a| ≤ 0.25 ≈ a cell of the coarsest, and wide, |a| ≤ 0.6) and the
@@ -186,15 +204,9 @@ TEST(Tf2BlurTables, BoxSplineWithin1e3OfTheExactEvaluation) {
                                     fallbacks, count));
     }
     const double rough = worst;
-    std::ifstream in(UDVR_FUZZ_REGRESSIONS_DIR "/../../data/tf2/tangle.json");
-    ASSERT_TRUE(in) << "data/tf2/tangle.json";
-    std::stringstream text;
-    text << in.rdbuf();
-    const TransferFunction2D tf = transferFunction2DFromWidgets(text.str(), "tangle.json");
-    Tf2Raster<double> r;
-    r.width = tf.width, r.height = tf.height, r.x0 = tf.x0, r.y0 = tf.y0;
-    r.invDx = (tf.width - 1) / (tf.x1 - tf.x0), r.invDy = (tf.height - 1) / (tf.y1 - tf.y0);
-    r.rgba = tf.rgba.data();
+    const TransferFunction2D tf = tangleTf2();
+    ASSERT_GT(tf.width, 0) << "data/tf2/tangle.json";
+    const Tf2Raster<double> r = rasterOf(tf);
     // Centres over the widgets (x ∈ [−7, 13], G ∈ [0, 45]); corners up to 1.5 in x and 8 in G,
     // G-only up to 3: σ_X from a few to ~20 raster cells, σ_G ~ 10–60 cells.
     const double tangle = boxSplineWorst(
@@ -214,6 +226,190 @@ TEST(Tf2BlurTables, BoxSplineWithin1e3OfTheExactEvaluation) {
     EXPECT_LE(worst, 1e-3);
     EXPECT_GT(worst, 1e-6);            // an approximation (else this checks nothing)
     EXPECT_LE(fallbacks, count / 20);  // interior points take the tables
+}
+
+// Real render samples: 7 `boxSpline` calls of a 16² frame of the 64³ tangle (20 members, q = 8,
+// `uniform`, data/tf2/tangle.json; centre (x, G), tinyWidth and the 32 directions (a, b) in data
+// units, to 7 digits). The first five were the worst of 121 such calls before 2026-12-03 (2.65e−2,
+// 1.59e−2, 1.47e−2, 1.19e−2, 1.06e−2 off uniform-exact: Gauss–Legendre pieces by the rest's std
+// along the kept box, and a dominant first box sent back to the series past the 27-sum cap);
+// measured after: 7.7e−4, 2.7e−4, 2.5e−4, 5.7e−4, 2.5e−4. The last two are the worst after
+// (1.39e−3, 1.33e−3: a second dominant box in the series) — over issue 33's 1e−3, held to 1.5e−3
+// (docs/models.md, uniform).
+TEST(Tf2BlurTables, BoxSplineOnRealTangleSamplesWithin1p5e3OfTheExactEvaluation) {
+    struct Sample {
+        double cx, cy, tinyWidth;
+        std::vector<double> ab;  // a0, b0, a1, b1, …
+    };
+    const Sample samples[] = {
+        {0.05690929,
+         21.77423,
+         5.683082e-08,
+         {0.780809,  -1.730613,   0.09489601, -0.8138585,   0,          1.182548,
+          0.3337127, 6.437646,    0,          -5.188643,    3.964827,   -6.529456,
+          0,         -0.1295719,  0,          -0.2405481,   0.05754028, 0.7440591,
+          0,         -0.5329615,  0.6246081,  -5.001068,    0,          -0.02591527,
+          0,         0.2696195,   0,          1.781752,     1.142294,   22.68662,
+          0,         -0.02313276, 0,          -0.05453114,  0,          0.2368162,
+          0.1409666, 1.903146,    0,          -0.007692487, 0,          2.364114,
+          0,         -13.57461,   0,          0.441087,     0,          -0.7892822,
+          0,         -4.473882,   0,          0.09955934,   0,          1.490982,
+          0,         7.02325,     0,          0.1409566,    0,          -0.2924249,
+          0,         1.131556,    0,          0.0199159}},
+        {3.248859,
+         24.74562,
+         5.683082e-08,
+         {0.03168487, 1.654209,   0.1137279,  3.258214,   0,        0.1544472, 0.1966542,
+          5.333384,   0,          0.1125571,  0.1123406,  5.234767, 0,         0.04164318,
+          0,          -0.7189186, 1.005021,   3.579543,   0,        0.5257684, 0.370889,
+          8.544667,   0,          0.2068157,  0,          1.37226,  0,         -0.8160227,
+          0.8565669,  18.42453,   0,          0.4364195,  0,        -5.133649, 0,
+          -3.024328,  3.261986,   -6.684513,  0,          1.360724, 0,         0.6407618,
+          0,          0.3108812,  0,          -0.1060383, 0,        -2.658122, 0,
+          1.930334,   0,          -0.7599103, 0,          4.882347, 0,         -3.283371,
+          0,          -1.355894,  0,          -18.70952,  0,        -7.884288, 0,
+          -3.600127}},
+        {2.410811,
+         24.74863,
+         5.683082e-08,
+         {4.249012,    4.257973,    0.352102,   -22.07835,   0,          22.90491,    0.2254515,
+          -11.19293,   0,           13.13796,   0.6172541,   -5.657076,  0,           8.751755,
+          0,           -1.791851,   0.02570678, -2.913947,   0,          1.360377,    0.08232645,
+          -5.999246,   0,           0.6458719,  0,           1.927401,   0,           -1.368776,
+          0.06330421,  -3.786461,   0,          0.578141,    0,          -0.150305,   0,
+          -0.08541699, 0.004954558, -0.6119883, 0,           0.04717158, 0,           4.772361,
+          0,           3.543127,    0,          -1.684134,   0,          -0.2732299,  0,
+          0.2223857,   0,           -0.1338716, 0,           0.302686,   0,           -0.1120863,
+          0,           -0.1082965,  0,          -0.02466365, 0,          -0.02346043, 0,
+          -0.0107629}},
+        {-1.928037,
+         10.27049,
+         5.683082e-08,
+         {0.2438704, 18.67577,    0.1250266, 9.858074,    0,          -0.2286632,
+          0.0209806, 1.011377,    0,         0.3755017,   4.106223,   -3.834909,
+          0,         1.636464,    0,         0.03938559,  0.01339373, 0.6760141,
+          0,         0.30848,     1.677948,  2.236939,    0,          1.073561,
+          0,         -0.02301303, 0,         -0.02431776, 0.265127,   -7.770688,
+          0,         0.09209616,  0,         0.009496982, 0,          -0.005021879,
+          0.1244922, -3.366548,   0,         0.07992195,  0,          -2.651682,
+          0,         8.352815,    0,         -14.67198,   0,          2.342681,
+          0,         4.293197,    0,         -6.966087,   0,          -0.2201444,
+          0,         -0.4007898,  0,         -1.331527,   0,          0.1489478,
+          0,         -0.3451625,  0,         -0.7991182}},
+        {5.81554,
+         24.20491,
+         5.683082e-08,
+         {0.0002912961,
+          0.02536876,
+          0.004582221,
+          -0.1835114,
+          0,
+          0.001904596,
+          0.007595604,
+          0.7566209,
+          0,
+          -0.0001011103,
+          0.008511701,
+          0.9732481,
+          0,
+          -0.0001619746,
+          0,
+          -0.02199045,
+          0.1114463,
+          -3.06754,
+          0,
+          -0.002523028,
+          0.1746575,
+          -2.234822,
+          0,
+          -0.003997436,
+          0,
+          0.05054726,
+          0,
+          0.001896933,
+          0.3367614,
+          42.72361,
+          0,
+          -0.006760623,
+          0,
+          -0.4446499,
+          0,
+          0.07528958,
+          4.092989,
+          -1.112117,
+          0,
+          -0.1251874,
+          0,
+          0.03819883,
+          0,
+          -0.0032588,
+          0,
+          0.007428887,
+          0,
+          -0.9599308,
+          0,
+          -0.04271411,
+          0,
+          0.106292,
+          0,
+          1.369474,
+          0,
+          0.1059396,
+          0,
+          0.1952158,
+          0,
+          -36.58209,
+          0,
+          1.851559,
+          0,
+          4.450149}},
+        {-0.3194845,
+         25.64375,
+         5.683082e-08,
+         {0.4933521,  4.411849,    2.713109, -2.83664,     0,          0.5525902,
+          0.05136408, 2.687821,    0,        -2.126538,    0.179414,   1.571383,
+          0,          0.03592298,  0,        -2.355527,    0.5294992,  22.41936,
+          0,          -17.8885,    2.506089, -3.08176,     0,          0.2905954,
+          0,          0.09309387,  0,        0.2868142,    0.05166907, 2.694265,
+          0,          0.005425857, 0,        -0.6522023,   0,          2.805031,
+          0.3297012,  13.89905,    0,        0.02369056,   0,          0.4643354,
+          0,          -1.321733,   0,        -0.03106633,  0,          -2.820316,
+          0,          -8.51329,    0,        -0.1799501,   0,          0.06303228,
+          0,          0.2691701,   0,        -0.003495839, 0,          -0.2906542,
+          0,          2.011307,    0,        -0.02625931}},
+        {-0.9664749,
+         13.75024,
+         5.683082e-08,
+         {0.5531021,   -25.94946, 0.1013915,   -3.653442,  0,           -1.626067,   0.04420042,
+          -1.793061,   0,         -0.3221056,  2.007574,   -0.1031111,  0,           -2.892432,
+          0,           0.1798054, 0.009748356, -0.2893643, 0,           -0.07454339, 1.207924,
+          13.08403,    0,         -0.6668662,  0,          -0.1022326,  0,           0.02793664,
+          0.4220978,   2.658488,  0,           -0.1691287, 0,           0.01767066,  0,
+          0.005424974, 0.1006602, 1.72949,     0,          -0.07836266, 0,           -13.98444,
+          0,           -1.241749, 0,           19.47487,   0,           2.163,       0,
+          -0.5206469,  0,         7.109347,    0,          -0.7818713,  0,           0.1958716,
+          0,           1.653361,  0,           0.2443337,  0,           0.02061375,  0,
+          0.3819284}},
+    };
+    const TransferFunction2D tf = tangleTf2();
+    ASSERT_GT(tf.width, 0) << "data/tf2/tangle.json";
+    const Tf2Raster<double> r = rasterOf(tf);
+    const Tf2BlurTables tables(r);
+    double worst = 0.0;
+    for (const Sample& s : samples) {
+        std::vector<BoxDirection2> d(s.ab.size() / 2);
+        for (std::size_t k = 0; k < d.size(); ++k) d[k] = {s.ab[2 * k], s.ab[2 * k + 1]};
+        const int n = static_cast<int>(d.size());
+        double got[4], want[4];
+        EXPECT_TRUE(tables.boxSpline(r, s.cx, s.cy, d.data(), n, s.tinyWidth, got));  // tables
+        Tf2UniformExactOptions opt;
+        expectedTf2UniformExact(r, s.cx, s.cy, d.data(), n, s.tinyWidth, opt, want);
+        double e = 0.0;
+        for (int ch = 0; ch < 4; ++ch) e = std::max(e, std::abs(got[ch] - want[ch]));
+        std::printf("real tangle sample (%.4g, %.4g): |dE| %.3g\n", s.cx, s.cy, e);
+        worst = std::max(worst, e);
+    }
+    EXPECT_LE(worst, 1.5e-3);
 }
 
 // At voxel faces, edges and grid points (1–8 corners: after the kept boxes the rest may be G-only,

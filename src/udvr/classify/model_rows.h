@@ -26,7 +26,7 @@
     X(Uniform, UniformKernel, Uniform2DKernel, Bivariate2DKernel,                                  \
       .name = "uniform",                                                                           \
       .help = "box spline of the corners' uniforms, in its fast form (1D within 1e-3 of "          \
-              "uniform-exact; 2D up to 3e-2 off on real data, docs/models.md)",                    \
+              "uniform-exact; 2D up to 4e-3 off on real data, docs/models.md)",                    \
       .arrays = kArrayMean | kArrayStddev, .minMaxArrays = kArrayMin | kArrayMax,                  \
       .nsPerStep = {150.0, 5000.0, 1160.0})                                                        \
     X(Gaussian, GaussianKernel, Gaussian2DKernel, Bivariate2DKernel,                               \
