@@ -8,6 +8,7 @@
 // × mean of TF2 over [b_j, b_j+1] × [b'_k, b'_k+1]), quantile-mean (TF2 at the pairs of
 // midpoints, Eq. 5's weights per field) and the members (a point mass 1/n at each member's
 // value). The same interface as the 1D kernels, so the same ray loop and probe serve them.
+#include <type_traits>
 #include <variant>
 
 #include "udvr/classify/any_kernel.h"
@@ -131,20 +132,34 @@ struct Bivariate2DKernel : GridKernel, detail::ClassifyInLoad {
         distributionAt(second, c, s);
         return s;
     }
-    /// Lanes: both fields reconstructed over lanes, then expectationOver per live lane (0 in the
-    /// others); batches whose lane gathers would pass int32 (lanesFit) take the double body.
+    /// Lanes and float threads: loadOverLanes, except batches whose lane gathers would pass
+    /// int32 (lanesFit) and `members` in either field, which take the double body. members'
+    /// lanes are exact (the lane test holds loadOverLanes to 2e−6) but slower: each lane's
+    /// values re-read the batch's rows (laneAsDouble(EqualMasses)), 1.2–1.9× the double body
+    /// (members × members, 64³ tangle, 16²–32², one thread).
     template <class T>
     Classified<T> load(const Cell<T>& c, lanes::MaskOf<T> live) const {
-        Classified<T> r{};
-        if constexpr (lanes::kIsVector<T>) {
-            const auto fit = [](const AnyKernel& k) {
-                return std::visit([](const auto& one) { return one.lanesFit(); }, k);
-            };
-            if (!fit(first) || !fit(second)) {
+        if constexpr (!std::is_same_v<T, double>) {
+            bool fit = true;
+            if constexpr (lanes::kIsVector<T>) {
+                const auto fits = [](const AnyKernel& k) {
+                    return std::visit([](const auto& one) { return one.lanesFit(); }, k);
+                };
+                fit = fits(first) && fits(second);
+            }
+            if (!fit || std::holds_alternative<MembersKernel>(first) ||
+                std::holds_alternative<MembersKernel>(second)) {
+                Classified<T> r{};
                 detail::exactWhere(*this, c, live, r.v);
                 return r;
             }
         }
+        return loadOverLanes<T>(c, live);
+    }
+    /// Both fields reconstructed over T once, then expectationOver per live lane (0 in the others).
+    template <class T>
+    Classified<T> loadOverLanes(const Cell<T>& c, lanes::MaskOf<T> live) const {
+        Classified<T> r{};
         reconstruct<T>(c, live, [&](const auto& x, const auto& y) {
             detail::inDoublePerLane<T>(live, r.v, [&](int l, double v[4]) {
                 expectationOver(laneAsDouble(x, l), laneAsDouble(y, l), v);
