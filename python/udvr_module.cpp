@@ -894,6 +894,13 @@ PYBIND11_MODULE(_udvr, m) {
         "(keyword, type, help) of every option udvr.render and Model.probe take, as `udvr "
         "render --help` lists them");
     m.def(
+        "_require_tf2_for_second",
+        [](bool secondGiven, bool tf2Given) {
+            requireTf2ForSecond(secondGiven, tf2Given, "second", "a TransferFunction2D");
+        },
+        py::arg("second_given"), py::arg("tf2_given"),
+        "raises ValueError (the CLI's --second message) when second is given without a 2D TF");
+    m.def(
         "_uniform_minmax",
         [](const std::string& text) {
             RenderOptions options;

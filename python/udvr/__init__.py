@@ -410,10 +410,8 @@ def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
         point = _udvr.index_from_world(self.grid, w, "world ({:g}, {:g}, {:g})".format(*w))
     point = _arrays.vec3(point, "point")
     tf, _ = _resolve_tf(tf, self, tf_range)
+    _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        if not isinstance(tf, TransferFunction2D):
-            raise ValueError("second gives the y of a 2D transfer function: it needs a "
-                             "TransferFunction2D")
         text, dist = _udvr._probe_bivariate(self, _as_model(second, "second"), model, tf, point,
                                             minmax)
     else:
@@ -513,10 +511,8 @@ def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, s
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a udvr.Camera, got {type(camera).__name__}")
         s.camera = camera
+    _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        if not isinstance(tf, TransferFunction2D):
-            raise ValueError("second gives the y of a 2D transfer function: it needs a "
-                             "TransferFunction2D")
         return _udvr._render_bivariate(model, _as_model(second, "second"), model_name, tf, s)
     return _udvr._render(model, model_name, tf, s)
 

@@ -109,6 +109,18 @@ const OptionSpec kFrameOptions[] = {
      .given = &O::jitterGiven},
 };
 
+const OptionSpec kBivariateOptions[] = {
+    {.name = "second",
+     .field = &O::second,
+     .remote = false,
+     .help = "bivariate fields: the model or field giving the TF2's y (same grid; x comes from "
+             "the input; needs --tf2; SPEC 9)"},
+    {.name = "second-var",
+     .field = &O::secondVar,
+     .remote = false,
+     .help = "array/variable name in --second (default: --var)"},
+};
+
 bool sameName(std::string_view a, std::string_view b) {
     if (a.size() != b.size()) return false;
     for (std::size_t i = 0; i < a.size(); ++i) {
@@ -175,6 +187,7 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
 
 std::span<const OptionSpec> classificationOptionSpecs() { return kClassificationOptions; }
 std::span<const OptionSpec> frameOptionSpecs() { return kFrameOptions; }
+std::span<const OptionSpec> bivariateOptionSpecs() { return kBivariateOptions; }
 
 const OptionSpec* findOptionSpec(std::string_view name) {
     for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
@@ -214,6 +227,22 @@ bool uniformWidthIsMinMax(const RenderOptions& o) {
     if (o.uniformWidth == "minmax") return true;
     UDVR_FAIL("--uniform-width must be 'variance' (or 'std') or 'minmax', got '"
               << clipForMessage(o.uniformWidth) << "'");
+}
+
+void requireTf2ForSecond(bool secondGiven, bool tf2Given, std::string_view secondLabel,
+                         std::string_view tf2Label) {
+    if (secondGiven && !tf2Given)
+        UDVR_FAIL(secondLabel << " gives the y of a 2D transfer function: it needs " << tf2Label);
+}
+
+void checkBivariateOptions(const RenderOptions& o, bool tf2Given) {
+    requireTf2ForSecond(!o.second.empty(), tf2Given);
+    if (!o.secondVar.empty() && o.second.empty())
+        UDVR_FAIL("--second-var names the array in --second; it needs --second");
+}
+
+const std::string& secondFieldVar(const RenderOptions& o, const std::string& var) {
+    return o.secondVar.empty() ? var : o.secondVar;
 }
 
 std::array<int, 2> checkRenderOptions(const RenderOptions& o) {

@@ -22,6 +22,8 @@ namespace udvr {
 struct RenderOptions {
     // classification (render and probe)
     std::string uniformWidth = "variance";  // "variance" (alias "std") or "minmax"
+    // bivariate (render, probe, serve; SPEC §9): the file giving a 2D TF's y, and its array
+    std::string second, secondVar;
     // frame (render)
     std::string size = "512x512";
     std::string view, frame;  // framed default camera (render/framing.h)
@@ -54,7 +56,9 @@ std::span<const OptionSpec> classificationOptionSpecs();
 /// The frame options (render): size, camera, step, unit distance, early exit, background,
 /// skipping, gmm-mc realizations and seed, jitter, --force.
 std::span<const OptionSpec> frameOptionSpecs();
-/// The option named `name` in either table ('_' matches '-'), or null.
+/// The bivariate options (render, probe, serve; not query keys): --second and --second-var.
+std::span<const OptionSpec> bivariateOptionSpecs();
+/// The option named `name` in the classification or frame table ('_' matches '-'), or null.
 const OptionSpec* findOptionSpec(std::string_view name);
 
 /// Set `spec`'s field from `text` as typed: numbers must be finite, whole where the field is,
@@ -73,6 +77,16 @@ inline constexpr double kMaxSamplesWithoutForce = 1e9;
 
 /// --uniform-width: "variance" (alias "std"; μ ± √3σ, the default) → false, "minmax" → true.
 bool uniformWidthIsMinMax(const RenderOptions& options);
+
+/// --second gives the y of a 2D TF (SPEC §9): fails when `secondGiven` without `tf2Given`.
+/// `secondLabel` and `tf2Label` name the two as the front end spells them ("--second", "--tf2";
+/// Python's "second", "a TransferFunction2D").
+void requireTf2ForSecond(bool secondGiven, bool tf2Given, std::string_view secondLabel = "--second",
+                         std::string_view tf2Label = "--tf2");
+/// The bivariate options' checks (--second needs --tf2, --second-var needs --second).
+void checkBivariateOptions(const RenderOptions& options, bool tf2Given);
+/// The array to read from --second: --second-var, else `var` (the input's --var).
+const std::string& secondFieldVar(const RenderOptions& options, const std::string& var);
 
 /// The checks that need no data (size, --parallel-scale, --view, --frame, realizations);
 /// returns the size.

@@ -98,5 +98,31 @@ TEST(RenderOptions, CapsAskForForce) {
     EXPECT_THROW(checkRenderOptions(o), UdvrError);
 }
 
+// --second is described once: every command registers it from bivariateOptionSpecs, and one
+// check says what it needs, each front end naming the two as it spells them.
+TEST(RenderOptions, SecondNeedsATf2) {
+    ASSERT_EQ(bivariateOptionSpecs().size(), 2u);
+    for (const OptionSpec& s : bivariateOptionSpecs()) {
+        EXPECT_FALSE(s.remote) << s.name;  // the server is started with it, not asked
+        EXPECT_EQ(findOptionSpec(s.name), nullptr) << s.name;  // not a render keyword
+    }
+    RenderOptions o;
+    EXPECT_NO_THROW(checkBivariateOptions(o, false));
+    o.secondVar = "v";
+    EXPECT_THROW(checkBivariateOptions(o, true), UdvrError);  // --second-var without --second
+    EXPECT_EQ(secondFieldVar(o, "u"), "v");
+    o = {};
+    EXPECT_EQ(secondFieldVar(o, "u"), "u");
+    o.second = "y.vti";
+    EXPECT_NO_THROW(checkBivariateOptions(o, true));
+    try {
+        checkBivariateOptions(o, false);
+        ADD_FAILURE() << "--second without --tf2 was taken";
+    } catch (const UdvrError& e) {
+        EXPECT_STREQ(e.what(), "--second gives the y of a 2D transfer function: it needs --tf2");
+    }
+    EXPECT_THROW(requireTf2ForSecond(true, false, "second", "a TransferFunction2D"), UdvrError);
+}
+
 }  // namespace
 }  // namespace udvr
