@@ -28,7 +28,8 @@ struct RenderOptions {
     std::string size = "512x512";
     std::string view, frame;  // framed default camera (render/framing.h)
     std::string position, focal, up, background;
-    double viewAngle = 30.0, parallelScale = 0.0, azimuth = 30.0, elevation = 20.0, zoom = 1.0;
+    double viewAngle = kDefaultViewAngleDeg, parallelScale = 0.0;
+    double azimuth = kDefaultAzimuthDeg, elevation = kDefaultElevationDeg, zoom = kDefaultZoom;
     double step = 0.0, unit = 0.0, earlyExit = 0.99;  // world units; 0 = the defaults of SPEC §5
     bool noSkip = false, force = false;
     std::uint64_t realizations = 200, seed = 1, jitter = 0;
@@ -38,7 +39,9 @@ struct RenderOptions {
 
 /// One option: its name (the CLI's flag without dashes and `udvr serve`'s query key; Python's
 /// keyword with '_' for '-'), the field it sets — whose type is the option's (text, real, whole
-/// number, or a flag) — the range a number must lie in, and one line of help with the default.
+/// number, or a flag) and whose value in a default-constructed RenderOptions is its default —
+/// the range a number must lie in, and one line of help, where "{}" stands for the default
+/// (optionHelp).
 struct OptionSpec {
     using Field = std::variant<std::string RenderOptions::*, double RenderOptions::*,
                                std::uint64_t RenderOptions::*, bool RenderOptions::*>;
@@ -60,6 +63,11 @@ std::span<const OptionSpec> frameOptionSpecs();
 std::span<const OptionSpec> bivariateOptionSpecs();
 /// The option named `name` in the classification or frame table ('_' matches '-'), or null.
 const OptionSpec* findOptionSpec(std::string_view name);
+
+/// `spec`'s default (its field in RenderOptions{}) as the CLI would take it: "512x512", "30".
+std::string optionDefaultText(const OptionSpec& spec);
+/// `spec`'s help with "{}" replaced by optionDefaultText: what `--help` and Python print.
+std::string optionHelp(const OptionSpec& spec);
 
 /// Set `spec`'s field from `text` as typed: numbers must be finite, whole where the field is,
 /// and in the spec's range; flags take 1/0/true/false. `label` names the option in the error

@@ -37,6 +37,23 @@ TEST(RenderOptions, NamesAreUniqueAndFoundWithEitherSpelling) {
     EXPECT_FALSE(findOptionSpec("force")->remote);  // --force is the CLI's alone
 }
 
+// A default is written once, as RenderOptions' initializer: the help reads it from there.
+TEST(RenderOptions, HelpShowsTheDefaultsOfRenderOptions) {
+    EXPECT_EQ(optionHelp(*findOptionSpec("size")), "image size WxH (default 512x512)");
+    EXPECT_EQ(optionHelp(*findOptionSpec("azimuth")),
+              "default camera: degrees about the view-up (default 30; 0 with --view)");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("elevation")), "20");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("early-exit")), "0.99");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("realizations")), "200");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("uniform-width")), "variance");
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs()})
+        for (const OptionSpec& s : table)
+            EXPECT_EQ(optionHelp(s).find("{}"), std::string::npos) << s.name;
+    const RenderOptions o;
+    EXPECT_EQ(o.azimuth, kDefaultAzimuthDeg);
+    EXPECT_EQ(o.viewAngle, Camera{}.viewAngleDeg);
+}
+
 TEST(RenderOptions, NumbersAreCheckedAgainstTheirRange) {
     EXPECT_EQ(errorOf("zoom", "1000"), "");
     EXPECT_EQ(errorOf("zoom", "0"), "--zoom must lie in (0, 1000], got 0");
