@@ -91,7 +91,7 @@ void BM_Render(benchmark::State& state) {
     const udvr::TransferFunction1D tf = udvr::tangleTransferFunction();
     udvr::RenderSettings s;
     s.width = s.height = 512;
-    s.camera = udvr::defaultCamera(m.bounds, 30.0, 20.0);
+    s.camera = udvr::defaultCamera(m.bounds);  // SPEC §5's
     s.unitDistance = 5.0 / 63.0;
     s.realizations = 1;  // gmm-mc: the cost of one realization (a frame averages R of them)
     udvr::setThreadCount(threads);

@@ -811,7 +811,7 @@ PYBIND11_MODULE(_udvr, m) {
                  return c;
              }),
              py::kw_only(), py::arg("position"), py::arg("focal_point"),
-             py::arg("view_up") = std::array<double, 3>{0, 1, 0}, py::arg("view_angle") = 30.0,
+             py::arg("view_up") = Camera{}.viewUp, py::arg("view_angle") = kDefaultViewAngleDeg,
              py::arg("parallel_scale") = py::none(),
              "a VTK camera, world units (SPEC §5): perspective with view_angle (degrees, "
              "vertical), orthographic with parallel_scale (half the view height)")
@@ -821,25 +821,23 @@ PYBIND11_MODULE(_udvr, m) {
         .def_readwrite("view_angle", &Camera::viewAngleDeg)
         .def_readwrite("parallel", &Camera::parallel)
         .def_readwrite("parallel_scale", &Camera::parallelScale)
-        .def_static("default", &defaultCamera, py::arg("bounds"), py::arg("azimuth") = 30.0,
-                    py::arg("elevation") = 20.0, py::arg("zoom") = 1.0,
-                    py::arg("view_angle") = 30.0,
+        .def_static("default", &defaultCamera, py::arg("bounds"),
+                    py::arg("azimuth") = kDefaultAzimuthDeg,
+                    py::arg("elevation") = kDefaultElevationDeg, py::arg("zoom") = kDefaultZoom,
+                    py::arg("view_angle") = kDefaultViewAngleDeg,
                     "SPEC §5's default camera for a box (xmin,xmax,ymin,ymax,zmin,zmax): what "
                     "`udvr render --tf FILE` uses")
         .def_static(
             "framed",
             [](std::array<double, 6> box, const std::string& view, std::optional<double> azimuth,
                std::optional<double> elevation, double zoom, double viewAngle, double aspect) {
-                // As `udvr render --view/--frame`: the z-up front view turned 30°, raised 20°;
-                // an axis view straight along its axis.
-                const ViewDirection v = view.empty() ? kZUpFrontView : parseViewDirection(view);
-                return framedCamera(box, v, azimuth.value_or(view.empty() ? 30.0 : 0.0),
-                                    elevation.value_or(view.empty() ? 20.0 : 0.0), zoom, viewAngle,
-                                    aspect);
+                // As `udvr render --view/--frame` (framing.h): the z-up front view turned to SPEC
+                // §5's three-quarter view; an axis view straight along its axis.
+                return framedCamera(box, view, azimuth, elevation, zoom, viewAngle, aspect);
             },
             py::arg("box"), py::arg("view") = "", py::arg("azimuth") = py::none(),
-            py::arg("elevation") = py::none(), py::arg("zoom") = 1.0, py::arg("view_angle") = 30.0,
-            py::arg("aspect") = 1.0,
+            py::arg("elevation") = py::none(), py::arg("zoom") = kDefaultZoom,
+            py::arg("view_angle") = kDefaultViewAngleDeg, py::arg("aspect") = 1.0,
             "a camera that frames `box` (e.g. visible_bounds): view '' (z up, front) or "
             "+x|-x|+y|-y|+z|-z")
         .def("__repr__", [](const Camera& c) {
@@ -887,17 +885,24 @@ PYBIND11_MODULE(_udvr, m) {
                             return "whole";
                         },
                         spec.field);
-                    out.emplace_back(name, type, spec.help);
+                    out.emplace_back(name, type, optionHelp(spec));
                 }
             return out;
         },
         "(keyword, type, help) of every option udvr.render and Model.probe take, as `udvr "
         "render --help` lists them");
     m.def(
+        "_require_tf2_for_second",
+        [](bool secondGiven, bool tf2Given) {
+            requireTf2ForSecond(secondGiven, tf2Given, "second", "a TransferFunction2D");
+        },
+        py::arg("second_given"), py::arg("tf2_given"),
+        "raises ValueError (the CLI's --second message) when second is given without a 2D TF");
+    m.def(
         "_uniform_minmax",
-        [](const std::string& text) {
-            RenderOptions options;
-            setOption(options, *findOptionSpec("uniform-width"), text, "uniform_width");
+        [](const std::optional<std::string>& text) {
+            RenderOptions options;  // None: the option's default
+            if (text) setOption(options, *findOptionSpec("uniform-width"), *text, "uniform_width");
             return uniformWidthIsMinMax(options);
         },
         py::arg("text"));

@@ -8,12 +8,12 @@ import {Tf2Editor} from './tf2_editor.js';
 
 const $ = (id) => document.getElementById(id);
 const COARSE = 4;  // coarse frames: 1/4 of the width and height
-const HOME = {azimuth: 30, elevation: 20, zoom: 1};  // SPEC §5's default camera
+let HOME = null;  // SPEC §5's default camera: /api/state's defaults (the library's), from start()
 
 const state = {
   info: null,
   model: null,            // the picked model's name (the server's defaults.model at start)
-  camera: {...HOME},
+  camera: null,           // {azimuth, elevation, zoom}: HOME until the view is turned
   size: [512, 512],
   quartiles: false,
   seq: 0,                 // request counter: orders a channel's requests on the server
@@ -667,6 +667,9 @@ function redecideSteps() {
 // ---- start --------------------------------------------------------------------------------
 async function start() {
   state.info = await getJson('/api/state', {estimates: 1});  // with each model's frame estimate
+  const {azimuth, elevation, zoom} = state.info.defaults;
+  HOME = {azimuth, elevation, zoom};
+  state.camera = {...HOME};
   $('title').textContent = `udvr serve — ${state.info.model.file}`;
   const picker = $('model');
   for (const m of state.info.models) {

@@ -232,6 +232,7 @@ def test_bad_second_inputs_say_so(case, tmp_path):
     cases = [
         (["--second", tmp_path / "small.vti", "--tf2", d / "tf2.vti"], "need one grid"),
         (["--second", d / "second.vti", "--tf", d / "row.json"], "needs --tf2"),
+        (["--second-var", "mean", "--tf2", d / "tf2.vti"], "it needs --second"),
         (["--second", tmp_path / "missing.vti", "--tf2", d / "tf2.vti"], "missing.vti"),
     ]
     if not (d / "row.json").exists():

@@ -91,3 +91,21 @@ def test_the_server_takes_the_remote_options_by_their_names():
 def test_unknown_keyword_names_the_options():
     with pytest.raises(TypeError, match="unexpected keyword argument 'azimut'.*azimuth"):
         udvr.render(udvr.load(str(MODEL)), "mean", str(TF), 8, azimut=3)
+
+
+def test_python_takes_its_defaults_from_the_library():
+    """Camera.default/framed, render() and probe() keep no default of their own (issue 31): each
+    is the CLI's (SPEC §5's camera, 512x512, uniform width variance)."""
+    box = (0.0, 2.0, 0.0, 1.0, 0.0, 3.0)
+    spec = udvr.Camera.default(box, azimuth=30, elevation=20, zoom=1, view_angle=30)
+    assert udvr.Camera.default(box).position == pytest.approx(spec.position, abs=1e-12)
+    framed = udvr.Camera.framed(box, azimuth=30, elevation=20, zoom=1, view_angle=30)
+    assert udvr.Camera.framed(box).position == pytest.approx(framed.position, abs=1e-12)
+    axis = udvr.Camera.framed(box, "+x", azimuth=0, elevation=0)
+    assert udvr.Camera.framed(box, "+x").position == pytest.approx(axis.position, abs=1e-12)
+    model = udvr.load(str(MODEL))
+    assert udvr.render(model, "mean", str(TF)).shape == (512, 512, 4)
+    assert model.probe((1, 1, 1), "uniform", str(TF)) == \
+        model.probe((1, 1, 1), "uniform", str(TF), uniform_width="variance")
+    helps = {name: text for name, _, text in udvr.render_options()}
+    assert "(default 512x512)" in helps["size"] and "(default 30;" in helps["azimuth"]

@@ -392,14 +392,15 @@ def _resolve_tf(tf, model, tf_range=None):
 # ---- probe -------------------------------------------------------------------------------------
 
 def _uniform_minmax(text):
-    """uniform_width as the library's option table reads it (variance, std or minmax)."""
-    if not isinstance(text, str):
+    """uniform_width as the library's option table reads it (variance, std or minmax; None: its
+    default)."""
+    if text is not None and not isinstance(text, str):
         raise TypeError(f"uniform_width must be text, got {type(text).__name__}")
     return _udvr._uniform_minmax(text)
 
 
 def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
-                uniform_width="variance", second=None, tf_range=None):
+                uniform_width=None, second=None, tf_range=None):
     _udvr._check_model(model)
     minmax = _uniform_minmax(uniform_width)
     if (point is None) == (world is None):
@@ -410,10 +411,8 @@ def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
         point = _udvr.index_from_world(self.grid, w, "world ({:g}, {:g}, {:g})".format(*w))
     point = _arrays.vec3(point, "point")
     tf, _ = _resolve_tf(tf, self, tf_range)
+    _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        if not isinstance(tf, TransferFunction2D):
-            raise ValueError("second gives the y of a 2D transfer function: it needs a "
-                             "TransferFunction2D")
         text, dist = _udvr._probe_bivariate(self, _as_model(second, "second"), model, tf, point,
                                             minmax)
     else:
@@ -421,7 +420,7 @@ def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
     return json.loads(text), dist, tf
 
 
-def _probe(self, point=None, model="mean", tf=None, *, world=None, uniform_width="variance",
+def _probe(self, point=None, model="mean", tf=None, *, world=None, uniform_width=None,
            second=None, tf_range=None):
     """The distribution and expected TF at one point, as the dict `udvr probe --json` prints
     (SPEC §8): model, point (index space), world, grid_dims, expected_rgba ([E[αr], E[αg],
@@ -429,7 +428,8 @@ def _probe(self, point=None, model="mean", tf=None, *, world=None, uniform_width
 
     point: index coordinates (i, j, k), or world=(x, y, z); model: a name of udvr.model_names();
     tf: a TransferFunction (or TransferFunction2D), a ParaView JSON path, a preset name, or None
-    (the CLI's default preset over the model's means); second: the model giving a 2D TF's y.
+    (the CLI's default preset over the model's means); second: the model giving a 2D TF's y;
+    uniform_width: as `udvr probe --uniform-width` (None: its default, udvr.render_options()).
     """
     return _probe_full(self, point, model, tf, world=world, uniform_width=uniform_width,
                        second=second, tf_range=tf_range)[0]
@@ -490,16 +490,17 @@ def _render_options(options):
     return out
 
 
-def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, second=None,
+def render(model, model_name="mean", tf=None, size=None, camera=None, *, second=None,
            tf_range=None, **options):
     """Ray-cast a model (or a field: a Field, (z, y, x) array, DataArray or path) with noise
     model `model_name`, as `udvr render` (SPEC §5): an (H, W, 4) float32 RGBA array (straight
     colour over the background; the values `--float` writes). The GIL is released while it runs;
     Ctrl-C stops it with KeyboardInterrupt.
 
-    size: N or (width, height). camera: a udvr.Camera; else SPEC §5's default camera (azimuth 30,
-    elevation 20, zoom) whatever the TF, and with view=(+x|-x|+y|-y|+z|-z) or frame="visible"
-    a camera framing the visible voxels, as the CLI.
+    size: N or (width, height) (None: `udvr render`'s default). camera: a udvr.Camera; else
+    SPEC §5's default camera (azimuth, elevation and zoom: their keywords, defaults as
+    udvr.render_options() says) whatever the TF, and with view=(+x|-x|+y|-y|+z|-z) or
+    frame="visible" a camera framing the visible voxels, as the CLI.
     options: every option of `udvr render` by its name with '_' for '-' — view, azimuth,
     elevation, zoom, view_angle, parallel_scale, step, unit_distance, early_exit, background,
     no_skip, uniform_width, realizations, seed, jitter, force, … (udvr.render_options() lists
@@ -513,10 +514,8 @@ def render(model, model_name="mean", tf=None, size=(512, 512), camera=None, *, s
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a udvr.Camera, got {type(camera).__name__}")
         s.camera = camera
+    _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        if not isinstance(tf, TransferFunction2D):
-            raise ValueError("second gives the y of a 2D transfer function: it needs a "
-                             "TransferFunction2D")
         return _udvr._render_bivariate(model, _as_model(second, "second"), model_name, tf, s)
     return _udvr._render(model, model_name, tf, s)
 

@@ -23,8 +23,8 @@ void addProbeCommand(CLI::App& app) {
         "probe", "the distribution and expected TF (E[a*c], E[a]) at one index-space point");
     struct Opts {
         std::vector<std::string> inputs;  // one model or field; an ensemble for --model members
-        std::string point, world, kind = "mean", plot, second, var;
-        RenderOptions classify;  // --uniform-width (render/render_options.h)
+        std::string point, world, kind = "mean", plot, var;
+        RenderOptions options;  // --uniform-width, --second (render/render_options.h)
         EnsembleFlags ensemble;
         TfFlags tf;
         Tf2Flags tf2;
@@ -44,13 +44,12 @@ void addProbeCommand(CLI::App& app) {
     sub->add_option("--model", o->kind, "noise model (default mean): " + modelHelp());
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
-    sub->add_option("--second", o->second,
-                    "bivariate fields: the model giving the TF2's y (same grid; SPEC 9)");
+    addOptionFlags(sub, bivariateOptionSpecs(), o->options);
     sub->add_flag("--json", o->json, "print one JSON object");
     sub->add_flag("--force", o->force,
                   "--tf2: rasterise widgets even when that takes over 1e8 widget evaluations");
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
-    addOptionFlags(sub, classificationOptionSpecs(), o->classify);
+    addOptionFlags(sub, classificationOptionSpecs(), o->options);
     sub->add_option("--var", o->var, "array/variable name in the input");
     addRawLayoutOptions(sub, o->raw);
     addEnsembleOptions(sub, o->ensemble);
@@ -65,7 +64,7 @@ void addProbeCommand(CLI::App& app) {
         if (o->point.empty() == o->world.empty())
             UDVR_FAIL("give the point as --point i,j,k (index) or --world x,y,z, one of them");
         ClassifyOptions options;
-        options.uniformMinMax = uniformWidthIsMinMax(o->classify);
+        options.uniformMinMax = uniformWidthIsMinMax(o->options);
         if (!o->plot.empty()) {
             const std::string& plot = o->plot;
             const bool png = plot.size() > 4 && (plot.compare(plot.size() - 4, 4, ".png") == 0 ||
@@ -74,7 +73,7 @@ void addProbeCommand(CLI::App& app) {
         }
         {
             std::vector<std::string> inputs = o->inputs;
-            inputs.insert(inputs.end(), {o->second, o->tf.tf, o->tf2.file});
+            inputs.insert(inputs.end(), {o->options.second, o->tf.tf, o->tf2.file});
             requireOutputsNotInputs({{"--plot", o->plot}}, inputs);
         }
         requireOneTf(o->tf.tf, o->tf2);
@@ -83,8 +82,7 @@ void addProbeCommand(CLI::App& app) {
             UDVR_FAIL("--model members classifies with a 1D transfer function (--tf), not --tf2");
         if (twoD && !o->plot.empty())
             UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
-        if (!o->second.empty() && !twoD)
-            UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
+        checkBivariateOptions(o->options, twoD);
         checkTfFlags(o->tf, twoD);
         const bool tfFile = !twoD && !tfIsPreset(o->tf);
         const Tf2ReadOptions tf2Options = toTf2ReadOptions(o->tf2, o->force);
@@ -101,9 +99,11 @@ void addProbeCommand(CLI::App& app) {
                 : indexFromWorld(g, parseVec3(o->world, "--world"), "--world " + o->world);
         const std::array<double, 3> world = worldFromIndex(g, p);
         const ProbeResult r =
-            !o->second.empty()
-                ? probeBivariate(model, readModelOrField(o->second, o->var, o->raw), kind,
-                                 readTransferFunction2D(o->tf2.file, tf2Options), p, options)
+            !o->options.second.empty()
+                ? probeBivariate(model,
+                                 readModelOrField(o->options.second,
+                                                  secondFieldVar(o->options, o->var), o->raw),
+                                 kind, readTransferFunction2D(o->tf2.file, tf2Options), p, options)
             : twoD ? probeModel(model, kind, readTransferFunction2D(o->tf2.file, tf2Options), p,
                                 options)
                    : probeModel(model, kind, tf, p, options);

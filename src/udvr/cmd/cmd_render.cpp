@@ -39,8 +39,7 @@ struct RenderOpts {
     Tf2Flags tf2;        // 2D TF (SPEC §9)
     RawLayoutFlags raw;  // headerless .raw input
     std::string var;
-    std::string second, secondVar;  // bivariate fields (SPEC §9 --second)
-    EnsembleFlags ensemble;         // --model members
+    EnsembleFlags ensemble;  // --model members
 };
 
 /// "render: this frame will take about 390 s (a 64x64 probe took 6.1 s); shorter: …".
@@ -87,7 +86,8 @@ PngText renderSettingsText(const RenderOpts& o, ModelKind kind, const TransferFu
         out.emplace_back("udvr:tf-range", text);
     } else {
         out.emplace_back("udvr:tf", "tf2 " + o.tf2.file + " domain " + o.tf2.domain +
-                                        " resolution " + o.tf2.resolution + " second " + o.second);
+                                        " resolution " + o.tf2.resolution + " second " +
+                                        o.render.second);
     }
     const Camera& c = s.camera;
     std::snprintf(text, sizeof text,
@@ -115,7 +115,7 @@ void run(const RenderOpts& o) {
     requireOutputDirectory(o.out, "-o");
     {
         std::vector<std::string> inputs = o.inputs;
-        inputs.insert(inputs.end(), {o.second, o.tf.tf, o.tf2.file});
+        inputs.insert(inputs.end(), {o.render.second, o.tf.tf, o.tf2.file});
         requireOutputsNotInputs({{"-o", o.out}, {"--float", o.floatOut}}, inputs);
     }
     const ModelKind kind = parseModelKind(o.model);
@@ -139,16 +139,15 @@ void run(const RenderOpts& o) {
     const TransferFunction2D tf2 =
         twoD ? readTransferFunction2D(o.tf2.file, toTf2ReadOptions(o.tf2, o.render.force))
              : TransferFunction2D{};
-    if (!o.second.empty() && !twoD)
-        UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
+    checkBivariateOptions(o.render, twoD);
     const ModelVolume model = members ? readMembersModel(o.inputs, o.var, o.raw, o.ensemble)
                                       : readModelOrField(input, o.var, o.raw);
     if (!twoD && !tfGiven) tfChoice = chooseTransferFunction(o.tf, model, "render");
     const TransferFunction1D& tf = tfChoice.tf;
+    const bool bivariate = !o.render.second.empty();
     const ModelVolume second =
-        o.second.empty()
-            ? ModelVolume{}
-            : readModelOrField(o.second, o.secondVar.empty() ? o.var : o.secondVar, o.raw);
+        bivariate ? readModelOrField(o.render.second, secondFieldVar(o.render, o.var), o.raw)
+                  : ModelVolume{};
 
     bool anyVisible = true;
     std::array<double, 6> framedBox{};  // what the framed camera fits (when it is used)
@@ -163,7 +162,7 @@ void run(const RenderOpts& o) {
     RenderStats stats;
     RenderCache cache;  // skipping tables built by the first frame, reused by the timed ones
     const auto frameWith = [&](const RenderSettings& at) {
-        if (!o.second.empty()) return renderBivariate(model, second, kind, tf2, at, &stats, &cache);
+        if (bivariate) return renderBivariate(model, second, kind, tf2, at, &stats, &cache);
         return twoD ? renderVolume(model, kind, tf2, at, &stats, &cache)
                     : renderVolume(model, kind, tf, at, &stats, &cache);
     };
@@ -256,11 +255,7 @@ void addRenderCommand(CLI::App& app) {
     sub->add_option("--model", o->model, "noise model (default mean): " + modelHelp());
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
-    sub->add_option("--second", o->second,
-                    "bivariate fields: the model or field giving the TF2's y (same grid; x from "
-                    "the input; SPEC 9)");
-    sub->add_option("--second-var", o->secondVar,
-                    "array/variable name in --second (default: --var)");
+    addOptionFlags(sub, bivariateOptionSpecs(), o->render);
     sub->add_option("-o,--output", o->out, "output PNG")->required();
     sub->add_option("--float", o->floatOut, "also write float32 RGBA (.npy or .pfm)");
     addOptionFlags(sub, classificationOptionSpecs(), o->render);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "udvr/cmd/commands.h"
+#include "udvr/cmd/option_flags.h"
 #include "udvr/cmd/parse_util.h"
 #include "udvr/io/transfer_function_2d_io.h"
 #include "udvr/serve/api.h"
@@ -21,7 +22,8 @@ void addServeCommand(CLI::App& app) {
         "serve",
         "explore a model in the browser: orbit, edit the TF, switch models, probe (docs/serve.md)");
     struct Opts {
-        std::string model, truth, second, var;
+        std::string model, truth, var;
+        RenderOptions options;  // --second, --second-var (render/render_options.h)
         serve::HttpOptions http;
         TfFlags tf;
         Tf2Flags tf2;
@@ -41,8 +43,7 @@ void addServeCommand(CLI::App& app) {
     sub->add_option("--truth", o->truth,
                     "ground-truth field: shown beside the model with the difference image and "
                     "the RMSE (SPEC 6)");
-    sub->add_option("--second", o->second,
-                    "bivariate fields: the model giving the TF2's y (same grid; needs --tf2)");
+    addOptionFlags(sub, bivariateOptionSpecs(), o->options);
     sub->add_option("--port", o->http.port, "TCP port (default 8080; 0 picks a free one)")
         ->check(wholeNumberIn(0, 65535));
     sub->add_option("--host", o->http.host,
@@ -75,9 +76,9 @@ void addServeCommand(CLI::App& app) {
         requireOneTf(o->tf.tf, o->tf2);
         const bool twoD = !o->tf2.file.empty();
         checkTfFlags(o->tf, twoD);
-        if (!o->second.empty() && !twoD)
-            UDVR_FAIL("--second gives the y of a 2D transfer function: it needs --tf2");
-        if (!o->second.empty() && !o->truth.empty())
+        checkBivariateOptions(o->options, twoD);
+        const std::string& second = o->options.second;
+        if (!second.empty() && !o->truth.empty())
             UDVR_FAIL("--truth compares one field with the model; it does not go with --second");
         serve::ServeData data;
         TfChoice tfChoice;  // a TF file is read before the volume, so a bad one costs nothing
@@ -100,9 +101,9 @@ void addServeCommand(CLI::App& app) {
             data.truth = readModelOrField(o->truth, o->var, o->raw);
             data.truthFile = o->truth;
         }
-        if (!o->second.empty()) {
-            data.second = readModelOrField(o->second, o->var, o->raw);
-            data.secondFile = o->second;
+        if (!second.empty()) {
+            data.second = readModelOrField(second, secondFieldVar(o->options, o->var), o->raw);
+            data.secondFile = second;
         }
         const std::string& host = o->http.host;
         if (host != "127.0.0.1" && host != "localhost" && host != "::1") {

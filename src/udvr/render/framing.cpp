@@ -37,6 +37,16 @@ ViewDirection parseViewDirection(const std::string& given) {
         << given << "'");
 }
 
+Camera framedCamera(const std::array<double, 6>& box, const std::string& view,
+                    std::optional<double> azimuthDeg, std::optional<double> elevationDeg,
+                    double zoom, double viewAngleDeg, double aspect) {
+    const bool front = view.empty();
+    return framedCamera(box, front ? kZUpFrontView : parseViewDirection(view),
+                        azimuthDeg.value_or(front ? kDefaultAzimuthDeg : 0.0),
+                        elevationDeg.value_or(front ? kDefaultElevationDeg : 0.0), zoom,
+                        viewAngleDeg, aspect);
+}
+
 Camera framedCamera(const std::array<double, 6>& box, const ViewDirection& view, double azimuthDeg,
                     double elevationDeg, double zoom, double viewAngleDeg, double aspect) {
     if (!(zoom > 0.0) || !std::isfinite(zoom)) UDVR_FAIL("--zoom must be > 0, got " << zoom);

@@ -3,6 +3,7 @@
 // box of the voxels a TF makes visible, axis views as ParaView's "Set view direction to ±X…",
 // and the distance at which a box fills the image.
 #include <array>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -31,6 +32,14 @@ inline constexpr ViewDirection kZUpFrontView{{0, 1, 0}, {0, 0, 1}};
 /// moved closer by `zoom` (distance / zoom).
 Camera framedCamera(const std::array<double, 6>& box, const ViewDirection& view, double azimuthDeg,
                     double elevationDeg, double zoom, double viewAngleDeg, double aspect);
+
+/// `udvr render --view/--frame`'s camera: `view` "" is kZUpFrontView turned to SPEC §5's
+/// three-quarter view (kDefaultAzimuthDeg, kDefaultElevationDeg), an axis view ("+x" … "-z",
+/// parseViewDirection) looks straight along its axis (0, 0); a given azimuth or elevation
+/// replaces that turn.
+Camera framedCamera(const std::array<double, 6>& box, const std::string& view,
+                    std::optional<double> azimuthDeg, std::optional<double> elevationDeg,
+                    double zoom, double viewAngleDeg, double aspect);
 
 /// A point is visible when the TF's opacity at its mean is at least this share of the TF's
 /// largest opacity (faint fog does not count).

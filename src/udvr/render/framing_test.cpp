@@ -84,6 +84,25 @@ TEST(Framing, AxisViewsAndBadNames) {
     EXPECT_THROW(framedCamera({0, 1, 0, 1, 0, 1}, px, 0, 0, 0.0, 30, 1), UdvrError);
 }
 
+// `--view`/`--frame`'s turn: the front view gets SPEC §5's three-quarter turn, an axis view
+// none; a given angle replaces it.
+TEST(Framing, TheNamedViewsTurnAsTheCliSays) {
+    const std::array<double, 6> box{0, 2, 0, 1, 0, 3};
+    const auto same = [](const Camera& a, const Camera& b) {
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_NEAR(a.position[k], b.position[k], 1e-12);
+            EXPECT_NEAR(a.viewUp[k], b.viewUp[k], 1e-12);
+        }
+    };
+    same(framedCamera(box, "", std::nullopt, std::nullopt, 1.5, 25, 2),
+         framedCamera(box, kZUpFrontView, kDefaultAzimuthDeg, kDefaultElevationDeg, 1.5, 25, 2));
+    same(framedCamera(box, "-y", std::nullopt, 10.0, 1, 30, 1),
+         framedCamera(box, parseViewDirection("-y"), 0, 10, 1, 30, 1));
+    same(framedCamera(box, "", 5.0, std::nullopt, 1, 30, 1),
+         framedCamera(box, kZUpFrontView, 5, kDefaultElevationDeg, 1, 30, 1));
+    EXPECT_THROW(framedCamera(box, "+w", std::nullopt, std::nullopt, 1, 30, 1), UdvrError);
+}
+
 TEST(Framing, VisibleBoundsAreThePaddedBoxOfTheVisiblePoints) {
     ModelVolume m;
     m.grid.dims = {10, 8, 6};

@@ -17,20 +17,30 @@
 namespace udvr {
 
 /// A VTK-style camera in world units.
+/// SPEC §5's default camera (bench/peer/vtk_render.py): VTK's Azimuth and Elevation (degrees),
+/// the zoom (distance / zoom) and the vertical view angle (degrees). `udvr render`'s option
+/// defaults and help, the framed camera's three-quarter turn, serve's page and Python's Camera
+/// all read these.
+inline constexpr double kDefaultAzimuthDeg = 30.0;
+inline constexpr double kDefaultElevationDeg = 20.0;
+inline constexpr double kDefaultZoom = 1.0;
+inline constexpr double kDefaultViewAngleDeg = 30.0;
+
 struct Camera {
     std::array<double, 3> position{0, 0, 1};
     std::array<double, 3> focalPoint{0, 0, 0};
     std::array<double, 3> viewUp{0, 1, 0};
-    double viewAngleDeg = 30.0;  // vertical field of view (perspective)
-    bool parallel = false;       // orthographic when true
+    double viewAngleDeg = kDefaultViewAngleDeg;  // vertical field of view (perspective)
+    bool parallel = false;                       // orthographic when true
     double parallelScale = 1.0;  // half the viewport height in world units (orthographic)
 };
 
 /// The default camera of SPEC §5 / bench/peer/vtk_render.py: focal point at the box centre,
 /// on +z looking −z with up +y at the distance where the bounding sphere fits the vertical view
 /// angle, moved closer by `zoom` (distance / zoom), then VTK's Azimuth(about +y) and Elevation.
-Camera defaultCamera(const std::array<double, 6>& bounds, double azimuthDeg, double elevationDeg,
-                     double zoom = 1.0, double viewAngleDeg = 30.0);
+Camera defaultCamera(const std::array<double, 6>& bounds, double azimuthDeg = kDefaultAzimuthDeg,
+                     double elevationDeg = kDefaultElevationDeg, double zoom = kDefaultZoom,
+                     double viewAngleDeg = kDefaultViewAngleDeg);
 
 /// A piece of a volume split across processes (the ParaView plugin under MPI, where each rank
 /// renders its own piece and ParaView composites the pieces in visibility order). The rays still

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
+#include <type_traits>
 
 #include "udvr/render/framing.h"
 #include "udvr/util/check.h"
@@ -18,11 +20,11 @@ constexpr double kMaxWhole = static_cast<double>(std::numeric_limits<std::uint64
 const OptionSpec kClassificationOptions[] = {
     {.name = "uniform-width",
      .field = &O::uniformWidth,
-     .help = "model uniform: variance (mu -/+ sqrt(3) sigma, default) or minmax"},
+     .help = "model uniform: variance (mu -/+ sqrt(3) sigma; alias std) or minmax (default {})"},
 };
 
 const OptionSpec kFrameOptions[] = {
-    {.name = "size", .field = &O::size, .help = "image size WxH (default 512x512)"},
+    {.name = "size", .field = &O::size, .help = "image size WxH (default {})"},
     {.name = "position", .field = &O::position, .help = "camera position x,y,z (world units)"},
     {.name = "focal-point", .field = &O::focal, .help = "focal point x,y,z (default: box centre)"},
     {.name = "view-up", .field = &O::up, .help = "view-up x,y,z (default 0,1,0)"},
@@ -31,7 +33,7 @@ const OptionSpec kFrameOptions[] = {
      .lo = 0.0,
      .hi = 179.9,
      .loOpen = true,
-     .help = "vertical view angle, degrees (default 30)"},
+     .help = "vertical view angle, degrees (default {})"},
     {.name = "parallel-scale",
      .field = &O::parallelScale,
      .lo = 0.0,
@@ -43,20 +45,20 @@ const OptionSpec kFrameOptions[] = {
      .field = &O::azimuth,
      .lo = -3600.0,
      .hi = 3600.0,
-     .help = "default camera: degrees about the view-up (default 30; 0 with --view)",
+     .help = "default camera: degrees about the view-up (default {}; 0 with --view)",
      .given = &O::azimuthGiven},
     {.name = "elevation",
      .field = &O::elevation,
      .lo = -90.0,
      .hi = 90.0,
-     .help = "default camera: degrees up (default 20; 0 with --view)",
+     .help = "default camera: degrees up (default {}; 0 with --view)",
      .given = &O::elevationGiven},
     {.name = "zoom",
      .field = &O::zoom,
      .lo = 0.0,
      .hi = 1000.0,
      .loOpen = true,
-     .help = "default camera: distance / zoom (default 1)"},
+     .help = "default camera: distance / zoom (default {})"},
     {.name = "view",
      .field = &O::view,
      .help = "+x|-x|+y|-y|+z|-z: look along an axis (up +z; +y for +-z), framing what the TF "
@@ -75,18 +77,18 @@ const OptionSpec kFrameOptions[] = {
      .field = &O::step,
      .lo = 0.0,
      .hi = kHuge,
-     .help = "ray step, world units (default 0: half the smallest full-resolution spacing)"},
+     .help = "ray step, world units (default {}: half the smallest full-resolution spacing)"},
     {.name = "unit-distance",
      .field = &O::unit,
      .lo = 0.0,
      .hi = kHuge,
-     .help = "TF opacity unit distance, world units (default 0: smallest full-res spacing)"},
+     .help = "TF opacity unit distance, world units (default {}: smallest full-res spacing)"},
     {.name = "early-exit",
      .field = &O::earlyExit,
      .lo = 0.0,
      .hi = 1.0,
      .loOpen = true,
-     .help = "stop a ray when accumulated alpha exceeds this (default 0.99; 1 disables)"},
+     .help = "stop a ray when accumulated alpha exceeds this (default {}; 1 disables)"},
     {.name = "background",
      .field = &O::background,
      .help = "background r,g,b in [0,1] (default 1,1,1)"},
@@ -95,18 +97,30 @@ const OptionSpec kFrameOptions[] = {
      .field = &O::realizations,
      .lo = 1.0,
      .hi = 2147483647.0,
-     .help = "gmm-mc: realizations (default 200; over 10000 needs --force)"},
+     .help = "gmm-mc: realizations (default {}; over 10000 needs --force)"},
     {.name = "seed",
      .field = &O::seed,
      .lo = 0.0,
      .hi = kMaxWhole,
-     .help = "gmm-mc: random seed (default 1)"},
+     .help = "gmm-mc: random seed (default {})"},
     {.name = "jitter",
      .field = &O::jitter,
      .lo = 0.0,
      .hi = kMaxWhole,
      .help = "jitter ray starts with this seed",
      .given = &O::jitterGiven},
+};
+
+const OptionSpec kBivariateOptions[] = {
+    {.name = "second",
+     .field = &O::second,
+     .remote = false,
+     .help = "bivariate fields: the model or field giving the TF2's y (same grid; x comes from "
+             "the input; needs --tf2; SPEC 9)"},
+    {.name = "second-var",
+     .field = &O::secondVar,
+     .remote = false,
+     .help = "array/variable name in --second (default: --var)"},
 };
 
 bool sameName(std::string_view a, std::string_view b) {
@@ -137,12 +151,11 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
             c = defaultCamera(b, o.azimuth, o.elevation, o.zoom, o.viewAngle);
         } else {
             const auto box = o.frame == "box" ? b : visibleBox();
-            const ViewDirection view = o.view.empty() ? kZUpFrontView : parseViewDirection(o.view);
-            // The front view is turned to a three-quarter view unless told otherwise; an axis
-            // view looks straight along its axis.
-            const double az = o.azimuthGiven ? o.azimuth : (o.view.empty() ? 30.0 : 0.0);
-            const double el = o.elevationGiven ? o.elevation : (o.view.empty() ? 20.0 : 0.0);
-            c = framedCamera(box, view, az, el, o.zoom, o.viewAngle, aspect);
+            // The front view turned to SPEC §5's three-quarter view unless told otherwise; an
+            // axis view straight along its axis (framing.h).
+            c = framedCamera(box, o.view, o.azimuthGiven ? std::optional(o.azimuth) : std::nullopt,
+                             o.elevationGiven ? std::optional(o.elevation) : std::nullopt, o.zoom,
+                             o.viewAngle, aspect);
             char text[256];
             std::snprintf(text, sizeof text,
                           "render: camera frames %s [%.6g, %.6g] x [%.6g, %.6g] x [%.6g, %.6g] "
@@ -162,7 +175,7 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
     c.focalPoint = o.focal.empty() ? std::array<double, 3>{0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]),
                                                            0.5 * (b[4] + b[5])}
                                    : parseVec3(o.focal, "--focal-point");
-    c.viewUp = o.up.empty() ? std::array<double, 3>{0.0, 1.0, 0.0} : parseVec3(o.up, "--view-up");
+    c.viewUp = o.up.empty() ? Camera{}.viewUp : parseVec3(o.up, "--view-up");
     c.viewAngleDeg = o.viewAngle;
     if (o.parallelScale > 0.0) {
         c.parallel = true;
@@ -175,12 +188,41 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
 
 std::span<const OptionSpec> classificationOptionSpecs() { return kClassificationOptions; }
 std::span<const OptionSpec> frameOptionSpecs() { return kFrameOptions; }
+std::span<const OptionSpec> bivariateOptionSpecs() { return kBivariateOptions; }
 
 const OptionSpec* findOptionSpec(std::string_view name) {
     for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
         for (const OptionSpec& s : table)
             if (sameName(s.name, name)) return &s;
     return nullptr;
+}
+
+std::string optionDefaultText(const OptionSpec& spec) {
+    static const RenderOptions defaults;
+    return std::visit(
+        [](auto field) -> std::string {
+            const auto& v = defaults.*field;
+            using T = std::remove_cvref_t<decltype(v)>;
+            if constexpr (std::is_same_v<T, std::string>) {
+                return v;
+            } else if constexpr (std::is_same_v<T, bool>) {
+                return v ? "1" : "0";
+            } else if constexpr (std::is_same_v<T, double>) {
+                char text[32];
+                std::snprintf(text, sizeof text, "%.10g", v);
+                return text;
+            } else {
+                return std::to_string(v);
+            }
+        },
+        spec.field);
+}
+
+std::string optionHelp(const OptionSpec& spec) {
+    std::string help = spec.help;
+    if (const auto at = help.find("{}"); at != std::string::npos)
+        help.replace(at, 2, optionDefaultText(spec));
+    return help;
 }
 
 void setOption(RenderOptions& o, const OptionSpec& spec, const std::string& text,
@@ -214,6 +256,22 @@ bool uniformWidthIsMinMax(const RenderOptions& o) {
     if (o.uniformWidth == "minmax") return true;
     UDVR_FAIL("--uniform-width must be 'variance' (or 'std') or 'minmax', got '"
               << clipForMessage(o.uniformWidth) << "'");
+}
+
+void requireTf2ForSecond(bool secondGiven, bool tf2Given, std::string_view secondLabel,
+                         std::string_view tf2Label) {
+    if (secondGiven && !tf2Given)
+        UDVR_FAIL(secondLabel << " gives the y of a 2D transfer function: it needs " << tf2Label);
+}
+
+void checkBivariateOptions(const RenderOptions& o, bool tf2Given) {
+    requireTf2ForSecond(!o.second.empty(), tf2Given);
+    if (!o.secondVar.empty() && o.second.empty())
+        UDVR_FAIL("--second-var names the array in --second; it needs --second");
+}
+
+const std::string& secondFieldVar(const RenderOptions& o, const std::string& var) {
+    return o.secondVar.empty() ? var : o.secondVar;
 }
 
 std::array<int, 2> checkRenderOptions(const RenderOptions& o) {

@@ -22,11 +22,14 @@ namespace udvr {
 struct RenderOptions {
     // classification (render and probe)
     std::string uniformWidth = "variance";  // "variance" (alias "std") or "minmax"
+    // bivariate (render, probe, serve; SPEC §9): the file giving a 2D TF's y, and its array
+    std::string second, secondVar;
     // frame (render)
     std::string size = "512x512";
     std::string view, frame;  // framed default camera (render/framing.h)
     std::string position, focal, up, background;
-    double viewAngle = 30.0, parallelScale = 0.0, azimuth = 30.0, elevation = 20.0, zoom = 1.0;
+    double viewAngle = kDefaultViewAngleDeg, parallelScale = 0.0;
+    double azimuth = kDefaultAzimuthDeg, elevation = kDefaultElevationDeg, zoom = kDefaultZoom;
     double step = 0.0, unit = 0.0, earlyExit = 0.99;  // world units; 0 = the defaults of SPEC §5
     bool noSkip = false, force = false;
     std::uint64_t realizations = 200, seed = 1, jitter = 0;
@@ -36,7 +39,9 @@ struct RenderOptions {
 
 /// One option: its name (the CLI's flag without dashes and `udvr serve`'s query key; Python's
 /// keyword with '_' for '-'), the field it sets — whose type is the option's (text, real, whole
-/// number, or a flag) — the range a number must lie in, and one line of help with the default.
+/// number, or a flag) and whose value in a default-constructed RenderOptions is its default —
+/// the range a number must lie in, and one line of help, where "{}" stands for the default
+/// (optionHelp).
 struct OptionSpec {
     using Field = std::variant<std::string RenderOptions::*, double RenderOptions::*,
                                std::uint64_t RenderOptions::*, bool RenderOptions::*>;
@@ -54,8 +59,15 @@ std::span<const OptionSpec> classificationOptionSpecs();
 /// The frame options (render): size, camera, step, unit distance, early exit, background,
 /// skipping, gmm-mc realizations and seed, jitter, --force.
 std::span<const OptionSpec> frameOptionSpecs();
-/// The option named `name` in either table ('_' matches '-'), or null.
+/// The bivariate options (render, probe, serve; not query keys): --second and --second-var.
+std::span<const OptionSpec> bivariateOptionSpecs();
+/// The option named `name` in the classification or frame table ('_' matches '-'), or null.
 const OptionSpec* findOptionSpec(std::string_view name);
+
+/// `spec`'s default (its field in RenderOptions{}) as the CLI would take it: "512x512", "30".
+std::string optionDefaultText(const OptionSpec& spec);
+/// `spec`'s help with "{}" replaced by optionDefaultText: what `--help` and Python print.
+std::string optionHelp(const OptionSpec& spec);
 
 /// Set `spec`'s field from `text` as typed: numbers must be finite, whole where the field is,
 /// and in the spec's range; flags take 1/0/true/false. `label` names the option in the error
@@ -73,6 +85,16 @@ inline constexpr double kMaxSamplesWithoutForce = 1e9;
 
 /// --uniform-width: "variance" (alias "std"; μ ± √3σ, the default) → false, "minmax" → true.
 bool uniformWidthIsMinMax(const RenderOptions& options);
+
+/// --second gives the y of a 2D TF (SPEC §9): fails when `secondGiven` without `tf2Given`.
+/// `secondLabel` and `tf2Label` name the two as the front end spells them ("--second", "--tf2";
+/// Python's "second", "a TransferFunction2D").
+void requireTf2ForSecond(bool secondGiven, bool tf2Given, std::string_view secondLabel = "--second",
+                         std::string_view tf2Label = "--tf2");
+/// The bivariate options' checks (--second needs --tf2, --second-var needs --second).
+void checkBivariateOptions(const RenderOptions& options, bool tf2Given);
+/// The array to read from --second: --second-var, else `var` (the input's --var).
+const std::string& secondFieldVar(const RenderOptions& options, const std::string& var);
 
 /// The checks that need no data (size, --parallel-scale, --view, --frame, realizations);
 /// returns the size.

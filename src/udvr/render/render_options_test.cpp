@@ -37,6 +37,23 @@ TEST(RenderOptions, NamesAreUniqueAndFoundWithEitherSpelling) {
     EXPECT_FALSE(findOptionSpec("force")->remote);  // --force is the CLI's alone
 }
 
+// A default is written once, as RenderOptions' initializer: the help reads it from there.
+TEST(RenderOptions, HelpShowsTheDefaultsOfRenderOptions) {
+    EXPECT_EQ(optionHelp(*findOptionSpec("size")), "image size WxH (default 512x512)");
+    EXPECT_EQ(optionHelp(*findOptionSpec("azimuth")),
+              "default camera: degrees about the view-up (default 30; 0 with --view)");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("elevation")), "20");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("early-exit")), "0.99");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("realizations")), "200");
+    EXPECT_EQ(optionDefaultText(*findOptionSpec("uniform-width")), "variance");
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs()})
+        for (const OptionSpec& s : table)
+            EXPECT_EQ(optionHelp(s).find("{}"), std::string::npos) << s.name;
+    const RenderOptions o;
+    EXPECT_EQ(o.azimuth, kDefaultAzimuthDeg);
+    EXPECT_EQ(o.viewAngle, Camera{}.viewAngleDeg);
+}
+
 TEST(RenderOptions, NumbersAreCheckedAgainstTheirRange) {
     EXPECT_EQ(errorOf("zoom", "1000"), "");
     EXPECT_EQ(errorOf("zoom", "0"), "--zoom must lie in (0, 1000], got 0");
@@ -96,6 +113,32 @@ TEST(RenderOptions, CapsAskForForce) {
     o.uniformWidth = "wide";
     o.size = "10x10";
     EXPECT_THROW(checkRenderOptions(o), UdvrError);
+}
+
+// --second is described once: every command registers it from bivariateOptionSpecs, and one
+// check says what it needs, each front end naming the two as it spells them.
+TEST(RenderOptions, SecondNeedsATf2) {
+    ASSERT_EQ(bivariateOptionSpecs().size(), 2u);
+    for (const OptionSpec& s : bivariateOptionSpecs()) {
+        EXPECT_FALSE(s.remote) << s.name;  // the server is started with it, not asked
+        EXPECT_EQ(findOptionSpec(s.name), nullptr) << s.name;  // not a render keyword
+    }
+    RenderOptions o;
+    EXPECT_NO_THROW(checkBivariateOptions(o, false));
+    o.secondVar = "v";
+    EXPECT_THROW(checkBivariateOptions(o, true), UdvrError);  // --second-var without --second
+    EXPECT_EQ(secondFieldVar(o, "u"), "v");
+    o = {};
+    EXPECT_EQ(secondFieldVar(o, "u"), "u");
+    o.second = "y.vti";
+    EXPECT_NO_THROW(checkBivariateOptions(o, true));
+    try {
+        checkBivariateOptions(o, false);
+        ADD_FAILURE() << "--second without --tf2 was taken";
+    } catch (const UdvrError& e) {
+        EXPECT_STREQ(e.what(), "--second gives the y of a 2D transfer function: it needs --tf2");
+    }
+    EXPECT_THROW(requireTf2ForSecond(true, false, "second", "a TransferFunction2D"), UdvrError);
 }
 
 }  // namespace

@@ -211,6 +211,7 @@ ApiResponse Api::getState(const ApiRequest& request) {
     const auto [tf, version] = currentTf();
     const Tf2State tf2 = currentTf2();
     const std::string startModel(startModelOf(available));
+    const RenderOptions defaults;  // `udvr render`'s: the page starts from them
     json presets = json::array();
     for (const auto& name : transferFunctionPresetNames()) presets.push_back(name);
     json state{{"version", std::string(build::versionLine())},
@@ -235,14 +236,14 @@ ApiResponse Api::getState(const ApiRequest& request) {
                {"presets", presets},
                {"limits", {{"max_side", kMaxImageSide}, {"max_realizations", kMaxRealizations}}},
                {"latency_goal_ms", kFrameGoalMs},
-               {"estimate_size", "512x512"},
+               {"estimate_size", defaults.size},
                {"defaults",
                 {{"model", startModel},
-                 {"size", "512x512"},
-                 {"azimuth", 30.0},
-                 {"elevation", 20.0},
-                 {"zoom", 1.0},
-                 {"realizations", RenderOptions{}.realizations}}}};
+                 {"size", defaults.size},
+                 {"azimuth", defaults.azimuth},
+                 {"elevation", defaults.elevation},
+                 {"zoom", defaults.zoom},
+                 {"realizations", defaults.realizations}}}};
     return jsonResponse(state);
 }
 
