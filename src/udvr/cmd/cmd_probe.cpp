@@ -24,12 +24,12 @@ void addProbeCommand(CLI::App& app) {
     struct Opts {
         std::vector<std::string> inputs;  // one model or field; an ensemble for --model members
         std::string point, world, kind = "mean", plot, var;
-        RenderOptions options;  // --uniform-width, --second (render/render_options.h)
+        RenderOptions options;  // --uniform-width, --second, --force (render/render_options.h)
         EnsembleFlags ensemble;
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
-        bool json = false, force = false;
+        bool json = false;
     };
     auto o = std::make_shared<Opts>();
     sub->add_option(
@@ -46,8 +46,7 @@ void addProbeCommand(CLI::App& app) {
     addTf2Options(sub, o->tf2);
     addOptionFlags(sub, bivariateOptionSpecs(), o->options);
     sub->add_flag("--json", o->json, "print one JSON object");
-    sub->add_flag("--force", o->force,
-                  "--tf2: rasterise widgets even when that takes over 1e8 widget evaluations");
+    addOptionFlags(sub, forceOptionSpecs(), o->options);
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
     addOptionFlags(sub, classificationOptionSpecs(), o->options);
     sub->add_option("--var", o->var, "array/variable name in the input");
@@ -63,8 +62,7 @@ void addProbeCommand(CLI::App& app) {
                       << " inputs (member files are an ensemble: --model members probes them)");
         if (o->point.empty() == o->world.empty())
             UDVR_FAIL("give the point as --point i,j,k (index) or --world x,y,z, one of them");
-        ClassifyOptions options;
-        options.uniformMinMax = uniformWidthIsMinMax(o->options);
+        const ClassifyOptions options = classifyOptionsFrom(o->options);
         if (!o->plot.empty()) {
             const std::string& plot = o->plot;
             const bool png = plot.size() > 4 && (plot.compare(plot.size() - 4, 4, ".png") == 0 ||
@@ -85,7 +83,7 @@ void addProbeCommand(CLI::App& app) {
         checkBivariateOptions(o->options, twoD);
         checkTfFlags(o->tf, twoD);
         const bool tfFile = !twoD && !tfIsPreset(o->tf);
-        const Tf2ReadOptions tf2Options = toTf2ReadOptions(o->tf2, o->force);
+        const Tf2ReadOptions tf2Options = toTf2ReadOptions(o->tf2, o->options.force);
         TfChoice tfChoice;
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
         const ModelVolume model = members ? readMembersModel(o->inputs, o->var, o->raw, o->ensemble)

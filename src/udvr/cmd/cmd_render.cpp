@@ -260,6 +260,7 @@ void addRenderCommand(CLI::App& app) {
     sub->add_option("--float", o->floatOut, "also write float32 RGBA (.npy or .pfm)");
     addOptionFlags(sub, classificationOptionSpecs(), o->render);
     addOptionFlags(sub, frameOptionSpecs(), o->render);
+    addOptionFlags(sub, forceOptionSpecs(), o->render);
     sub->add_option("--frames", o->frames,
                     "time N frames after one warm-up; print median/min ms and frames/s");
     addRawLayoutOptions(sub, o->raw);

@@ -4,6 +4,7 @@
 
 #include <set>
 #include <string>
+#include <variant>
 
 #include "udvr/util/check.h"
 
@@ -23,7 +24,7 @@ std::string errorOf(const char* name, const std::string& value) {
 
 TEST(RenderOptions, NamesAreUniqueAndFoundWithEitherSpelling) {
     std::set<std::string> names;
-    for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), forceOptionSpecs()})
         for (const OptionSpec& s : table) {
             EXPECT_TRUE(names.insert(s.name).second) << s.name;
             EXPECT_GT(std::string(s.help).size(), 10u) << s.name;
@@ -37,7 +38,7 @@ TEST(RenderOptions, NamesAreUniqueAndFoundWithEitherSpelling) {
     EXPECT_FALSE(findOptionSpec("force")->remote);  // --force is the CLI's alone
 }
 
-// A default is written once, as RenderOptions' initializer: the help reads it from there.
+// A default is written once, as its row's defaultValue: the help and RenderOptions{} read it.
 TEST(RenderOptions, HelpShowsTheDefaultsOfRenderOptions) {
     EXPECT_EQ(optionHelp(*findOptionSpec("size")), "image size WxH (default 512x512)");
     EXPECT_EQ(optionHelp(*findOptionSpec("azimuth")),
@@ -46,12 +47,42 @@ TEST(RenderOptions, HelpShowsTheDefaultsOfRenderOptions) {
     EXPECT_EQ(optionDefaultText(*findOptionSpec("early-exit")), "0.99");
     EXPECT_EQ(optionDefaultText(*findOptionSpec("realizations")), "200");
     EXPECT_EQ(optionDefaultText(*findOptionSpec("uniform-width")), "variance");
-    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs()})
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs(),
+                       forceOptionSpecs()})
         for (const OptionSpec& s : table)
             EXPECT_EQ(optionHelp(s).find("{}"), std::string::npos) << s.name;
     const RenderOptions o;
     EXPECT_EQ(o.azimuth, kDefaultAzimuthDeg);
     EXPECT_EQ(o.viewAngle, Camera{}.viewAngleDeg);
+}
+
+// RenderOptions{} holds every row's default, and setting an option to its default text changes
+// nothing: the text the help shows is the value.
+TEST(RenderOptions, EveryFieldStartsAtItsRowsDefault) {
+    const RenderOptions defaults;
+    EXPECT_EQ(defaults.size, "512x512");
+    EXPECT_EQ(defaults.uniformWidth, "variance");
+    EXPECT_EQ(defaults.realizations, 200u);
+    EXPECT_EQ(defaults.earlyExit, 0.99);
+    EXPECT_FALSE(defaults.force);
+    EXPECT_TRUE(defaults.second.empty() && defaults.position.empty());
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs(),
+                       forceOptionSpecs()})
+        for (const OptionSpec& s : table) {
+            if (s.given && s.loOpen) continue;  // parallel-scale: its default 0 means "absent"
+            RenderOptions o;
+            setOption(o, s, optionDefaultText(s), s.name);
+            std::visit([&](auto field) { EXPECT_EQ(o.*field, defaults.*field) << s.name; },
+                       s.field);
+        }
+}
+
+TEST(RenderOptions, RangesAreStatedAsTheErrorsStateThem) {
+    EXPECT_EQ(optionRangeText(*findOptionSpec("zoom")), "(0, 1000]");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("elevation")), "[-90, 90]");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("realizations")), "[1, 2147483647]");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("size")), "");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("no-skip")), "");
 }
 
 TEST(RenderOptions, NumbersAreCheckedAgainstTheirRange) {
