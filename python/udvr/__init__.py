@@ -405,8 +405,8 @@ def _probe_full(self, point=None, model="mean", tf=None, *, world=None, second=N
     tf, _ = _resolve_tf(tf, self, tf_range)
     _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        text, dist = _udvr._probe_bivariate(self, _as_model(second, "second"), model, tf, point,
-                                            given)
+        text, dist = _udvr._probe_bivariate(self, _as_model(second, "second", model), model, tf,
+                                            point, given)
     else:
         text, dist = _udvr._probe(self, model, tf, point, given)
     return json.loads(text), dist, tf
@@ -420,7 +420,8 @@ def _probe(self, point=None, model="mean", tf=None, *, world=None, second=None, 
 
     point: index coordinates (i, j, k), or world=(x, y, z); model: a name of udvr.model_names();
     tf: a TransferFunction (or TransferFunction2D), a ParaView JSON path, a preset name, or None
-    (the CLI's default preset over the model's means); second: the model giving a 2D TF's y.
+    (the CLI's default preset over the model's means); second: the model giving a 2D TF's y
+    (model 'members': an ensemble, as the first).
     options: every classification option of `udvr probe` by its name with '_' for '-' —
     uniform_width, … (udvr.probe_options() lists them with their defaults and help; None: the
     default); the same code parses and checks them as the CLI's flags.
@@ -516,7 +517,8 @@ def render(model, model_name="mean", tf=None, size=None, camera=None, *, second=
         s.camera = camera
     _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        return _udvr._render_bivariate(model, _as_model(second, "second"), model_name, tf, s)
+        return _udvr._render_bivariate(model, _as_model(second, "second", model_name), model_name,
+                                       tf, s)
     return _udvr._render(model, model_name, tf, s)
 
 
