@@ -6,6 +6,7 @@
 #include <string>
 #include <variant>
 
+#include "udvr/classify/transfer_function_2d_widget_json.h"
 #include "udvr/util/check.h"
 
 namespace udvr {
@@ -130,6 +131,23 @@ TEST(RenderOptions, GivenFlagsAndSettings) {
     EXPECT_TRUE(note.empty());  // SPEC §5's default camera: a TF was given, no --view/--frame
     const Camera want = defaultCamera(m.bounds, 45.0, 20.0, 1.0, 30.0);
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(s.camera.position[a], want.position[a], 1e-12);
+}
+
+// --force's one help names the caps as the constants set them (the text is written by hand).
+TEST(RenderOptions, ForceHelpStatesTheCaps) {
+    ASSERT_EQ(forceOptionSpecs().size(), 1u);
+    const std::string help = optionHelp(forceOptionSpecs()[0]);
+    EXPECT_NE(help.find("--step over 1e9 samples"), std::string::npos) << help;
+    EXPECT_EQ(kMaxSamplesWithoutForce, 1e9);
+    EXPECT_NE(help.find("--size over 8192^2 rays"), std::string::npos) << help;
+    EXPECT_EQ(kMaxPixelsWithoutForce, 8192.0 * 8192.0);
+    const std::string realizations = std::to_string(kMaxRealizationsWithoutForce);
+    EXPECT_NE(help.find("--realizations over " + realizations), std::string::npos) << help;
+    EXPECT_NE(optionHelp(*findOptionSpec("realizations")).find("over " + realizations),
+              std::string::npos);
+    EXPECT_NE(help.find("over 1e8 widget evaluations"), std::string::npos) << help;
+    EXPECT_EQ(kMaxTf2WidgetWorkWithoutForce, 1e8);
+    EXPECT_EQ(findOptionSpec("force"), &forceOptionSpecs()[0]);
 }
 
 TEST(RenderOptions, CapsAskForForce) {
