@@ -382,12 +382,58 @@ py::tuple probeOutput(const ProbeResult& r) {
     return py::make_tuple(r.json.dump(2), dist);
 }
 
-// probe at an index-space point with a 1D or 2D TF (uniform_width minmax: `minmax`).
+// The options given as [(keyword, text as the CLI takes it)], each looked up in `tables` by its
+// name and set by the same code as the CLI's flags; a keyword in none of them is a TypeError.
+RenderOptions optionsGiven(const std::vector<std::pair<std::string, std::string>>& given,
+                           std::initializer_list<std::span<const OptionSpec>> tables) {
+    RenderOptions options;
+    for (const auto& [key, value] : given) {
+        const OptionSpec* spec = findOptionSpec(key);
+        bool inTables = false;
+        for (auto table : tables)
+            inTables =
+                inTables || (spec && spec >= table.data() && spec < table.data() + table.size());
+        if (!inTables) throw py::type_error("unknown option '" + key + "'");
+        setOption(options, *spec, value, key);
+    }
+    return options;
+}
+
+// (keyword, type, default, range, help) of each option of `tables`: keyword is the name with '_'
+// for '-', type text/real/whole/flag, range as setOption states it (None for text and flags).
+py::list optionRows(std::initializer_list<std::span<const OptionSpec>> tables) {
+    py::list out;
+    for (auto table : tables)
+        for (const OptionSpec& spec : table) {
+            std::string name = spec.name;
+            for (char& c : name)
+                if (c == '-') c = '_';
+            const char* type = std::visit(
+                [](auto v) -> const char* {
+                    using T = decltype(v);
+                    if constexpr (std::is_same_v<T, const char*>) return "text";
+                    if constexpr (std::is_same_v<T, double>) return "real";
+                    if constexpr (std::is_same_v<T, bool>) return "flag";
+                    return "whole";
+                },
+                spec.defaultValue);
+            const py::object value =
+                std::visit([](auto v) -> py::object { return py::cast(v); }, spec.defaultValue);
+            const std::string range = optionRangeText(spec);
+            out.append(py::make_tuple(name, type, value,
+                                      range.empty() ? py::object(py::none()) : py::str(range),
+                                      optionHelp(spec)));
+        }
+    return out;
+}
+
+// probe at an index-space point with a 1D or 2D TF; `given`: the classification options.
 template <class Tf>
 py::tuple probeAt(const ModelVolume& model, const std::string& kind, const Tf& tf,
-                  std::array<double, 3> point, bool minmax) {
-    ClassifyOptions o;
-    o.uniformMinMax = minmax;
+                  std::array<double, 3> point,
+                  const std::vector<std::pair<std::string, std::string>>& given) {
+    const ClassifyOptions o =
+        classifyOptionsFrom(optionsGiven(given, {classificationOptionSpecs()}));
     return probeOutput(probeModel(model, parseModelKind(kind), tf, point, o));
 }
 
@@ -870,27 +916,15 @@ PYBIND11_MODULE(_udvr, m) {
     m.def(
         "render_options",
         [] {
-            std::vector<std::tuple<std::string, std::string, std::string>> out;
-            for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
-                for (const OptionSpec& spec : table) {
-                    std::string name = spec.name;
-                    for (char& c : name)
-                        if (c == '-') c = '_';
-                    const char* type = std::visit(
-                        [](auto field) -> const char* {
-                            using T = std::remove_reference_t<decltype(RenderOptions{}.*field)>;
-                            if constexpr (std::is_same_v<T, std::string>) return "text";
-                            if constexpr (std::is_same_v<T, double>) return "real";
-                            if constexpr (std::is_same_v<T, bool>) return "flag";
-                            return "whole";
-                        },
-                        spec.field);
-                    out.emplace_back(name, type, optionHelp(spec));
-                }
-            return out;
+            return optionRows(
+                {classificationOptionSpecs(), frameOptionSpecs(), forceOptionSpecs()});
         },
-        "(keyword, type, help) of every option udvr.render and Model.probe take, as `udvr "
+        "(keyword, type, default, range, help) of every option udvr.render takes, as `udvr "
         "render --help` lists them");
+    m.def(
+        "probe_options", [] { return optionRows({classificationOptionSpecs()}); },
+        "(keyword, type, default, range, help) of every option Model.probe takes, as `udvr "
+        "probe --help` lists them");
     m.def(
         "_require_tf2_for_second",
         [](bool secondGiven, bool tf2Given) {
@@ -899,23 +933,11 @@ PYBIND11_MODULE(_udvr, m) {
         py::arg("second_given"), py::arg("tf2_given"),
         "raises ValueError (the CLI's --second message) when second is given without a 2D TF");
     m.def(
-        "_uniform_minmax",
-        [](const std::optional<std::string>& text) {
-            RenderOptions options;  // None: the option's default
-            if (text) setOption(options, *findOptionSpec("uniform-width"), *text, "uniform_width");
-            return uniformWidthIsMinMax(options);
-        },
-        py::arg("text"));
-    m.def(
         "_render_settings",
         [](const ModelVolume& model, const py::object& tf,
            const std::vector<std::pair<std::string, std::string>>& given) {
-            RenderOptions options;
-            for (const auto& [key, value] : given) {
-                const OptionSpec* spec = findOptionSpec(key);
-                if (!spec) throw py::type_error("unknown render option '" + key + "'");
-                setOption(options, *spec, value, key);
-            }
+            const RenderOptions options = optionsGiven(
+                given, {classificationOptionSpecs(), frameOptionSpecs(), forceOptionSpecs()});
             const auto visibleBox = [&] {
                 if (py::isinstance<TransferFunction2D>(tf))
                     return visibleBounds(model, tf.cast<const TransferFunction2D&>());
@@ -998,19 +1020,20 @@ PYBIND11_MODULE(_udvr, m) {
         "_default_density", [](bool bricks) { return densityEstimateName(defaultDensity(bricks)); },
         py::arg("bricks"), "build's density estimate when none is given");
     m.def("_probe", &probeAt<TransferFunction1D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
-          py::arg("point"), py::arg("minmax"));
+          py::arg("point"), py::arg("options"));
     m.def("_probe", &probeAt<TransferFunction2D>, py::arg("model"), py::arg("kind"), py::arg("tf"),
-          py::arg("point"), py::arg("minmax"));
+          py::arg("point"), py::arg("options"));
     m.def(
         "_probe_bivariate",
         [](const ModelVolume& first, const ModelVolume& second, const std::string& kind,
-           const TransferFunction2D& tf, std::array<double, 3> point, bool minmax) {
-            ClassifyOptions o;
-            o.uniformMinMax = minmax;
+           const TransferFunction2D& tf, std::array<double, 3> point,
+           const std::vector<std::pair<std::string, std::string>>& given) {
+            const ClassifyOptions o =
+                classifyOptionsFrom(optionsGiven(given, {classificationOptionSpecs()}));
             return probeOutput(probeBivariate(first, second, parseModelKind(kind), tf, point, o));
         },
         py::arg("first"), py::arg("second"), py::arg("kind"), py::arg("tf"), py::arg("point"),
-        py::arg("minmax"));
+        py::arg("options"));
     m.def("index_from_world", &indexFromWorld, py::arg("grid"), py::arg("world"),
           py::arg("what") = "world point",
           "index-space point of a world position (ValueError outside the grid)");

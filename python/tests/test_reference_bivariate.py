@@ -253,3 +253,68 @@ def test_bad_second_inputs_say_so(case, tmp_path):
                         "-o", str(tmp_path / "x.png"), "--size", "8x8"],
                        capture_output=True, text=True)
     assert p.returncode != 0 and "no bivariate classification" in p.stderr, p.stderr
+
+
+# ---- members: two ensembles -------------------------------------------------------------------
+
+def trilinear(values, p):
+    """values (n, z, y, x) at the index point p = (i, j, k): each member's trilinear value."""
+    n, nz, ny, nx = values.shape
+    out = np.zeros(n)
+    base = [min(int(np.floor(c)), d - 2) for c, d in zip(p, (nx, ny, nz))]
+    f = [c - b for c, b in zip(p, base)]
+    for dz in (0, 1):
+        for dy in (0, 1):
+            for dx in (0, 1):
+                w = ((f[0] if dx else 1 - f[0]) * (f[1] if dy else 1 - f[1])
+                     * (f[2] if dz else 1 - f[2]))
+                out += w * values[:, base[2] + dz, base[1] + dy, base[0] + dx]
+    return out
+
+
+def test_members_bivariate_on_the_command_line_matches_the_reference_and_python(tmp_path):
+    """--model members --tf2 --second: both inputs ensembles, each member a point mass 1/n of its
+    field, the fields independent — E = mean over the member pairs of TF2(a_i, b_j); the CLI's
+    probe against that, and its render and probe against Python's (issue 31)."""
+    rng = np.random.default_rng(77)
+    dims = [4, 5, 3]
+    origin, spacing = rng.uniform(-3, 3, 3), rng.uniform(0.5, 2.0, 3)
+    values = [rng.normal(0.0, 1.0, (n, dims[2], dims[1], dims[0])).astype(np.float32)
+              for n in (5, 4)]
+    paths = [tmp_path / "a.nc", tmp_path / "b.nc"]
+    ensembles = []
+    for v, path in zip(values, paths):
+        e = udvr.Ensemble(v, origin, spacing)
+        udvr.write_ensemble(str(path), e)
+        ensembles.append(udvr.members_model(udvr.read_ensemble([str(path)])))
+    t = r2.random_tf2(rng, (-2.0, 2.2), (-1.8, 2.0), zero_frac=0.2)
+    t.write_vti(tmp_path / "tf2.vti")
+    tf2 = udvr.TransferFunction2D.read(str(tmp_path / "tf2.vti"))
+    for p in refcase.random_points(rng, dims, 3):
+        out = refcase.run_udvr("probe", paths[0], "--point", refcase.fmt(p), "--model", "members",
+                               "--tf2", tmp_path / "tf2.vti", "--second", paths[1], "--json")
+        got = np.asarray(json.loads(out)["expected_rgba"], float)
+        a, b = trilinear(values[0].astype(float), p), trilinear(values[1].astype(float), p)
+        want = t(a[:, None], b[None, :]).reshape(-1, 4).mean(0)
+        assert np.abs(got - want).max() <= TOL, (p.tolist(), got.tolist(), want.tolist())
+        py = ensembles[0].probe(p, "members", tf2, second=ensembles[1])["expected_rgba"]
+        np.testing.assert_allclose(py, got, rtol=0, atol=1e-6)
+    npy = tmp_path / "cli.npy"
+    refcase.run_udvr("render", paths[0], "--model", "members", "--tf2", tmp_path / "tf2.vti",
+                     "--second", paths[1], "--size", "12x9", "--float", npy, "-o",
+                     tmp_path / "cli.png")
+    cli = np.load(npy)
+    assert cli[..., 3].max() > 1e-3, "the volume is not in view: the test checks nothing"
+    py = udvr.render(ensembles[0], "members", tf2, (12, 9), second=ensembles[1])
+    np.testing.assert_allclose(py, cli, rtol=0, atol=1e-6)
+    # Python's paths are read as ensembles for both fields, as the CLI reads them
+    np.testing.assert_allclose(udvr.render(str(paths[0]), "members", tf2, (12, 9),
+                                           second=str(paths[1])), cli, rtol=0, atol=1e-6)
+    # members has no value x gradient kernel: --tf2 without --second is refused, and a second
+    # input that holds no members says so
+    for args, words in [([], "not --tf2 alone"), (["--second", tmp_path / "tf2.vti"], "ensemble")]:
+        p = subprocess.run([str(refcase.udvr_binary()), "render", str(paths[0]), "--model",
+                            "members", "--tf2", str(tmp_path / "tf2.vti"),
+                            *[str(a) for a in args], "-o", str(tmp_path / "x.png")],
+                           capture_output=True, text=True)
+        assert p.returncode != 0 and words in p.stderr, (args, p.stderr)

@@ -20,11 +20,13 @@ def test_cli_help_lists_every_option():
     probe_help = golden.udvr("probe", "--help")
     options = udvr.render_options()
     assert len(options) == 21
-    for name, kind, help_text in options:
+    for name, kind, default, value_range, help_text in options:
         flag = "--" + name.replace("_", "-")
         assert flag in render_help, flag
         assert help_text.split(" (")[0][:30] in " ".join(render_help.split()), name
         assert kind in ("text", "real", "whole", "flag")
+        assert isinstance(default, {"text": str, "real": float, "whole": int, "flag": bool}[kind])
+        assert (value_range is None) == (kind in ("text", "flag")), name
     assert "--uniform-width" in probe_help
     assert "--azimuth" not in probe_help  # probe takes the classification options only
 
@@ -69,7 +71,7 @@ def test_the_same_value_fails_the_same_way_everywhere(tmp_path, name, value):
 def test_the_server_takes_the_remote_options_by_their_names():
     s = Server(MODEL, "--tf", TF)
     try:
-        names = [n.replace("_", "-") for n, _, _ in udvr.render_options()]
+        names = [row[0].replace("_", "-") for row in udvr.render_options()]
         special = {"size": {"size": "8x6"}, "uniform-width": {"uniform-width": "std"},
                    "view": {"view": "+x"}, "frame": {"frame": "box"},
                    "background": {"background": "0,0,0"}}
@@ -107,5 +109,40 @@ def test_python_takes_its_defaults_from_the_library():
     assert udvr.render(model, "mean", str(TF)).shape == (512, 512, 4)
     assert model.probe((1, 1, 1), "uniform", str(TF)) == \
         model.probe((1, 1, 1), "uniform", str(TF), uniform_width="variance")
-    helps = {name: text for name, _, text in udvr.render_options()}
+    helps = {row[0]: row[-1] for row in udvr.render_options()}
     assert "(default 512x512)" in helps["size"] and "(default 30;" in helps["azimuth"]
+    defaults = {row[0]: row[2] for row in udvr.render_options()}
+    assert defaults["size"] == "512x512" and defaults["azimuth"] == 30.0
+    assert defaults["realizations"] == 200 and defaults["uniform_width"] == "variance"
+
+
+def test_probe_takes_the_classification_options_from_the_table():
+    """Model.probe's keywords are udvr.probe_options() (the classification table, as `udvr
+    probe`), each checked by the library: a new classification option reaches probe without a
+    change in Python (issue 31)."""
+    rows = udvr.probe_options()
+    assert [row[0] for row in rows] == ["uniform_width"]
+    assert rows[0][2] == "variance" and rows[0][3] is None
+    assert set(row[0] for row in rows) <= set(row[0] for row in udvr.render_options())
+    model = udvr.load(str(MODEL))
+    variance = model.probe((1, 1, 1), "uniform", str(TF))
+    assert model.probe((1, 1, 1), "uniform", str(TF), uniform_width="std") == variance
+    assert model.probe((1, 1, 1), "uniform", str(TF), uniform_width=None) == variance
+    minmax = model.probe((1, 1, 1), "uniform", str(TF), uniform_width="minmax")
+    assert minmax["expected_rgba"] != variance["expected_rgba"]
+    cli = golden.udvr("probe", MODEL, "--point", "1,1,1", "--model", "uniform", "--tf", TF,
+                      "--uniform-width", "minmax", "--json")
+    assert golden.json.loads(cli)["expected_rgba"] == pytest.approx(minmax["expected_rgba"],
+                                                                    abs=1e-12)
+    with pytest.raises(ValueError, match="must be 'variance'"):
+        model.probe((1, 1, 1), "uniform", str(TF), uniform_width="wide")
+    with pytest.raises(TypeError, match=r"probe\(\) got an unexpected keyword argument 'azimuth'"):
+        model.probe((1, 1, 1), "uniform", str(TF), azimuth=3)  # a frame option: render's alone
+
+
+def test_force_is_described_once_for_every_command():
+    helps = [golden.udvr(cmd, "--help") for cmd in ("render", "probe", "serve")]
+    lines = [next(line.strip() for line in h.splitlines() if line.strip().startswith("--force "))
+             for h in helps]
+    assert lines[0] == lines[1] == lines[2], lines
+    assert "1e8 widget evaluations" in lines[0] and "10000" in lines[0]

@@ -23,18 +23,18 @@ import numpy as np
 from . import _arrays, _udvr
 from ._udvr import (Camera, Ensemble, Field, FileError, Grid, Model, RenderSettings,  # noqa: F401
                     TransferFunction, TransferFunction2D, UdvrError, experiment_names, generate,
-                    members_model, model_from_field, model_names, perturb, read_ensemble,
-                    read_field, read_image, read_model, read_png_text, read_transfer_function,
-                    render_options, set_threads, visible_bounds, write_ensemble, write_field,
-                    write_model)
+                    members_model, model_from_field, model_names, perturb, probe_options,
+                    read_ensemble, read_field, read_image, read_model, read_png_text,
+                    read_transfer_function, render_options, set_threads, visible_bounds,
+                    write_ensemble, write_field, write_model)
 from ._udvr import __version__  # the release, as `udvr --version` prints it
 
 __build__ = _udvr.__build__  # CPU target and vector width, as `udvr --version`
 
 __all__ = ["Camera", "Ensemble", "Field", "Grid", "Model", "TransferFunction",
            "TransferFunction2D", "build", "difference_image", "experiment", "generate", "load",
-           "members_model", "model_names", "perturb", "read_png_text", "render", "render_options",
-           "rmse", "__version__"]
+           "members_model", "model_names", "perturb", "probe_options", "read_png_text", "render",
+           "render_options", "rmse", "__version__"]
 
 
 # ---- progress ------------------------------------------------------------------------------
@@ -391,18 +391,10 @@ def _resolve_tf(tf, model, tf_range=None):
 
 # ---- probe -------------------------------------------------------------------------------------
 
-def _uniform_minmax(text):
-    """uniform_width as the library's option table reads it (variance, std or minmax; None: its
-    default)."""
-    if text is not None and not isinstance(text, str):
-        raise TypeError(f"uniform_width must be text, got {type(text).__name__}")
-    return _udvr._uniform_minmax(text)
-
-
-def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
-                uniform_width=None, second=None, tf_range=None):
+def _probe_full(self, point=None, model="mean", tf=None, *, world=None, second=None,
+                tf_range=None, **options):
     _udvr._check_model(model)
-    minmax = _uniform_minmax(uniform_width)
+    given = _option_texts(options, probe_options(), "probe")
     if (point is None) == (world is None):
         raise ValueError("give the point as point=(i, j, k) (index) or world=(x, y, z), one of "
                          "them")
@@ -413,26 +405,29 @@ def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
     tf, _ = _resolve_tf(tf, self, tf_range)
     _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        text, dist = _udvr._probe_bivariate(self, _as_model(second, "second"), model, tf, point,
-                                            minmax)
+        text, dist = _udvr._probe_bivariate(self, _as_model(second, "second", model), model, tf,
+                                            point, given)
     else:
-        text, dist = _udvr._probe(self, model, tf, point, minmax)
+        text, dist = _udvr._probe(self, model, tf, point, given)
     return json.loads(text), dist, tf
 
 
-def _probe(self, point=None, model="mean", tf=None, *, world=None, uniform_width=None,
-           second=None, tf_range=None):
+def _probe(self, point=None, model="mean", tf=None, *, world=None, second=None, tf_range=None,
+           **options):
     """The distribution and expected TF at one point, as the dict `udvr probe --json` prints
     (SPEC §8): model, point (index space), world, grid_dims, expected_rgba ([E[αr], E[αg],
     E[αb], E[α]]), value and the model's parameters (mean/stddev, boundaries, …).
 
     point: index coordinates (i, j, k), or world=(x, y, z); model: a name of udvr.model_names();
     tf: a TransferFunction (or TransferFunction2D), a ParaView JSON path, a preset name, or None
-    (the CLI's default preset over the model's means); second: the model giving a 2D TF's y;
-    uniform_width: as `udvr probe --uniform-width` (None: its default, udvr.render_options()).
+    (the CLI's default preset over the model's means); second: the model giving a 2D TF's y
+    (model 'members': an ensemble, as the first).
+    options: every classification option of `udvr probe` by its name with '_' for '-' —
+    uniform_width, … (udvr.probe_options() lists them with their defaults and help; None: the
+    default); the same code parses and checks them as the CLI's flags.
     """
-    return _probe_full(self, point, model, tf, world=world, uniform_width=uniform_width,
-                       second=second, tf_range=tf_range)[0]
+    return _probe_full(self, point, model, tf, world=world, second=second, tf_range=tf_range,
+                       **options)[0]
 
 
 # ---- render, metrics, experiments ------------------------------------------------------------
@@ -470,24 +465,30 @@ def _option_text(name, value):
                         f"{type(value).__name__}") from None
 
 
-def _render_options(options):
-    """[(option name, text)] for the library's option tables (udvr.render_options()); None
-    leaves an option at its default. skip_empty=False is kept as the old spelling of
-    no_skip=True."""
-    options = dict(options)
-    if "skip_empty" in options:
-        options["no_skip"] = not options.pop("skip_empty")
-    known = {name for name, _, _ in render_options()}
+def _option_texts(options, table, function):
+    """[(option name, text)] for the options of `table` (udvr.render_options() or
+    udvr.probe_options() of `function`); None leaves an option at its default."""
+    known = {row[0] for row in table}
     out = []
     for name, value in options.items():
         if name not in known:
             near = difflib.get_close_matches(name, sorted(known), n=1)
             hint = f" (did you mean '{near[0]}'?)" if near else ""
-            raise TypeError(f"render() got an unexpected keyword argument '{name}'{hint} (the "
-                            f"options are udvr.render_options(): {', '.join(sorted(known))})")
+            raise TypeError(f"{function}() got an unexpected keyword argument '{name}'{hint} "
+                            f"(the options are udvr.{function}_options(): "
+                            f"{', '.join(sorted(known))})")
         if value is not None:
             out.append((name, _option_text(name, value)))
     return out
+
+
+def _render_options(options):
+    """_option_texts of udvr.render's options; skip_empty=False is kept as the old spelling of
+    no_skip=True."""
+    options = dict(options)
+    if "skip_empty" in options:
+        options["no_skip"] = not options.pop("skip_empty")
+    return _option_texts(options, render_options(), "render")
 
 
 def render(model, model_name="mean", tf=None, size=None, camera=None, *, second=None,
@@ -516,7 +517,8 @@ def render(model, model_name="mean", tf=None, size=None, camera=None, *, second=
         s.camera = camera
     _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        return _udvr._render_bivariate(model, _as_model(second, "second"), model_name, tf, s)
+        return _udvr._render_bivariate(model, _as_model(second, "second", model_name), model_name,
+                                       tf, s)
     return _udvr._render(model, model_name, tf, s)
 
 

@@ -24,12 +24,12 @@ void addProbeCommand(CLI::App& app) {
     struct Opts {
         std::vector<std::string> inputs;  // one model or field; an ensemble for --model members
         std::string point, world, kind = "mean", plot, var;
-        RenderOptions options;  // --uniform-width, --second (render/render_options.h)
+        RenderOptions options;  // --uniform-width, --second, --force (render/render_options.h)
         EnsembleFlags ensemble;
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
-        bool json = false, force = false;
+        bool json = false;
     };
     auto o = std::make_shared<Opts>();
     sub->add_option(
@@ -46,8 +46,7 @@ void addProbeCommand(CLI::App& app) {
     addTf2Options(sub, o->tf2);
     addOptionFlags(sub, bivariateOptionSpecs(), o->options);
     sub->add_flag("--json", o->json, "print one JSON object");
-    sub->add_flag("--force", o->force,
-                  "--tf2: rasterise widgets even when that takes over 1e8 widget evaluations");
+    addOptionFlags(sub, forceOptionSpecs(), o->options);
     sub->add_option("--plot", o->plot, "write the PDF at the point over the TF as a PNG");
     addOptionFlags(sub, classificationOptionSpecs(), o->options);
     sub->add_option("--var", o->var, "array/variable name in the input");
@@ -63,8 +62,7 @@ void addProbeCommand(CLI::App& app) {
                       << " inputs (member files are an ensemble: --model members probes them)");
         if (o->point.empty() == o->world.empty())
             UDVR_FAIL("give the point as --point i,j,k (index) or --world x,y,z, one of them");
-        ClassifyOptions options;
-        options.uniformMinMax = uniformWidthIsMinMax(o->options);
+        const ClassifyOptions options = classifyOptionsFrom(o->options);
         if (!o->plot.empty()) {
             const std::string& plot = o->plot;
             const bool png = plot.size() > 4 && (plot.compare(plot.size() - 4, 4, ".png") == 0 ||
@@ -78,14 +76,16 @@ void addProbeCommand(CLI::App& app) {
         }
         requireOneTf(o->tf.tf, o->tf2);
         const bool twoD = !o->tf2.file.empty();
-        if (members && twoD)
-            UDVR_FAIL("--model members classifies with a 1D transfer function (--tf), not --tf2");
+        if (members && twoD && o->options.second.empty())
+            UDVR_FAIL(
+                "--model members classifies with a 1D transfer function (--tf), or a 2D one "
+                "over two ensembles with --second, not --tf2 alone");
         if (twoD && !o->plot.empty())
             UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
         checkBivariateOptions(o->options, twoD);
         checkTfFlags(o->tf, twoD);
         const bool tfFile = !twoD && !tfIsPreset(o->tf);
-        const Tf2ReadOptions tf2Options = toTf2ReadOptions(o->tf2, o->force);
+        const Tf2ReadOptions tf2Options = toTf2ReadOptions(o->tf2, o->options.force);
         TfChoice tfChoice;
         if (tfFile) tfChoice.tf = readTransferFunctionFile(o->tf);  // before the volume: cheap
         const ModelVolume model = members ? readMembersModel(o->inputs, o->var, o->raw, o->ensemble)
@@ -101,8 +101,12 @@ void addProbeCommand(CLI::App& app) {
         const ProbeResult r =
             !o->options.second.empty()
                 ? probeBivariate(model,
-                                 readModelOrField(o->options.second,
-                                                  secondFieldVar(o->options, o->var), o->raw),
+                                 members
+                                     ? readMembersModel({o->options.second},
+                                                        secondFieldVar(o->options, o->var), o->raw,
+                                                        o->ensemble)
+                                     : readModelOrField(o->options.second,
+                                                        secondFieldVar(o->options, o->var), o->raw),
                                  kind, readTransferFunction2D(o->tf2.file, tf2Options), p, options)
             : twoD ? probeModel(model, kind, readTransferFunction2D(o->tf2.file, tf2Options), p,
                                 options)

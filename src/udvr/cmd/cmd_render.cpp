@@ -127,8 +127,11 @@ void run(const RenderOpts& o) {
                   << o.inputs.size()
                   << " inputs (member files are an ensemble: --model members renders its members' "
                      "average classification, `udvr build` models it)");
-    if (members && twoD)
-        UDVR_FAIL("--model members classifies with a 1D transfer function (--tf), not --tf2");
+    // members has a bivariate kernel (both fields' members, SPEC 9) but no value x gradient one.
+    if (members && twoD && o.render.second.empty())
+        UDVR_FAIL(
+            "--model members classifies with a 1D transfer function (--tf), or a 2D one "
+            "over two ensembles with --second, not --tf2 alone");
     const std::string& input = o.inputs.front();
     checkTfFlags(o.tf, twoD);
     checkRenderOptions(o.render);  // cheap flags are checked before the volume is read
@@ -146,8 +149,10 @@ void run(const RenderOpts& o) {
     const TransferFunction1D& tf = tfChoice.tf;
     const bool bivariate = !o.render.second.empty();
     const ModelVolume second =
-        bivariate ? readModelOrField(o.render.second, secondFieldVar(o.render, o.var), o.raw)
-                  : ModelVolume{};
+        !bivariate ? ModelVolume{}
+        : members  ? readMembersModel({o.render.second}, secondFieldVar(o.render, o.var), o.raw,
+                                      o.ensemble)
+                   : readModelOrField(o.render.second, secondFieldVar(o.render, o.var), o.raw);
 
     bool anyVisible = true;
     std::array<double, 6> framedBox{};  // what the framed camera fits (when it is used)
@@ -260,6 +265,7 @@ void addRenderCommand(CLI::App& app) {
     sub->add_option("--float", o->floatOut, "also write float32 RGBA (.npy or .pfm)");
     addOptionFlags(sub, classificationOptionSpecs(), o->render);
     addOptionFlags(sub, frameOptionSpecs(), o->render);
+    addOptionFlags(sub, forceOptionSpecs(), o->render);
     sub->add_option("--frames", o->frames,
                     "time N frames after one warm-up; print median/min ms and frames/s");
     addRawLayoutOptions(sub, o->raw);

@@ -23,12 +23,11 @@ void addServeCommand(CLI::App& app) {
         "explore a model in the browser: orbit, edit the TF, switch models, probe (docs/serve.md)");
     struct Opts {
         std::string model, truth, var;
-        RenderOptions options;  // --second, --second-var (render/render_options.h)
+        RenderOptions options;  // --second, --second-var, --force (render/render_options.h)
         serve::HttpOptions http;
         TfFlags tf;
         Tf2Flags tf2;
         RawLayoutFlags raw;
-        bool force = false;
     };
     auto o = std::make_shared<Opts>();
     sub->add_option(
@@ -37,9 +36,7 @@ void addServeCommand(CLI::App& app) {
         ->required();
     addTfOptions(sub, o->tf);
     addTf2Options(sub, o->tf2);
-    sub->add_flag("--force", o->force,
-                  "--tf2: rasterise a widget file even when that takes over 1e8 widget "
-                  "evaluations");
+    addOptionFlags(sub, forceOptionSpecs(), o->options);
     sub->add_option("--truth", o->truth,
                     "ground-truth field: shown beside the model with the difference image and "
                     "the RMSE (SPEC 6)");
@@ -84,7 +81,8 @@ void addServeCommand(CLI::App& app) {
         TfChoice tfChoice;  // a TF file is read before the volume, so a bad one costs nothing
         if (!twoD && !tfIsPreset(o->tf)) tfChoice.tf = readTransferFunctionFile(o->tf);
         if (twoD)
-            data.tf2 = readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2, o->force));
+            data.tf2 =
+                readTransferFunction2D(o->tf2.file, toTf2ReadOptions(o->tf2, o->options.force));
         if (twoD && lowerExtension(o->tf2.file) == ".json") {  // the page edits the widgets
             std::ifstream in(o->tf2.file, std::ios::binary);
             data.tf2Widgets.assign(std::istreambuf_iterator<char>(in), {});

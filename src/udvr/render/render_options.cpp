@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <type_traits>
 
+#include "udvr/classify/model_kernels.h"
 #include "udvr/render/framing.h"
 #include "udvr/util/check.h"
 #include "udvr/util/text_parse.h"
@@ -17,111 +19,87 @@ using O = RenderOptions;
 constexpr double kHuge = 1e12;  // world units: far beyond any volume's extent
 constexpr double kMaxWhole = static_cast<double>(std::numeric_limits<std::uint64_t>::max());
 
-const OptionSpec kClassificationOptions[] = {
-    {.name = "uniform-width",
-     .field = &O::uniformWidth,
+// One row per option: name, field and default; the range of a number; the help, where "{}"
+// stands for the default (optionHelp).
+// clang-format off
+constexpr OptionSpec kClassificationOptions[] = {
+    {.name = "uniform-width", .field = &O::uniformWidth, .defaultValue = "variance",
      .help = "model uniform: variance (mu -/+ sqrt(3) sigma; alias std) or minmax (default {})"},
 };
 
-const OptionSpec kFrameOptions[] = {
-    {.name = "size", .field = &O::size, .help = "image size WxH (default {})"},
-    {.name = "position", .field = &O::position, .help = "camera position x,y,z (world units)"},
-    {.name = "focal-point", .field = &O::focal, .help = "focal point x,y,z (default: box centre)"},
-    {.name = "view-up", .field = &O::up, .help = "view-up x,y,z (default 0,1,0)"},
-    {.name = "view-angle",
-     .field = &O::viewAngle,
-     .lo = 0.0,
-     .hi = 179.9,
-     .loOpen = true,
-     .help = "vertical view angle, degrees (default {})"},
-    {.name = "parallel-scale",
-     .field = &O::parallelScale,
-     .lo = 0.0,
-     .hi = kHuge,
-     .loOpen = true,
-     .help = "orthographic: half the view height, world units",
-     .given = &O::parallelGiven},
-    {.name = "azimuth",
-     .field = &O::azimuth,
-     .lo = -3600.0,
-     .hi = 3600.0,
+constexpr OptionSpec kFrameOptions[] = {
+    {.name = "size", .field = &O::size, .defaultValue = "512x512",
+     .help = "image size WxH (default {})"},
+    {.name = "position", .field = &O::position, .defaultValue = "",
+     .help = "camera position x,y,z (world units)"},
+    {.name = "focal-point", .field = &O::focal, .defaultValue = "",
+     .help = "focal point x,y,z (default: box centre)"},
+    {.name = "view-up", .field = &O::up, .defaultValue = "",
+     .help = "view-up x,y,z (default 0,1,0)"},
+    {.name = "view-angle", .field = &O::viewAngle, .defaultValue = kDefaultViewAngleDeg,
+     .lo = 0.0, .hi = 179.9, .loOpen = true, .help = "vertical view angle, degrees (default {})"},
+    {.name = "parallel-scale", .field = &O::parallelScale, .defaultValue = 0.0,
+     .lo = 0.0, .hi = kHuge, .loOpen = true,
+     .help = "orthographic: half the view height, world units", .given = &O::parallelGiven},
+    {.name = "azimuth", .field = &O::azimuth, .defaultValue = kDefaultAzimuthDeg,
+     .lo = -3600.0, .hi = 3600.0,
      .help = "default camera: degrees about the view-up (default {}; 0 with --view)",
      .given = &O::azimuthGiven},
-    {.name = "elevation",
-     .field = &O::elevation,
-     .lo = -90.0,
-     .hi = 90.0,
-     .help = "default camera: degrees up (default {}; 0 with --view)",
+    {.name = "elevation", .field = &O::elevation, .defaultValue = kDefaultElevationDeg,
+     .lo = -90.0, .hi = 90.0, .help = "default camera: degrees up (default {}; 0 with --view)",
      .given = &O::elevationGiven},
-    {.name = "zoom",
-     .field = &O::zoom,
-     .lo = 0.0,
-     .hi = 1000.0,
-     .loOpen = true,
+    {.name = "zoom", .field = &O::zoom, .defaultValue = kDefaultZoom,
+     .lo = 0.0, .hi = 1000.0, .loOpen = true,
      .help = "default camera: distance / zoom (default {})"},
-    {.name = "view",
-     .field = &O::view,
+    {.name = "view", .field = &O::view, .defaultValue = "",
      .help = "+x|-x|+y|-y|+z|-z: look along an axis (up +z; +y for +-z), framing what the TF "
              "shows"},
-    {.name = "frame",
-     .field = &O::frame,
+    {.name = "frame", .field = &O::frame, .defaultValue = "",
      .help = "visible | box: frame the voxels the TF shows, or the whole box, z up, from the "
              "front (default: SPEC 5's camera, which fits the box's bounding sphere, whatever "
              "the TF)"},
-    {.name = "force",
-     .field = &O::force,
-     .remote = false,
-     .help = "render even when --step gives over 1e9 samples, --size over 8192^2 rays, "
-             "--realizations over 10000 or a --tf2 widget file over 1e8 widget evaluations"},
-    {.name = "step",
-     .field = &O::step,
-     .lo = 0.0,
-     .hi = kHuge,
+    {.name = "step", .field = &O::step, .defaultValue = 0.0, .lo = 0.0, .hi = kHuge,
      .help = "ray step, world units (default {}: half the smallest full-resolution spacing)"},
-    {.name = "unit-distance",
-     .field = &O::unit,
-     .lo = 0.0,
-     .hi = kHuge,
+    {.name = "unit-distance", .field = &O::unit, .defaultValue = 0.0, .lo = 0.0, .hi = kHuge,
      .help = "TF opacity unit distance, world units (default {}: smallest full-res spacing)"},
-    {.name = "early-exit",
-     .field = &O::earlyExit,
-     .lo = 0.0,
-     .hi = 1.0,
-     .loOpen = true,
+    {.name = "early-exit", .field = &O::earlyExit, .defaultValue = 0.99,
+     .lo = 0.0, .hi = 1.0, .loOpen = true,
      .help = "stop a ray when accumulated alpha exceeds this (default {}; 1 disables)"},
-    {.name = "background",
-     .field = &O::background,
+    {.name = "background", .field = &O::background, .defaultValue = "",
      .help = "background r,g,b in [0,1] (default 1,1,1)"},
-    {.name = "no-skip", .field = &O::noSkip, .help = "disable empty-space skipping"},
-    {.name = "realizations",
-     .field = &O::realizations,
-     .lo = 1.0,
-     .hi = 2147483647.0,
+    {.name = "no-skip", .field = &O::noSkip, .defaultValue = false,
+     .help = "disable empty-space skipping"},
+    {.name = "realizations", .field = &O::realizations, .defaultValue = std::uint64_t{200},
+     .lo = 1.0, .hi = 2147483647.0,
      .help = "gmm-mc: realizations (default {}; over 10000 needs --force)"},
-    {.name = "seed",
-     .field = &O::seed,
-     .lo = 0.0,
-     .hi = kMaxWhole,
-     .help = "gmm-mc: random seed (default {})"},
-    {.name = "jitter",
-     .field = &O::jitter,
-     .lo = 0.0,
-     .hi = kMaxWhole,
-     .help = "jitter ray starts with this seed",
+    {.name = "seed", .field = &O::seed, .defaultValue = std::uint64_t{1},
+     .lo = 0.0, .hi = kMaxWhole, .help = "gmm-mc: random seed (default {})"},
+    {.name = "jitter", .field = &O::jitter, .defaultValue = std::uint64_t{0},
+     .lo = 0.0, .hi = kMaxWhole, .help = "jitter ray starts with this seed",
      .given = &O::jitterGiven},
 };
 
-const OptionSpec kBivariateOptions[] = {
-    {.name = "second",
-     .field = &O::second,
-     .remote = false,
+constexpr OptionSpec kForceOptions[] = {
+    {.name = "force", .field = &O::force, .defaultValue = false, .remote = false,
+     .help = "go past a size cap: --step over 1e9 samples, --size over 8192^2 rays, "
+             "--realizations over 10000 (render), a --tf2 widget file over 1e8 widget "
+             "evaluations (render, probe, serve)"},
+};
+
+constexpr OptionSpec kBivariateOptions[] = {
+    {.name = "second", .field = &O::second, .defaultValue = "", .remote = false,
      .help = "bivariate fields: the model or field giving the TF2's y (same grid; x comes from "
              "the input; needs --tf2; SPEC 9)"},
-    {.name = "second-var",
-     .field = &O::secondVar,
-     .remote = false,
+    {.name = "second-var", .field = &O::secondVar, .defaultValue = "", .remote = false,
      .help = "array/variable name in --second (default: --var)"},
 };
+// clang-format on
+
+// A whole-number option's largest value (kMaxWhole: the type's).
+std::uint64_t wholeHi(const OptionSpec& spec) {
+    return spec.hi >= kMaxWhole ? std::numeric_limits<std::uint64_t>::max()
+                                : static_cast<std::uint64_t>(spec.hi);
+}
 
 bool sameName(std::string_view a, std::string_view b) {
     if (a.size() != b.size()) return false;
@@ -184,26 +162,52 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
     return c;
 }
 
+// Every row's default has its field's type, and a text default is given (even if empty).
+consteval bool defaultsMatchFields(std::span<const OptionSpec> table) {
+    for (const OptionSpec& s : table) {
+        if (s.field.index() != s.defaultValue.index()) return false;
+        if (const auto* text = std::get_if<const char*>(&s.defaultValue); text && !*text)
+            return false;
+    }
+    return true;
+}
+static_assert(defaultsMatchFields(kClassificationOptions) && defaultsMatchFields(kFrameOptions) &&
+              defaultsMatchFields(kBivariateOptions) && defaultsMatchFields(kForceOptions));
+
 }  // namespace
 
 std::span<const OptionSpec> classificationOptionSpecs() { return kClassificationOptions; }
 std::span<const OptionSpec> frameOptionSpecs() { return kFrameOptions; }
 std::span<const OptionSpec> bivariateOptionSpecs() { return kBivariateOptions; }
+std::span<const OptionSpec> forceOptionSpecs() { return kForceOptions; }
+
+RenderOptions::RenderOptions() {
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs(),
+                       forceOptionSpecs()})
+        for (const OptionSpec& spec : table)
+            std::visit(
+                [&](auto field) {
+                    using T = std::remove_reference_t<decltype(this->*field)>;
+                    if constexpr (std::is_same_v<T, std::string>)
+                        this->*field = std::get<const char*>(spec.defaultValue);
+                    else
+                        this->*field = std::get<T>(spec.defaultValue);
+                },
+                spec.field);
+}
 
 const OptionSpec* findOptionSpec(std::string_view name) {
-    for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), forceOptionSpecs()})
         for (const OptionSpec& s : table)
             if (sameName(s.name, name)) return &s;
     return nullptr;
 }
 
 std::string optionDefaultText(const OptionSpec& spec) {
-    static const RenderOptions defaults;
     return std::visit(
-        [](auto field) -> std::string {
-            const auto& v = defaults.*field;
-            using T = std::remove_cvref_t<decltype(v)>;
-            if constexpr (std::is_same_v<T, std::string>) {
+        [](auto v) -> std::string {
+            using T = decltype(v);
+            if constexpr (std::is_same_v<T, const char*>) {
                 return v;
             } else if constexpr (std::is_same_v<T, bool>) {
                 return v ? "1" : "0";
@@ -215,7 +219,7 @@ std::string optionDefaultText(const OptionSpec& spec) {
                 return std::to_string(v);
             }
         },
-        spec.field);
+        spec.defaultValue);
 }
 
 std::string optionHelp(const OptionSpec& spec) {
@@ -223,6 +227,15 @@ std::string optionHelp(const OptionSpec& spec) {
     if (const auto at = help.find("{}"); at != std::string::npos)
         help.replace(at, 2, optionDefaultText(spec));
     return help;
+}
+
+std::string optionRangeText(const OptionSpec& spec) {
+    std::ostringstream text;
+    if (std::holds_alternative<double RenderOptions::*>(spec.field))
+        text << (spec.loOpen ? "(" : "[") << spec.lo << ", " << spec.hi << "]";
+    else if (std::holds_alternative<std::uint64_t RenderOptions::*>(spec.field))
+        text << "[" << static_cast<std::uint64_t>(spec.lo) << ", " << wholeHi(spec) << "]";
+    return text.str();
 }
 
 void setOption(RenderOptions& o, const OptionSpec& spec, const std::string& text,
@@ -237,18 +250,22 @@ void setOption(RenderOptions& o, const OptionSpec& spec, const std::string& text
             } else if constexpr (std::is_same_v<T, double>) {
                 const double v = parseReal(text, label);
                 if (v < spec.lo || v > spec.hi || (spec.loOpen && v == spec.lo))
-                    UDVR_FAIL(label << " must lie in " << (spec.loOpen ? "(" : "[") << spec.lo
-                                    << ", " << spec.hi << "], got " << v);
+                    UDVR_FAIL(label << " must lie in " << optionRangeText(spec) << ", got " << v);
                 o.*field = v;
             } else {
                 static_assert(std::is_same_v<T, std::uint64_t>);
-                const auto hi = spec.hi >= kMaxWhole ? std::numeric_limits<std::uint64_t>::max()
-                                                     : static_cast<std::uint64_t>(spec.hi);
-                o.*field = parseWhole(text, label, static_cast<std::uint64_t>(spec.lo), hi);
+                o.*field =
+                    parseWhole(text, label, static_cast<std::uint64_t>(spec.lo), wholeHi(spec));
             }
         },
         spec.field);
     if (spec.given) o.*spec.given = true;
+}
+
+ClassifyOptions classifyOptionsFrom(const RenderOptions& o) {
+    ClassifyOptions c;
+    c.uniformMinMax = uniformWidthIsMinMax(o);
+    return c;
 }
 
 bool uniformWidthIsMinMax(const RenderOptions& o) {

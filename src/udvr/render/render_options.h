@@ -17,36 +17,42 @@
 
 namespace udvr {
 
-/// The options as typed: text as given, numbers range-checked (setOption). Their defaults are
-/// the SPEC's; a text left empty means "the default the SPEC describes" (camera, background).
+struct ClassifyOptions;  // classify/model_kernels.h
+
+/// The options as typed: text as given, numbers range-checked (setOption). Each field starts at
+/// its row's default (OptionSpec::defaultValue; the constructor sets them from the tables), the
+/// one place a default is written; a text left empty means "the default the SPEC describes"
+/// (camera, background).
 struct RenderOptions {
+    RenderOptions();  // every field at its row's default
     // classification (render and probe)
-    std::string uniformWidth = "variance";  // "variance" (alias "std") or "minmax"
+    std::string uniformWidth;  // "variance" (alias "std") or "minmax"
     // bivariate (render, probe, serve; SPEC §9): the file giving a 2D TF's y, and its array
     std::string second, secondVar;
     // frame (render)
-    std::string size = "512x512";
+    std::string size;
     std::string view, frame;  // framed default camera (render/framing.h)
     std::string position, focal, up, background;
-    double viewAngle = kDefaultViewAngleDeg, parallelScale = 0.0;
-    double azimuth = kDefaultAzimuthDeg, elevation = kDefaultElevationDeg, zoom = kDefaultZoom;
-    double step = 0.0, unit = 0.0, earlyExit = 0.99;  // world units; 0 = the defaults of SPEC §5
-    bool noSkip = false, force = false;
-    std::uint64_t realizations = 200, seed = 1, jitter = 0;
+    double viewAngle{}, parallelScale{}, azimuth{}, elevation{}, zoom{};  // degrees; world units
+    double step{}, unit{}, earlyExit{};  // world units; 0 = the defaults of SPEC §5
+    bool noSkip{}, force{};
+    std::uint64_t realizations{}, seed{}, jitter{};
     // Whether the option was given (where its default differs from "absent").
     bool jitterGiven = false, parallelGiven = false, azimuthGiven = false, elevationGiven = false;
 };
 
 /// One option: its name (the CLI's flag without dashes and `udvr serve`'s query key; Python's
 /// keyword with '_' for '-'), the field it sets — whose type is the option's (text, real, whole
-/// number, or a flag) and whose value in a default-constructed RenderOptions is its default —
-/// the range a number must lie in, and one line of help, where "{}" stands for the default
-/// (optionHelp).
+/// number, or a flag) — its default (of the field's type: text, real, whole or flag, checked at
+/// compile time), the range a number must lie in, and one line of help, where "{}" stands for
+/// the default (optionHelp).
 struct OptionSpec {
     using Field = std::variant<std::string RenderOptions::*, double RenderOptions::*,
                                std::uint64_t RenderOptions::*, bool RenderOptions::*>;
+    using Value = std::variant<const char*, double, std::uint64_t, bool>;  // Field's order
     const char* name;
     Field field;
+    Value defaultValue;
     double lo = 0.0, hi = 0.0;  // real or whole: the accepted range [lo, hi]
     bool loOpen = false;        // real: lo itself is refused (the range is (lo, hi])
     bool remote = true;         // `udvr serve` takes it as a query key (--force is the CLI's alone)
@@ -57,17 +63,24 @@ struct OptionSpec {
 /// The classification options (render and probe): --uniform-width.
 std::span<const OptionSpec> classificationOptionSpecs();
 /// The frame options (render): size, camera, step, unit distance, early exit, background,
-/// skipping, gmm-mc realizations and seed, jitter, --force.
+/// skipping, gmm-mc realizations and seed, jitter.
 std::span<const OptionSpec> frameOptionSpecs();
 /// The bivariate options (render, probe, serve; not query keys): --second and --second-var.
 std::span<const OptionSpec> bivariateOptionSpecs();
-/// The option named `name` in the classification or frame table ('_' matches '-'), or null.
+/// --force (render, probe, serve; not a query key): go past the size caps below and the 2D TF's
+/// widget-evaluation cap (Tf2ReadOptions::force).
+std::span<const OptionSpec> forceOptionSpecs();
+/// The option named `name` in the classification, frame or force table ('_' matches '-'), or
+/// null.
 const OptionSpec* findOptionSpec(std::string_view name);
 
-/// `spec`'s default (its field in RenderOptions{}) as the CLI would take it: "512x512", "30".
+/// `spec`'s default as the CLI would take it: "512x512", "30".
 std::string optionDefaultText(const OptionSpec& spec);
 /// `spec`'s help with "{}" replaced by optionDefaultText: what `--help` and Python print.
 std::string optionHelp(const OptionSpec& spec);
+/// The range a number option accepts as setOption's error states it: "(0, 1000]", "[1,
+/// 2147483647]"; empty for text and flags.
+std::string optionRangeText(const OptionSpec& spec);
 
 /// Set `spec`'s field from `text` as typed: numbers must be finite, whole where the field is,
 /// and in the spec's range; flags take 1/0/true/false. `label` names the option in the error
@@ -95,6 +108,9 @@ void requireTf2ForSecond(bool secondGiven, bool tf2Given, std::string_view secon
 void checkBivariateOptions(const RenderOptions& options, bool tf2Given);
 /// The array to read from --second: --second-var, else `var` (the input's --var).
 const std::string& secondFieldVar(const RenderOptions& options, const std::string& var);
+
+/// The classification settings of `options` (--uniform-width), as render and probe take them.
+ClassifyOptions classifyOptionsFrom(const RenderOptions& options);
 
 /// The checks that need no data (size, --parallel-scale, --view, --frame, realizations);
 /// returns the size.

@@ -4,7 +4,9 @@
 
 #include <set>
 #include <string>
+#include <variant>
 
+#include "udvr/classify/transfer_function_2d_widget_json.h"
 #include "udvr/util/check.h"
 
 namespace udvr {
@@ -23,7 +25,7 @@ std::string errorOf(const char* name, const std::string& value) {
 
 TEST(RenderOptions, NamesAreUniqueAndFoundWithEitherSpelling) {
     std::set<std::string> names;
-    for (auto table : {classificationOptionSpecs(), frameOptionSpecs()})
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), forceOptionSpecs()})
         for (const OptionSpec& s : table) {
             EXPECT_TRUE(names.insert(s.name).second) << s.name;
             EXPECT_GT(std::string(s.help).size(), 10u) << s.name;
@@ -37,7 +39,7 @@ TEST(RenderOptions, NamesAreUniqueAndFoundWithEitherSpelling) {
     EXPECT_FALSE(findOptionSpec("force")->remote);  // --force is the CLI's alone
 }
 
-// A default is written once, as RenderOptions' initializer: the help reads it from there.
+// A default is written once, as its row's defaultValue: the help and RenderOptions{} read it.
 TEST(RenderOptions, HelpShowsTheDefaultsOfRenderOptions) {
     EXPECT_EQ(optionHelp(*findOptionSpec("size")), "image size WxH (default 512x512)");
     EXPECT_EQ(optionHelp(*findOptionSpec("azimuth")),
@@ -46,12 +48,42 @@ TEST(RenderOptions, HelpShowsTheDefaultsOfRenderOptions) {
     EXPECT_EQ(optionDefaultText(*findOptionSpec("early-exit")), "0.99");
     EXPECT_EQ(optionDefaultText(*findOptionSpec("realizations")), "200");
     EXPECT_EQ(optionDefaultText(*findOptionSpec("uniform-width")), "variance");
-    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs()})
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs(),
+                       forceOptionSpecs()})
         for (const OptionSpec& s : table)
             EXPECT_EQ(optionHelp(s).find("{}"), std::string::npos) << s.name;
     const RenderOptions o;
     EXPECT_EQ(o.azimuth, kDefaultAzimuthDeg);
     EXPECT_EQ(o.viewAngle, Camera{}.viewAngleDeg);
+}
+
+// RenderOptions{} holds every row's default, and setting an option to its default text changes
+// nothing: the text the help shows is the value.
+TEST(RenderOptions, EveryFieldStartsAtItsRowsDefault) {
+    const RenderOptions defaults;
+    EXPECT_EQ(defaults.size, "512x512");
+    EXPECT_EQ(defaults.uniformWidth, "variance");
+    EXPECT_EQ(defaults.realizations, 200u);
+    EXPECT_EQ(defaults.earlyExit, 0.99);
+    EXPECT_FALSE(defaults.force);
+    EXPECT_TRUE(defaults.second.empty() && defaults.position.empty());
+    for (auto table : {classificationOptionSpecs(), frameOptionSpecs(), bivariateOptionSpecs(),
+                       forceOptionSpecs()})
+        for (const OptionSpec& s : table) {
+            if (s.given && s.loOpen) continue;  // parallel-scale: its default 0 means "absent"
+            RenderOptions o;
+            setOption(o, s, optionDefaultText(s), s.name);
+            std::visit([&](auto field) { EXPECT_EQ(o.*field, defaults.*field) << s.name; },
+                       s.field);
+        }
+}
+
+TEST(RenderOptions, RangesAreStatedAsTheErrorsStateThem) {
+    EXPECT_EQ(optionRangeText(*findOptionSpec("zoom")), "(0, 1000]");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("elevation")), "[-90, 90]");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("realizations")), "[1, 2147483647]");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("size")), "");
+    EXPECT_EQ(optionRangeText(*findOptionSpec("no-skip")), "");
 }
 
 TEST(RenderOptions, NumbersAreCheckedAgainstTheirRange) {
@@ -99,6 +131,23 @@ TEST(RenderOptions, GivenFlagsAndSettings) {
     EXPECT_TRUE(note.empty());  // SPEC §5's default camera: a TF was given, no --view/--frame
     const Camera want = defaultCamera(m.bounds, 45.0, 20.0, 1.0, 30.0);
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(s.camera.position[a], want.position[a], 1e-12);
+}
+
+// --force's one help names the caps as the constants set them (the text is written by hand).
+TEST(RenderOptions, ForceHelpStatesTheCaps) {
+    ASSERT_EQ(forceOptionSpecs().size(), 1u);
+    const std::string help = optionHelp(forceOptionSpecs()[0]);
+    EXPECT_NE(help.find("--step over 1e9 samples"), std::string::npos) << help;
+    EXPECT_EQ(kMaxSamplesWithoutForce, 1e9);
+    EXPECT_NE(help.find("--size over 8192^2 rays"), std::string::npos) << help;
+    EXPECT_EQ(kMaxPixelsWithoutForce, 8192.0 * 8192.0);
+    const std::string realizations = std::to_string(kMaxRealizationsWithoutForce);
+    EXPECT_NE(help.find("--realizations over " + realizations), std::string::npos) << help;
+    EXPECT_NE(optionHelp(*findOptionSpec("realizations")).find("over " + realizations),
+              std::string::npos);
+    EXPECT_NE(help.find("over 1e8 widget evaluations"), std::string::npos) << help;
+    EXPECT_EQ(kMaxTf2WidgetWorkWithoutForce, 1e8);
+    EXPECT_EQ(findOptionSpec("force"), &forceOptionSpecs()[0]);
 }
 
 TEST(RenderOptions, CapsAskForForce) {
