@@ -25,8 +25,8 @@ frameOf() {  # side build label input args...
     shift 4
     local ms
     ms=$(UDVR_NO_PROGRESS=1 "$dir/udvr" render "$input" "$@" --threads 1 -o "$W/o.png" 2>&1 |
-         grep -oE "median_ms=[0-9.]+" | head -1)
-    echo "$side,$label,$(load),${ms#median_ms=}"
+         grep -oE "median_ms=[0-9.]+" | head -1) || true  # a build that refuses the frame: "-"
+    echo "$side,$label,$(load),${ms:+${ms#median_ms=}}${ms:--}"
 }
 frame() {  # side build label args...  (the model built from the 64³ tangle's ensemble)
     local side=$1 dir=$2 label=$3
