@@ -26,7 +26,8 @@ frameOf() {  # side build label input args...
     local ms
     ms=$(UDVR_NO_PROGRESS=1 "$dir/udvr" render "$input" "$@" --threads 1 -o "$W/o.png" 2>&1 |
          grep -oE "median_ms=[0-9.]+" | head -1) || true  # a build that refuses the frame: "-"
-    echo "$side,$label,$(load),${ms:+${ms#median_ms=}}${ms:--}"
+    ms=${ms#median_ms=}
+    echo "$side,$label,$(load),${ms:--}"
 }
 frame() {  # side build label args...  (the model built from the 64³ tangle's ensemble)
     local side=$1 dir=$2 label=$3
