@@ -23,7 +23,7 @@ import numpy as np
 from . import _arrays, _udvr
 from ._udvr import (Camera, Ensemble, Field, FileError, Grid, Model, RenderSettings,  # noqa: F401
                     TransferFunction, TransferFunction2D, UdvrError, experiment_names, generate,
-                    members_model, model_from_field, model_names, perturb, read_ensemble,
+                    members_model, model_from_field, model_names, models, perturb, read_ensemble,
                     read_field, read_image, read_model, read_png_text, read_transfer_function,
                     render_options, set_threads, visible_bounds, write_ensemble, write_field,
                     write_model)
@@ -33,8 +33,8 @@ __build__ = _udvr.__build__  # CPU target and vector width, as `udvr --version`
 
 __all__ = ["Camera", "Ensemble", "Field", "Grid", "Model", "TransferFunction",
            "TransferFunction2D", "build", "difference_image", "experiment", "generate", "load",
-           "members_model", "model_names", "perturb", "read_png_text", "render", "render_options",
-           "rmse", "__version__"]
+           "members_model", "model_names", "models", "perturb", "read_png_text", "render",
+           "render_options", "rmse", "__version__"]
 
 
 # ---- progress ------------------------------------------------------------------------------
@@ -241,10 +241,22 @@ def _as_members(x, name="model"):
                     f"array or DataArray, or its path; {name} is a {type(x).__name__}")
 
 
+# The model table's rows by name (udvr.models(): src/udvr/classify/model_rows.h).
+_MODEL_ROWS = {row["name"]: row for row in _udvr.models()}
+
+
+def _reads_members(model_name):
+    """Whether the model's row reads an ensemble's members themselves (its arrays name
+    'members'), not a model file's arrays."""
+    row = _MODEL_ROWS.get(model_name)
+    return row is not None and "members" in row["arrays"]
+
+
 def _as_model(x, name="model", model_name="mean"):
     """A Model; a Field, a (z, y, x) array or a 3-dim DataArray as a mean-only model (ground
-    truth); a path as load(); for model_name 'members' an ensemble (_as_members)."""
-    if model_name == "members":
+    truth); a path as load(); for a model that reads the members (its row's arrays: 'members')
+    an ensemble (_as_members)."""
+    if _reads_members(model_name):
         return _as_members(x, name)
     if isinstance(x, Model):
         return x
@@ -413,8 +425,8 @@ def _probe_full(self, point=None, model="mean", tf=None, *, world=None,
     tf, _ = _resolve_tf(tf, self, tf_range)
     _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        text, dist = _udvr._probe_bivariate(self, _as_model(second, "second"), model, tf, point,
-                                            minmax)
+        text, dist = _udvr._probe_bivariate(self, _as_model(second, "second", model), model, tf,
+                                            point, minmax)
     else:
         text, dist = _udvr._probe(self, model, tf, point, minmax)
     return json.loads(text), dist, tf
@@ -516,7 +528,8 @@ def render(model, model_name="mean", tf=None, size=None, camera=None, *, second=
         s.camera = camera
     _udvr._require_tf2_for_second(second is not None, isinstance(tf, TransferFunction2D))
     if second is not None:
-        return _udvr._render_bivariate(model, _as_model(second, "second"), model_name, tf, s)
+        return _udvr._render_bivariate(model, _as_model(second, "second", model_name),
+                                       model_name, tf, s)
     return _udvr._render(model, model_name, tf, s)
 
 
