@@ -16,6 +16,7 @@
 #include <utility>
 #include <variant>
 
+#include "udvr/classify/model_families.h"
 #include "udvr/classify/model_kind.h"
 #include "udvr/classify/probe.h"
 #include "udvr/classify/tf_presets.h"
@@ -837,6 +838,34 @@ PYBIND11_MODULE(_udvr, m) {
         for (ModelKind k : allModelKinds()) names.emplace_back(modelName(k));
         return names;
     });
+    m.def(
+        "models",
+        [] {
+            py::list rows;
+            for (const ModelFamily& f : modelFamilies()) {
+                py::list tfKinds;
+                if (f.makeKernel || f.realizations) tfKinds.append("1d");
+                if (f.makeKernel2D) tfKinds.append("2d");
+                if (f.makeBivariate) tfKinds.append("bivariate");
+                py::dict row;
+                row["name"] = std::string(f.name);
+                row["help"] = std::string(f.help);
+                row["arrays"] = modelArrayNames(f.arrays);
+                row["minmax_arrays"] = modelArrayNames(f.arraysFor(true));
+                row["tf_kinds"] = tfKinds;
+                row["probe"] = f.makeKernel != nullptr;
+                row["realizations"] = f.realizations;
+                row["exact_form"] = f.exactForm;
+                rows.append(std::move(row));
+            }
+            return rows;
+        },
+        "the model table (src/udvr/classify/model_rows.h), one dict per row in table order: "
+        "name, help, arrays (what the classification reads: SPEC §7's arrays, 'members' for "
+        "an ensemble's members), minmax_arrays (with uniform_width='minmax'), tf_kinds ('1d', "
+        "'2d', 'bivariate': the TF kinds it renders with), probe (a distribution at a point), "
+        "realizations (rendered as an average of realizations, gmm-mc), exact_form (the "
+        "reference evaluation of a fast model)");
     py::class_<Camera>(m, "Camera")
         .def(py::init([](std::array<double, 3> position, std::array<double, 3> focalPoint,
                          std::array<double, 3> viewUp, double viewAngle,

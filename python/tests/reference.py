@@ -26,6 +26,23 @@ from scipy.special import ndtr
 SQRT3 = math.sqrt(3.0)
 ZERO_WIDTH = 1e-12  # × data range: quantile-mean zero-width rule (SPEC §4)
 
+# Every model of the model table (udvr.models(), src/udvr/classify/model_rows.h) that renders with
+# a 1D TF, by its CLI name → the distribution of SPEC §3–§4 this module evaluates for it (RefModel
+# .classify; "members": RefMembers). A fast form, its alias and its exact form share one
+# distribution; the tests hold each to its own tolerance. test_reference_coverage.py fails for a
+# row of the table that is neither here nor in NO_REFERENCE: adding a model adds its reference.
+MODELS = {
+    "mean": "mean", "uniform": "uniform", "uniform-fast": "uniform", "uniform-exact": "uniform",
+    "gaussian": "gaussian", "gaussian-exact": "gaussian", "gmm-ordered": "gmm-ordered",
+    "quantile-range": "quantile-range", "quantile-mean": "quantile-mean",
+    "quantile-mean-mass": "quantile-mean-mass", "iqr": "iqr", "quartile-lower": "quartile-lower",
+    "quartile-middle": "quartile-middle", "quartile-upper": "quartile-upper",
+    "members": "members", "gmm-mc": "gmm-mc",
+}
+# Rows of the table with a 1D TF and no reference here, each with why and what checks it instead
+# (none today). gmm-mc is rendered, not classified per sample: render_realizations.
+NO_REFERENCE = {}
+
 # ----------------------------------------------------------------------------------------------
 # Transfer functions
 # ----------------------------------------------------------------------------------------------
@@ -360,6 +377,7 @@ class RefModel:
     def classify(self, model, tf, p, uniform_width="variance"):
         """(N, 4) expected (α·r, α·g, α·b, α) at index-space points p (N, 3)."""
         p = np.atleast_2d(np.asarray(p, float))
+        model = MODELS.get(model, model)  # a CLI name → its distribution
         lo, hi = self.data_range()
         R = hi - lo
         if model == "mean":
@@ -418,7 +436,7 @@ class RefMembers:
         self.bounds, self.full_res_min_spacing = first.bounds, first.full_res_min_spacing
 
     def classify(self, model, tf, p, uniform_width="variance"):
-        assert model == "members", model
+        assert MODELS.get(model) == "members", model
         return np.mean([f.classify("mean", tf, p) for f in self.fields], axis=0)
 
 
@@ -538,3 +556,28 @@ def render(model, kind, tf, width, height, cam, parallel_scale=None, step=None, 
     out[..., :3] = acc_c + (1.0 - acc_a)[..., None] * np.asarray(background, float)
     out[..., 3] = acc_a
     return out
+
+
+def gmm_realization(model, rng):
+    """One gmm-mc realization (SPEC §3): every voxel independently from its own mixture, component
+    k with probability max(π_k, 0) / Σ max(π, 0), then N(μ_k, σ_k²); a mean-only RefModel with
+    the model's geometry."""
+    K = model.gmm.shape[-1] // 3
+    g = model.gmm.reshape(-1, 3 * K)
+    pi = np.maximum(g[:, :K], 0.0)
+    u = rng.random(len(g)) * pi.sum(axis=1)
+    pick = np.minimum(np.sum(np.cumsum(pi, axis=1) <= u[:, None], axis=1), K - 1)
+    rows = np.arange(len(g))
+    values = g[rows, K + pick] + np.maximum(g[rows, 2 * K + pick], 0.0) * rng.standard_normal(
+        len(g))
+    return RefModel(values.reshape(model.mean.shape), origin=model.origin, spacing=model.spacing,
+                    bounds=model.bounds, full_res_min_spacing=model.full_res_min_spacing)
+
+
+def render_realizations(model, tf, width, height, cam, count, rng, **kw):
+    """gmm-mc (SPEC §5): the screen-space average of `count` realizations' mean-field images
+    (gmm_realization, render), and the per-pixel standard deviation of one realization's image
+    (for the Monte Carlo error of an average). Keyword arguments as render."""
+    images = np.array([render(gmm_realization(model, rng), "mean", tf, width, height, cam, **kw)
+                       for _ in range(count)])
+    return images.mean(axis=0), images.std(axis=0, ddof=1)

@@ -394,6 +394,19 @@ def gaussian_expectation2d(tf2, mx, my, vxx, vxy, vyy, orient=None, chunk=48):
 QUANTILE_KINDS = ("quantile-range", "quantile-mean", "quantile-mean-mass", "iqr",
                   "quartile-lower", "quartile-middle", "quartile-upper")
 KINDS = ("mean", "gaussian") + QUANTILE_KINDS
+# Every model of the model table (udvr.models()) that renders with a 2D TF, by CLI name → the
+# joint distribution of SPEC §9 this module evaluates for it (Sample2D.classify); a fast form and
+# its exact form share one. test_reference_coverage.py fails for a row of the table that is
+# neither here nor in NO_REFERENCE: adding a model adds its reference.
+MODELS = dict({k: k for k in KINDS}, **{"gaussian-exact": "gaussian"})
+# Rows of the table with a 2D TF and no reference here, each with why and what checks it instead
+# (test_reference2d_cli.py runs those checks over exactly these names).
+NO_REFERENCE = {
+    name: "the bivariate box spline (X, G) = Σ_i t_i·(w_i, u_i)·h_i has no closed form here: "
+          "checked against Monte Carlo at probe level (test_reference2d_cli.py "
+          "test_probe_tf2_uniform_matches_monte_carlo) and, with a TF2 constant in y, against "
+          "the 1D image (test_render_tf2_constant_in_y_is_the_1d_render)"
+    for name in ("uniform", "uniform-fast", "uniform-exact")}
 
 
 class Sample2D:
@@ -440,6 +453,7 @@ class Sample2D:
         return Xv[:, j0:j1 + 1], Gv[:, j0:j1 + 1], share
 
     def classify(self, kind, tf2):
+        kind = MODELS.get(kind, kind)  # a CLI name → its joint distribution
         if kind == "mean":
             return tf2(self.xbar, self.grad_norm)
         if kind == "gaussian":
@@ -458,6 +472,7 @@ class Sample2D:
 
     def gradient_magnitude(self, kind):
         """Mean and standard deviation of G (N,) each (SPEC §9 probe output)."""
+        kind = MODELS.get(kind, kind)
         if kind == "mean":
             return self.grad_norm, np.zeros_like(self.grad_norm)
         if kind == "gaussian":

@@ -30,6 +30,17 @@ _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
 QUANTILE_RANGE_KINDS = ("quantile-range", "quartile-lower", "quartile-middle", "quartile-upper",
                         "iqr")
+# Every model of the model table (udvr.models()) that renders bivariate fields, by CLI name → the
+# distribution of each field (SPEC §3) this module evaluates for it (field_rule; "members": the
+# members' values at the point, 1/n each, m a reference.RefMembers). A fast form, its alias and
+# its exact form share one. test_reference_coverage.py fails for a row of the table that is
+# neither here nor in NO_REFERENCE: adding a model adds its reference.
+MODELS = dict({k: k for k in ("mean", "uniform", "gaussian", "gmm-ordered", "quantile-mean",
+                              "quantile-mean-mass", "members") + QUANTILE_RANGE_KINDS},
+              **{"uniform-fast": "uniform", "uniform-exact": "uniform",
+                 "gaussian-exact": "gaussian"})
+# Rows of the table with bivariate fields and no reference here, with why (none today).
+NO_REFERENCE = {}
 
 
 def _pieces_rule(edges, density, lines, n):
@@ -88,6 +99,10 @@ def field_rule(m, kind, p, lines, uniform_width="variance"):
     """(nodes, weights) of the distribution of model m (reference.RefModel) under `kind` at one
     index-space point p (3,), exact for g quadratic between the raster `lines` (see above)."""
     p = np.atleast_2d(np.asarray(p, float))
+    kind = MODELS.get(kind, kind)  # a CLI name → its distribution
+    if kind == "members":  # atoms 1/n at each member's trilinear value
+        values = np.array([f.mean_at(p)[0] for f in m.fields])
+        return values, np.full(len(values), 1.0 / len(values))
     lo, hi = m.data_range()
     R = hi - lo
     if kind == "mean":

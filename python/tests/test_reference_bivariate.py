@@ -16,14 +16,29 @@ import pytest
 
 import reference as ref
 import reference2d as r2
+import model_table
 import reference_bivariate as rb
 import refcase
 
 udvr = pytest.importorskip("udvr")
 
-KINDS = ["mean", "uniform", "gaussian", "gmm-ordered", "quantile-range", "quantile-mean",
-         "quantile-mean-mass", "iqr", "quartile-middle"]
-RENDER_KINDS = ["mean", "quantile-range", "quantile-mean", "iqr"]  # cheap in the reference
+# Every model of the table (udvr.models()) with bivariate fields that reads a model file (members:
+# test_members_matches_reference, from ensembles) and that reference_bivariate evaluates.
+KINDS = [k for k in model_table.model_file_names("bivariate") if k not in rb.NO_REFERENCE]
+# Their distributions (aliases and exact forms share one): what the reference's own checks run.
+DISTRIBUTIONS = sorted({rb.MODELS[k] for k in KINDS})
+# Models checked by probe only (test_probe_second_matches_reference at TOL), not by image, with
+# why. test_reference_coverage.py checks that they are rows of the table and probed.
+_SLOW = ("the reference's {} rule per field and sample (tensor product of the two fields' "
+         "rules) takes {} for one 12×9 image (load 8–11 on 2 cores), against 0.35–0.6 s for the "
+         "mean and the quantile models")
+PROBE_ONLY = dict(
+    {k: _SLOW.format("normal", "44 s") for k in ("gaussian", "gaussian-exact")},
+    **{"gmm-ordered": _SLOW.format("normal (one per component, K = 3 here)",
+                                   "about K × gaussian's (not measured)")},
+    **{k: _SLOW.format("box spline", "over 200 s") for k in ("uniform", "uniform-fast",
+                                                             "uniform-exact")})
+RENDER_KINDS = [k for k in KINDS if k not in PROBE_ONLY]
 TOL = 1e-5
 TOL_RENDER = 1e-4
 N_MC = 1_000_000
@@ -55,6 +70,9 @@ def tf2_over(rng, r1, r2_, W=7, H=5):
 def draw_field(m, kind, p, rng, n):
     """n draws of the field's value at p from its model (SPEC §3), independently of the rule."""
     p2 = np.atleast_2d(p)
+    if kind == "members":  # one member at random, interpolated as a mean field
+        values = np.array([f.mean_at(p2)[0] for f in m.fields])
+        return values[rng.integers(len(values), size=n)]
     idx, w = m.corners(p2)
     idx, w = idx[0], w[0]
     lo, hi = m.data_range()
@@ -90,7 +108,7 @@ def draw_field(m, kind, p, rng, n):
     raise ValueError(kind)
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", DISTRIBUTIONS)
 def test_reference_against_monte_carlo(kind):
     rng, pair = random_pair(71, [4, 3, 3])
     (_, (_, m1)), (_, (_, m2)) = pair
@@ -122,7 +140,7 @@ def test_reference_with_a_constant_second_field_is_the_1d_classification():
     al = rng.uniform(0, 1, Wt) * (rng.random(Wt) > 0.2)
     t2, tf1 = r2.TF2.from_1d(rgb, al, lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo), *m2.data_range())
     pts = np.array([[1.3, 0.6, 1.2], [0.0, 2.0, 2.0], [2.5, 1.0, 0.5]])
-    for kind in KINDS:
+    for kind in DISTRIBUTIONS:
         got = rb.classify_bivariate(m1, m2, kind, t2, pts)
         want = m1.classify(kind, tf1, pts)
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9, err_msg=kind)
@@ -318,3 +336,43 @@ def test_members_bivariate_on_the_command_line_matches_the_reference_and_python(
                             *[str(a) for a in args], "-o", str(tmp_path / "x.png")],
                            capture_output=True, text=True)
         assert p.returncode != 0 and words in p.stderr, (args, p.stderr)
+
+
+# ---- models that read an ensemble's members (the Python API) -------------------------------
+
+MEMBER_KINDS = model_table.names("bivariate", members=True)
+
+
+@pytest.mark.parametrize("kind", MEMBER_KINDS)
+def test_members_matches_reference(tmp_path, kind):
+    """Two ensembles (x from the first's members, y from the second's, independent: atoms 1/n₁
+    and 1/n₂ at each member's trilinear value) through udvr.Model.probe and udvr.render with a
+    TF2 and second=, against reference_bivariate on reference.RefMembers: expected_rgba within
+    TOL, the image within TOL_RENDER."""
+    rng = np.random.default_rng(77)
+    shape, origin, spacing = (3, 5, 4), rng.uniform(-3, 3, 3), rng.uniform(0.5, 2.0, 3)
+    ens, refs, ranges = [], [], []
+    for n in (5, 4):
+        values = (rng.uniform(-1, 2, shape) + rng.uniform(0.05, 0.8, (n, 1, 1, 1))
+                  * rng.normal(size=(n,) + shape)).astype(np.float32)
+        ens.append(udvr.Ensemble(values, list(origin), list(spacing)))
+        refs.append(ref.RefMembers(values, origin, spacing))
+        a, b = float(values.min()), float(values.max())
+        ranges.append((a + 0.1 * (b - a), b - 0.1 * (b - a)))  # clamping on both sides
+    t = r2.random_tf2(rng, ranges[0], ranges[1], 7, 5, zero_frac=0.2)
+    t.write_vti(tmp_path / "tf2.vti")
+    tf2 = udvr.TransferFunction2D.read(str(tmp_path / "tf2.vti"))
+    first = udvr.members_model(ens[0])
+    for p in refcase.random_points(rng, [4, 5, 3], 2):
+        got = first.probe(point=list(p), model=kind, tf=tf2, second=ens[1])
+        want = rb.classify_bivariate(refs[0], refs[1], kind, t, p[None, :])[0]
+        diff = np.abs(np.asarray(got["expected_rgba"], float) - want).max()
+        assert diff <= TOL, (kind, p.tolist(), got["expected_rgba"], want.tolist(), diff)
+    _, cam, ps = refcase.random_camera(rng, refs[0], "perspective")
+    camera = udvr.Camera(position=list(cam["position"]), focal_point=list(cam["focal_point"]),
+                         view_up=list(cam["view_up"]), view_angle=cam["view_angle"])
+    got = np.asarray(udvr.render(ens[0], kind, tf2, size=(12, 9), camera=camera,
+                                 second=ens[1]), float)
+    want = rb.render_bivariate(refs[0], refs[1], kind, t, 12, 9, cam, parallel_scale=ps)
+    assert want[..., 3].max() > 1e-3, "the volume is not in view"
+    assert np.abs(got - want).max() <= TOL_RENDER, (kind, np.abs(got - want).max())

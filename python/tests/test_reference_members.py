@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+import model_table
 import reference as ref
 import refcase
 from conftest import assert_one_line_error, listing, run_udvr
@@ -17,6 +18,8 @@ pytestmark = pytest.mark.usefixtures("udvr_binary")
 
 TOL = 1e-4
 W, H = 12, 9
+# The models of the table (udvr.models()) that read an ensemble's members with a 1D TF.
+KINDS = model_table.names("1d", members=True)
 
 
 def random_ensemble(seed, tmp_path, n=7):
@@ -40,9 +43,9 @@ def random_ensemble(seed, tmp_path, n=7):
     return rng, r, tf
 
 
-def render_members(tmp_path, inputs, args, tag):
+def render_members(tmp_path, inputs, args, tag, kind="members"):
     npy = tmp_path / ("%s.npy" % tag)
-    refcase.run_udvr("render", *inputs, "--model", "members", "--tf", tmp_path / "tf.json",
+    refcase.run_udvr("render", *inputs, "--model", kind, "--tf", tmp_path / "tf.json",
                      "--size", "%dx%d" % (W, H), "--float", npy, "-o", tmp_path / ("%s.png" % tag),
                      *args)
     img = np.load(npy)
@@ -50,21 +53,22 @@ def render_members(tmp_path, inputs, args, tag):
     return img.astype(float)
 
 
+@pytest.mark.parametrize("kind", KINDS)
 @pytest.mark.parametrize("seed", [1201, 1202])
 @pytest.mark.parametrize("camera", ["perspective", "default-parallel"])
-def test_members_render_matches_reference(tmp_path, seed, camera):
+def test_members_render_matches_reference(tmp_path, seed, camera, kind):
     rng, r, tf = random_ensemble(seed, tmp_path)
     args, cam, ps = refcase.random_camera(rng, r, camera)
     # A short unit distance: dense enough that compositing is far from linear in α.
     unit = 0.1 * r.spacing.min()
     args += ["--unit-distance", repr(unit)]
-    got = render_members(tmp_path, [tmp_path / "ens.nc"], args, "nc")
-    want = ref.render(r, "members", tf, W, H, cam, parallel_scale=ps, unit=unit)
+    got = render_members(tmp_path, [tmp_path / "ens.nc"], args, "nc", kind)
+    want = ref.render(r, kind, tf, W, H, cam, parallel_scale=ps, unit=unit)
     diff = np.abs(got - want)
     assert diff.max() <= TOL, "max |udvr − reference| %.3g" % diff.max()
     assert np.count_nonzero(want[..., 3] > 1e-3) > 0, "the volume is not in view"
     # Member files (a quoted glob) are the same ensemble: the same image.
-    files = render_members(tmp_path, [tmp_path / "m_*.vti"], args, "glob")
+    files = render_members(tmp_path, [tmp_path / "m_*.vti"], args, "glob", kind)
     assert np.abs(files - got).max() == 0.0
     # Python renders the same ensemble with the same options to the same floats: from a
     # udvr.Ensemble, its (members, z, y, x) array (origin 0: only the geometry differs, so it is
@@ -73,7 +77,7 @@ def test_members_render_matches_reference(tmp_path, seed, camera):
     options = {a[2:].replace("-", "_"): b for a, b in zip(args[::2], args[1::2])}
     ens = udvr.read_ensemble([str(tmp_path / "ens.nc")])
     for source in (ens, str(tmp_path / "ens.nc"), str(tmp_path / "m_*.vti")):
-        py = udvr.render(source, "members", tfo, (W, H), **options)
+        py = udvr.render(source, kind, tfo, (W, H), **options)
         assert np.abs(py.astype(float) - got).max() == 0.0, type(source).__name__
     with pytest.raises(ValueError, match="pass the ensemble"):
         udvr.render(udvr.build(str(tmp_path / "ens.nc"), gmm=0), "members", tfo, (W, H),
@@ -89,10 +93,11 @@ def test_members_render_matches_reference(tmp_path, seed, camera):
     assert apart > 10 * TOL, apart
 
 
-def test_members_probe_matches_reference(tmp_path):
+@pytest.mark.parametrize("kind", KINDS)
+def test_members_probe_matches_reference(tmp_path, kind):
     rng, r, tf = random_ensemble(1203, tmp_path)
     for p in ([1.25, 2.5, 3.75], [0.0, 3.0, 5.0], [4.0, 0.3, 0.6]):
-        out = json.loads(refcase.run_udvr("probe", tmp_path / "ens.nc", "--model", "members",
+        out = json.loads(refcase.run_udvr("probe", tmp_path / "ens.nc", "--model", kind,
                                           "--point", refcase.fmt(p), "--tf", tmp_path / "tf.json",
                                           "--json"))
         values = [f.mean_at(np.array([p]))[0] for f in r.fields]
@@ -100,7 +105,7 @@ def test_members_probe_matches_reference(tmp_path):
         np.testing.assert_allclose(out["member_values"], values, rtol=0, atol=1e-5)
         np.testing.assert_allclose([out["min"], out["mean"], out["max"]],
                                    [min(values), np.mean(values), max(values)], atol=1e-5)
-        want = r.classify("members", tf, np.array([p]))[0]
+        want = r.classify(kind, tf, np.array([p]))[0]
         np.testing.assert_allclose(out["expected_rgba"], want, rtol=0, atol=1e-6)
 
 

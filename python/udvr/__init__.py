@@ -23,18 +23,18 @@ import numpy as np
 from . import _arrays, _udvr
 from ._udvr import (Camera, Ensemble, Field, FileError, Grid, Model, RenderSettings,  # noqa: F401
                     TransferFunction, TransferFunction2D, UdvrError, experiment_names, generate,
-                    members_model, model_from_field, model_names, perturb, probe_options,
-                    read_ensemble, read_field, read_image, read_model, read_png_text,
-                    read_transfer_function, render_options, set_threads, visible_bounds,
-                    write_ensemble, write_field, write_model)
+                    members_model, model_from_field, model_names, models, perturb,
+                    probe_options, read_ensemble, read_field, read_image, read_model,
+                    read_png_text, read_transfer_function, render_options, set_threads,
+                    visible_bounds, write_ensemble, write_field, write_model)
 from ._udvr import __version__  # the release, as `udvr --version` prints it
 
 __build__ = _udvr.__build__  # CPU target and vector width, as `udvr --version`
 
 __all__ = ["Camera", "Ensemble", "Field", "Grid", "Model", "TransferFunction",
            "TransferFunction2D", "build", "difference_image", "experiment", "generate", "load",
-           "members_model", "model_names", "perturb", "probe_options", "read_png_text", "render",
-           "render_options", "rmse", "__version__"]
+           "members_model", "model_names", "models", "perturb", "probe_options", "read_png_text",
+           "render", "render_options", "rmse", "__version__"]
 
 
 # ---- progress ------------------------------------------------------------------------------
@@ -241,10 +241,22 @@ def _as_members(x, name="model"):
                     f"array or DataArray, or its path; {name} is a {type(x).__name__}")
 
 
+# The model table's rows by name (udvr.models(): src/udvr/classify/model_rows.h).
+_MODEL_ROWS = {row["name"]: row for row in _udvr.models()}
+
+
+def _reads_members(model_name):
+    """Whether the model's row reads an ensemble's members themselves (its arrays name
+    'members'), not a model file's arrays."""
+    row = _MODEL_ROWS.get(model_name)
+    return row is not None and "members" in row["arrays"]
+
+
 def _as_model(x, name="model", model_name="mean"):
     """A Model; a Field, a (z, y, x) array or a 3-dim DataArray as a mean-only model (ground
-    truth); a path as load(); for model_name 'members' an ensemble (_as_members)."""
-    if model_name == "members":
+    truth); a path as load(); for a model that reads the members (its row's arrays: 'members')
+    an ensemble (_as_members)."""
+    if _reads_members(model_name):
         return _as_members(x, name)
     if isinstance(x, Model):
         return x

@@ -273,6 +273,13 @@ const TransferFunction1D& reconstructionOnlyTf() {
 
 std::span<const ModelFamily> modelFamilies() { return kFamilies; }
 
+std::vector<std::string_view> modelArrayNames(unsigned arrays) {
+    std::vector<std::string_view> names;
+    for (const ArrayInfo& a : kArrays)
+        if (arrays & a.bit) names.emplace_back(a.name);
+    return names;
+}
+
 const ModelFamily& modelFamily(ModelKind kind) {
     const auto i = static_cast<std::size_t>(kind);
     if (i >= kModelCount) UDVR_FAIL("unknown model kind " << static_cast<int>(kind));

@@ -9,6 +9,7 @@
 #include <string_view>
 #include <utility>
 #include <variant>
+#include <vector>
 
 #include "udvr/classify/any_kernel.h"
 #include "udvr/classify/model_kernels_bivariate.h"
@@ -150,6 +151,9 @@ struct ModelFamily : ModelRow {
 std::span<const ModelFamily> modelFamilies();
 /// The row of a model.
 const ModelFamily& modelFamily(ModelKind kind);
+/// The names of the arrays in `arrays` (ModelArray bits; SPEC §7's, and "members" for the
+/// ensemble itself), in bit order: a row's `arrays` as the Python module's models() gives it.
+std::vector<std::string_view> modelArrayNames(unsigned arrays);
 
 /// The row of `kind` after checking that `model` has the arrays it needs and that it has a
 /// per-sample kernel; else UdvrError (gmm-mc: "has no <what>: it is rendered as the average of

@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <set>
 #include <string>
 #include <type_traits>
 #include <variant>
+#include <vector>
 
 #include "udvr/classify/classify_test_util.h"
 #include "udvr/classify/model_families.h"
@@ -65,6 +67,20 @@ TEST(ModelFamilies, EveryRowIsComplete) {
             EXPECT_EQ(f.makeBivariate, nullptr) << what;
         }
     }
+}
+
+// modelArrayNames (what udvr.models() gives Python): one name per bit, in bit order, every bit
+// of every row's arrays named.
+TEST(ModelFamilies, ArrayNamesNameEveryBitOnce) {
+    EXPECT_EQ(modelArrayNames(kArrayGmm | kArrayMean),
+              (std::vector<std::string_view>{"mean", "gmm"}));
+    EXPECT_EQ(modelArrayNames(kArrayMembers), (std::vector<std::string_view>{"members"}));
+    EXPECT_TRUE(modelArrayNames(0).empty());
+    for (const ModelFamily& f : modelFamilies())
+        for (unsigned arrays : {f.arrays, f.arraysFor(true)})
+            EXPECT_EQ(modelArrayNames(arrays).size(),
+                      static_cast<std::size_t>(std::popcount(arrays)))
+                << f.name;
 }
 
 // A kernel column K: the row's factory `make` builds a K (build() calls it); NoKernel: there is
