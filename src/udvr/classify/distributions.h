@@ -296,7 +296,7 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf(const Tf& tf, const QuantilePopulation<
 }
 
 /// Eq. 5's point masses: quantile j's midpoint between boundary(j) and boundary(j + 1), j < q,
-/// weighted by quantileMeanWeight (density weights p_j ∝ mass_j / width(j), or the masses);
+/// weighted by forEachQuantileMeanWeight (density weights p_j ∝ mass_j / width(j), or the masses);
 /// widths ≤ zeroWidth (data units) are point masses of infinite density.
 template <class T, class Boundary, class Width>
 struct QuantileMidpoints {

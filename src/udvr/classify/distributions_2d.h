@@ -93,9 +93,9 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2(const Tf2Raster<Real>& tf, const Quant
 }
 
 /// Eq. 5 in 2D: quantile j's point mass at the midpoint of the segment (j, j + 1) of the
-/// quantiles' polyline (its vertices and levels), j < count − 1, weighted by quantileMeanWeight
-/// (density weights p_j ∝ mass_j / width(j), or the masses); widths ≤ zeroWidth (data units) are
-/// point masses of infinite density.
+/// quantiles' polyline (its vertices and levels), j < count − 1, weighted by
+/// forEachQuantileMeanWeight (density weights p_j ∝ mass_j / width(j), or the masses); widths ≤
+/// zeroWidth (data units) are point masses of infinite density.
 template <class T, class Width>
 struct PolylineMidpoints {
     using Real = T;

@@ -8,8 +8,11 @@
 // Branches are taken per lane with masks; `if (anyOf(m))` skips work no lane needs, which for
 // scalars is the plain branch. Closed forms throughout: exact up to the rounding of T, except
 // where a comment states an error.
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <new>
+#include <vector>
 
 #include "udvr/classify/tf_pieces.h"
 #include "udvr/reconstruct/box_spline.h"
@@ -138,79 +141,87 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTfQuantileRange(const Tf& tf, const Bounda
     for (int ch = 0; ch < 4; ++ch) out[ch] *= inv;
 }
 
-/// Eq. 5's weight of one quantile (SPEC §4 quantile-mean): its mass m_j over its width w_j with
-/// density weights, else m_j (`quantile-mean-mass`). Where a quantile of the point is a point
-/// mass (width ≤ zeroWidth: infinite density), the point masses take all the weight by their
-/// masses: in `pointMasses` lanes the weight is m_j at zero widths and 0 elsewhere.
-template <class T>
-UDVR_CPU_GPU UDVR_INLINE T quantileMeanWeight(lanes::ScalarOf<T> mass, T width, bool densityWeights,
-                                              lanes::MaskOf<T> pointMasses, T zeroWidth) {
-    const T m = lanes::splat<T>(mass);
-    if (!densityWeights) return m;
-    return lanes::select(pointMasses, lanes::select(width <= zeroWidth, m, T{}), mass / width);
+/// Eq. 5's weights (SPEC §4 quantile-mean), the one body for the lanes (1D TF and TF2) and the
+/// distributions' masses (1D and 2D): calls visit(j, p_j) for quantiles j = 0 … q − 1 in order
+/// and returns Σ_j p_j, the normaliser (quantile j's share is p_j / Σ). p_j = m_j/w_j with
+/// density weights (m_j = levels.mass(j + 1), 1 for even levels where 1/q cancels; w_j =
+/// width(j), interpolated from the corners' own widths so that 1/w does not magnify the
+/// rounding of large boundaries), else m_j (`quantile-mean-mass`; width is not called). With
+/// density weights, a quantile of width ≤ zeroWidth is a point mass of infinite density, and in
+/// a point with such quantiles the point masses take all the weight by their masses: p_j = m_j
+/// at zero widths and 0 elsewhere. That is found after a first pass over the quantiles; then
+/// restart(pointMasses) is called and every j is visited again, with those weights in the
+/// `pointMasses` lanes and 0 in the others (which keep the first pass's sums), so the first
+/// pass keeps the point masses' sums out of its live vectors (few enough for AVX2's 16
+/// registers). Only `live` lanes are looked at for zero widths (dead lanes of a batch have
+/// width 0 and would send every quantile down the zero-width path).
+template <class T, class Width, class Visit, class Restart>
+UDVR_CPU_GPU UDVR_INLINE T forEachQuantileMeanWeight(const Width& width, int q,
+                                                     const QuantileLevels& levels,
+                                                     bool densityWeights, T zeroWidth,
+                                                     lanes::MaskOf<T> live, const Visit& visit,
+                                                     const Restart& restart) {
+    using S = lanes::ScalarOf<T>;
+    T total{};
+    auto pointMasses = lanes::MaskOf<T>{};
+    for (int j = 0; j < q; ++j) {
+        const T m = lanes::splat<T>(static_cast<S>(levels.mass(j + 1)));  // 1 for even: exact
+        T p = m;
+        if (densityWeights) {
+            const T w = width(j);
+            p = m / w;
+            pointMasses = pointMasses | (live & (w <= zeroWidth));
+        }
+        visit(j, p);
+        total += p;
+    }
+    if (!densityWeights || !lanes::anyOf(pointMasses)) return total;
+    restart(pointMasses);
+    total = lanes::select(pointMasses, T{}, total);
+    for (int j = 0; j < q; ++j) {
+        const T m = lanes::splat<T>(static_cast<S>(levels.mass(j + 1)));
+        const T p = lanes::select(pointMasses & (width(j) <= zeroWidth), m, T{});
+        visit(j, p);
+        total += p;
+    }
+    return total;
 }
 
-/// Eq. 5's masses of quantiles 0 … q − 1 (`width(j)` the width of quantile j, data units):
-/// emit(j, p_j) with p_j = quantileMeanWeight / Σ of them, every j in order (mass 0 included).
-/// The one normalisation of Eq. 5 for the distributions (1D and 2D).
+/// Eq. 5's masses of quantiles 0 … q − 1 of one point (`width(j)` the width of quantile j, data
+/// units): emit(j, p_j / Σ p) with forEachQuantileMeanWeight's p_j, every j in order (mass 0
+/// included). The distributions' (1D and 2D) reading of Eq. 5.
 template <class Width, class Emit>
 void quantileMeanMasses(const QuantileLevels& levels, int q, bool densityWeights, double zeroWidth,
                         const Width& width, const Emit& emit) {
-    bool pointMasses = false;
-    for (int j = 0; densityWeights && j < q; ++j)
-        pointMasses = pointMasses || width(j) <= zeroWidth;
-    const auto weight = [&](int j) {
-        return quantileMeanWeight<double>(levels.mass(j + 1), width(j), densityWeights, pointMasses,
-                                          zeroWidth);
-    };
-    double total = 0.0;
-    for (int j = 0; j < q; ++j) total += weight(j);
-    for (int j = 0; j < q; ++j) emit(j, weight(j) / total);
+    std::vector<double> p(static_cast<std::size_t>(q), 0.0);
+    const double total = forEachQuantileMeanWeight<double>(
+        width, q, levels, densityWeights, zeroWidth, true,
+        [&](int j, double pj) { p[static_cast<std::size_t>(j)] += pj; },
+        [&](bool) { std::fill(p.begin(), p.end(), 0.0); });
+    for (int j = 0; j < q; ++j) emit(j, p[static_cast<std::size_t>(j)] / total);
 }
 
 /// Eq. 5's weighting, for any classification of the quantiles (1D TF or TF2): Σ_j v_j·p_j / Σ p_j
-/// over quantiles j = 0 … q − 1, valueAt(j, v) writing v_j (the TF at quantile j's midpoint),
-/// p_j = m_j/w_j (densityWeights; m_j the quantile's mass, levels.mass(j + 1), 1 for even levels
-/// where 1/q cancels; width(j) the width of quantile j, interpolated from the corners' own widths
-/// so that 1/w does not magnify the rounding of large boundaries) or m_j
-/// (`quantile-mean-mass`). With density weights, quantiles of width ≤ zeroWidth are point masses
-/// of infinite density: they share all the weight in proportion to their masses (SPEC §4). Only
-/// `live` lanes are looked at for zero widths (dead lanes of a batch have width 0 and would send
-/// every quantile down the zero-width path). valueAt is called for j = 0, 1, … in order, and
-/// once more from j = 0 where some lane has a zero width: that rare second pass keeps the point
-/// masses' sums out of the first, whose live vectors are then few enough for AVX2's 16 registers.
+/// over quantiles j = 0 … q − 1 with forEachQuantileMeanWeight's p_j, valueAt(j, v) writing v_j
+/// (the TF at quantile j's midpoint). valueAt is called for j = 0, 1, … in order, and once more
+/// from j = 0 where some live lane has point masses (the rare second pass).
 template <class T, class ValueAt, class Width>
 UDVR_CPU_GPU UDVR_INLINE void quantileMeanWeighted(const ValueAt& valueAt, const Width& width,
                                                    int q, const QuantileLevels& levels,
                                                    bool densityWeights, T zeroWidth,
                                                    lanes::MaskOf<T> live, T out[4]) {
-    using S = lanes::ScalarOf<T>;
-    T sum[4] = {}, weightSum{};
-    auto anyZero = lanes::MaskOf<T>{};
-    for (int j = 0; j < q; ++j) {
-        T v[4];
-        valueAt(j, v);
-        const S mass = static_cast<S>(levels.mass(j + 1));  // 1 for even levels: exact
-        const T w = densityWeights ? width(j) : T{};
-        const T weight =
-            quantileMeanWeight<T>(mass, w, densityWeights, lanes::MaskOf<T>{}, zeroWidth);
-        for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(weight, v[ch], sum[ch]);
-        weightSum += weight;
-        if (densityWeights) anyZero = anyZero | (live & (w <= zeroWidth));
-    }
-    for (int ch = 0; ch < 4; ++ch) out[ch] = sum[ch] / weightSum;
-    if (!densityWeights || !lanes::anyOf(anyZero)) return;
-    T zeroSum[4] = {}, zeroCount{};
-    for (int j = 0; j < q; ++j) {
-        T v[4];
-        valueAt(j, v);
-        const S mass = static_cast<S>(levels.mass(j + 1));
-        const T m = quantileMeanWeight<T>(mass, width(j), true, anyZero, zeroWidth);
-        for (int ch = 0; ch < 4; ++ch) zeroSum[ch] = lanes::fma(m, v[ch], zeroSum[ch]);
-        zeroCount += m;
-    }
-    for (int ch = 0; ch < 4; ++ch)
-        out[ch] = detail::select(anyZero, zeroSum[ch] / zeroCount, out[ch]);
+    T sum[4] = {};
+    const T total = forEachQuantileMeanWeight<T>(
+        width, q, levels, densityWeights, zeroWidth, live,
+        [&](int j, T p) UDVR_INLINE_LAMBDA {
+            T v[4];
+            valueAt(j, v);
+            for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::fma(p, v[ch], sum[ch]);
+        },
+        [&](lanes::MaskOf<T> pointMasses) UDVR_INLINE_LAMBDA {
+            for (int ch = 0; ch < 4; ++ch) sum[ch] = lanes::select(pointMasses, T{}, sum[ch]);
+        });
+    for (int ch = 0; ch < 4; ++ch) out[ch] = sum[ch] / total;
 }
 
 /// Quantile-mean expectation (Eq. 5) with a 1D TF: quantileMeanWeighted of TF(m_j), m_j the

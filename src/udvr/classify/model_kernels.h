@@ -644,7 +644,7 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
                                   kQuantileZeroWidth * dataSpan(m, o), tf);
     }
     /// Its distribution at a cell (Eq. 5): a point mass at each quantile's midpoint with
-    /// quantileMeanWeight's share, every one of the q (mass 0 included), in order.
+    /// forEachQuantileMeanWeight's share, every one of the q (mass 0 included), in order.
     template <class T, class Use>
     UDVR_CPU_GPU UDVR_INLINE void reconstruct(const Cell<T>& c, lanes::MaskOf<T> live,
                                               const Use& use) const {
