@@ -14,7 +14,7 @@ const state = {
   info: null,
   model: null,            // the picked model's name (the server's defaults.model at start)
   camera: null,           // {azimuth, elevation, zoom}: HOME until the view is turned
-  size: [512, 512],
+  size: null,             // [w, h]: /api/state's default size (the library's), from start()
   quartiles: false,
   seq: 0,                 // request counter: orders a channel's requests on the server
   views: new Map(),       // channel -> view
@@ -670,6 +670,11 @@ async function start() {
   const {azimuth, elevation, zoom} = state.info.defaults;
   HOME = {azimuth, elevation, zoom};
   state.camera = {...HOME};
+  state.size = state.info.defaults.size.split('x').map(Number);
+  const sizes = $('size');
+  if (![...sizes.options].some((o) => Number(o.value) === state.size[0]))
+    sizes.add(new Option(`${state.size[0]}²`, String(state.size[0])));
+  sizes.value = String(state.size[0]);  // the picker offers squares; the default is one
   $('title').textContent = `udvr serve — ${state.info.model.file}`;
   const picker = $('model');
   for (const m of state.info.models) {

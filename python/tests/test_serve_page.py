@@ -54,6 +54,8 @@ def open_page(url):
     try:
         driver.get(url + "/")
         wait_idle(driver)
+        driver.start_size = (driver.execute_script("return window.udvr.state.size"),
+                             driver.find_element("id", "size").get_attribute("value"))
         Select(driver.find_element("id", "size")).select_by_value("256")  # quick frames
         wait_idle(driver)
     except BaseException:
@@ -218,6 +220,13 @@ def test_a_slow_model_drags_with_smaller_coarse_frames(page, server, inputs, tmp
         ".map((t) => [t.kind, t.size]);")
     assert {size for kind, size in sizes if kind == "coarse"} == {"64x64"}, sizes
     assert sizes[-1] == ["full", "256x256"], sizes
+
+
+def test_the_page_starts_at_the_librarys_default_size(page, server):
+    """The first frames take /api/state's default size (RenderOptions', `udvr render`'s), and
+    the size picker shows it: the page holds no size of its own."""
+    w, h = (int(n) for n in server.json("/api/state")["defaults"]["size"].split("x"))
+    assert page.start_size == ([w, h], str(w)), page.start_size
 
 
 def test_a_slow_gmm_mc_steps_through_realizations(page, server, inputs, tmp_path):
