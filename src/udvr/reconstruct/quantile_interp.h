@@ -141,21 +141,24 @@ UDVR_INLINE void boundaryRows(const CellGeometry& g, const float* data, int stri
             if (!(liveBits >> l & 1u)) continue;
             const Vf at[3] = {lanes::splat<Vf>(f[0][l]), lanes::splat<Vf>(f[1][l]),
                               lanes::splat<Vf>(f[2][l])};
-            Vf corner[8], next[8];
+            const float* row[8];
+            Vf corner[8];
             for (int k = 0; k < 8; ++k) {
-                const float* row =
+                row[k] =
                     data + (base[l] + offsets[k]) * static_cast<std::int64_t>(stride) + first + j0;
-                corner[k] = lanes::loadFirst(row, nb);
+                corner[k] = lanes::loadFirst(row[k], nb);
+            }
+            if (nw > 0) {
                 // Each corner's b_{j+1} in lane j: by a lane shift where the block holds
                 // b_{j+1} of its every width, else from a second load one boundary on.
-                if (nw > 0)
+                Vf next[8];
+                for (int k = 0; k < 8; ++k)
                     next[k] = nw < nb ? lanes::shiftDown1(corner[k], Vf{})
-                                      : lanes::loadFirst(row + 1, nw);
-            }
-            if (nw > 0)
+                                      : lanes::loadFirst(row[k] + 1, nw);
                 rows[l] = interpolatedBoundary(corner, at, next, &widths[l]);
-            else
+            } else {
                 rows[l] = interpolatedBoundary(corner, at);
+            }
         }
         if (nb > 0) lanes::transpose(rows);
         if (nw > 0) lanes::transpose(widths);
