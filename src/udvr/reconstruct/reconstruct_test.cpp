@@ -241,7 +241,9 @@ TEST(Reconstruct, QuantileBoundariesAndWidthsFollowEq2) {
                 EXPECT_NEAR(rb[j][l], want, 3e-4) << q << " " << j;
                 // One arithmetic (interpolatedBoundary): the rows are the gathered lanes' values
                 // to the bit, but for a last boundary alone in its block (b_{q−1} + w_{q−1}).
-                if (j < q || q % lanes::kWidth != 0) EXPECT_EQ(rb[j][l], lane[l]) << q << " " << j;
+                if (j < q || q % lanes::kWidth != 0) {
+                    EXPECT_EQ(rb[j][l], lane[l]) << q << " " << j;
+                }
                 if (j < q) {
                     EXPECT_NEAR(rw[j][l], wantWidth, 1e-4) << q << " " << j;
                     EXPECT_GE(rw[j][l], 0.f);
