@@ -8,11 +8,8 @@
 // Branches are taken per lane with masks; `if (anyOf(m))` skips work no lane needs, which for
 // scalars is the plain branch. Closed forms throughout: exact up to the rounding of T, except
 // where a comment states an error.
-#include <algorithm>
 #include <cmath>
-#include <cstddef>
 #include <new>
-#include <vector>
 
 #include "udvr/classify/tf_pieces.h"
 #include "udvr/reconstruct/box_spline.h"
@@ -189,16 +186,23 @@ UDVR_CPU_GPU UDVR_INLINE T forEachQuantileMeanWeight(const Width& width, int q,
 
 /// Eq. 5's masses of quantiles 0 … q − 1 of one point (`width(j)` the width of quantile j, data
 /// units): emit(j, p_j / Σ p) with forEachQuantileMeanWeight's p_j, every j in order (mass 0
-/// included). The distributions' (1D and 2D) reading of Eq. 5.
+/// included). The distributions' (1D and 2D) reading of Eq. 5, without storage (the bivariate
+/// kernel describes a distribution per sample): one run for Σ p, a second that emits from its
+/// last pass (the point masses' pass where the body restarts).
 template <class Width, class Emit>
 void quantileMeanMasses(const QuantileLevels& levels, int q, bool densityWeights, double zeroWidth,
                         const Width& width, const Emit& emit) {
-    std::vector<double> p(static_cast<std::size_t>(q), 0.0);
+    bool restarts = false;
     const double total = forEachQuantileMeanWeight<double>(
+        width, q, levels, densityWeights, zeroWidth, true, [](int, double) {},
+        [&](bool) { restarts = true; });
+    bool emitting = !restarts;
+    forEachQuantileMeanWeight<double>(
         width, q, levels, densityWeights, zeroWidth, true,
-        [&](int j, double pj) { p[static_cast<std::size_t>(j)] += pj; },
-        [&](bool) { std::fill(p.begin(), p.end(), 0.0); });
-    for (int j = 0; j < q; ++j) emit(j, p[static_cast<std::size_t>(j)] / total);
+        [&](int j, double pj) {
+            if (emitting) emit(j, pj / total);
+        },
+        [&](bool) { emitting = true; });
 }
 
 /// Eq. 5's weighting, for any classification of the quantiles (1D TF or TF2): Σ_j v_j·p_j / Σ p_j
