@@ -76,10 +76,7 @@ void addProbeCommand(CLI::App& app) {
         }
         requireOneTf(o->tf.tf, o->tf2);
         const bool twoD = !o->tf2.file.empty();
-        if (members && twoD && o->options.second.empty())
-            UDVR_FAIL(
-                "--model members classifies with a 1D transfer function (--tf), or a 2D one "
-                "over two ensembles with --second, not --tf2 alone");
+        requireSecondForMembersTf2(o->options, members, twoD);
         if (twoD && !o->plot.empty())
             UDVR_FAIL("--plot draws the distribution over a 1D TF; with --tf2 use --json");
         checkBivariateOptions(o->options, twoD);
@@ -101,12 +98,7 @@ void addProbeCommand(CLI::App& app) {
         const ProbeResult r =
             !o->options.second.empty()
                 ? probeBivariate(model,
-                                 members
-                                     ? readMembersModel({o->options.second},
-                                                        secondFieldVar(o->options, o->var), o->raw,
-                                                        o->ensemble)
-                                     : readModelOrField(o->options.second,
-                                                        secondFieldVar(o->options, o->var), o->raw),
+                                 readSecondInput(o->options, o->var, o->raw, o->ensemble, members),
                                  kind, readTransferFunction2D(o->tf2.file, tf2Options), p, options)
             : twoD ? probeModel(model, kind, readTransferFunction2D(o->tf2.file, tf2Options), p,
                                 options)

@@ -127,11 +127,7 @@ void run(const RenderOpts& o) {
                   << o.inputs.size()
                   << " inputs (member files are an ensemble: --model members renders its members' "
                      "average classification, `udvr build` models it)");
-    // members has a bivariate kernel (both fields' members, SPEC 9) but no value x gradient one.
-    if (members && twoD && o.render.second.empty())
-        UDVR_FAIL(
-            "--model members classifies with a 1D transfer function (--tf), or a 2D one "
-            "over two ensembles with --second, not --tf2 alone");
+    requireSecondForMembersTf2(o.render, members, twoD);
     const std::string& input = o.inputs.front();
     checkTfFlags(o.tf, twoD);
     checkRenderOptions(o.render);  // cheap flags are checked before the volume is read
@@ -149,10 +145,7 @@ void run(const RenderOpts& o) {
     const TransferFunction1D& tf = tfChoice.tf;
     const bool bivariate = !o.render.second.empty();
     const ModelVolume second =
-        !bivariate ? ModelVolume{}
-        : members  ? readMembersModel({o.render.second}, secondFieldVar(o.render, o.var), o.raw,
-                                      o.ensemble)
-                   : readModelOrField(o.render.second, secondFieldVar(o.render, o.var), o.raw);
+        bivariate ? readSecondInput(o.render, o.var, o.raw, o.ensemble, members) : ModelVolume{};
 
     bool anyVisible = true;
     std::array<double, 6> framedBox{};  // what the framed camera fits (when it is used)

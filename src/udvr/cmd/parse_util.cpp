@@ -163,6 +163,20 @@ ModelVolume readMembersModel(const std::vector<std::string>& inputs, const std::
     return membersModel(readEnsemble(inputs, ro));
 }
 
+ModelVolume readSecondInput(const RenderOptions& options, const std::string& var,
+                            const RawLayoutFlags& raw, const EnsembleFlags& flags, bool members) {
+    const std::string& secondVar = secondFieldVar(options, var);
+    return members ? readMembersModel({options.second}, secondVar, raw, flags)
+                   : readModelOrField(options.second, secondVar, raw);
+}
+
+void requireSecondForMembersTf2(const RenderOptions& options, bool members, bool twoD) {
+    if (members && twoD && options.second.empty())
+        UDVR_FAIL(
+            "--model members classifies with a 1D transfer function (--tf), or a 2D one "
+            "over two ensembles with --second, not --tf2 alone");
+}
+
 void addTf2Options(CLI::App* sub, Tf2Flags& flags) {
     sub->add_option("--tf2", flags.file,
                     "2D transfer function over value x gradient magnitude (.vti, .npy, widget "

@@ -14,6 +14,7 @@
 #include "udvr/io/file_info.h"
 #include "udvr/io/output_path.h"
 #include "udvr/io/transfer_function_2d_io.h"
+#include "udvr/render/render_options.h"
 #include "udvr/stats/model_volume.h"
 #include "udvr/util/text_parse.h"
 
@@ -70,6 +71,13 @@ void addEnsembleOptions(CLI::App* sub, EnsembleFlags& flags);
 /// inputs that are not an ensemble: a model file or a single field.
 ModelVolume readMembersModel(const std::vector<std::string>& inputs, const std::string& var,
                              const RawLayoutFlags& raw, const EnsembleFlags& flags);
+/// The --second input of render and probe (SPEC §9): with --model members an ensemble
+/// (readMembersModel, the same --member-dim and cap), else a model or field (readModelOrField);
+/// its array is secondFieldVar's. Refuses --model members with --tf2 but no --second (members
+/// has a bivariate kernel, not a value × gradient one).
+ModelVolume readSecondInput(const RenderOptions& options, const std::string& var,
+                            const RawLayoutFlags& raw, const EnsembleFlags& flags, bool members);
+void requireSecondForMembersTf2(const RenderOptions& options, bool members, bool twoD);
 
 /// 2D TF flags as typed: --tf2 FILE, --tf2-domain x0,x1,y0,y1, --tf2-resolution WxH.
 struct Tf2Flags {
