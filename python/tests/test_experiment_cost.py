@@ -32,6 +32,18 @@ def run_experiment(args, tmp_path, **env_extra):
     return r, time.monotonic() - t0
 
 
+def assert_estimate_fits(estimate, seconds):
+    """The estimate (whole seconds, from a speed probe taken before the run) is within 3x of the
+    run's wall time on a quiet machine. Other processes slow the run more than the ~0.1 s probe
+    taken before it saw (a run of 5.1 s against an estimate of 1 s at a load of 8 on 2 cores,
+    the probe of an idle moment), so the factor grows with the load average over the cores
+    past 1, and the estimate's rounding to whole seconds is allowed for."""
+    load = os.getloadavg()[0] / (os.cpu_count() or 1)
+    factor = 3 * max(1.0, load)
+    assert seconds / factor < estimate + 0.5 and estimate - 0.5 < seconds * factor, \
+        (estimate, seconds, load)
+
+
 def test_tangle_is_estimated_first_and_shows_its_time_left(tmp_path):
     """The paper's tangle (--quick: 64³, 50 members, 128², a GMM build of ~15 s here): the
     estimate comes before anything else, within 3x of the run's time (measured 20/17, 20/15,
@@ -48,7 +60,7 @@ def test_tangle_is_estimated_first_and_shows_its_time_left(tmp_path):
     assert m.group(6) == "128"
     estimate = int(m.group(2))
     assert abs(estimate - int(m.group(4)) - int(m.group(7))) <= 1  # the parts add up
-    assert seconds / 3 < estimate < seconds * 3, (estimate, seconds)
+    assert_estimate_fits(estimate, seconds)
     # Under --quick, a smaller --size is what shortens it, with its own (smaller) estimate.
     shorter = re.match(r"--size (\d+) \(about (\d+) s\)$", m.group(8))
     assert shorter and int(shorter.group(1)) == 32 and int(shorter.group(2)) <= estimate
@@ -108,7 +120,7 @@ def test_tooth2d_plan_is_the_run(tmp_path):
     rendered = re.findall(r"^udvr experiment tooth2d: rendered ", r.stderr, re.M)
     assert int(m.group(5)) == len(rendered) == 11, r.stderr
     estimate = max(int(m.group(2)), 1)
-    assert seconds / 3 < estimate < seconds * 3, (estimate, seconds)
+    assert_estimate_fits(estimate, seconds)
 
 
 @pytest.mark.parametrize("args,message", [
