@@ -299,10 +299,15 @@ const ModelFamily& familyWithKernel(const ModelView& model, ModelKind kind,
 QuantileBoundarySource quantileBoundariesOf(const ModelView& model, const ModelRow& row,
                                             const ClassifyOptions& options) {
     if (row.arrays & kArrayIqr) return {model.iqr.data(), 2, 0, 1, nullptr};
-    int lo = 0, hi = model.quantileCount;
-    if (row.quantileMeanWeights == QuantileMeanWeights::None)
-        std::tie(lo, hi) = quantilePopulation(row.kind, model, options);
-    return {model.quantiles.data(), model.quantileCount + 1, lo, hi, model.levelsOrNull()};
+    QuantileBoundarySource b{model.quantiles.data(), model.quantileCount + 1, 0,
+                             model.quantileCount, model.levelsOrNull()};
+    if (row.quantileMeanWeights == QuantileMeanWeights::None) {
+        std::tie(b.lo, b.hi) = quantilePopulation(row.kind, model, options);
+    } else {
+        b.densityWeights = row.quantileMeanWeights == QuantileMeanWeights::Density;
+        b.zeroWidth = kQuantileZeroWidth * dataSpan(model, options);
+    }
+    return b;
 }
 
 std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,

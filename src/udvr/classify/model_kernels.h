@@ -94,12 +94,16 @@ std::pair<int, int> quantilePopulation(ModelKind kind, const ModelView& model,
 /// The boundaries a quantile row of the model table classifies over (the 1D and 2D kernels
 /// take them from here): the iqr array's two (stride 2, even levels), else the model's quantile
 /// boundaries with the row's population [lo, hi] (quantilePopulation; quantile-mean rows: all,
-/// 0 … q) and the model's levels (null: even).
+/// 0 … q) and the model's levels (null: even). For the quantile-mean rows also Eq. 5's
+/// weights: density (1/w_j) or equal, and the width at or below which a quantile is a point
+/// mass (kQuantileZeroWidth × dataSpan; 0 for other rows).
 struct QuantileBoundarySource {
     const float* data;
     int stride;  // floats per voxel
     int lo, hi;  // boundary indices of the population
     const double* levels;
+    bool densityWeights = false;
+    double zeroWidth = 0.0;  // data units
 };
 QuantileBoundarySource quantileBoundariesOf(const ModelView& model, const ModelRow& row,
                                             const ClassifyOptions& options);
@@ -639,9 +643,9 @@ struct QuantileMeanKernel : KernelBase, detail::ClassifyInLoad {
     /// The kernel over `model` for a row of the model table (model_rows.h).
     static QuantileMeanKernel make(const ModelView& m, const TfPiecesStorage& tf,
                                    const ClassifyOptions& o, const ModelRow& row) {
-        return QuantileMeanKernel(m.grid, m.quantiles.data(), m.quantileCount, m.levelsOrNull(),
-                                  row.quantileMeanWeights == QuantileMeanWeights::Density,
-                                  kQuantileZeroWidth * dataSpan(m, o), tf);
+        const QuantileBoundarySource b = quantileBoundariesOf(m, row, o);
+        return QuantileMeanKernel(m.grid, b.data, b.hi - b.lo, b.levels, b.densityWeights,
+                                  b.zeroWidth, tf);
     }
     /// Its distribution at a cell (Eq. 5): a point mass at each quantile's midpoint with
     /// forEachQuantileMeanWeight's share, every one of the q (mass 0 included), in order.

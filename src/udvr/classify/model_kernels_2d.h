@@ -571,7 +571,8 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
     template <class Setup>
     static Quantile2DKernel make(const ModelView& m, Setup& s, const ClassifyOptions& o,
                                  const ModelRow& row) {
-        const auto [data, stride, lo, hi, levels] = quantileBoundariesOf(m, row, o);
+        const auto [data, stride, lo, hi, levels, densityWeights, zeroWidth] =
+            quantileBoundariesOf(m, row, o);
         const bool quantileMean = row.quantileMeanWeights != QuantileMeanWeights::None;
         if (hi - lo + 1 > kMaxBoundaries2D)
             UDVR_FAIL("2D transfer functions handle at most "
@@ -591,8 +592,8 @@ struct Quantile2DKernel : Kernel2DBase, detail::ClassifyInLoad {
                 gradients,
                 QuantileLevels{levels, lo},
                 quantileMean,
-                row.quantileMeanWeights == QuantileMeanWeights::Density,
-                kQuantileZeroWidth * dataSpan(m, o)};
+                densityWeights,
+                zeroWidth};
     }
 
     /// The polyline's vertices X[0 … count−1], G[…] at a cell, X_j = boundary(j); returns count.

@@ -79,6 +79,19 @@ struct ModelRow {
     }
 };
 
+/// Values that several rows of model_rows.h share, each written once.
+/// The arrays of the uniform and gaussian rows (every form), and uniform's with
+/// `--uniform-width minmax`.
+inline constexpr unsigned kMeanAndStddev = kArrayMean | kArrayStddev;
+inline constexpr unsigned kMinAndMax = kArrayMin | kArrayMax;
+/// nsPerStep measured for a kernel and taken by every row that runs it on the same arrays:
+/// `uniform`'s for its alias `uniform-fast`; `quantile-range`'s for the quartile views (the
+/// same kernel over a part of the quantiles: an upper bound); `quantile-mean`'s for
+/// `quantile-mean-mass` (the same kernel, other weights).
+inline constexpr std::array<double, 3> kUniformCost{150.0, 5000.0, 1160.0};
+inline constexpr std::array<double, 3> kQuantileRangeCost{18.8, 89.0, 263.0};
+inline constexpr std::array<double, 3> kQuantileMeanCost{13.0, 20.0, 161.0};
+
 /// Every row's data, in row order (kModelRows[i].kind == ModelKind(i)).
 inline constexpr ModelRow kModelRows[] = {
 #define UDVR_MODEL_ROW_DATA(Enumerator, Kernel1D, Kernel2D, KernelBivariate, ...) \

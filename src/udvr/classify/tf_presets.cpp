@@ -20,37 +20,29 @@ struct Preset {
     std::vector<ColorStop> stops;
 };
 
-// Control points of well-known colour maps (the published values of each map, thinned to a few
-// stops; colours are linear between them as every 1D TF here).
+// One control point of a preset's colour map: a row of data/tf_presets.csv.
+struct StopRow {
+    const char* name;
+    double t, r, g, b;
+};
+// The rows, as CMake writes them from data/tf_presets.csv (cmake/tf_presets.cmake).
+constexpr StopRow kStopRows[] = {
+#include "tf_preset_stops.inc"
+};
+
+// The presets in the file's order, each of its consecutive rows of one name (the published
+// values of well-known colour maps, thinned to a few stops; colours are linear between them
+// as in every 1D TF here).
 const std::vector<Preset>& presets() {
-    static const std::vector<Preset> all{
-        // Moreland's diverging map, ParaView's default ("Cool to Warm").
-        {"cool-to-warm",
-         {{0.0, {0.231373, 0.298039, 0.752941}},
-          {0.5, {0.865003, 0.865003, 0.865003}},
-          {1.0, {0.705882, 0.0156863, 0.14902}}}},
-        // matplotlib's viridis at 0, ¼, ½, ¾, 1.
-        {"viridis",
-         {{0.0, {0.267004, 0.004874, 0.329415}},
-          {0.25, {0.229739, 0.322361, 0.545706}},
-          {0.5, {0.127568, 0.566949, 0.550556}},
-          {0.75, {0.369214, 0.788888, 0.382914}},
-          {1.0, {0.993248, 0.906157, 0.143936}}}},
-        // matplotlib's inferno at 0, ¼, ½, ¾, 1.
-        {"inferno",
-         {{0.0, {0.001462, 0.000466, 0.013866}},
-          {0.25, {0.341500, 0.062325, 0.429425}},
-          {0.5, {0.735683, 0.215906, 0.330245}},
-          {0.75, {0.978422, 0.557937, 0.034931}},
-          {1.0, {0.988362, 0.998364, 0.644924}}}},
-        // ParaView's "Black-Body Radiation".
-        {"black-body",
-         {{0.0, {0.0, 0.0, 0.0}},
-          {0.39, {0.901961, 0.0, 0.0}},
-          {0.58, {0.901961, 0.901961, 0.0}},
-          {1.0, {1.0, 1.0, 1.0}}}},
-        {"grayscale", {{0.0, {0.0, 0.0, 0.0}}, {1.0, {1.0, 1.0, 1.0}}}},
-    };
+    static const std::vector<Preset> all = [] {
+        std::vector<Preset> out;
+        for (const StopRow& row : kStopRows) {
+            if (out.empty() || std::string_view(out.back().name) != row.name)
+                out.push_back({row.name, {}});
+            out.back().stops.push_back({row.t, {row.r, row.g, row.b}});
+        }
+        return out;
+    }();
     return all;
 }
 
