@@ -366,6 +366,16 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
             out[ch] = perSegment ? sum[ch] : lanes::select(closed, sum[ch], T{});
         walk = live & !closed;
     }
+    // Segments in a box of cells with α = 0 add 0: not walked (up to 32 segments, as above).
+    if (r.cellOpaqueSum && count <= 32 && lanes::anyOf(walk)) {
+        for (int j = 1; j < count; ++j) {
+            const lanes::MaskOf<T> empty =
+                tf2SegmentCellsEmpty<T>(r, x[j - 1], g[j - 1], x[j], g[j], walk);
+            skip = skip | lanes::select(empty, I{} + (1 << j), I{});
+        }
+        const int every = static_cast<int>(count == 32 ? ~1u : (1u << count) - 2u);
+        walk = walk & !((skip & every) == every);  // lanes with no segment left to walk
+    }
     if (count >= 2 && lanes::anyOf(walk)) {
         T walked[4];
         if constexpr (lanes::kIsVector<T>) {
