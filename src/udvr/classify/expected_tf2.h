@@ -21,7 +21,7 @@ namespace detail {
 template <class T>
 struct PolylineSegments {
     static_assert(!lanes::kIsVector<T>);
-    static constexpr bool kMany = true, kPooled = false;
+    static constexpr bool kMany = true, kPooled = false, kPrepared = false;
     const T* x;
     const T* g;
     const T* mass;  // [count]
@@ -50,11 +50,15 @@ struct PolylineSegments {
 /// (for pools of few segments a lane: iqr and the quartile views have one) it cuts the long ones
 /// into parts [u0, u1] of their parameter (exact: the mean over [0, 1] is Σ (u1 − u0) × the
 /// mean over the parts), each crossing at most a quarter of a lane's share of the lines.
+/// After prepare() the pool also holds where each item's walk starts (segmentWalk's begin,
+/// computed for 16 items at a time), which nextPrepared hands to the lanes that want one by
+/// expanding loads, in place of per-lane gathers and line searches each time a lane finishes.
 /// Lane vectors only.
 template <bool kParts>
 struct PooledPolylineSegments {
-    static constexpr bool kMany = true, kPooled = true;
+    static constexpr bool kMany = true, kPooled = true, kPrepared = true;
     using Vf = lanes::Vf;
+    using Vi = lanes::Vi;
     static constexpr int kCapacity = lanes::kWidth * kMaxPolylineVertices;
     const Vf* x;
     const Vf* g;
@@ -66,6 +70,13 @@ struct PooledPolylineSegments {
     float itemU1[kParts ? kCapacity : 1];
     std::int32_t laneOf[lanes::kWidth] = {};  // each lane's polyline
     float total[4][lanes::kWidth] = {};       // Σ weight × mean, per polyline
+    // With prepare(), per item in hand-out order (padded for the expanding loads), as floats:
+    // the segment (or part) in raster coordinates sa + u·ds, ta + u·dt with 1/ds, 1/dt, its
+    // weight, the parameters of the x and y lines ahead of u = 0 (linesAhead); then integers:
+    // those lines and their steps, and the item's polyline.
+    static constexpr int kReals = 9, kInts = 5;
+    static constexpr int kPadded = kCapacity + lanes::kWidth;
+    float prepared[kReals + kInts][kPadded];
 
     /// invDx, invDy: raster cells per data unit along x and y (Tf2Raster).
     PooledPolylineSegments(const Vf* xs, const Vf* gs, const float* m, int count, lanes::Vi skip,
@@ -165,26 +176,89 @@ struct PooledPolylineSegments {
         };
         xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
         w = lanes::gather(mass, j, gotMask);
-        if constexpr (kParts) toParts(got, first, xa, ya, xb, yb, w);
+        if constexpr (kParts) {
+            float u0[lanes::kWidth] = {}, u1[lanes::kWidth] = {};
+            for (int item = first; got != 0; got &= got - 1, ++item) {
+                const int l = std::countr_zero(got);
+                u0[l] = itemU0[item];
+                u1[l] = itemU1[item];
+            }
+            toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
+        }
         return gotMask;
     }
-    /// The parts' ends and weights of the items next() handed out from `first` on, to the
-    /// lanes of `got` in order.
-    void toParts(std::uint32_t got, int first, Vf& xa, Vf& ya, Vf& xb, Vf& yb, Vf& w) const {
-        float u0[lanes::kWidth] = {}, u1[lanes::kWidth] = {};
-        for (int item = first; got != 0; got &= got - 1, ++item) {
-            const int l = std::countr_zero(got);
-            u0[l] = itemU0[item];
-            u1[l] = itemU1[item];
-        }
+    /// Part [a, b] of the segments from (xa, ya) to (xb, yb), weight w: its ends and weight.
+    static void toParts(Vf a, Vf b, Vf& xa, Vf& ya, Vf& xb, Vf& yb, Vf& w) {
         // A whole segment (u0 = 0, u1 = 1) keeps its vertices.
-        const Vf a = lanes::load(u0), b = lanes::load(u1), x0 = xa, y0 = ya;
+        const Vf x0 = xa, y0 = ya;
         const Vf dx = xb - x0, dy = yb - y0;
         xa = lanes::select(a == 0.0f, x0, lanes::fma(a, dx, x0));
         ya = lanes::select(a == 0.0f, y0, lanes::fma(a, dy, y0));
         xb = lanes::select(b == 1.0f, xb, lanes::fma(b, dx, x0));
         yb = lanes::select(b == 1.0f, yb, lanes::fma(b, dy, y0));
         w = w * (b - a);
+    }
+    /// Where each item's walk starts (segmentWalk<kRuns>'s begin), 16 items at a time: the
+    /// same values begin computes from next()'s segments.
+    template <bool kRuns, class Real>
+    void prepare(const Tf2Raster<Real>& r) {
+        const float ox = static_cast<float>(r.x0), oy = static_cast<float>(r.y0);
+        const float ix = static_cast<float>(r.invDx), iy = static_cast<float>(r.invDy);
+        for (int first = 0; first < items; first += lanes::kWidth) {
+            const int n = std::min(lanes::kWidth, items - first);
+            const lanes::Mask m = lanes::firstLanes(n);
+            std::int32_t lane[lanes::kWidth] = {}, seg[lanes::kWidth];
+            float u0[lanes::kWidth] = {}, u1[lanes::kWidth] = {};
+            for (int k = 0; k < lanes::kWidth; ++k) {
+                seg[k] = 1;
+                if (k >= n) continue;
+                lane[k] = itemLane[first + k];
+                seg[k] = itemSeg[first + k];
+                if constexpr (kParts) u0[k] = itemU0[first + k], u1[k] = itemU1[first + k];
+            }
+            const Vi polyline = lanes::load(lane), j = lanes::load(seg);
+            const auto at = [&](const Vf* v, Vi k) {
+                return lanes::gather(reinterpret_cast<const float*>(v),
+                                     k * lanes::kWidth + polyline, m);
+            };
+            Vf xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
+            Vf w = lanes::gather(mass, j, m);
+            if constexpr (kParts) toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
+            const Vf sa = (xa - ox) * ix, ta = (ya - oy) * iy;
+            const Vf ds = (xb - ox) * ix - sa, dt = (yb - oy) * iy - ta;
+            const Vf ids = 1.0f / ds, idt = 1.0f / dt;
+            Vi lineX{}, stepX{}, lineY{}, stepY{};
+            Vf ux{}, uy{}, start{};
+            linesAhead<kRuns, Vf>(r, m, Vf{}, sa, ta, sa, ta, ds, dt, ids, idt, lineX, stepX, lineY,
+                                  stepY, ux, uy, start);
+            const Vf reals[kReals] = {sa, ta, ds, dt, ids, idt, w, ux, uy};
+            const Vi ints[kInts] = {lineX, stepX, lineY, stepY, polyline};
+            for (int f = 0; f < kReals; ++f) lanes::store(prepared[f] + first, reals[f]);
+            for (int f = 0; f < kInts; ++f)  // exact: |values| ≤ the raster's size
+                lanes::store(prepared[kReals + f] + first, lanes::toFloat(ints[f]));
+        }
+    }
+    /// The next prepared items to the lanes of m, as many as are left, in order (returned);
+    /// the other lanes keep their values.
+    lanes::Mask nextPrepared(lanes::Mask m, Vf& sa, Vf& ta, Vf& ds, Vf& dt, Vf& ids, Vf& idt, Vf& w,
+                             Vi& lineX, Vi& stepX, Vi& lineY, Vi& stepY, Vf& ux, Vf& uy) {
+        std::uint32_t want = lanes::bits(m);
+        for (int extra = std::popcount(want) - (items - taken); extra > 0; --extra)
+            want &= ~(1u << (31 - std::countl_zero(want)));  // the last lanes get none
+        if (want == 0) return lanes::fromBits(0);
+        const lanes::Mask got = lanes::fromBits(want);
+        Vf* const reals[kReals] = {&sa, &ta, &ds, &dt, &ids, &idt, &w, &ux, &uy};
+        for (int f = 0; f < kReals; ++f)
+            *reals[f] = lanes::expandFirst(prepared[f] + taken, got, *reals[f]);
+        Vi polyline = lanes::load(laneOf);
+        Vi* const ints[kInts] = {&lineX, &stepX, &lineY, &stepY, &polyline};
+        for (int f = 0; f < kInts; ++f) {
+            const Vf v = lanes::expandFirst(prepared[kReals + f] + taken, got, Vf{});
+            *ints[f] = lanes::select(got, lanes::truncToInt(v), *ints[f]);
+        }
+        lanes::store(laneOf, polyline);
+        taken += std::popcount(want);
+        return got;
     }
     /// Adds the lanes of m to their polylines' totals and clears them.
     void flush(lanes::Mask m, Vf out[4]) {
@@ -210,12 +284,21 @@ UDVR_NOINLINE void pooledPolylineWalk(const Tf2Raster<Real>& r, const lanes::Vf*
                                       const lanes::Vf* g, const float* mass, int count,
                                       lanes::Vi skip, lanes::Mask walk, lanes::Vf out[4]) {
     const float ix = static_cast<float>(r.invDx), iy = static_cast<float>(r.invDy);
+    const auto walkPool = [&](auto& pool) {
+        if (!r.bandPrefix) {  // segmentWalk, which starts its segments from the prepared items
+            if (r.cellRun)
+                pool.template prepare<true>(r);
+            else
+                pool.template prepare<false>(r);
+        }
+        segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
+    };
     if (pooledWalkCuts(walk, count)) {
         PooledPolylineSegments<true> pool(x, g, mass, count, skip, walk, ix, iy);
-        segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
+        walkPool(pool);
     } else {
         PooledPolylineSegments<false> pool(x, g, mass, count, skip, walk, ix, iy);
-        segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
+        walkPool(pool);
     }
 }
 }  // namespace detail
@@ -282,6 +365,16 @@ UDVR_CPU_GPU UDVR_INLINE void expectedTf2QuantileRange(const Tf2Raster<Real>& r,
         for (int ch = 0; ch < 4; ++ch)
             out[ch] = perSegment ? sum[ch] : lanes::select(closed, sum[ch], T{});
         walk = live & !closed;
+    }
+    // Segments in a box of cells with α = 0 add 0: not walked (up to 32 segments, as above).
+    if (r.cellOpaqueSum && count <= 32 && lanes::anyOf(walk)) {
+        for (int j = 1; j < count; ++j) {
+            const lanes::MaskOf<T> empty =
+                tf2SegmentCellsEmpty<T>(r, x[j - 1], g[j - 1], x[j], g[j], walk);
+            skip = skip | lanes::select(empty, I{} + (1 << j), I{});
+        }
+        const int every = static_cast<int>(count == 32 ? ~1u : (1u << count) - 2u);
+        walk = walk & !((skip & every) == every);  // lanes with no segment left to walk
     }
     if (count >= 2 && lanes::anyOf(walk)) {
         T walked[4];

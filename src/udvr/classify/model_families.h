@@ -49,6 +49,7 @@ struct Tf2Rasters {
     Tf2Raster<float> fast;
     std::vector<float> cellEmptyDistance;
     std::vector<float> columnEmptyRun;  // Tf2Raster::columnEmptyRun
+    std::vector<float> cellOpaqueSum;   // Tf2Raster::cellOpaqueSum
     std::vector<float> cellRuns;
     /// The float view's closed form for segments that see one row's function
     /// (Tf2Raster::rowSameUpTo, rowPrefix): where at least half of the bands with α > 0 have

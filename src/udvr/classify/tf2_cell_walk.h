@@ -76,6 +76,29 @@ UDVR_CPU_GPU UDVR_INLINE lanes::IntOf<T> nextLineX(const Tf2Raster<Real>& r, lan
                      lineX + stepX);
 }
 
+/// Where a walk of the segment (sa, ta) + u·(ds, dt) (raster coordinates; ids = 1/ds,
+/// idt = 1/dt) goes on from parameter u at (s, t), in the lanes of m: the next x and y lines
+/// ahead, their steps and parameters (by runs, kRuns: the end of the run of cells it is in),
+/// u0 = u; the other lanes keep theirs.
+template <bool kRuns, class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE void linesAhead(const Tf2Raster<Real>& r, lanes::MaskOf<T> m, T u, T s,
+                                         T t, T sa, T ta, T ds, T dt, T ids, T idt,
+                                         lanes::IntOf<T>& lineX, lanes::IntOf<T>& stepX,
+                                         lanes::IntOf<T>& lineY, lanes::IntOf<T>& stepY, T& ux,
+                                         T& uy, T& u0) {
+    lanes::IntOf<T> lx, sx, ly, sy;
+    firstLine<T>(s, ds, r.width, lx, sx);
+    firstLine<T>(t, dt, r.height, ly, sy);
+    if constexpr (kRuns) lx = runLineAhead<T>(r, lx, sx, bandAhead<T>(t, ly, sy, r.height), m);
+    lineX = lanes::select(m, lx, lineX);
+    stepX = lanes::select(m, sx, stepX);
+    lineY = lanes::select(m, ly, lineY);
+    stepY = lanes::select(m, sy, stepY);
+    ux = lanes::select(m, lineParameterFrom<T>(sa, ids, lx, sx), ux);
+    uy = lanes::select(m, lineParameterFrom<T>(ta, idt, ly, sy), uy);
+    u0 = lanes::select(m, u, u0);
+}
+
 /// The walk of tf2MeanAlongSegment, by cells or (kRuns, r.cellRun set) by runs of cells, over
 /// the segments of `source` (OneSegment, or a polyline: Σ weight × mean along each segment).
 /// With Source::kMany a lane that finishes a segment starts its next one in place, so a batch
@@ -89,37 +112,36 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, Source& sour
     using I = lanes::IntOf<T>;
     const S ox = static_cast<S>(r.x0), oy = static_cast<S>(r.y0);
     const S ix = static_cast<S>(r.invDx), iy = static_cast<S>(r.invDy);
-    T sa{}, ta{}, ds{}, dt{}, ux{}, uy{}, u0{}, weight{};
+    T sa{}, ta{}, ds{}, dt{}, ids{}, idt{}, ux{}, uy{}, u0{}, weight{};
     I lineX{}, stepX{}, lineY{}, stepY{};
     // The lanes of m go on from segment parameter u, raster position (s, t): the lines ahead.
     const auto goOnFrom = [&](lanes::MaskOf<T> m, T u, T s, T t) {
-        I lx, sx, ly, sy;
-        detail::firstLine<T>(s, ds, r.width, lx, sx);
-        detail::firstLine<T>(t, dt, r.height, ly, sy);
-        if constexpr (kRuns)
-            lx = detail::runLineAhead<T>(r, lx, sx, detail::bandAhead<T>(t, ly, sy, r.height), m);
-        lineX = lanes::select(m, lx, lineX);
-        stepX = lanes::select(m, sx, stepX);
-        lineY = lanes::select(m, ly, lineY);
-        stepY = lanes::select(m, sy, stepY);
-        ux = lanes::select(m, detail::lineParameter<T>(sa, ds, lx, sx), ux);
-        uy = lanes::select(m, detail::lineParameter<T>(ta, dt, ly, sy), uy);
-        u0 = lanes::select(m, u, u0);
+        detail::linesAhead<kRuns, T>(r, m, u, s, t, sa, ta, ds, dt, ids, idt, lineX, stepX, lineY,
+                                     stepY, ux, uy, u0);
     };
     // Starts the next segment of the lanes of m that have one (returned).
     const auto begin = [&](lanes::MaskOf<T> m) {
-        T xa{}, ya{}, xb{}, yb{}, w{};
-        const lanes::MaskOf<T> got = source.next(m, xa, ya, xb, yb, w);
-        if (!lanes::anyOf(got)) return got;
-        // Raster coordinates, unclamped (pieces outside the domain clamp at evaluation).
-        const T sa1 = (xa - ox) * ix, ta1 = (ya - oy) * iy;
-        sa = lanes::select(got, sa1, sa);
-        ta = lanes::select(got, ta1, ta);
-        ds = lanes::select(got, (xb - ox) * ix - sa1, ds);
-        dt = lanes::select(got, (yb - oy) * iy - ta1, dt);
-        weight = lanes::select(got, w, weight);
-        goOnFrom(got, T{}, sa1, ta1);
-        return got;
+        if constexpr (Source::kPrepared) {  // the source has the start of each segment's walk
+            const lanes::MaskOf<T> got = source.nextPrepared(m, sa, ta, ds, dt, ids, idt, weight,
+                                                             lineX, stepX, lineY, stepY, ux, uy);
+            u0 = lanes::select(got, T{}, u0);
+            return got;
+        } else {
+            T xa{}, ya{}, xb{}, yb{}, w{};
+            const lanes::MaskOf<T> got = source.next(m, xa, ya, xb, yb, w);
+            if (!lanes::anyOf(got)) return got;
+            // Raster coordinates, unclamped (pieces outside the domain clamp at evaluation).
+            const T sa1 = (xa - ox) * ix, ta1 = (ya - oy) * iy;
+            sa = lanes::select(got, sa1, sa);
+            ta = lanes::select(got, ta1, ta);
+            ds = lanes::select(got, (xb - ox) * ix - sa1, ds);
+            dt = lanes::select(got, (yb - oy) * iy - ta1, dt);
+            ids = lanes::select(got, S(1) / ds, ids);
+            idt = lanes::select(got, S(1) / dt, idt);
+            weight = lanes::select(got, w, weight);
+            goOnFrom(got, T{}, sa1, ta1);
+            return got;
+        }
     };
     for (int ch = 0; ch < 4; ++ch) out[ch] = T{};
     auto active = begin(live);
@@ -152,27 +174,32 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, Source& sour
             jump = active & (d > S(1));
             if (lanes::anyOf(jump)) {
                 // The block spans raster coordinates [i + 1 − d, i + d] along s, same along t.
-                const auto leave = [&](I cell, T from, T slope) {
+                const auto leave = [&](I cell, T from, T slope, T inv) {
                     T c;
                     if constexpr (lanes::kIsVector<T>)
                         c = lanes::toFloat(cell);
                     else
                         c = static_cast<T>(cell);
                     const T inf = lanes::splat<T>(std::numeric_limits<S>::infinity());
-                    const T safe = lanes::select(slope != S(0), slope, lanes::splat<T>(S(1)));
                     return lanes::select(
-                        slope > S(0), (c + d - from) / safe,
-                        lanes::select(slope < S(0), (c + S(1) - d - from) / safe, inf));
+                        slope > S(0), (c + d - from) * inv,
+                        lanes::select(slope < S(0), (c + S(1) - d - from) * inv, inf));
                 };
-                uJump = lanes::min(lanes::min(leave(i, sa, ds), leave(j, ta, dt)),
+                uJump = lanes::min(lanes::min(leave(i, sa, ds, ids), leave(j, ta, dt, idt)),
                                    lanes::splat<T>(S(1)));
             }
         }
         if (lanes::anyOf(use)) {
-            // One load of the cell's (or its run's) corners serves the three nodes.
+            // One load of the cell's (or its run's) corners serves the three nodes: a cell's
+            // two rows of two adjacent points each (gatherRow8 on lanes), a run's four corners.
             I lo = i, hi = i + 1;
             if constexpr (kRuns) detail::runOf<T>(r, i, j, use, lo, hi);
-            const Tf2Cell<T> cell(r, lo, hi, j, use);
+            const Tf2Cell<T> cell = [&] {
+                if constexpr (kRuns)
+                    return Tf2Cell<T>(r, lo, hi, j, use);
+                else
+                    return Tf2Cell<T>(r, i, j, use);
+            }();
             T ci, cj, invWidth = lanes::splat<T>(S(1));
             if constexpr (lanes::kIsVector<T>) {
                 ci = lanes::toFloat(lo);
@@ -225,8 +252,8 @@ UDVR_CPU_GPU UDVR_INLINE void segmentWalk(const Tf2Raster<Real>& r, Source& sour
             stepX = lanes::select(movedX & ((lineX < 0) | (lineX > r.width - 1)), I{}, stepX);
         else if (movedX && (lineX < 0 || lineX > r.width - 1))
             stepX = 0;
-        ux = lanes::select(movedX, detail::lineParameter<T>(sa, ds, lineX, stepX), ux);
-        uy = lanes::select(atY, detail::lineParameter<T>(ta, dt, lineY, stepY), uy);
+        ux = lanes::select(movedX, detail::lineParameterFrom<T>(sa, ids, lineX, stepX), ux);
+        uy = lanes::select(atY, detail::lineParameterFrom<T>(ta, idt, lineY, stepY), uy);
         u0 = u1;
         // Only a jump past the piece's end: restarting at a line found an ulp behind would walk
         // the same piece again, forever.

@@ -45,6 +45,11 @@ struct Tf2Raster {
     /// such columns TF2(x, ·) = 0 whatever y, so the quantile kernels skip the gradients of
     /// samples whose boundaries all lie there (tf2ColumnsEmpty).
     const float* columnEmptyRun = nullptr;
+    /// Optional, per raster point (j·width + i): how many cells with α > 0 at a corner lie in
+    /// columns < i and rows < j (a summed-area table over TransferFunction2D::cellOpaque), so
+    /// that a box of cells has none in four reads: segments whose box of cells has none add 0
+    /// to a mean and are not walked (tf2SegmentCellsEmpty).
+    const float* cellOpaqueSum = nullptr;
     /// Optional: the banded walk's prefix tables, kTf2BandMoments doubles per record
     /// (TransferFunction2D::bandPrefixMoments; read by detail::bandRunSum). With them a
     /// segment walks the raster lines of the axis it crosses fewer of, and takes the cells it
@@ -204,6 +209,39 @@ UDVR_CPU_GPU UDVR_INLINE void tf2At(const Tf2Raster<Real>& r, T x, T y, lanes::M
     Tf2Cell<T>(r, i, j, load).at(fx, fy, v);  // lanes outside `load`: corners 0, α = 0
     for (int ch = 0; ch < 3; ++ch) out[ch] = v[3] * v[ch];
     out[3] = v[3];
+}
+
+/// Lanes of `live` whose segment from (xa, ya) to (xb, yb) (finite ends) lies in a box of cells
+/// with α = 0 at every corner (Tf2Raster::cellOpaqueSum): the cells of its clamped ends' box,
+/// which hold every cell a walk of it reads, so its mean is 0 exactly. None without the table.
+template <class T, class Real>
+UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> tf2SegmentCellsEmpty(const Tf2Raster<Real>& r, T xa, T ya,
+                                                               T xb, T yb, lanes::MaskOf<T> live) {
+    using S = lanes::ScalarOf<T>;
+    using I = lanes::IntOf<T>;
+    if (!r.cellOpaqueSum) return lanes::MaskOf<T>{};
+    const S x0 = static_cast<S>(r.x0), ix = static_cast<S>(r.invDx);
+    const S y0 = static_cast<S>(r.y0), iy = static_cast<S>(r.invDy);
+    I i0, i1, j0, j1;
+    T f;
+    detail::rasterCell(detail::rasterCoordinate<T>(lanes::min(xa, xb), x0, ix, r.width), r.width,
+                       i0, f);
+    detail::rasterCell(detail::rasterCoordinate<T>(lanes::max(xa, xb), x0, ix, r.width), r.width,
+                       i1, f);
+    detail::rasterCell(detail::rasterCoordinate<T>(lanes::min(ya, yb), y0, iy, r.height), r.height,
+                       j0, f);
+    detail::rasterCell(detail::rasterCoordinate<T>(lanes::max(ya, yb), y0, iy, r.height), r.height,
+                       j1, f);
+    constexpr S kMax = std::numeric_limits<S>::max();
+    const auto finiteX = (lanes::abs(xa) <= kMax) & (lanes::abs(xb) <= kMax);
+    const auto finiteY = (lanes::abs(ya) <= kMax) & (lanes::abs(yb) <= kMax);
+    const lanes::MaskOf<T> m = live & finiteX & finiteY;
+    const I lo = j0 * r.width, hi = (j1 + 1) * r.width;
+    const T inside = detail::rasterLoad<T>(r.cellOpaqueSum, hi + i1 + 1, m) -
+                     detail::rasterLoad<T>(r.cellOpaqueSum, lo + i1 + 1, m) -
+                     detail::rasterLoad<T>(r.cellOpaqueSum, hi + i0, m) +
+                     detail::rasterLoad<T>(r.cellOpaqueSum, lo + i0, m);
+    return m & (inside == S(0));
 }
 
 /// Lanes of `live` whose values x ∈ [xa, xb] (xa ≤ xb) lie in columns of cells with α = 0 in

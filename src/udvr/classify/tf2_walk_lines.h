@@ -61,17 +61,30 @@ UDVR_CPU_GPU UDVR_INLINE void firstLine(T s, T ds, int n, lanes::IntOf<T>& line,
                                         lanes::IntOf<T>& step) {
     firstLineN<T>(s, ds, lanes::IntOf<T>{} + n, line, step);
 }
+/// A raster line's index as a coordinate of T.
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T lineCoordinate(lanes::IntOf<T> line) {
+    if constexpr (lanes::kIsVector<T>)
+        return lanes::toFloat(line);
+    else
+        return static_cast<T>(line);
+}
 /// Segment parameter where the coordinate s0 + u·ds reaches `line` (+∞ for none).
 template <class T>
 UDVR_CPU_GPU UDVR_INLINE T lineParameter(T s0, T ds, lanes::IntOf<T> line, lanes::IntOf<T> step) {
     using S = lanes::ScalarOf<T>;
-    T l;
-    if constexpr (lanes::kIsVector<T>)
-        l = lanes::toFloat(line);
-    else
-        l = static_cast<T>(line);
-    const T u = (l - s0) / lanes::select(step != 0, ds, lanes::splat<T>(S(1)));
+    const T u =
+        (lineCoordinate<T>(line) - s0) / lanes::select(step != 0, ds, lanes::splat<T>(S(1)));
     return lanes::select(step != 0, u, lanes::splat<T>(std::numeric_limits<S>::infinity()));
+}
+/// lineParameter from the slope's reciprocal inv = 1/ds (a multiply: the cell walk finds a
+/// line per piece; within an ulp or two of the division).
+template <class T>
+UDVR_CPU_GPU UDVR_INLINE T lineParameterFrom(T s0, T inv, lanes::IntOf<T> line,
+                                             lanes::IntOf<T> step) {
+    using S = lanes::ScalarOf<T>;
+    return lanes::select(step != 0, (lineCoordinate<T>(line) - s0) * inv,
+                         lanes::splat<T>(std::numeric_limits<S>::infinity()));
 }
 
 /// The lanes still walking after a step of a walk over `source`'s segments (tf2_cell_walk.h,
@@ -96,7 +109,7 @@ UDVR_CPU_GPU UDVR_INLINE M stillWalking(Source& source, M active, M on, const Be
 /// One segment, weight 1: the source of tf2MeanAlongSegment's walk.
 template <class T>
 struct OneSegment {
-    static constexpr bool kMany = false, kPooled = false;
+    static constexpr bool kMany = false, kPooled = false, kPrepared = false;
     T xa, ya, xb, yb;
     /// Sets the next segment's ends and weight in the lanes of m that have one; returns those.
     UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> next(lanes::MaskOf<T> m, T& pa, T& qa, T& pb, T& qb,

@@ -63,6 +63,23 @@ TEST(Lanes, MaskBitsRoundTrip) {
         EXPECT_EQ(lanes::bits(lanes::firstLanes(n)), (1u << n) - 1u) << n;
 }
 
+// expandFirst: the k-th lane of the mask takes src[k], the others keep the fallback; every
+// target packs (the segment pool hands its items out so).
+TEST(Lanes, ExpandFirstHandsItemsToTheMaskedLanesInOrder) {
+    std::mt19937 rng(2);
+    float src[lanes::kWidth];
+    for (int k = 0; k < lanes::kWidth; ++k) src[k] = 10.0f + static_cast<float>(k);
+    for (int trial = 0; trial < 100; ++trial) {
+        const Mask m = trial == 0 ? lanes::fromBits(0u) : randomMask(rng);
+        const Vf f = lanes::expandFirst(src, m, Vf{} - 1.0f);
+        int k = 0;
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            EXPECT_EQ(f[l], m[l] ? src[k] : -1.0f);
+            k += m[l] ? 1 : 0;
+        }
+    }
+}
+
 TEST(Lanes, PrefixProductAndSum) {
     std::mt19937 rng(2);
     for (int trial = 0; trial < 200; ++trial) {

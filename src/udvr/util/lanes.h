@@ -136,6 +136,11 @@ inline Vf load(const float* p) {
     std::memcpy(&v, p, sizeof v);
     return v;
 }
+inline Vi load(const std::int32_t* p) {
+    Vi v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
 inline void store(float* p, Vf v) { std::memcpy(p, &v, sizeof v); }
 inline void store(std::int32_t* p, Vi v) { std::memcpy(p, &v, sizeof v); }
 
@@ -579,6 +584,20 @@ inline Vf expandLoad(const float* src, Mask m, Vf fallback) {
     return _mm512_mask_expand_ps(fallback, static_cast<__mmask16>(bits(m)), _mm512_loadu_ps(src));
 #else
     return select(m, load(src), fallback);
+#endif
+}
+/// src[0], src[1], … in the lanes of m in order (the k-th lane of m takes src[k]; reads
+/// src[0 … kWidth − 1]), fallback in the others: items handed out in order to the lanes that
+/// want one (classify/expected_tf2.h's segment pool). On every target, unlike expandLoad.
+inline Vf expandFirst(const float* src, Mask m, Vf fallback) {
+#if defined(__AVX512F__)
+    return _mm512_mask_expand_ps(fallback, static_cast<__mmask16>(bits(m)), _mm512_loadu_ps(src));
+#else
+    Vf r = fallback;
+    int k = 0;
+    for (int l = 0; l < kWidth; ++l)
+        if (m[l]) r[l] = src[k++];
+    return r;
 #endif
 }
 /// Bit v of a bit table per lane (`live` lanes; false elsewhere).
