@@ -38,7 +38,7 @@ constexpr OptionSpec kFrameOptions[] = {
      .help = "view-up x,y,z (default 0,1,0)"},
     {.name = "view-angle", .field = &O::viewAngle, .defaultValue = kDefaultViewAngleDeg,
      .lo = 0.0, .hi = 179.9, .loOpen = true, .help = "vertical view angle, degrees (default {})"},
-    {.name = "parallel-scale", .field = &O::parallelScale, .defaultValue = 0.0,
+    {.name = "parallel-scale", .field = &O::parallelScale, .defaultValue = Camera{}.parallelScale,
      .lo = 0.0, .hi = kHuge, .loOpen = true,
      .help = "orthographic: half the view height, world units", .given = &O::parallelGiven},
     {.name = "azimuth", .field = &O::azimuth, .defaultValue = kDefaultAzimuthDeg,
@@ -142,7 +142,7 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
                           box[2], box[3], box[4], box[5]);
             note = text;
         }
-        if (o.parallelScale > 0.0) {
+        if (o.parallelGiven) {
             c.parallel = true;
             c.parallelScale = o.parallelScale;
         }
@@ -155,19 +155,29 @@ Camera cameraFromOptions(const RenderOptions& o, const ModelVolume& m,
                                    : parseVec3(o.focal, "--focal-point");
     c.viewUp = o.up.empty() ? Camera{}.viewUp : parseVec3(o.up, "--view-up");
     c.viewAngleDeg = o.viewAngle;
-    if (o.parallelScale > 0.0) {
+    if (o.parallelGiven) {
         c.parallel = true;
         c.parallelScale = o.parallelScale;
     }
     return c;
 }
 
-// Every row's default has its field's type, and a text default is given (even if empty).
+// Every row's default has its field's type, a text default is given (even if empty), and a
+// number's default lies in the row's own range (an option whose default means "not given"
+// says so by its `given` field, not by a value outside the range).
 consteval bool defaultsMatchFields(std::span<const OptionSpec> table) {
     for (const OptionSpec& s : table) {
         if (s.field.index() != s.defaultValue.index()) return false;
         if (const auto* text = std::get_if<const char*>(&s.defaultValue); text && !*text)
             return false;
+        double v = 0.0;
+        if (const auto* real = std::get_if<double>(&s.defaultValue))
+            v = *real;
+        else if (const auto* whole = std::get_if<std::uint64_t>(&s.defaultValue))
+            v = static_cast<double>(*whole);
+        else
+            continue;
+        if (v < s.lo || v > s.hi || (s.loOpen && v == s.lo)) return false;
     }
     return true;
 }

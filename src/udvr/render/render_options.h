@@ -37,7 +37,8 @@ struct RenderOptions {
     double step{}, unit{}, earlyExit{};  // world units; 0 = the defaults of SPEC §5
     bool noSkip{}, force{};
     std::uint64_t realizations{}, seed{}, jitter{};
-    // Whether the option was given (where its default differs from "absent").
+    // Whether the option was given (where its default differs from "absent"): --parallel-scale
+    // makes the camera orthographic only when given (its default is Camera's, unused).
     bool jitterGiven = false, parallelGiven = false, azimuthGiven = false, elevationGiven = false;
 };
 

@@ -117,11 +117,14 @@ template <class T>
 using ScalarOf = typename ElementOf<T>::type;
 
 // ---- construction --------------------------------------------------------------------------
-/// Every lane = s (scalars: s itself); T is Vf, a scalar, or any Vec<E, W>.
+/// Every lane = s (scalars: s itself); T is Vf, a scalar, or any Vec<E, W>. Written s − 0: that
+/// is s in every lane, −0 included, so the compiler broadcasts s as it is (from memory, or as
+/// an FMA's broadcast operand, where s is loaded); 0 + s would turn −0 into +0, and GCC then
+/// adds before it broadcasts (a scalar add and a register broadcast per splat).
 template <class T>
 UDVR_CPU_GPU inline T splat(ScalarOf<T> s) {
     if constexpr (AnyVector<T>)
-        return T{} + s;
+        return s - T{};
     else
         return s;
 }
