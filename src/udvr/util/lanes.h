@@ -739,8 +739,9 @@ inline void transposeBlocks4(const Vf in[4], Vf out[4]) {
 /// are not read): 8 adjacent floats a lane, as two RGBA points of a raster row. With AVX-512VL
 /// or AVX2 each lane's 8 floats are one 256-bit load and an 8×8 transpose puts them in place
 /// (16 lanes: 16 loads and 32 shuffles, against 8 64-bit gathers and 8 permutes for four
-/// gatherPairs); elsewhere four gatherPairs.
-inline void gatherRow8(const float* base, Vi idx, Mask live, Vf out[8]) {
+/// gatherPairs); elsewhere four gatherPairs. Always inlined: called out of line from the TF2
+/// segment walk, its 8 results went through memory.
+UDVR_INLINE void gatherRow8(const float* base, Vi idx, Mask live, Vf out[8]) {
 #if defined(__AVX512F__) && defined(__AVX512VL__)
     const std::uint32_t m = bits(live);
     alignas(64) std::int32_t at[16];
