@@ -233,9 +233,10 @@ UDVR_CPU_GPU UDVR_INLINE lanes::MaskOf<T> tf2SegmentCellsEmpty(const Tf2Raster<R
     detail::rasterCell(detail::rasterCoordinate<T>(lanes::max(ya, yb), y0, iy, r.height), r.height,
                        j1, f);
     constexpr S kMax = std::numeric_limits<S>::max();
-    const auto finiteX = (lanes::abs(xa) <= kMax) & (lanes::abs(xb) <= kMax);
-    const auto finiteY = (lanes::abs(ya) <= kMax) & (lanes::abs(yb) <= kMax);
-    const lanes::MaskOf<T> m = live & finiteX & finiteY;
+    // Named masks: `&` of bools over calls is what clang's -Wbitwise-instead-of-logical flags.
+    const auto finiteXa = lanes::abs(xa) <= kMax, finiteXb = lanes::abs(xb) <= kMax;
+    const auto finiteYa = lanes::abs(ya) <= kMax, finiteYb = lanes::abs(yb) <= kMax;
+    const lanes::MaskOf<T> m = live & finiteXa & finiteXb & finiteYa & finiteYb;
     const I lo = j0 * r.width, hi = (j1 + 1) * r.width;
     const T inside = detail::rasterLoad<T>(r.cellOpaqueSum, hi + i1 + 1, m) -
                      detail::rasterLoad<T>(r.cellOpaqueSum, lo + i1 + 1, m) -
