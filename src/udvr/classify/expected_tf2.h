@@ -203,20 +203,26 @@ struct PooledPolylineSegments {
         std::memcpy(&j, seg, sizeof j);
         std::memcpy(&polyline, laneOf, sizeof polyline);
         j = lanes::select(gotMask, j, lanes::Vi{} + 1);
-        const auto at = [&](const Vf* v, lanes::Vi k) {
-            return lanes::gather(reinterpret_cast<const float*>(v), k * lanes::kWidth + polyline,
-                                 gotMask);
-        };
-        xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
-        w = lanes::gather(mass, j, gotMask);
         float u0[lanes::kWidth] = {}, u1[lanes::kWidth] = {};
         for (int item = first; got != 0; got &= got - 1, ++item) {
             const int l = std::countr_zero(got);
             u0[l] = itemU0[item];
             u1[l] = itemU1[item];
         }
-        toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
+        partsOf(polyline, j, gotMask, lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
         return gotMask;
+    }
+    /// The parts [u0, u1] of segments j of polylines `polyline` (lanes of m): their ends and
+    /// weights (toParts of the vertices and masses).
+    void partsOf(Vi polyline, Vi j, lanes::Mask m, Vf u0, Vf u1, Vf& xa, Vf& ya, Vf& xb, Vf& yb,
+                 Vf& w) const {
+        const auto at = [&](const Vf* v, Vi k) {
+            return lanes::gather(reinterpret_cast<const float*>(v), k * lanes::kWidth + polyline,
+                                 m);
+        };
+        xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
+        w = lanes::gather(mass, j, m);
+        toParts(u0, u1, xa, ya, xb, yb, w);
     }
     /// Part [a, b] of the segments from (xa, ya) to (xb, yb), weight w: its ends and weight.
     static void toParts(Vf a, Vf b, Vf& xa, Vf& ya, Vf& xb, Vf& yb, Vf& w) {
@@ -248,13 +254,8 @@ struct PooledPolylineSegments {
                 u0[k] = itemU0[first + k], u1[k] = itemU1[first + k];
             }
             const Vi polyline = lanes::load(lane), j = lanes::load(seg);
-            const auto at = [&](const Vf* v, Vi k) {
-                return lanes::gather(reinterpret_cast<const float*>(v),
-                                     k * lanes::kWidth + polyline, m);
-            };
-            Vf xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
-            Vf w = lanes::gather(mass, j, m);
-            toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
+            Vf xa, ya, xb, yb, w;
+            partsOf(polyline, j, m, lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
             const Vf sa = (xa - ox) * ix, ta = (ya - oy) * iy;
             const Vf ds = (xb - ox) * ix - sa, dt = (yb - oy) * iy - ta;
             const Vf ids = 1.0f / ds, idt = 1.0f / dt;
