@@ -26,10 +26,14 @@ struct Tf2BlurTables::Axis {
     int points = 2;
     std::vector<Level> levels;
 
-    Axis(int n, double widest) : points(n) {
+    /// Levels kMinBlur·√2^k up to past `widest`, with steps − 1 levels 2^(1/(2·steps)) apart
+    /// between each two (the y axis: `gaussian` takes them all, the box spline every steps-th,
+    /// the same blurs to the bit as with steps 1).
+    Axis(int n, double widest, int steps = 1) : points(n) {
         for (double b = kMinBlur;; b *= std::sqrt(2.0)) {
             levels.push_back(level(b));
             if (b > widest) break;
+            for (int k = 1; k < steps; ++k) levels.push_back(level(b * std::exp2(0.5 * k / steps)));
         }
     }
     /// The bytes its levels hold.
@@ -92,11 +96,18 @@ namespace {
 /// `gaussian`'s blurs and window (the header comment's are share ½ and kRadius, which the box
 /// spline keeps): the blur takes up to kGaussianShare·(1 − |ρ|) of each axis' variance, so
 /// Σ − D ≥ (1 − s)/s·D and the summand's spectrum falls as exp(−½(1 − s)ωᵀDω): aliasing ≤
-/// exp(−(1 − s)·2π²/kSpacing²) = 2e−5; the window's radius leaves out mass exp(−4.25²/2) =
-/// 1.2e−4 (the weights are normalised). About half the points of the ½ / 4.75 sums; the error
-/// against `gaussian-exact` is in docs/models.md.
-constexpr double kGaussianShare = 0.65;
-constexpr double kGaussianRadius = 4.25;
+/// exp(−(1 − s)·2π²/kSpacing²) = 2.1e−3 where the blur sits at its bound (the ladder's rounding
+/// down leaves it below: on the 64³ tangle's samples the bound's median is 3e−7); the window's
+/// radius leaves out mass exp(−4²/2) = 3.4e−4 (the weights are normalised, so E moves by that
+/// mass times T's spread over it). Measured against `gaussian-exact` (docs/models.md): max
+/// 1.4e−4 in the unit tests (lanes), against 4.6e−5 with share 0.65 and radius 4.25 (2026-12-02 to
+/// 12-04), which took ~1.3× the rows on the tangle (issue 33's speed).
+constexpr double kGaussianShare = 0.8;
+constexpr double kGaussianRadius = 4.0;
+/// The y axis' levels per √2 step: `gaussian` takes blurs 2^¼ apart in y (its window's rows, one
+/// chunk of lanes each, are ~20 % fewer than on the √2 ladder, whose rounding down leaves the
+/// blur between √½ and 1 of its bound), the box spline every second one (its blurs as before).
+constexpr int kGaussianYSteps = 2;
 }  // namespace
 
 /// The table sum's setup for N(m, Σ) in raster cells (gaussianCells): given the blur's largest
@@ -104,6 +115,7 @@ constexpr double kGaussianRadius = 4.25;
 /// the residual's inverse covariance (A, B; B, C) and the rows q0 … q1 of the window.
 struct Tf2BlurTables::Window {
     double share = 0.5, radius = kRadius;
+    bool fineY = false;  // the y ladder's 2^¼ steps (`gaussian`), else its √2 steps
     const Table* t = nullptr;
     double rxx = 0, ryy = 0, A = 0, B = 0, C = 0;
     double hx = 0, hy = 0, xStart = 0, yStart = 0;
@@ -174,7 +186,7 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
     if (!reserveTableBytes(qBytes)) return;
     baseBytes_ = qBytes;
     ax_ = std::make_unique<Axis>(W, 8.0 * std::max(W, H));
-    ay_ = std::make_unique<Axis>(H, 8.0 * std::max(W, H));
+    ay_ = std::make_unique<Axis>(H, 8.0 * std::max(W, H), kGaussianYSteps);
     const std::size_t axisBytes = ax_->bytes() + ay_->bytes();
     if (!reserveTableBytes(axisBytes)) {
         gTableBytes -= baseBytes_;
@@ -402,17 +414,23 @@ bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Wind
     const double f = std::sqrt(w.share * (1.0 - std::abs(rho)));
     const double bxMax = f * sx, byMax = f * sy;
     if (!(bxMax >= kMinBlur && byMax >= kMinBlur)) return false;
-    // The ladder's level ⌊2·log2(b/kMinBlur) + 1e−9⌋: the exponent of (b/kMinBlur)²·2^(1e−9), a
-    // double ≥ 1 (std::log2 took 3.4 % of a gaussian frame).
-    const auto levelOf = [](double b, int levels) {
-        const double y = b / kMinBlur, y2 = y * y * (1.0 + 6.931471805599453e-10);
-        const int k = static_cast<int>(std::bit_cast<std::uint64_t>(y2) >> 52) - 1023;
+    // The √2 ladder's level ⌊2·log2(b/kMinBlur) + 1e−9⌋: the exponent of (b/kMinBlur)²·2^(1e−9),
+    // a double ≥ 1 (std::log2 took 3.4 % of a gaussian frame); the y axis' 2^¼ ladder's (fineY)
+    // the exponent of its square.
+    const auto levelOf = [](double b, int levels, int steps) {
+        const double y = b / kMinBlur;
+        double p = y * y * (1.0 + 6.931471805599453e-10);
+        for (int s = 1; s < steps; s *= 2) p *= p;
+        const int k = static_cast<int>(std::bit_cast<std::uint64_t>(p) >> 52) - 1023;
         return std::clamp(k, 0, levels - 1);
     };
-    int i = levelOf(bxMax, levelsX_), j = levelOf(byMax, levelsY_);
+    int i = levelOf(bxMax, levelsX_, 1);
+    const int jStep = w.fineY ? 1 : kGaussianYSteps;
+    int j = w.fineY ? levelOf(byMax, levelsY_, kGaussianYSteps)
+                    : kGaussianYSteps * levelOf(byMax, (levelsY_ - 1) / kGaussianYSteps + 1, 1);
     // Floating rounding of the ladder: keep b ≤ bMax.
     while (i > 0 && ax_->levels[i].blur > bxMax) --i;
-    while (j > 0 && ay_->levels[j].blur > byMax) --j;
+    while (j > 0 && ay_->levels[j].blur > byMax) j -= jStep;
     const Axis::Level &lx = ax_->levels[i], &ly = ay_->levels[j];
     w.t = table(i, j);
     if (!w.t) return false;
@@ -431,7 +449,7 @@ bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Wind
 bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
                                   double out[4]) const {
     Window win;
-    win.share = kGaussianShare, win.radius = kGaussianRadius;
+    win.share = kGaussianShare, win.radius = kGaussianRadius, win.fineY = true;
     if (!windowOf(t0, sxx, sxy, syy, win)) return false;
     const Table* t = win.t;
     const double A = win.A, B = win.B, C = win.C;
@@ -487,7 +505,7 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
     using RowsD = lanes::V8d;  // one lane per table row: the rows' setups
     constexpr int W = lanes::kWidth, kRowLanes = 8;
     Window win;
-    win.share = kGaussianShare, win.radius = kGaussianRadius;
+    win.share = kGaussianShare, win.radius = kGaussianRadius, win.fineY = true;
     if (!windowOf(t0, sxx, sxy, syy, win)) return false;
     const Table* t = win.t;
     const int nx = t->nx;

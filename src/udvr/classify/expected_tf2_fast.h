@@ -10,8 +10,8 @@
 //
 // Gaussian N(m, Σ) (raster cells): Σ = D + Σr with D = diag(bx², by²) from the ladder, bx ≤
 // σx·√((1 − |ρ|)/2) and likewise by, so that Σr ≥ D (Σ/2 − D is PSD). (The numbers here are the
-// box spline's sums; `gaussian` itself takes a share 0.65 and radius 4.25: aliasing ≤ 2e−5,
-// about half the points — expected_tf2_fast.cpp, kGaussianShare.) Then E[TF2] =
+// box spline's sums; `gaussian` itself takes a share 0.8 and radius 4.0, and a y ladder of 2^¼
+// steps — expected_tf2_fast.cpp, kGaussianShare; max 1.4e−4 off gaussian-exact.) Then E[TF2] =
 // E[T_D(m + Z_r)], Z_r ~ N(0, Σr): the Gaussian-weighted sum of the table T_D over its grid points
 // within the ellipse of radius kRadius of Σr, weights normalised. That sum is the trapezoid rule
 // of a product whose spectrum falls as exp(−½ωᵀ(D⁻¹ + Σr⁻¹)⁻¹ω) ≤ exp(−¼ωᵀDω): at the grid's

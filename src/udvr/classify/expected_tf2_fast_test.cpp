@@ -1,6 +1,7 @@
 // The fast 2D gaussian and uniform (Tf2BlurTables) against their exact evaluations
 // (expectedTf2Gaussian, expectedTf2UniformExact) over random rough rasters, distributions and
-// points (issue 33 asks max |ΔE| ≤ 1e−3; measured: gaussian 2.9e−5 (3.4e−5 over lanes),
+// points (issue 33 asks max |ΔE| ≤ 1e−3; measured: gaussian 8.1e−5 (9.8e−5 over lanes; share
+// 0.8, radius 4.0 since 2026-12-04, held to 3e−4),
 // uniform 9.1e−4 at interior points, 1.6e−3 at voxel faces — docs/models.md).
 #include "udvr/classify/expected_tf2_fast.h"
 
@@ -57,7 +58,7 @@ TEST(Tf2BlurTables, GaussianWithin1e3OfTheExactEvaluation) {
     }
     std::printf("gaussian: max |dE| %.3g, RMS %.3g over %d values\n", worst, std::sqrt(sq / count),
                 count);
-    EXPECT_LE(worst, 1e-3);
+    EXPECT_LE(worst, 3e-4);  // issue 33 asks 1e−3; a 3× margin
 }
 
 // The tables' own arrays are bounded: a TF2 over kMaxRasterPoints gets none, and three 700²
@@ -97,7 +98,9 @@ TEST(Tf2BlurTables, LargeTf2sGetNoTablesAndTakeTheExactEvaluation) {
 // The lane gaussian (float moments in, a row's points in float lanes) against the double one
 // on the same moments, over the cases of GaussianWithin1e3OfTheExactEvaluation's kind (σ from a
 // tenth of a cell to beyond the raster, any correlation, means off the raster too), and against
-// the exact evaluation. Measured 2026-12-02 (AVX-512): 1.2e−7 and 3.4e−5; held to 2e−5, 1e−3.
+// the exact evaluation. Measured 2026-12-02 (AVX-512): 1.2e−7 and 3.4e−5; 2026-12-04 (share 0.8,
+// radius 4.0, the y ladder's 2^¼ steps): 1.6e−7 and 9.8e−5; held to 2e−5, 3e−4 (issue 33 asks
+// 1e−3).
 TEST(Tf2BlurTables, LaneGaussianMatchesDouble) {
     using lanes::Vf;
     std::mt19937_64 g(34);
@@ -137,7 +140,7 @@ TEST(Tf2BlurTables, LaneGaussianMatchesDouble) {
     std::printf("lane gaussian: max |dE| %.3g against the double tables, %.3g against exact\n",
                 worst, worstExact);
     EXPECT_LE(worst, 2e-5);
-    EXPECT_LE(worstExact, 1e-3);
+    EXPECT_LE(worstExact, 3e-4);
 }
 
 /// Worst |ΔE| of boxSpline against expectedTf2UniformExact (converged) over `cases` box splines

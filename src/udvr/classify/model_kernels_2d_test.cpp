@@ -1070,7 +1070,8 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
 // double body (the exact evaluation; issue 33 asks 1e−3). Measured 2026-12-02 (AVX-512, faces
 // then by momentsAt): moments 4.2e−7, lanes − double body 1.6e−7, lanes − gaussian-exact 4.6e−5;
 // 2026-12-04 (faces in closed form): moments 4.9e−6 (μ_X's float trilinear blend, a cancelling
-// sum, at a face lane), lanes − double body 2.4e−7; held to 1e−5, 5e−5 and 1e−3.
+// sum, at a face lane), lanes − double body 2.4e−7; share 0.8, radius 4.0 and the y ladder's
+// 2^¼ steps: lanes − gaussian-exact 1.4e−4; held to 1e−5, 5e−5 and 3e−4 (issue 33 asks 1e−3).
 TEST(Tf2, GaussianLanesMatchTheDoubleBodyAndTheExactKernel) {
     using lanes::Vf;
     CounterRng rng(33, 2, 0);
@@ -1132,7 +1133,7 @@ TEST(Tf2, GaussianLanesMatchTheDoubleBodyAndTheExactKernel) {
     EXPECT_LT(interiorLanes, lanesSeen - lanesSeen / 20);
     EXPECT_LE(worstMoment, 1e-5);
     EXPECT_LE(worstBody, 5e-5);
-    EXPECT_LE(worstExact, 1e-3);
+    EXPECT_LE(worstExact, 3e-4);
 }
 
 // The 2D uniform's lane reconstruction (issue 31 point 1: JointBoxSpline built once over the
