@@ -517,16 +517,19 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
     // about its vertex kv the terms stay under kRadius²/2 (no cancellation of large ones).
     const double c2 = -0.5 * A * hx * hx;
     const Vf c2v = lanes::splat<Vf>(static_cast<float>(c2));
-    // The rows' points in chunks of at most W (a row of the table, its first point p, the chunk's
-    // first index k in the row, the vertex and top of the row's parabola and the chunk's point
-    // count), summed once the buffer is full or the rows are done. Every chunk takes the same
-    // instructions: the rows' varying extents are settled before (a chunk loop per row
-    // mispredicted its exit and serialised the exp's latency with the row's scalar setup).
+    // The rows' points in chunks of at most W (a row of the table (clamped to it), its first
+    // point p, the chunk's first index k in the row, the vertex and top of the row's parabola and
+    // the chunk's point count), summed once the buffer is full or the rows are done. Every chunk
+    // takes the same instructions: the rows' varying extents are settled before (a chunk loop per
+    // row mispredicted its exit and serialised the exp's latency with the row's scalar setup).
+    // Where each of kRowLanes rows holds at most W points (all but a few on the tangle) their
+    // chunks are stored as the setup's lanes, a row a chunk (an empty row weighs 0).
     constexpr int kChunks = 64;
-    const float* chunkRow[kChunks];
-    int chunkP[kChunks], chunkN[kChunks];
-    float chunkK[kChunks], chunkKv[kChunks], chunkTop[kChunks];
+    int chunkQ[kChunks + kRowLanes], chunkP[kChunks + kRowLanes], chunkN[kChunks + kRowLanes];
+    float chunkK[kChunks + kRowLanes], chunkKv[kChunks + kRowLanes], chunkTop[kChunks + kRowLanes];
     int chunks = 0;
+    const float* table = t->v.data();
+    const std::size_t rowStride = 4 * static_cast<std::size_t>(nx);
     Vf acc[4] = {}, wsum = {};
     const auto sumChunks = [&] {
         for (int c = 0; c < chunks; ++c) {
@@ -535,7 +538,7 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
             const Vf x = lanes::min(c2v * dk * dk + lanes::splat<Vf>(chunkTop[c]), Vf{});
             const lanes::Mask in = iota < n;
             const Vf w = lanes::select(in, detail::expNonPositive(x), Vf{});
-            const float* row = chunkRow[c];
+            const float* row = table + static_cast<std::size_t>(chunkQ[c]) * rowStride;
             Vf v[4];  // lanes from n on (n ≤ W) are weighted 0
             loadPlanes(row, nx, p, p >= 0 && p + n <= nx, in, iota, v);
             for (int ch = 0; ch < 4; ++ch) acc[ch] = lanes::fma(w, v[ch], acc[ch]);
@@ -547,6 +550,7 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
     // lane by lane): the row's points p0 … p1 within the window's ellipse, d = d0 + k·hx
     // (k = p − p0), the exponent −½(A d² + 2B e d + C e²) with its vertex at d = −B e / A.
     const RowsD rowIota = {0, 1, 2, 3, 4, 5, 6, 7};
+    const lanes::V8i rowIotaI = {0, 1, 2, 3, 4, 5, 6, 7};
     const double topScale = -0.5 * (C - B * B * invA);
     for (int qb = win.q0; qb <= win.q1; qb += kRowLanes) {
         const RowsD q = rowIota + static_cast<double>(qb);
@@ -562,16 +566,29 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
         const lanes::V8f top = lanes::toFloat(topScale * e * e);
         const lanes::V8i p0 = lanes::truncToInt(p0d);
         const lanes::V8i n = lanes::truncToInt(lanes::selectBits(inside, p1d - p0d + 1.0, RowsD{}));
+        const lanes::V8i qc =
+            lanes::min(lanes::max(rowIotaI + qb, lanes::V8i{}), lanes::V8i{} + (t->ny - 1));
         const int rows = std::min(kRowLanes, win.q1 - qb + 1);
+        bool short8 = true;
+        for (int i = 0; i < kRowLanes; ++i) short8 = short8 && n[i] <= W;
+        if (short8) {
+            if (chunks + kRowLanes > kChunks) sumChunks();
+            static_assert(sizeof kv == kRowLanes * sizeof(float) && sizeof n == sizeof kv);
+            std::memcpy(chunkQ + chunks, &qc, sizeof qc);
+            std::memcpy(chunkP + chunks, &p0, sizeof p0);
+            std::memcpy(chunkN + chunks, &n, sizeof n);
+            std::memcpy(chunkKv + chunks, &kv, sizeof kv);
+            std::memcpy(chunkTop + chunks, &top, sizeof top);
+            std::fill_n(chunkK + chunks, kRowLanes, 0.0f);
+            chunks += rows;
+            continue;
+        }
         for (int i = 0; i < rows; ++i) {
             const int count = n[i];
             if (count <= 0) continue;
-            const float* row =
-                t->v.data() + static_cast<std::size_t>(std::clamp(qb + i, 0, t->ny - 1)) * 4 *
-                                  static_cast<std::size_t>(nx);
             for (int k = 0; k < count; k += W) {
                 if (chunks == kChunks) sumChunks();
-                chunkRow[chunks] = row;
+                chunkQ[chunks] = qc[i];
                 chunkP[chunks] = p0[i] + k;
                 chunkN[chunks] = std::min(count - k, W);
                 chunkK[chunks] = static_cast<float>(k);
