@@ -100,9 +100,14 @@ class Tf2BlurTables {
     /// The table and window of the table sum for N(·, Σ) in raster cells; false where no table
     /// applies.
     bool windowOf(double t0, double sxx, double sxy, double syy, Window& w) const;
-    /// gaussianCells's points over float lanes (gaussian over lanes).
-    bool gaussianCellsLanes(double s0, double t0, double sxx, double sxy, double syy,
-                            float out[4]) const;
+    /// windowOf for `gaussian` (its share, radius and y ladder) at 8 samples in double lanes
+    /// (the same values as windowOf; raster cells): the bits of the lanes where a table applies.
+    std::uint32_t gaussianWindows(const lanes::V8d& s0, const lanes::V8d& t0, const lanes::V8d& sxx,
+                                  const lanes::V8d& sxy, const lanes::V8d& syy,
+                                  Window win[8]) const;
+    /// gaussianCells's points over float lanes (gaussian over lanes) in the window `win`
+    /// (gaussianWindows) about (s0, t0).
+    bool gaussianCellsLanes(const Window& win, double s0, double t0, float out[4]) const;
     /// The y pass of level j (the table rows' sums over the y basis), built on first use.
     const Pass& pass(int j) const;
     /// The table of levels (i, j), built on first use; null where it would be too large.
