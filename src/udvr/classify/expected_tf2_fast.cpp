@@ -108,6 +108,8 @@ constexpr double kGaussianRadius = 4.0;
 /// chunk of lanes each, are ~20 % fewer than on the √2 ladder, whose rounding down leaves the
 /// blur between √½ and 1 of its bound), the box spline every second one (its blurs as before).
 constexpr int kGaussianYSteps = 2;
+/// `gaussian` takes 0 where its rectangle m ± kEmptySigmas·σ meets only cells with α = 0.
+constexpr double kEmptySigmas = 5.0;
 }  // namespace
 
 /// The table sum's setup for N(m, Σ) in raster cells (gaussianCells): given the blur's largest
@@ -182,7 +184,8 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
     // The coefficients and ladders under the cap, or no tables (available() false: levels 0).
     if (static_cast<std::size_t>(W) * H > kMaxRasterPoints) return;
     const std::size_t qBytes = static_cast<std::size_t>(BW) * BH * 4 * sizeof(double) +
-                               static_cast<std::size_t>(BH) * 2 * sizeof(int);
+                               static_cast<std::size_t>(BH) * 2 * sizeof(int) +
+                               static_cast<std::size_t>(W) * H * sizeof(std::int32_t);
     if (!reserveTableBytes(qBytes)) return;
     baseBytes_ = qBytes;
     ax_ = std::make_unique<Axis>(W, 8.0 * std::max(W, H));
@@ -240,6 +243,16 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
         qRange_[2 * R] = lo;
         qRange_[2 * R + 1] = hi;
     }
+    // The cells with α > 0 at a corner, summed over [0, i) × [0, j) (cells; W × H entries).
+    alphaCells_.assign(static_cast<std::size_t>(W) * H, 0);
+    for (int j = 0; j + 1 < H; ++j)
+        for (int i = 0; i + 1 < W; ++i) {
+            const bool any = at(i, j, 3) != 0.0 || at(i + 1, j, 3) != 0.0 ||
+                             at(i, j + 1, 3) != 0.0 || at(i + 1, j + 1, 3) != 0.0;
+            const std::size_t k = static_cast<std::size_t>(j + 1) * W + (i + 1);
+            alphaCells_[k] =
+                (any ? 1 : 0) + alphaCells_[k - 1] + alphaCells_[k - W] - alphaCells_[k - W - 1];
+        }
 }
 
 Tf2BlurTables::~Tf2BlurTables() {
@@ -604,24 +617,43 @@ bool Tf2BlurTables::gaussianCellsLanes(const Window& win, double s0, double t0,
 
 std::uint32_t Tf2BlurTables::gaussianWindows(const lanes::V8d& s0, const lanes::V8d& t0,
                                              const lanes::V8d& sxx, const lanes::V8d& sxy,
-                                             const lanes::V8d& syy, Window win[8]) const {
+                                             const lanes::V8d& syy, Window win[8],
+                                             std::uint32_t& empty) const {
     using D = lanes::V8d;
     using L = lanes::V8l;
+    empty = 0;
     if (!available()) return 0;
     // windowOf's arithmetic lane by lane (the same values), the sqrt and divisions of 8 samples
     // at once where one sample's chain of them took 12 % of a frame.
     const auto absOf = [](D x) { return lanes::max(x, -x); };  // NaN stays NaN
     const D big = D{} + 1e9, zero = D{};
-    auto ok = lanes::less(absOf(s0), big) & lanes::less(absOf(t0), big) & lanes::less(zero, sxx) &
-              lanes::less(zero, syy);  // false for NaN
-    const D sx = lanes::sqrt(lanes::selectBits(ok, sxx, D{} + 1.0));
-    const D sy = lanes::sqrt(lanes::selectBits(ok, syy, D{} + 1.0));
+    const auto valid = lanes::less(absOf(s0), big) & lanes::less(absOf(t0), big) &
+                       lanes::less(zero, sxx) & lanes::less(zero, syy);  // false for NaN
+    const D sx = lanes::sqrt(lanes::selectBits(valid, sxx, D{} + 1.0));
+    const D sy = lanes::sqrt(lanes::selectBits(valid, syy, D{} + 1.0));
+    // The cells the rectangle m ± kEmptySigmas·σ meets (clamped to the raster: beyond it the TF2
+    // is its edge's); where none has α > 0, E[(α·c, α)] ≤ P(outside) ≤ 4Φ(−kEmptySigmas) =
+    // 1.1e−6 and the sample takes 0 (on the 64³ tangle 11 % of the samples), tables or not.
+    const D cells[4] = {lanes::floor(s0 - kEmptySigmas * sx), lanes::floor(s0 + kEmptySigmas * sx),
+                        lanes::floor(t0 - kEmptySigmas * sy), lanes::floor(t0 + kEmptySigmas * sy)};
+    for (int l = 0; l < 8; ++l) {
+        if (!valid[l] || width_ < 2 || height_ < 2) continue;
+        const auto cell = [&](double v, int n) {
+            return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(n - 2)));
+        };
+        const int i0 = cell(cells[0][l], width_), i1 = cell(cells[1][l], width_) + 1;
+        const int j0 = cell(cells[2][l], height_), j1 = cell(cells[3][l], height_) + 1;
+        const auto sat = [&](int i, int j) {
+            return alphaCells_[static_cast<std::size_t>(j) * width_ + i];
+        };
+        if (sat(i1, j1) - sat(i0, j1) - sat(i1, j0) + sat(i0, j0) == 0) empty |= 1u << l;
+    }
     const D rho = lanes::min(lanes::max(sxy / (sx * sy), D{} - 1.0), D{} + 1.0);
     const D f = lanes::sqrt(kGaussianShare * (1.0 - absOf(rho)));
     const D bxMax = f * sx, byMax = f * sy;
     const D minBlur = D{} + kMinBlur;  // b ≥ kMinBlur, not NaN
-    ok = ok & lanes::less(zero, bxMax) & lanes::less(zero, byMax) & ~lanes::less(bxMax, minBlur) &
-         ~lanes::less(byMax, minBlur);
+    const auto ok = valid & lanes::less(zero, bxMax) & lanes::less(zero, byMax) &
+                    ~lanes::less(bxMax, minBlur) & ~lanes::less(byMax, minBlur);
     // The levels (windowOf's levelOf): the exponents of (b/kMinBlur)²·2^(1e−9) in x and of its
     // square in y (the 2^¼ ladder), clamped.
     const D yx = bxMax * (1.0 / kMinBlur), yy = byMax * (1.0 / kMinBlur);
@@ -632,7 +664,7 @@ std::uint32_t Tf2BlurTables::gaussianWindows(const lanes::V8d& s0, const lanes::
     std::uint32_t good = 0;
     D bx{}, by{};
     for (int l = 0; l < 8; ++l) {
-        if (!ok[l]) continue;
+        if (!ok[l] || ((empty >> l) & 1u)) continue;
         int i = static_cast<int>(std::clamp<std::int64_t>(kx[l], 0, levelsX_ - 1));
         int j = static_cast<int>(std::clamp<std::int64_t>(ky[l], 0, levelsY_ - 1));
         while (i > 0 && ax_->levels[i].blur > bxMax[l]) --i;
@@ -683,10 +715,15 @@ void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], l
         }
         const D s0 = (mx - r.x0) * r.invDx, t0 = (my - r.y0) * r.invDy;
         Window win[8];
+        std::uint32_t empty = 0;
         const std::uint32_t good =
             groupLive & gaussianWindows(s0, t0, vxx * r.invDx * r.invDx, vxy * r.invDx * r.invDy,
-                                        vyy * r.invDy * r.invDy, win);
-        for (std::uint32_t b = groupLive; b; b &= b - 1) {
+                                        vyy * r.invDy * r.invDy, win, empty);
+        for (std::uint32_t b = groupLive & empty; b; b &= b - 1) {
+            const int l = std::countr_zero(b);
+            for (int ch = 0; ch < 4; ++ch) out[ch][g + l] = 0.0f;
+        }
+        for (std::uint32_t b = groupLive & ~empty; b; b &= b - 1) {
             const int l = std::countr_zero(b);
             float v[4];
             if (((good >> l) & 1u) && gaussianCellsLanes(win[l], s0[l], t0[l], v)) {

@@ -103,8 +103,8 @@ class Tf2BlurTables {
     /// windowOf for `gaussian` (its share, radius and y ladder) at 8 samples in double lanes
     /// (the same values as windowOf; raster cells): the bits of the lanes where a table applies.
     std::uint32_t gaussianWindows(const lanes::V8d& s0, const lanes::V8d& t0, const lanes::V8d& sxx,
-                                  const lanes::V8d& sxy, const lanes::V8d& syy,
-                                  Window win[8]) const;
+                                  const lanes::V8d& sxy, const lanes::V8d& syy, Window win[8],
+                                  std::uint32_t& empty) const;
     /// gaussianCells's points over float lanes (gaussian over lanes) in the window `win`
     /// (gaussianWindows) about (s0, t0).
     bool gaussianCellsLanes(const Window& win, double s0, double t0, float out[4]) const;
@@ -145,6 +145,9 @@ class Tf2BlurTables {
     std::uint64_t hash_ = 0;
     std::vector<double> q_[4];  // the biquadratic coefficients per channel: (2W − 1) × (2H − 1)
     std::vector<int> qRange_;   // per row R of q_: the columns [lo, hi) not all 0
+    /// Per point (j·W + i): the cells with α > 0 at a corner in columns [0, i) and rows [0, j)
+    /// (a summed-area table; emptyRectangle).
+    std::vector<std::int32_t> alphaCells_;
     mutable std::unique_ptr<std::once_flag[]> passOnce_;
     mutable std::unique_ptr<std::unique_ptr<Pass>[]> passes_;
     std::unique_ptr<Axis> ax_, ay_;
