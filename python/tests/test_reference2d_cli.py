@@ -354,6 +354,32 @@ def uniform_monte_carlo(r, t, p, seed, draws=1_000_000):
     return acc / draws, cy, float(np.sqrt(np.sum((u * h) ** 2) / 3.0))
 
 
+@pytest.mark.parametrize("kind", ["uniform", "uniform-exact"])
+def test_probe_tf2_uniform_reports_its_box_spline(probe_cli, probe_case, kind):
+    """`probe --json --tf2` of the 2D uniform gives its box spline (SPEC §9): center (x̄, μ_G)
+    and one direction (w_i, u_i)·√3σ_i per voxel of the 32-voxel form, as the NumPy
+    reference builds them (directions compared as sets, zero ones left out)."""
+    c = probe_case
+    for p, got in zip(c["points"], probe_many(c["model"], c["args"], kind, c["points"])):
+        S = r2.Sample2D(c["ref"], np.asarray(p, float)[None])
+        h = np.sqrt(3.0) * c["ref"].stddev.ravel()[S.idx[0]]
+        want = np.stack([S.w[0] * h, S.u[0] * h], axis=1)
+        box = got["box_spline"]
+        have = np.asarray(box["directions"], float).reshape(-1, 2)
+        scale = np.abs(want).max(axis=0) + 1e-30
+        key = lambda d: d[np.lexsort(((d / scale)[:, 1].round(6), (d / scale)[:, 0].round(6)))]
+        keep = lambda d: d[np.abs(d / scale).max(axis=1) > 1e-9]
+        have, want = key(keep(have)), key(keep(want))
+        assert have.shape == want.shape, "%s at %s: %d directions, the reference %d" % (
+            kind, p.tolist(), len(have), len(want))
+        np.testing.assert_allclose(have / scale, want / scale, rtol=0, atol=1e-5,
+                                   err_msg="%s at %s: directions" % (kind, p.tolist()))
+        gm = float(np.dot(S.nhat[0], S.mu_y[0]))
+        np.testing.assert_allclose(box["center"], [float(S.xbar[0]), gm], rtol=1e-5,
+                                   atol=1e-5 * scale.max(), err_msg="%s at %s: center" % (
+                                       kind, p.tolist()))
+
+
 @pytest.mark.parametrize("kind", sorted(r2.NO_REFERENCE))
 def test_probe_tf2_uniform_matches_monte_carlo(probe_cli, probe_case, kind):
     c = probe_case

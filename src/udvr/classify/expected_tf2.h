@@ -64,10 +64,10 @@ struct PooledPolylineSegments {
     const Vf* g;
     const float* mass;
     int items = 0, taken = 0;
-    std::int16_t itemLane[kCapacity];      // polyline of each item
-    std::int16_t itemSeg[kCapacity];       // its segment
-    float itemU0[kParts ? kCapacity : 1];  // with kParts, its part [u0, u1] of the segment
-    float itemU1[kParts ? kCapacity : 1];
+    std::int16_t itemLane[kCapacity];  // polyline of each item
+    std::int16_t itemSeg[kCapacity];   // its segment
+    float itemU0[kCapacity];  // its part [u0, u1] of the segment: the part inside the raster's
+    float itemU1[kCapacity];  // opaqueBox, and with kParts a piece of that
     std::int32_t laneOf[lanes::kWidth] = {};  // each lane's polyline
     float total[4][lanes::kWidth] = {};       // Σ weight × mean, per polyline
     // With prepare(), per item in hand-out order (padded for the expanding loads), as floats:
@@ -78,10 +78,28 @@ struct PooledPolylineSegments {
     static constexpr int kPadded = kCapacity + lanes::kWidth;
     float prepared[kReals + kInts][kPadded];
 
-    /// invDx, invDy: raster cells per data unit along x and y (Tf2Raster).
+    /// `r`: the raster walked; its opaqueBox trims each segment to the part where α may be
+    /// > 0 (exact: the parts outside add 0 to the mean, whose weight keeps the whole length);
+    /// a segment with no such part is left out.
+    template <class Real>
     PooledPolylineSegments(const Vf* xs, const Vf* gs, const float* m, int count, lanes::Vi skip,
-                           lanes::Mask live, float invDx, float invDy)
+                           lanes::Mask live, const Tf2Raster<Real>& r)
         : x(xs), g(gs), mass(m) {
+        const float ox = static_cast<float>(r.x0), oy = static_cast<float>(r.y0);
+        const float invDx = static_cast<float>(r.invDx), invDy = static_cast<float>(r.invDy);
+        const float box[4] = {
+            static_cast<float>(r.opaqueBox[0]), static_cast<float>(r.opaqueBox[1]),
+            static_cast<float>(r.opaqueBox[2]), static_cast<float>(r.opaqueBox[3])};
+        // [lo, hi] ∩= the parameters u ∈ [0, 1] where a + u·d ∈ [b0, b1] (d = 0: all or none).
+        const auto clip = [](float a, float d, float b0, float b1, float& lo, float& hi) {
+            if (d != 0.0f) {
+                const float u0 = (b0 - a) / d, u1 = (b1 - a) / d;
+                lo = std::max(lo, std::min(u0, u1));
+                hi = std::min(hi, std::max(u0, u1));
+            } else if (!(a >= b0 && a <= b1)) {
+                hi = -1.0f;
+            }
+        };
         // Class 0 … 15 of a segment (or part) crossing n lines, longest first: 15 − bit width
         // of n (0 for n ≥ 16384 and NaN, from non-finite ends).
         constexpr int kClasses = 16;
@@ -99,8 +117,17 @@ struct PooledPolylineSegments {
             if (!((liveBits >> l) & 1u)) continue;
             for (int j = 1; j < count; ++j) {
                 if (j < 32 && ((static_cast<std::uint32_t>(skip[l]) >> j) & 1u)) continue;
-                const float n = std::fabs(x[j][l] - x[j - 1][l]) * invDx +
-                                std::fabs(g[j][l] - g[j - 1][l]) * invDy;
+                const float sa = (x[j - 1][l] - ox) * invDx, ta = (g[j - 1][l] - oy) * invDy;
+                const float ds = (x[j][l] - ox) * invDx - sa, dt = (g[j][l] - oy) * invDy - ta;
+                float lo = 0.0f, hi = 1.0f;
+                if (std::isfinite(sa + ds + ta + dt)) {  // else the walk's own handling
+                    clip(sa, ds, box[0], box[1], lo, hi);
+                    clip(ta, dt, box[2], box[3], lo, hi);
+                    if (!(hi > lo)) continue;  // no part inside: adds 0
+                }
+                const float n = (std::fabs(ds) + std::fabs(dt)) * (hi - lo);
+                itemU0[items] = lo;
+                itemU1[items] = hi;
                 if constexpr (kParts) lines[items] = n;
                 cls[items] = static_cast<std::uint8_t>(classOf(n));
                 ++start[cls[items] + 1];
@@ -110,12 +137,15 @@ struct PooledPolylineSegments {
             }
         }
         std::int16_t lane[kCapacity], seg[kCapacity];
+        float partU0[kCapacity], partU1[kCapacity];
         if constexpr (!kParts) {
             for (int c = 0; c < kClasses; ++c) start[c + 1] += start[c];
             for (int i = 0; i < items; ++i) {
                 const int to = start[cls[i]]++;
                 lane[to] = itemLane[i];
                 seg[to] = itemSeg[i];
+                partU0[to] = itemU0[i];
+                partU1[to] = itemU1[i];
             }
         } else {
             // Parts of at most `chunk` lines (≥ 16: each part costs a start), as many as fit.
@@ -139,19 +169,22 @@ struct PooledPolylineSegments {
             }
             for (int c = 0; c < kClasses; ++c) start[c + 1] += start[c];
             for (int i = 0; i < items; ++i) {
-                const float step = 1.0f / static_cast<float>(parts[i]);
+                const float lo = itemU0[i], hi = itemU1[i];
+                const float step = (hi - lo) / static_cast<float>(parts[i]);
                 for (int p = 0; p < parts[i]; ++p) {
                     const int to = start[cls[i]]++;
                     lane[to] = itemLane[i];
                     seg[to] = itemSeg[i];
-                    itemU0[to] = static_cast<float>(p) * step;
-                    itemU1[to] = p + 1 == parts[i] ? 1.0f : static_cast<float>(p + 1) * step;
+                    partU0[to] = p == 0 ? lo : lo + static_cast<float>(p) * step;
+                    partU1[to] = p + 1 == parts[i] ? hi : lo + static_cast<float>(p + 1) * step;
                 }
             }
         }
         items = start[kClasses];
         std::memcpy(itemLane, lane, sizeof(std::int16_t) * static_cast<std::size_t>(items));
         std::memcpy(itemSeg, seg, sizeof(std::int16_t) * static_cast<std::size_t>(items));
+        std::memcpy(itemU0, partU0, sizeof(float) * static_cast<std::size_t>(items));
+        std::memcpy(itemU1, partU1, sizeof(float) * static_cast<std::size_t>(items));
     }
     lanes::Mask next(lanes::Mask m, Vf& xa, Vf& ya, Vf& xb, Vf& yb, Vf& w) {
         std::int32_t seg[lanes::kWidth] = {};
@@ -176,15 +209,13 @@ struct PooledPolylineSegments {
         };
         xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
         w = lanes::gather(mass, j, gotMask);
-        if constexpr (kParts) {
-            float u0[lanes::kWidth] = {}, u1[lanes::kWidth] = {};
-            for (int item = first; got != 0; got &= got - 1, ++item) {
-                const int l = std::countr_zero(got);
-                u0[l] = itemU0[item];
-                u1[l] = itemU1[item];
-            }
-            toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
+        float u0[lanes::kWidth] = {}, u1[lanes::kWidth] = {};
+        for (int item = first; got != 0; got &= got - 1, ++item) {
+            const int l = std::countr_zero(got);
+            u0[l] = itemU0[item];
+            u1[l] = itemU1[item];
         }
+        toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
         return gotMask;
     }
     /// Part [a, b] of the segments from (xa, ya) to (xb, yb), weight w: its ends and weight.
@@ -214,7 +245,7 @@ struct PooledPolylineSegments {
                 if (k >= n) continue;
                 lane[k] = itemLane[first + k];
                 seg[k] = itemSeg[first + k];
-                if constexpr (kParts) u0[k] = itemU0[first + k], u1[k] = itemU1[first + k];
+                u0[k] = itemU0[first + k], u1[k] = itemU1[first + k];
             }
             const Vi polyline = lanes::load(lane), j = lanes::load(seg);
             const auto at = [&](const Vf* v, Vi k) {
@@ -223,7 +254,7 @@ struct PooledPolylineSegments {
             };
             Vf xa = at(x, j - 1), ya = at(g, j - 1), xb = at(x, j), yb = at(g, j);
             Vf w = lanes::gather(mass, j, m);
-            if constexpr (kParts) toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
+            toParts(lanes::load(u0), lanes::load(u1), xa, ya, xb, yb, w);
             const Vf sa = (xa - ox) * ix, ta = (ya - oy) * iy;
             const Vf ds = (xb - ox) * ix - sa, dt = (yb - oy) * iy - ta;
             const Vf ids = 1.0f / ds, idt = 1.0f / dt;
@@ -283,7 +314,6 @@ template <class Real>
 UDVR_NOINLINE void pooledPolylineWalk(const Tf2Raster<Real>& r, const lanes::Vf* x,
                                       const lanes::Vf* g, const float* mass, int count,
                                       lanes::Vi skip, lanes::Mask walk, lanes::Vf out[4]) {
-    const float ix = static_cast<float>(r.invDx), iy = static_cast<float>(r.invDy);
     const auto walkPool = [&](auto& pool) {
         if (!r.bandPrefix) {  // segmentWalk, which starts its segments from the prepared items
             if (r.cellRun)
@@ -294,10 +324,10 @@ UDVR_NOINLINE void pooledPolylineWalk(const Tf2Raster<Real>& r, const lanes::Vf*
         segmentWalkOf<lanes::Vf>(r, pool, lanes::allTrue<lanes::Vf>(), out);
     };
     if (pooledWalkCuts(walk, count)) {
-        PooledPolylineSegments<true> pool(x, g, mass, count, skip, walk, ix, iy);
+        PooledPolylineSegments<true> pool(x, g, mass, count, skip, walk, r);
         walkPool(pool);
     } else {
-        PooledPolylineSegments<false> pool(x, g, mass, count, skip, walk, ix, iy);
+        PooledPolylineSegments<false> pool(x, g, mass, count, skip, walk, r);
         walkPool(pool);
     }
 }

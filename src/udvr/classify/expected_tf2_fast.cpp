@@ -943,7 +943,11 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             for (int ch = 0; ch < 4; ++ch) acc[ch] += w * v[ch];
         }
         if (ok) {
-            for (int ch = 0; ch < 4; ++ch) out[ch] = acc[ch];
+            // The Edgeworth term's weights may be negative, so the sum may leave the range that
+            // E[α] ∈ [0, 1] and E[α·c] ∈ [0, E[α]] (c ∈ [0, 1]) hold for every law; clamped
+            // there, which moves it only toward the exact value.
+            out[3] = std::clamp(acc[3], 0.0, 1.0);
+            for (int ch = 0; ch < 3; ++ch) out[ch] = std::clamp(acc[ch], 0.0, out[3]);
             return true;
         }
     }

@@ -61,6 +61,38 @@ TEST(Tf2BlurTables, GaussianWithin1e3OfTheExactEvaluation) {
     EXPECT_LE(worst, 3e-4);  // issue 33 asks 1e−3; a 3× margin
 }
 
+// The box spline's Edgeworth term makes its density negative in the far tail: with 12 equal boxes
+// (none kept) and α > 0 only in a spot ~4.3σ out, beyond the support, the table sum is below 0
+// (−5.2e−8 before the clamp; the exact evaluation −8e−10, 0 to its rounding; a probe of the 64³
+// tangle gave −1.3e−5 where the exact value is +1.5e−6). E[α] ∈ [0, 1] and E[α·c] ∈ [0, E[α]]
+// hold for every law, so boxSpline clamps to them: 0 here.
+TEST(Tf2BlurTables, BoxSplineStaysInTheRangeOfAnExpectation) {
+    const double r0 = 0.5 + 4.3 * std::sqrt(12.0 / 3.0) * 0.02 / std::sqrt(2.0);
+    const testing::Raster r(97, 97, 0.0, 1.0, 0.0, 1.0, [&](double x, double y, double v[4]) {
+        const bool spot = std::abs(x - r0) < 0.02 && std::abs(y - r0) < 0.02;
+        v[0] = v[1] = v[2] = 1.0;
+        v[3] = spot ? 1.0 : 0.0;
+    });
+    const Tf2BlurTables tables(r.r);
+    std::vector<BoxDirection2> d;
+    for (int i = 0; i < 12; ++i) {
+        const double angle = 3.14159265358979 * i / 12.0;
+        d.push_back({0.02 * std::cos(angle), 0.02 * std::sin(angle)});
+    }
+    double got[4], want[4];
+    ASSERT_TRUE(tables.boxSpline(r.r, 0.5, 0.5, d.data(), 12, 0.0, got));
+    Tf2UniformExactOptions opt;
+    expectedTf2UniformExact(r.r, 0.5, 0.5, d.data(), 12, 0.0, opt, want);
+    std::printf("far tail: E[alpha] %.3g (exact %.3g)\n", got[3], want[3]);
+    EXPECT_GE(got[3], 0.0);
+    EXPECT_LE(got[3], 1.0);
+    for (int ch = 0; ch < 3; ++ch) {
+        EXPECT_GE(got[ch], 0.0);
+        EXPECT_LE(got[ch], got[3]);
+    }
+    EXPECT_LE(std::abs(got[3] - want[3]), 1e-3);
+}
+
 // The tables' own arrays are bounded: a TF2 over kMaxRasterPoints gets none, and three 700²
 // TF2s' coefficients (3 × 63 MiB) cannot all fit under the process's 160 MiB cap. Where there
 // are none, gaussian() and boxSpline() give the exact evaluations' values.

@@ -136,12 +136,18 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf, Tf2SegmentWalk walk) {
                     b[1] = static_cast<float>(i + 1);
                 }
         fast.bandCells = bandCells.data();
+    }
+    // The box of raster coordinates outside which α = 0 (Tf2Raster::opaqueBox): the banded walk
+    // walks only the part of a segment inside, the pooled cell walk trims its items to it.
+    {
+        const int cx = tf.width - 1, cy = tf.height - 1;
         int firstCol = cx, lastCol = -1, firstBand = cy, lastBand = -1;
-        for (int i = 0; i < cx; ++i)
-            if (bandCells[2 * i + 1] > 0.f) firstCol = std::min(firstCol, i), lastCol = i;
         for (int j = 0; j < cy; ++j)
-            if (bandCells[2 * (static_cast<std::size_t>(cx) + j) + 1] > 0.f)
-                firstBand = std::min(firstBand, j), lastBand = j;
+            for (int i = 0; i < cx; ++i)
+                if (cellEmptyDistance[static_cast<std::size_t>(j) * cx + i] == 0.f) {
+                    firstCol = std::min(firstCol, i), lastCol = std::max(lastCol, i);
+                    firstBand = std::min(firstBand, j), lastBand = std::max(lastBand, j);
+                }
         constexpr float inf = std::numeric_limits<float>::infinity();
         if (lastCol < 0) {
             fast.opaqueBox[0] = fast.opaqueBox[2] = 1.f;

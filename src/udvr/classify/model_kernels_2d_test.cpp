@@ -681,6 +681,33 @@ TEST(Tf2, SegmentsInEmptyCellBoxesAreNotWalked) {
     EXPECT_LE(worstLanes, 1e-6);
 }
 
+// expectedTf2QuantileRange over lanes (the pooled walk) against the mass-weighted sum of each
+// lane's exact segment means (the double walk, whole segments): the worst |Δ| over live lanes
+// into `worst`, the worst |value| of dead lanes (which must stay 0) into `worstDead`.
+void pooledAgainstDoubleWalk(const Tf2Setup& setup, const std::vector<lanes::Vf>& x,
+                             const std::vector<lanes::Vf>& g, int count,
+                             const QuantileLevels& levels, lanes::Mask live, double& worst,
+                             double& worstDead) {
+    lanes::Vf got[4];
+    expectedTf2QuantileRange<lanes::Vf>(setup.fast, x.data(), g.data(), count, levels, live, got);
+    for (int l = 0; l < lanes::kWidth; ++l) {
+        double want[4] = {0, 0, 0, 0}, total = 0;
+        for (int j = 1; j < count; ++j) {
+            double m[4];
+            tf2MeanAlongSegment<double>(setup.exact, x[j - 1][l], g[j - 1][l], x[j][l], g[j][l],
+                                        true, m);
+            for (int ch = 0; ch < 4; ++ch) want[ch] += levels.mass(j) * m[ch];
+            total += levels.mass(j);
+        }
+        for (int ch = 0; ch < 4; ++ch) {
+            if (live[l])
+                worst = std::max(worst, std::abs(got[ch][l] - want[ch] / total));
+            else
+                worstDead = std::max(worstDead, std::abs(static_cast<double>(got[ch][l])));
+        }
+    }
+}
+
 // Pools of few segments a lane (iqr, the quartile views: one) cut their long segments into
 // parts of the segment parameter, each walked on its own, weighted by its share of the
 // parameter. On a fine raster (160×120) with segments across the domain and beyond, the lanes
@@ -707,36 +734,68 @@ TEST(Tf2, PooledWalkCutsLongSegmentsIntoExactParts) {
             const QuantileLevels levels{nullptr, 0};
             std::vector<float> mass(count);
             for (int j = 1; j < count; ++j) mass[j] = static_cast<float>(levels.mass(j));
-            const detail::PooledPolylineSegments<true> pool(
-                x.data(), g.data(), mass.data(), count, lanes::Vi{}, live,
-                static_cast<float>(setup.fast.invDx), static_cast<float>(setup.fast.invDy));
+            const detail::PooledPolylineSegments<true> pool(x.data(), g.data(), mass.data(), count,
+                                                            lanes::Vi{}, live, setup.fast);
             cutPools += detail::pooledWalkCuts(live, count) &&
                         pool.items > (lanes::kWidth - 1) * (count - 1);
-            lanes::Vf got[4];
-            expectedTf2QuantileRange<lanes::Vf>(setup.fast, x.data(), g.data(), count, levels, live,
-                                                got);
-            for (int l = 0; l < lanes::kWidth; ++l) {
-                double want[4] = {0, 0, 0, 0}, total = 0;
-                for (int j = 1; j < count; ++j) {
-                    double m[4];
-                    tf2MeanAlongSegment<double>(setup.exact, x[j - 1][l], g[j - 1][l], x[j][l],
-                                                g[j][l], true, m);
-                    for (int ch = 0; ch < 4; ++ch) want[ch] += levels.mass(j) * m[ch];
-                    total += levels.mass(j);
-                }
-                for (int ch = 0; ch < 4; ++ch) {
-                    if (live[l])
-                        worst = std::max(worst, std::abs(got[ch][l] - want[ch] / total));
-                    else
-                        worstDead = std::max(worstDead, std::abs(static_cast<double>(got[ch][l])));
-                }
-            }
+            pooledAgainstDoubleWalk(setup, x, g, count, levels, live, worst, worstDead);
         }
     EXPECT_EQ(cutPools, 16);  // every pool here has fewer than 4 segments a lane, some long
     EXPECT_LE(worst, 1e-5);
     EXPECT_EQ(worstDead, 0.0);
     // Quantile-range's 8 segments a lane (all lanes live) walk uncut, in longest-first order.
     EXPECT_FALSE(detail::pooledWalkCuts(lanes::allTrue<lanes::Vf>(), 9));
+}
+
+// The pool trims each segment to the raster's opaqueBox (α = 0 outside it, so the parts outside
+// add 0; the weight keeps the whole length) and leaves out segments with no part inside. A random
+// TF2 with α = 0 but at the points [50, 110] × [30, 80] of 160 × 120, so the box is the cells
+// [49, 111) × [29, 81) (those with such a corner): lanes against the double walk
+// of the whole segments (uncut pools, 8 segments a lane, and cut ones, 1–2), segments across the
+// domain and beyond, one along a box edge, zero-length ones inside and outside.
+TEST(Tf2, PooledWalkTrimsSegmentsToTheOpaqueBox) {
+    CounterRng rng(37, 0, 0);
+    TransferFunction2D t = randomTf2(rng, 160, 120, -2.0, 3.0, 0.0, 4.0);
+    for (int j = 0; j < t.height; ++j)
+        for (int i = 0; i < t.width; ++i)
+            if (i < 50 || i > 110 || j < 30 || j > 80)
+                t.rgba[(static_cast<std::size_t>(j) * t.width + i) * 4 + 3] = 0.f;
+    RowTableViews views(t);
+    const Tf2Setup& setup = views.setup;
+    ASSERT_EQ(setup.fast.opaqueBox[0], 49.f);
+    ASSERT_EQ(setup.fast.opaqueBox[1], 111.f);
+    ASSERT_EQ(setup.fast.opaqueBox[2], 29.f);
+    ASSERT_EQ(setup.fast.opaqueBox[3], 81.f);
+    const double dx = 5.0 / 159.0, dy = 4.0 / 119.0;  // data units per cell
+    double worst = 0;
+    int leftOut = 0;
+    for (const int count : {2, 3, 9})
+        for (int trial = 0; trial < 6; ++trial) {
+            std::vector<lanes::Vf> x(count), g(count);
+            for (int l = 0; l < lanes::kWidth; ++l)
+                for (int j = 0; j < count; ++j) {
+                    x[j][l] = static_cast<float>(-3.0 + 7.0 * rng.uniform());
+                    g[j][l] = static_cast<float>(-0.5 + 5.0 * rng.uniform());
+                }
+            // Along the box's lower edge (t = 29), a zero-length segment inside, one outside.
+            x[0][1] = static_cast<float>(-2.0 + 40 * dx), g[0][1] = static_cast<float>(29 * dy);
+            x[1][1] = static_cast<float>(-2.0 + 120 * dx), g[1][1] = g[0][1];
+            x[1][2] = x[0][2] = static_cast<float>(-2.0 + 80 * dx);
+            g[1][2] = g[0][2] = static_cast<float>(50 * dy);
+            x[1][3] = x[0][3] = static_cast<float>(-2.0 + 20 * dx);
+            g[1][3] = g[0][3] = static_cast<float>(50 * dy);
+            const lanes::Mask live = lanes::allTrue<lanes::Vf>();
+            const QuantileLevels levels{nullptr, 0};
+            std::vector<float> mass(count);
+            for (int j = 1; j < count; ++j) mass[j] = static_cast<float>(levels.mass(j));
+            const detail::PooledPolylineSegments<true> pool(x.data(), g.data(), mass.data(), count,
+                                                            lanes::Vi{}, live, setup.fast);
+            leftOut += pool.items < lanes::kWidth * (count - 1);
+            double unused = 0;
+            pooledAgainstDoubleWalk(setup, x, g, count, levels, live, worst, unused);
+        }
+    EXPECT_GT(leftOut, 0);  // some pools left segments wholly outside the box out
+    EXPECT_LE(worst, 1e-5);
 }
 
 // Quantile-range and quantile-mean with a TF2, evaluated independently at a point: the rank

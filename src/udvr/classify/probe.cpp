@@ -243,6 +243,18 @@ void describeGradient(const Kernel2D& k, const Cell<double>& cell, json& j) {
     if constexpr (std::is_same_v<Kernel2D, Gaussian2DKernel> ||
                   std::is_same_v<Kernel2D, Uniform2DKernel>)
         j["covariance"] = {{m.varX(), m.covXG()}, {m.covXG(), m.varG()}};
+    if constexpr (std::is_same_v<Kernel2D, Uniform2DKernel>) {
+        // The box spline itself, (X, G) = center + Σ_i t_i·direction_i, t_i ~ U[−1, 1] (data
+        // units): what the 2D uniform's expectation integrates over.
+        JointPointDistribution d;
+        jointDistributionAt(k, cell, d);
+        if (d.boxSplines.size() == 1) {
+            const BoxSpline2& b = d.boxSplines.front().piece;
+            json directions = json::array();
+            for (int i = 0; i < b.n; ++i) directions.push_back({b.d[i].a, b.d[i].b});
+            j["box_spline"] = {{"center", {b.cx, b.cg}}, {"directions", directions}};
+        }
+    }
 }
 
 }  // namespace

@@ -60,9 +60,10 @@ struct Tf2Raster {
     /// lines), the first cell along it with α > 0 at a corner and one past the last, as floats
     /// (first ≥ last: none); the walk reads no records outside.
     const float* bandCells = nullptr;
-    /// With bandPrefix: the box of raster coordinates [s0, s1] × [t0, t1] outside which α = 0
-    /// (±inf where cells with α > 0 reach the domain's edge, the TF2 clamped beyond it; s0 > s1
-    /// where α = 0 everywhere). The banded walk walks only the part of a segment inside.
+    /// The box of raster coordinates [s0, s1] × [t0, t1] outside which α = 0 (±inf where cells
+    /// with α > 0 reach the domain's edge, the TF2 clamped beyond it; s0 > s1 where α = 0
+    /// everywhere; the default: everywhere). The banded walk walks only the part of a segment
+    /// inside; the pooled cell walk (PooledPolylineSegments) trims its segments to it.
     Real opaqueBox[4] = {
         -std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity(),
         -std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity()};
