@@ -8,8 +8,9 @@ points) and random cameras.
 
 Skipped (with the reason) while `udvr render --help` / `udvr probe --help` do not mention --tf2.
 
-Tolerances: expected_rgba 1e−5 absolute (float32 output) for every model but gaussian, whose
-expectation SPEC §4 asks to 1e−4 absolute (§9: "as in §4"); the gradient μ_Y and the mean and
+Tolerances: expected_rgba 1e−5 absolute (float32 output) for every model but the fast gaussian
+(SPEC §4: within 1e−3 of gaussian-exact, which is held to 1e−5; held to 3e−4, TOL_GAUSSIAN); the
+gradient μ_Y and the mean and
 standard deviation of G 1e−5 relative (plus 1e−5 × the largest |μ_Y| of the grid, the float32
 rounding floor); render 1e−4 as the 1D render test; and a TF2 constant in y renders the 1D image
 of the same TF within 1e−5 (SPEC §9: "exactly the 1D image")."""
@@ -27,7 +28,10 @@ import refcase
 udvr = pytest.importorskip("udvr")
 
 TOL = 1e-5
-TOL_GAUSSIAN = 1e-4  # SPEC §4/§9: 1e−4; the fast tables (share 0.65, radius 4.25) measured 1.1e−5 here
+# SPEC §4/§9: the fast `gaussian` within 1e−3 of gaussian-exact (held to TOL here). Its tables
+# measured 3.7e−5 here with share 0.65, radius 4.25; 9.7e−5 with share 0.8, radius 4.0 (since
+# 2026-12-04, issue 33's speed): held to 3e−4 as in the unit tests (expected_tf2_fast_test.cpp).
+TOL_GAUSSIAN = 3e-4
 # The fast 2D forms with a reference here, held to TOL_GAUSSIAN instead of TOL (rows of the
 # table: test_reference_coverage.py); `gaussian-exact` is held to TOL.
 FAST_TOL = {"gaussian": TOL_GAUSSIAN}

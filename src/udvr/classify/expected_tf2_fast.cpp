@@ -26,10 +26,14 @@ struct Tf2BlurTables::Axis {
     int points = 2;
     std::vector<Level> levels;
 
-    Axis(int n, double widest) : points(n) {
+    /// Levels kMinBlur·√2^k up to past `widest`, with steps − 1 levels 2^(1/(2·steps)) apart
+    /// between each two (the y axis: `gaussian` takes them all, the box spline every steps-th,
+    /// the same blurs to the bit as with steps 1).
+    Axis(int n, double widest, int steps = 1) : points(n) {
         for (double b = kMinBlur;; b *= std::sqrt(2.0)) {
             levels.push_back(level(b));
             if (b > widest) break;
+            for (int k = 1; k < steps; ++k) levels.push_back(level(b * std::exp2(0.5 * k / steps)));
         }
     }
     /// The bytes its levels hold.
@@ -92,11 +96,20 @@ namespace {
 /// `gaussian`'s blurs and window (the header comment's are share ½ and kRadius, which the box
 /// spline keeps): the blur takes up to kGaussianShare·(1 − |ρ|) of each axis' variance, so
 /// Σ − D ≥ (1 − s)/s·D and the summand's spectrum falls as exp(−½(1 − s)ωᵀDω): aliasing ≤
-/// exp(−(1 − s)·2π²/kSpacing²) = 2e−5; the window's radius leaves out mass exp(−4.25²/2) =
-/// 1.2e−4 (the weights are normalised). About half the points of the ½ / 4.75 sums; the error
-/// against `gaussian-exact` is in docs/models.md.
-constexpr double kGaussianShare = 0.65;
-constexpr double kGaussianRadius = 4.25;
+/// exp(−(1 − s)·2π²/kSpacing²) = 2.1e−3 where the blur sits at its bound (the ladder's rounding
+/// down leaves it below: on the 64³ tangle's samples the bound's median is 3e−7); the window's
+/// radius leaves out mass exp(−4²/2) = 3.4e−4 (the weights are normalised, so E moves by that
+/// mass times T's spread over it). Measured against `gaussian-exact` (docs/models.md): max
+/// 1.4e−4 in the unit tests (lanes), against 4.6e−5 with share 0.65 and radius 4.25 (2026-12-02 to
+/// 12-04), which took ~1.3× the rows on the tangle (issue 33's speed).
+constexpr double kGaussianShare = 0.8;
+constexpr double kGaussianRadius = 4.0;
+/// The y axis' levels per √2 step: `gaussian` takes blurs 2^¼ apart in y (its window's rows, one
+/// chunk of lanes each, are ~20 % fewer than on the √2 ladder, whose rounding down leaves the
+/// blur between √½ and 1 of its bound), the box spline every second one (its blurs as before).
+constexpr int kGaussianYSteps = 2;
+/// `gaussian` takes 0 where its rectangle m ± kEmptySigmas·σ meets only cells with α = 0.
+constexpr double kEmptySigmas = 5.0;
 }  // namespace
 
 /// The table sum's setup for N(m, Σ) in raster cells (gaussianCells): given the blur's largest
@@ -104,6 +117,7 @@ constexpr double kGaussianRadius = 4.25;
 /// the residual's inverse covariance (A, B; B, C) and the rows q0 … q1 of the window.
 struct Tf2BlurTables::Window {
     double share = 0.5, radius = kRadius;
+    bool fineY = false;  // the y ladder's 2^¼ steps (`gaussian`), else its √2 steps
     const Table* t = nullptr;
     double rxx = 0, ryy = 0, A = 0, B = 0, C = 0;
     double hx = 0, hy = 0, xStart = 0, yStart = 0;
@@ -170,11 +184,12 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
     // The coefficients and ladders under the cap, or no tables (available() false: levels 0).
     if (static_cast<std::size_t>(W) * H > kMaxRasterPoints) return;
     const std::size_t qBytes = static_cast<std::size_t>(BW) * BH * 4 * sizeof(double) +
-                               static_cast<std::size_t>(BH) * 2 * sizeof(int);
+                               static_cast<std::size_t>(BH) * 2 * sizeof(int) +
+                               static_cast<std::size_t>(W) * H * sizeof(std::int32_t);
     if (!reserveTableBytes(qBytes)) return;
     baseBytes_ = qBytes;
     ax_ = std::make_unique<Axis>(W, 8.0 * std::max(W, H));
-    ay_ = std::make_unique<Axis>(H, 8.0 * std::max(W, H));
+    ay_ = std::make_unique<Axis>(H, 8.0 * std::max(W, H), kGaussianYSteps);
     const std::size_t axisBytes = ax_->bytes() + ay_->bytes();
     if (!reserveTableBytes(axisBytes)) {
         gTableBytes -= baseBytes_;
@@ -228,6 +243,16 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
         qRange_[2 * R] = lo;
         qRange_[2 * R + 1] = hi;
     }
+    // The cells with α > 0 at a corner, summed over [0, i) × [0, j) (cells; W × H entries).
+    alphaCells_.assign(static_cast<std::size_t>(W) * H, 0);
+    for (int j = 0; j + 1 < H; ++j)
+        for (int i = 0; i + 1 < W; ++i) {
+            const bool any = at(i, j, 3) != 0.0 || at(i + 1, j, 3) != 0.0 ||
+                             at(i, j + 1, 3) != 0.0 || at(i + 1, j + 1, 3) != 0.0;
+            const std::size_t k = static_cast<std::size_t>(j + 1) * W + (i + 1);
+            alphaCells_[k] =
+                (any ? 1 : 0) + alphaCells_[k - 1] + alphaCells_[k - W] - alphaCells_[k - W - 1];
+        }
 }
 
 Tf2BlurTables::~Tf2BlurTables() {
@@ -402,17 +427,23 @@ bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Wind
     const double f = std::sqrt(w.share * (1.0 - std::abs(rho)));
     const double bxMax = f * sx, byMax = f * sy;
     if (!(bxMax >= kMinBlur && byMax >= kMinBlur)) return false;
-    // The ladder's level ⌊2·log2(b/kMinBlur) + 1e−9⌋: the exponent of (b/kMinBlur)²·2^(1e−9), a
-    // double ≥ 1 (std::log2 took 3.4 % of a gaussian frame).
-    const auto levelOf = [](double b, int levels) {
-        const double y = b / kMinBlur, y2 = y * y * (1.0 + 6.931471805599453e-10);
-        const int k = static_cast<int>(std::bit_cast<std::uint64_t>(y2) >> 52) - 1023;
+    // The √2 ladder's level ⌊2·log2(b/kMinBlur) + 1e−9⌋: the exponent of (b/kMinBlur)²·2^(1e−9),
+    // a double ≥ 1 (std::log2 took 3.4 % of a gaussian frame); the y axis' 2^¼ ladder's (fineY)
+    // the exponent of its square.
+    const auto levelOf = [](double b, int levels, int steps) {
+        const double y = b / kMinBlur;
+        double p = y * y * (1.0 + 6.931471805599453e-10);
+        for (int s = 1; s < steps; s *= 2) p *= p;
+        const int k = static_cast<int>(std::bit_cast<std::uint64_t>(p) >> 52) - 1023;
         return std::clamp(k, 0, levels - 1);
     };
-    int i = levelOf(bxMax, levelsX_), j = levelOf(byMax, levelsY_);
+    int i = levelOf(bxMax, levelsX_, 1);
+    const int jStep = w.fineY ? 1 : kGaussianYSteps;
+    int j = w.fineY ? levelOf(byMax, levelsY_, kGaussianYSteps)
+                    : kGaussianYSteps * levelOf(byMax, (levelsY_ - 1) / kGaussianYSteps + 1, 1);
     // Floating rounding of the ladder: keep b ≤ bMax.
     while (i > 0 && ax_->levels[i].blur > bxMax) --i;
-    while (j > 0 && ay_->levels[j].blur > byMax) --j;
+    while (j > 0 && ay_->levels[j].blur > byMax) j -= jStep;
     const Axis::Level &lx = ax_->levels[i], &ly = ay_->levels[j];
     w.t = table(i, j);
     if (!w.t) return false;
@@ -431,7 +462,7 @@ bool Tf2BlurTables::windowOf(double t0, double sxx, double sxy, double syy, Wind
 bool Tf2BlurTables::gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
                                   double out[4]) const {
     Window win;
-    win.share = kGaussianShare, win.radius = kGaussianRadius;
+    win.share = kGaussianShare, win.radius = kGaussianRadius, win.fineY = true;
     if (!windowOf(t0, sxx, sxy, syy, win)) return false;
     const Table* t = win.t;
     const double A = win.A, B = win.B, C = win.C;
@@ -481,14 +512,11 @@ void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, double mx, double my, d
     expectedTf2Gaussian(r, mx, my, vxx, vxy, vyy, out);
 }
 
-bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double sxy, double syy,
+bool Tf2BlurTables::gaussianCellsLanes(const Window& win, double s0, double t0,
                                        float out[4]) const {
     using lanes::Vf;
     using RowsD = lanes::V8d;  // one lane per table row: the rows' setups
     constexpr int W = lanes::kWidth, kRowLanes = 8;
-    Window win;
-    win.share = kGaussianShare, win.radius = kGaussianRadius;
-    if (!windowOf(t0, sxx, sxy, syy, win)) return false;
     const Table* t = win.t;
     const int nx = t->nx;
     const double A = win.A, B = win.B, C = win.C, hx = win.hx;
@@ -499,16 +527,19 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
     // about its vertex kv the terms stay under kRadius²/2 (no cancellation of large ones).
     const double c2 = -0.5 * A * hx * hx;
     const Vf c2v = lanes::splat<Vf>(static_cast<float>(c2));
-    // The rows' points in chunks of at most W (a row of the table, its first point p, the chunk's
-    // first index k in the row, the vertex and top of the row's parabola and the chunk's point
-    // count), summed once the buffer is full or the rows are done. Every chunk takes the same
-    // instructions: the rows' varying extents are settled before (a chunk loop per row
-    // mispredicted its exit and serialised the exp's latency with the row's scalar setup).
+    // The rows' points in chunks of at most W (a row of the table (clamped to it), its first
+    // point p, the chunk's first index k in the row, the vertex and top of the row's parabola and
+    // the chunk's point count), summed once the buffer is full or the rows are done. Every chunk
+    // takes the same instructions: the rows' varying extents are settled before (a chunk loop per
+    // row mispredicted its exit and serialised the exp's latency with the row's scalar setup).
+    // Where each of kRowLanes rows holds at most W points (all but a few on the tangle) their
+    // chunks are stored as the setup's lanes, a row a chunk (an empty row weighs 0).
     constexpr int kChunks = 64;
-    const float* chunkRow[kChunks];
-    int chunkP[kChunks], chunkN[kChunks];
-    float chunkK[kChunks], chunkKv[kChunks], chunkTop[kChunks];
+    int chunkQ[kChunks + kRowLanes], chunkP[kChunks + kRowLanes], chunkN[kChunks + kRowLanes];
+    float chunkK[kChunks + kRowLanes], chunkKv[kChunks + kRowLanes], chunkTop[kChunks + kRowLanes];
     int chunks = 0;
+    const float* table = t->v.data();
+    const std::size_t rowStride = 4 * static_cast<std::size_t>(nx);
     Vf acc[4] = {}, wsum = {};
     const auto sumChunks = [&] {
         for (int c = 0; c < chunks; ++c) {
@@ -517,7 +548,7 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
             const Vf x = lanes::min(c2v * dk * dk + lanes::splat<Vf>(chunkTop[c]), Vf{});
             const lanes::Mask in = iota < n;
             const Vf w = lanes::select(in, detail::expNonPositive(x), Vf{});
-            const float* row = chunkRow[c];
+            const float* row = table + static_cast<std::size_t>(chunkQ[c]) * rowStride;
             Vf v[4];  // lanes from n on (n ≤ W) are weighted 0
             loadPlanes(row, nx, p, p >= 0 && p + n <= nx, in, iota, v);
             for (int ch = 0; ch < 4; ++ch) acc[ch] = lanes::fma(w, v[ch], acc[ch]);
@@ -529,6 +560,7 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
     // lane by lane): the row's points p0 … p1 within the window's ellipse, d = d0 + k·hx
     // (k = p − p0), the exponent −½(A d² + 2B e d + C e²) with its vertex at d = −B e / A.
     const RowsD rowIota = {0, 1, 2, 3, 4, 5, 6, 7};
+    const lanes::V8i rowIotaI = {0, 1, 2, 3, 4, 5, 6, 7};
     const double topScale = -0.5 * (C - B * B * invA);
     for (int qb = win.q0; qb <= win.q1; qb += kRowLanes) {
         const RowsD q = rowIota + static_cast<double>(qb);
@@ -544,16 +576,29 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
         const lanes::V8f top = lanes::toFloat(topScale * e * e);
         const lanes::V8i p0 = lanes::truncToInt(p0d);
         const lanes::V8i n = lanes::truncToInt(lanes::selectBits(inside, p1d - p0d + 1.0, RowsD{}));
+        const lanes::V8i qc =
+            lanes::min(lanes::max(rowIotaI + qb, lanes::V8i{}), lanes::V8i{} + (t->ny - 1));
         const int rows = std::min(kRowLanes, win.q1 - qb + 1);
+        bool short8 = true;
+        for (int i = 0; i < kRowLanes; ++i) short8 = short8 && n[i] <= W;
+        if (short8) {
+            if (chunks + kRowLanes > kChunks) sumChunks();
+            static_assert(sizeof kv == kRowLanes * sizeof(float) && sizeof n == sizeof kv);
+            std::memcpy(chunkQ + chunks, &qc, sizeof qc);
+            std::memcpy(chunkP + chunks, &p0, sizeof p0);
+            std::memcpy(chunkN + chunks, &n, sizeof n);
+            std::memcpy(chunkKv + chunks, &kv, sizeof kv);
+            std::memcpy(chunkTop + chunks, &top, sizeof top);
+            std::fill_n(chunkK + chunks, kRowLanes, 0.0f);
+            chunks += rows;
+            continue;
+        }
         for (int i = 0; i < rows; ++i) {
             const int count = n[i];
             if (count <= 0) continue;
-            const float* row =
-                t->v.data() + static_cast<std::size_t>(std::clamp(qb + i, 0, t->ny - 1)) * 4 *
-                                  static_cast<std::size_t>(nx);
             for (int k = 0; k < count; k += W) {
                 if (chunks == kChunks) sumChunks();
-                chunkRow[chunks] = row;
+                chunkQ[chunks] = qc[i];
                 chunkP[chunks] = p0[i] + k;
                 chunkN[chunks] = std::min(count - k, W);
                 chunkK[chunks] = static_cast<float>(k);
@@ -570,22 +615,125 @@ bool Tf2BlurTables::gaussianCellsLanes(double s0, double t0, double sxx, double 
     return true;
 }
 
-void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], lanes::Mask live,
-                             lanes::Vf out[4]) const {
-    for (std::uint32_t b = lanes::bits(live); b; b &= b - 1) {
-        const int l = std::countr_zero(b);
-        const double mx = m[0][l], my = m[1][l], vxx = m[2][l], vxy = m[3][l], vyy = m[4][l];
-        const double s0 = (mx - r.x0) * r.invDx, t0 = (my - r.y0) * r.invDy;
-        float v[4];
-        if (std::isfinite(s0) && std::isfinite(t0) && std::abs(s0) < 1e9 && std::abs(t0) < 1e9 &&
-            gaussianCellsLanes(s0, t0, vxx * r.invDx * r.invDx, vxy * r.invDx * r.invDy,
-                               vyy * r.invDy * r.invDy, v)) {
-            for (int ch = 0; ch < 4; ++ch) out[ch][l] = v[ch];
+std::uint32_t Tf2BlurTables::gaussianWindows(const lanes::V8d& s0, const lanes::V8d& t0,
+                                             const lanes::V8d& sxx, const lanes::V8d& sxy,
+                                             const lanes::V8d& syy, Window win[8],
+                                             std::uint32_t& empty) const {
+    using D = lanes::V8d;
+    using L = lanes::V8l;
+    empty = 0;
+    if (!available()) return 0;
+    // windowOf's arithmetic lane by lane (the same values), the sqrt and divisions of 8 samples
+    // at once where one sample's chain of them took 12 % of a frame.
+    const auto absOf = [](D x) { return lanes::max(x, -x); };  // NaN stays NaN
+    const D big = D{} + 1e9, zero = D{};
+    const auto valid = lanes::less(absOf(s0), big) & lanes::less(absOf(t0), big) &
+                       lanes::less(zero, sxx) & lanes::less(zero, syy);  // false for NaN
+    const D sx = lanes::sqrt(lanes::selectBits(valid, sxx, D{} + 1.0));
+    const D sy = lanes::sqrt(lanes::selectBits(valid, syy, D{} + 1.0));
+    // The cells the rectangle m ± kEmptySigmas·σ meets (clamped to the raster: beyond it the TF2
+    // is its edge's); where none has α > 0, E[(α·c, α)] ≤ P(outside) ≤ 4Φ(−kEmptySigmas) =
+    // 1.1e−6 and the sample takes 0 (on the 64³ tangle 11 % of the samples), tables or not.
+    const D cells[4] = {lanes::floor(s0 - kEmptySigmas * sx), lanes::floor(s0 + kEmptySigmas * sx),
+                        lanes::floor(t0 - kEmptySigmas * sy), lanes::floor(t0 + kEmptySigmas * sy)};
+    for (int l = 0; l < 8; ++l) {
+        if (!valid[l] || width_ < 2 || height_ < 2) continue;
+        const auto cell = [&](double v, int n) {
+            return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(n - 2)));
+        };
+        const int i0 = cell(cells[0][l], width_), i1 = cell(cells[1][l], width_) + 1;
+        const int j0 = cell(cells[2][l], height_), j1 = cell(cells[3][l], height_) + 1;
+        const auto sat = [&](int i, int j) {
+            return alphaCells_[static_cast<std::size_t>(j) * width_ + i];
+        };
+        if (sat(i1, j1) - sat(i0, j1) - sat(i1, j0) + sat(i0, j0) == 0) empty |= 1u << l;
+    }
+    const D rho = lanes::min(lanes::max(sxy / (sx * sy), D{} - 1.0), D{} + 1.0);
+    const D f = lanes::sqrt(kGaussianShare * (1.0 - absOf(rho)));
+    const D bxMax = f * sx, byMax = f * sy;
+    const D minBlur = D{} + kMinBlur;  // b ≥ kMinBlur, not NaN
+    const auto ok = valid & lanes::less(zero, bxMax) & lanes::less(zero, byMax) &
+                    ~lanes::less(bxMax, minBlur) & ~lanes::less(byMax, minBlur);
+    // The levels (windowOf's levelOf): the exponents of (b/kMinBlur)²·2^(1e−9) in x and of its
+    // square in y (the 2^¼ ladder), clamped.
+    const D yx = bxMax * (1.0 / kMinBlur), yy = byMax * (1.0 / kMinBlur);
+    const D px = yx * yx * (1.0 + 6.931471805599453e-10);
+    D py = yy * yy * (1.0 + 6.931471805599453e-10);
+    for (int s = 1; s < kGaussianYSteps; s *= 2) py *= py;
+    const L kx = (std::bit_cast<L>(px) >> 52) - 1023, ky = (std::bit_cast<L>(py) >> 52) - 1023;
+    std::uint32_t good = 0;
+    D bx{}, by{};
+    for (int l = 0; l < 8; ++l) {
+        if (!ok[l] || ((empty >> l) & 1u)) continue;
+        int i = static_cast<int>(std::clamp<std::int64_t>(kx[l], 0, levelsX_ - 1));
+        int j = static_cast<int>(std::clamp<std::int64_t>(ky[l], 0, levelsY_ - 1));
+        while (i > 0 && ax_->levels[i].blur > bxMax[l]) --i;
+        while (j > 0 && ay_->levels[j].blur > byMax[l]) --j;
+        win[l].t = table(i, j);
+        if (!win[l].t) continue;
+        bx[l] = ax_->levels[i].blur;
+        by[l] = ay_->levels[j].blur;
+        good |= 1u << l;
+    }
+    const D rxx = sxx - bx * bx, ryy = syy - by * by;
+    const D det = rxx * ryy - sxy * sxy;
+    const auto pos = lanes::less(zero, det);
+    const D detSafe = lanes::selectBits(pos, det, D{} + 1.0);
+    const D A = ryy / detSafe, B = -sxy / detSafe, C = rxx / detSafe;
+    const D hx = kSpacing * bx, hy = kSpacing * by;
+    const D xStart = -kPad * bx, yStart = -kPad * by;
+    const D ey = kGaussianRadius * lanes::sqrt(lanes::selectBits(pos, ryy, D{}));
+    const D hySafe = lanes::selectBits(lanes::less(zero, hy), hy, D{} + 1.0);
+    const D q0 = lanes::ceil((t0 - ey - yStart) / hySafe);
+    const D q1 = lanes::floor((t0 + ey - yStart) / hySafe);
+    for (int l = 0; l < 8; ++l) {
+        if (!((good >> l) & 1u)) continue;
+        if (!pos[l]) {
+            good &= ~(1u << l);
             continue;
         }
-        double e[4];
-        expectedTf2Gaussian(r, mx, my, vxx, vxy, vyy, e);
-        for (int ch = 0; ch < 4; ++ch) out[ch][l] = static_cast<float>(e[ch]);
+        Window& w = win[l];
+        w.share = kGaussianShare, w.radius = kGaussianRadius, w.fineY = true;
+        w.rxx = rxx[l], w.ryy = ryy[l], w.A = A[l], w.B = B[l], w.C = C[l];
+        w.hx = hx[l], w.hy = hy[l], w.xStart = xStart[l], w.yStart = yStart[l];
+        w.q0 = static_cast<int>(q0[l]), w.q1 = static_cast<int>(q1[l]);
+    }
+    return good;
+}
+
+void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], lanes::Mask live,
+                             lanes::Vf out[4]) const {
+    using D = lanes::V8d;
+    const std::uint32_t liveBits = lanes::bits(live);
+    for (int g = 0; g < lanes::kWidth; g += 8) {
+        const std::uint32_t groupLive = (liveBits >> g) & 0xFFu;
+        if (!groupLive) continue;
+        D mx{}, my{}, vxx{}, vxy{}, vyy{};
+        for (int l = 0; l < 8 && g + l < lanes::kWidth; ++l) {
+            mx[l] = m[0][g + l], my[l] = m[1][g + l], vxx[l] = m[2][g + l];
+            vxy[l] = m[3][g + l], vyy[l] = m[4][g + l];
+        }
+        const D s0 = (mx - r.x0) * r.invDx, t0 = (my - r.y0) * r.invDy;
+        Window win[8];
+        std::uint32_t empty = 0;
+        const std::uint32_t good =
+            groupLive & gaussianWindows(s0, t0, vxx * r.invDx * r.invDx, vxy * r.invDx * r.invDy,
+                                        vyy * r.invDy * r.invDy, win, empty);
+        for (std::uint32_t b = groupLive & empty; b; b &= b - 1) {
+            const int l = std::countr_zero(b);
+            for (int ch = 0; ch < 4; ++ch) out[ch][g + l] = 0.0f;
+        }
+        for (std::uint32_t b = groupLive & ~empty; b; b &= b - 1) {
+            const int l = std::countr_zero(b);
+            float v[4];
+            if (((good >> l) & 1u) && gaussianCellsLanes(win[l], s0[l], t0[l], v)) {
+                for (int ch = 0; ch < 4; ++ch) out[ch][g + l] = v[ch];
+                continue;
+            }
+            double e[4];
+            expectedTf2Gaussian(r, mx[l], my[l], vxx[l], vxy[l], vyy[l], e);
+            for (int ch = 0; ch < 4; ++ch) out[ch][g + l] = static_cast<float>(e[ch]);
+        }
     }
 }
 

@@ -10,8 +10,8 @@
 //
 // Gaussian N(m, Σ) (raster cells): Σ = D + Σr with D = diag(bx², by²) from the ladder, bx ≤
 // σx·√((1 − |ρ|)/2) and likewise by, so that Σr ≥ D (Σ/2 − D is PSD). (The numbers here are the
-// box spline's sums; `gaussian` itself takes a share 0.65 and radius 4.25: aliasing ≤ 2e−5,
-// about half the points — expected_tf2_fast.cpp, kGaussianShare.) Then E[TF2] =
+// box spline's sums; `gaussian` itself takes a share 0.8 and radius 4.0, and a y ladder of 2^¼
+// steps — expected_tf2_fast.cpp, kGaussianShare; max 1.4e−4 off gaussian-exact.) Then E[TF2] =
 // E[T_D(m + Z_r)], Z_r ~ N(0, Σr): the Gaussian-weighted sum of the table T_D over its grid points
 // within the ellipse of radius kRadius of Σr, weights normalised. That sum is the trapezoid rule
 // of a product whose spectrum falls as exp(−½ωᵀ(D⁻¹ + Σr⁻¹)⁻¹ω) ≤ exp(−¼ωᵀDω): at the grid's
@@ -100,9 +100,14 @@ class Tf2BlurTables {
     /// The table and window of the table sum for N(·, Σ) in raster cells; false where no table
     /// applies.
     bool windowOf(double t0, double sxx, double sxy, double syy, Window& w) const;
-    /// gaussianCells's points over float lanes (gaussian over lanes).
-    bool gaussianCellsLanes(double s0, double t0, double sxx, double sxy, double syy,
-                            float out[4]) const;
+    /// windowOf for `gaussian` (its share, radius and y ladder) at 8 samples in double lanes
+    /// (the same values as windowOf; raster cells): the bits of the lanes where a table applies.
+    std::uint32_t gaussianWindows(const lanes::V8d& s0, const lanes::V8d& t0, const lanes::V8d& sxx,
+                                  const lanes::V8d& sxy, const lanes::V8d& syy, Window win[8],
+                                  std::uint32_t& empty) const;
+    /// gaussianCells's points over float lanes (gaussian over lanes) in the window `win`
+    /// (gaussianWindows) about (s0, t0).
+    bool gaussianCellsLanes(const Window& win, double s0, double t0, float out[4]) const;
     /// The y pass of level j (the table rows' sums over the y basis), built on first use.
     const Pass& pass(int j) const;
     /// The table of levels (i, j), built on first use; null where it would be too large.
@@ -140,6 +145,9 @@ class Tf2BlurTables {
     std::uint64_t hash_ = 0;
     std::vector<double> q_[4];  // the biquadratic coefficients per channel: (2W − 1) × (2H − 1)
     std::vector<int> qRange_;   // per row R of q_: the columns [lo, hi) not all 0
+    /// Per point (j·W + i): the cells with α > 0 at a corner in columns [0, i) and rows [0, j)
+    /// (a summed-area table; emptyRectangle).
+    std::vector<std::int32_t> alphaCells_;
     mutable std::unique_ptr<std::once_flag[]> passOnce_;
     mutable std::unique_ptr<std::unique_ptr<Pass>[]> passes_;
     std::unique_ptr<Axis> ax_, ay_;

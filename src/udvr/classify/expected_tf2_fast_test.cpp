@@ -1,6 +1,7 @@
 // The fast 2D gaussian and uniform (Tf2BlurTables) against their exact evaluations
 // (expectedTf2Gaussian, expectedTf2UniformExact) over random rough rasters, distributions and
-// points (issue 33 asks max |ΔE| ≤ 1e−3; measured: gaussian 2.9e−5 (3.4e−5 over lanes),
+// points (issue 33 asks max |ΔE| ≤ 1e−3; measured: gaussian 8.1e−5 (9.8e−5 over lanes; share
+// 0.8, radius 4.0 since 2026-12-04, held to 3e−4),
 // uniform 9.1e−4 at interior points, 1.6e−3 at voxel faces — docs/models.md).
 #include "udvr/classify/expected_tf2_fast.h"
 
@@ -57,7 +58,7 @@ TEST(Tf2BlurTables, GaussianWithin1e3OfTheExactEvaluation) {
     }
     std::printf("gaussian: max |dE| %.3g, RMS %.3g over %d values\n", worst, std::sqrt(sq / count),
                 count);
-    EXPECT_LE(worst, 1e-3);
+    EXPECT_LE(worst, 3e-4);  // issue 33 asks 1e−3; a 3× margin
 }
 
 // The box spline's Edgeworth term makes its density negative in the far tail: with 12 equal boxes
@@ -126,10 +127,21 @@ TEST(Tf2BlurTables, LargeTf2sGetNoTablesAndTakeTheExactEvaluation) {
     }
 }
 
+/// Lane l of the moments m (μx, μy, var x, cov, var y; float) of N((mx, my), σ and ρ).
+void setLaneNormal(lanes::Vf m[5], int l, double mx, double my, double sx, double sy, double rho) {
+    m[0][l] = static_cast<float>(mx);
+    m[1][l] = static_cast<float>(my);
+    m[2][l] = static_cast<float>(sx * sx);
+    m[3][l] = static_cast<float>(rho * sx * sy);
+    m[4][l] = static_cast<float>(sy * sy);
+}
+
 // The lane gaussian (float moments in, a row's points in float lanes) against the double one
 // on the same moments, over the cases of GaussianWithin1e3OfTheExactEvaluation's kind (σ from a
 // tenth of a cell to beyond the raster, any correlation, means off the raster too), and against
-// the exact evaluation. Measured 2026-12-02 (AVX-512): 1.2e−7 and 3.4e−5; held to 2e−5, 1e−3.
+// the exact evaluation. Measured 2026-12-02 (AVX-512): 1.2e−7 and 3.4e−5; 2026-12-04 (share 0.8,
+// radius 4.0, the y ladder's 2^¼ steps): 1.6e−7 and 9.8e−5; held to 2e−5, 3e−4 (issue 33 asks
+// 1e−3).
 TEST(Tf2BlurTables, LaneGaussianMatchesDouble) {
     using lanes::Vf;
     std::mt19937_64 g(34);
@@ -145,11 +157,8 @@ TEST(Tf2BlurTables, LaneGaussianMatchesDouble) {
                 const double sx = std::exp(std::log(0.1 / (W - 1)) + u(g) * std::log(20.0 * W)),
                              sy = std::exp(std::log(0.1 / (H - 1)) + u(g) * std::log(20.0 * H));
                 const double rho = 1.98 * u(g) - 0.99;
-                m[0][l] = static_cast<float>(1.4 * u(g) - 0.2);
-                m[1][l] = static_cast<float>(1.4 * u(g) - 0.2);
-                m[2][l] = static_cast<float>(sx * sx);
-                m[3][l] = static_cast<float>(rho * sx * sy);
-                m[4][l] = static_cast<float>(sy * sy);
+                const double mx = 1.4 * u(g) - 0.2, my = 1.4 * u(g) - 0.2;
+                setLaneNormal(m, l, mx, my, sx, sy, rho);
             }
             const lanes::Mask live = lanes::fromBits(lanes::kAllBits & ~1u);  // lane 0 dead
             Vf got[4] = {Vf{} + 7.0f, Vf{} + 7.0f, Vf{} + 7.0f, Vf{} + 7.0f};
@@ -169,7 +178,61 @@ TEST(Tf2BlurTables, LaneGaussianMatchesDouble) {
     std::printf("lane gaussian: max |dE| %.3g against the double tables, %.3g against exact\n",
                 worst, worstExact);
     EXPECT_LE(worst, 2e-5);
-    EXPECT_LE(worstExact, 1e-3);
+    EXPECT_LE(worstExact, 3e-4);
+}
+
+// The lane gaussian takes 0 where the rectangle m ± 5σ meets only cells with α = 0 (a TF2
+// transparent for x < 0.6, random beyond): the exact value there is at most 4Φ(−5) = 1.1e−6.
+// Normals whose rectangle reaches the opaque part keep the table sum, within 3e−4 of the exact
+// evaluation as in LaneGaussianMatchesDouble.
+TEST(Tf2BlurTables, LaneGaussianTakesZeroWhereItsRectangleIsTransparent) {
+    using lanes::Vf;
+    std::mt19937_64 g(35);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const testing::Raster r(41, 33, 0.0, 1.0, 0.0, 1.0, [&](double x, double, double v[4]) {
+        for (int ch = 0; ch < 3; ++ch) v[ch] = u(g);
+        v[3] = x > 0.6 ? u(g) : 0.0;
+    });
+    const Tf2BlurTables tables(r.r);
+    int zeros = 0, sums = 0;
+    double worstZero = 0.0, worstSum = 0.0;
+    for (int batch = 0; batch < 40; ++batch) {
+        Vf m[5];
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            const double sx = 0.005 + 0.1 * u(g), sy = 0.02 + 2.0 * u(g);
+            const double rho = 1.8 * u(g) - 0.9;
+            const double mx = 0.6 * u(g) - 0.1, my = 1.4 * u(g) - 0.2;
+            setLaneNormal(m, l, mx, my, sx, sy, rho);
+        }
+        Vf got[4];
+        tables.gaussian(r.r, m, lanes::allTrue<Vf>(), got);
+        for (int l = 0; l < lanes::kWidth; ++l) {
+            double want[4];
+            expectedTf2Gaussian(r.r, m[0][l], m[1][l], m[2][l], m[3][l], m[4][l], want);
+            // The rectangle's cells lie left of x = 0.6's cell (raster cells of 1/40).
+            const bool transparent = (m[0][l] + 5.0 * std::sqrt(m[2][l])) * 40.0 < 23.0;
+            double e = 0.0;
+            for (int ch = 0; ch < 4; ++ch) {
+                e = std::max(e, std::abs(got[ch][l] - want[ch]));
+                if (transparent) {
+                    EXPECT_EQ(got[ch][l], 0.0f);
+                }
+            }
+            if (transparent) {
+                ++zeros;
+                worstZero = std::max(worstZero, e);
+            } else {
+                ++sums;
+                worstSum = std::max(worstSum, e);
+            }
+        }
+    }
+    std::printf("gaussian, transparent rectangles: %d at 0 (max |dE| %.3g), %d sums (%.3g)\n",
+                zeros, worstZero, sums, worstSum);
+    EXPECT_GT(zeros, 40);
+    EXPECT_GT(sums, 40);
+    EXPECT_LE(worstZero, 1.2e-6);
+    EXPECT_LE(worstSum, 3e-4);
 }
 
 /// Worst |ΔE| of boxSpline against expectedTf2UniformExact (converged) over `cases` box splines

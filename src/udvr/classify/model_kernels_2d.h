@@ -87,24 +87,28 @@ struct Kernel2DBase : GridKernel {
         meanGradientAt(c, live, y);
         return directionOf(y, n);
     }
-    /// The live lanes whose cell's 32-voxel form has only central differences: base voxel
-    /// (i, j, k) with 1 ≤ i ≤ dims − 3 on each axis (the cell and its 24 outer neighbours inside
-    /// the grid). Needs gathersFit(1).
-    lanes::Mask interiorLanes(const Cell<lanes::Vf>& c, lanes::Mask live) const {
+    /// The base voxel (i, j, k) of each live lane's cell (0 in dead lanes). Needs gathersFit(1).
+    void baseIndices(const Cell<lanes::Vf>& c, lanes::Mask live, lanes::Vi idx[3]) const {
         using lanes::Vi;
         using Vd = lanes::Vec<double, lanes::kWidth>;
-        // (i, j, k) of each lane's base voxel: (n + ½)·(1/d) in double is n/d to well under
-        // ½/d for n < 2⁵¹, so its truncation is the quotient.
+        // (n + ½)·(1/d) in double is n/d to well under ½/d for n < 2⁵¹, so its truncation is
+        // the quotient.
         const auto divide = [](Vi n, std::int64_t d) {
             const Vd q = (__builtin_convertvector(n, Vd) + 0.5) * (1.0 / static_cast<double>(d));
             return __builtin_convertvector(q, Vi);
         };
         const Vi base = lanes::select(live, c.base, Vi{});
-        const Vi k = divide(base, geometry.stride[2]);
-        const Vi rem = base - k * geometry.stride32[2];
-        const Vi j = divide(rem, geometry.stride[1]);
-        const Vi i = rem - j * geometry.stride32[1];
-        const Vi idx[3] = {i, j, k};
+        idx[2] = divide(base, geometry.stride[2]);
+        const Vi rem = base - idx[2] * geometry.stride32[2];
+        idx[1] = divide(rem, geometry.stride[1]);
+        idx[0] = rem - idx[1] * geometry.stride32[1];
+    }
+    /// The live lanes whose cell's 32-voxel form has only central differences: base voxel
+    /// (i, j, k) with 1 ≤ i ≤ dims − 3 on each axis (the cell and its 24 outer neighbours inside
+    /// the grid). Needs gathersFit(1).
+    lanes::Mask interiorLanes(const Cell<lanes::Vf>& c, lanes::Mask live) const {
+        lanes::Vi idx[3];
+        baseIndices(c, live, idx);
         lanes::Mask inside = live;
         for (int a = 0; a < 3; ++a)
             inside = inside & (idx[a] >= 1) & (idx[a] <= geometry.dims[a] - 3);
@@ -233,24 +237,41 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             m[4] += u * u * var;
         }
     }
-    /// The moments over lanes (momentsAt's, in float). Lanes whose cell and its 24 outer
-    /// neighbours all lie where the grid gradients are central differences (base index i with
-    /// 1 ≤ i ≤ dims − 3 on each axis) take the 32-voxel form in closed form: corner o's u is
-    /// Σ_a k_a·(±w of the corner across axis a: + where o_a = 1), the outer voxel beyond corner o
-    /// along a has u = ±k_a·w_o, k_a = n̂_a/(2·spacing_a), with σ² gathered per voxel; the rest
-    /// (faces of the grid, one-sided differences) take momentsAt per lane. Needs gathersFit(1).
+    /// The moments over lanes (momentsAt's, in float), the 32-voxel form in closed form on every
+    /// grid of at least 2 points an axis (else momentsAt per lane). Corner o's gradient along a
+    /// is (X_hi − X_lo)·n̂_a/((hi − lo)·spacing_a) with lo, hi the neighbours of its point along
+    /// a (GradientGeometry::stencil): inside the grid the outer voxel beyond o and the corner
+    /// across a, k_a = n̂_a/(2·spacing_a) each; where o lies on the grid's first (o_a = 0, base
+    /// index 0) or last (o_a = 1, base index dims − 2) point along a the difference is one-sided,
+    /// o itself and the corner across, 2·k_a each, and there is no outer voxel. So corner o's u
+    /// is Σ_a ±(the across corner's w times k_a, doubled where the across corner's difference
+    /// is one-sided) ± (2·k_a·w_o where its own is), + where o_a = 1; the outer voxel beyond
+    /// corner o along a has u = ±k_a·w_o; σ² gathered per voxel. (Before 2026-12-04 the lanes
+    /// at a face took momentsAt per lane: ~9 % of the 64³ tangle's samples, 10 % of its gaussian
+    /// frame.) Needs gathersFit(1).
     void momentsLanes(const Cell<lanes::Vf>& c, lanes::Mask live, lanes::Vf m[5]) const {
         using lanes::Vf, lanes::Vi;
-        const lanes::Mask fast = interiorLanes(c, live);
-        if (lanes::anyOf(fast)) {
+        bool closedForm = true;
+        for (int a = 0; a < 3; ++a) closedForm = closedForm && geometry.dims[a] >= 2;
+        if (closedForm && lanes::anyOf(live)) {
+            Vi idx[3];
+            baseIndices(c, live, idx);
+            lanes::Mask low[3], high[3];  // o's point is the grid's first / last along a
+            for (int a = 0; a < 3; ++a) {
+                low[a] = idx[a] <= 0;
+                high[a] = idx[a] >= geometry.dims[a] - 2;
+            }
             Vf n[3];
-            m[1] = meanDirectionAt(c, fast, n);
-            m[0] = trilinear(geometry, mean, 1, c, fast);
-            const Vf one = lanes::splat<Vf>(1.0f);
+            m[1] = meanDirectionAt(c, live, n);
+            m[0] = trilinear(geometry, mean, 1, c, live);
+            const Vf one = lanes::splat<Vf>(1.0f), two = lanes::splat<Vf>(2.0f);
             const Vf f[3][2] = {{one - c.fx, c.fx}, {one - c.fy, c.fy}, {one - c.fz, c.fz}};
-            Vf kk[3];
-            for (int a = 0; a < 3; ++a)
+            Vf kk[3], kLow[3], kHigh[3];  // k_a, doubled where one-sided at the low / high point
+            for (int a = 0; a < 3; ++a) {
                 kk[a] = n[a] * static_cast<float>(0.5 * gradientGeometry.invSpacing[a]);
+                kLow[a] = lanes::select(low[a], two * kk[a], kk[a]);
+                kHigh[a] = lanes::select(high[a], two * kk[a], kk[a]);
+            }
             Vf w[8];
             for (int o = 0; o < 8; ++o) w[o] = f[0][o & 1] * f[1][(o >> 1) & 1] * f[2][o >> 2];
             Vf vxx{}, vxg{}, vgg{};
@@ -259,19 +280,27 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
                 for (int a = 0; a < 3; ++a)
                     if ((o >> a) & 1) off += geometry.stride32[a];
                 const Vi at = c.base + off;
-                const Vf s = lanes::gather(stddev, at, fast), var = s * s;
+                const Vf s = lanes::gather(stddev, at, live), var = s * s;
                 Vf u{};
                 for (int a = 0; a < 3; ++a) {
-                    const Vf across = kk[a] * w[o ^ (1 << a)];
-                    u = ((o >> a) & 1) ? u + across : u - across;
+                    const Vf across = w[o ^ (1 << a)];
+                    if ((o >> a) & 1) {  // o is the across corner's hi (its lo: outer, or itself
+                                         // where low); o's own lo is the across corner
+                        u = lanes::fma(kLow[a], across, u);
+                        u = u + lanes::select(high[a], two * kk[a] * w[o], Vf{});
+                    } else {  // o is the across corner's lo; o's own hi is the across corner
+                        u = u - kHigh[a] * across;
+                        u = u - lanes::select(low[a], two * kk[a] * w[o], Vf{});
+                    }
                 }
                 vxx = lanes::fma(w[o] * w[o], var, vxx);
                 vxg = lanes::fma(w[o] * u, var, vxg);
                 vgg = lanes::fma(u * u, var, vgg);
                 for (int a = 0; a < 3; ++a) {  // the outer voxel beyond corner o along a
                     const bool up = (o >> a) & 1;
+                    const lanes::Mask has = live & !(up ? high[a] : low[a]);
                     const Vf so = lanes::gather(
-                        stddev, at + (up ? geometry.stride32[a] : -geometry.stride32[a]), fast);
+                        stddev, at + (up ? geometry.stride32[a] : -geometry.stride32[a]), has);
                     const Vf uo = kk[a] * w[o];
                     vgg = lanes::fma(uo * uo, so * so, vgg);
                 }
@@ -279,8 +308,9 @@ struct Gaussian2DKernel : Kernel2DBase, detail::ClassifyInLoad {
             m[2] = vxx;
             m[3] = vxg;
             m[4] = vgg;
+            return;
         }
-        for (std::uint32_t b = lanes::bits(live & !fast); b; b &= b - 1) {
+        for (std::uint32_t b = lanes::bits(live); b; b &= b - 1) {
             const int l = std::countr_zero(b);
             double md[5];
             momentsAt(laneCell(c, l), md);

@@ -1122,18 +1122,21 @@ TEST(Tf2, LaneAndFloatBodiesMatchTheDoubleBody) {
         }
 }
 
-// The 2D gaussian's lane body (issue 33: moments in closed form over the lanes whose 32 voxels
-// have central differences, table sums in float) on random 9×8×7 models, grids and TF2s: its
-// moments against momentsAt per lane (relative to their scale), its classification against the
-// double body and against `gaussian-exact`'s double body (the exact evaluation; issue 33 asks
-// 1e−3). Measured 2026-12-02 (AVX-512): moments 4.2e−7, lanes − double body 1.6e−7, lanes −
-// gaussian-exact 4.6e−5; held to 1e−5, 5e−5 and 1e−3.
+// The 2D gaussian's lane body (issue 33: moments in closed form over the lanes, one-sided
+// differences at the grid's faces included, table sums in float) on random 9×8×7 models, grids
+// and TF2s (nine lanes in ten at a face): its moments against momentsAt per lane (relative to
+// their scale), its classification against the double body and against `gaussian-exact`'s
+// double body (the exact evaluation; issue 33 asks 1e−3). Measured 2026-12-02 (AVX-512, faces
+// then by momentsAt): moments 4.2e−7, lanes − double body 1.6e−7, lanes − gaussian-exact 4.6e−5;
+// 2026-12-04 (faces in closed form): moments 4.9e−6 (μ_X's float trilinear blend, a cancelling
+// sum, at a face lane), lanes − double body 2.4e−7; share 0.8, radius 4.0 and the y ladder's
+// 2^¼ steps: lanes − gaussian-exact 1.4e−4; held to 1e−5, 5e−5 and 3e−4 (issue 33 asks 1e−3).
 TEST(Tf2, GaussianLanesMatchTheDoubleBodyAndTheExactKernel) {
     using lanes::Vf;
     CounterRng rng(33, 2, 0);
     const std::array<int, 3> dims{9, 8, 7};
     double worstMoment = 0.0, worstBody = 0.0, worstExact = 0.0;
-    int closedForm = 0, lanesSeen = 0;
+    int interiorLanes = 0, lanesSeen = 0;
     for (int model = 0; model < 6; ++model) {
         ModelVolume m = testing::randomModel(rng, dims, 2);
         m.grid = randomGrid(rng, dims);
@@ -1166,7 +1169,7 @@ TEST(Tf2, GaussianLanesMatchTheDoubleBodyAndTheExactKernel) {
                             const std::array<int, 3> ijk = voxelIndices(k.geometry, c.base);
                             for (int a = 0; a < 3; ++a)
                                 interior = interior && ijk[a] >= 1 && ijk[a] <= dims[a] - 3;
-                            closedForm += interior;
+                            interiorLanes += interior;
                             ++lanesSeen;
                             double body[4], ref[4];
                             k.finish(k.template load<double>(c, true), body);
@@ -1182,13 +1185,14 @@ TEST(Tf2, GaussianLanesMatchTheDoubleBodyAndTheExactKernel) {
         });
     }
     std::printf(
-        "gaussian lanes: %d of %d lanes in closed form; moments %.3g, lanes - double "
-        "body %.3g, lanes - gaussian-exact %.3g\n",
-        closedForm, lanesSeen, worstMoment, worstBody, worstExact);
-    EXPECT_GT(closedForm, lanesSeen / 20);  // the closed form is exercised (11 % measured)
+        "gaussian lanes: %d of %d lanes interior (the rest at a face); moments %.3g, lanes - "
+        "double body %.3g, lanes - gaussian-exact %.3g\n",
+        interiorLanes, lanesSeen, worstMoment, worstBody, worstExact);
+    EXPECT_GT(interiorLanes, lanesSeen / 20);  // both kinds are exercised (11 % interior measured)
+    EXPECT_LT(interiorLanes, lanesSeen - lanesSeen / 20);
     EXPECT_LE(worstMoment, 1e-5);
     EXPECT_LE(worstBody, 5e-5);
-    EXPECT_LE(worstExact, 1e-3);
+    EXPECT_LE(worstExact, 3e-4);
 }
 
 // The 2D uniform's lane reconstruction (issue 31 point 1: JointBoxSpline built once over the
