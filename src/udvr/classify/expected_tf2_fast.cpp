@@ -244,15 +244,7 @@ Tf2BlurTables::Tf2BlurTables(const Tf2Raster<double>& r)
         qRange_[2 * R + 1] = hi;
     }
     // The cells with α > 0 at a corner, summed over [0, i) × [0, j) (cells; W × H entries).
-    alphaCells_.assign(static_cast<std::size_t>(W) * H, 0);
-    for (int j = 0; j + 1 < H; ++j)
-        for (int i = 0; i + 1 < W; ++i) {
-            const bool any = at(i, j, 3) != 0.0 || at(i + 1, j, 3) != 0.0 ||
-                             at(i, j + 1, 3) != 0.0 || at(i + 1, j + 1, 3) != 0.0;
-            const std::size_t k = static_cast<std::size_t>(j + 1) * W + (i + 1);
-            alphaCells_[k] =
-                (any ? 1 : 0) + alphaCells_[k - 1] + alphaCells_[k - W] - alphaCells_[k - W - 1];
-        }
+    opaqueCellSums(r.rgba, W, H, alphaCells_);
 }
 
 Tf2BlurTables::~Tf2BlurTables() {

@@ -169,15 +169,7 @@ Tf2Rasters::Tf2Rasters(const TransferFunction2D& tf, Tf2SegmentWalk walk) {
     }
     exact.columnEmptyRun = fast.columnEmptyRun = columnEmptyRun.data();
     // The summed-area table of the cells with α > 0 (exact in float up to 2^24 cells).
-    cellOpaqueSum.assign(static_cast<std::size_t>(tf.width) * tf.height, 0.f);
-    for (int j = 0; j < rows; ++j)
-        for (int i = 0; i < cw; ++i) {
-            const std::size_t at = static_cast<std::size_t>(j + 1) * tf.width + (i + 1);
-            cellOpaqueSum[at] =
-                cellOpaqueSum[at - 1] + cellOpaqueSum[at - tf.width] -
-                cellOpaqueSum[at - tf.width - 1] +
-                (cellEmptyDistance[static_cast<std::size_t>(j) * cw + i] == 0.f ? 1.f : 0.f);
-        }
+    opaqueCellSums(tf.rgba.data(), tf.width, tf.height, cellOpaqueSum);
     exact.cellOpaqueSum = fast.cellOpaqueSum = cellOpaqueSum.data();
     rowCells.assign(2 * static_cast<std::size_t>(rows), 0);
     for (int j = 0; j < rows; ++j) {

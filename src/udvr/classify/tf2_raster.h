@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 #include "udvr/reconstruct/quantile_interp.h"
 #include "udvr/util/lanes.h"
@@ -68,6 +69,26 @@ struct Tf2Raster {
         -std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity(),
         -std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity()};
 };
+
+/// The summed-area table of a width × height raster's cells with α > 0 at a corner (rgba as
+/// Tf2Raster's): entry j·width + i counts those cells in columns < i and rows < j (row 0 and
+/// column 0 hold 0), so a box of cells has none in four reads (Tf2Raster::cellOpaqueSum, the
+/// fast gaussian's transparent test). T: float (exact up to 2^24 cells) or an integer type.
+template <class T>
+void opaqueCellSums(const float* rgba, int width, int height, std::vector<T>& sums) {
+    const auto alpha = [&](int i, int j) {
+        return rgba[(static_cast<std::size_t>(j) * width + i) * 4 + 3];
+    };
+    sums.assign(static_cast<std::size_t>(width) * height, T{});
+    for (int j = 0; j + 1 < height; ++j)
+        for (int i = 0; i + 1 < width; ++i) {
+            const bool opaque = alpha(i, j) > 0.f || alpha(i + 1, j) > 0.f ||
+                                alpha(i, j + 1) > 0.f || alpha(i + 1, j + 1) > 0.f;
+            const std::size_t k = static_cast<std::size_t>(j + 1) * width + (i + 1);
+            sums[k] = static_cast<T>(opaque ? 1 : 0) + sums[k - 1] + sums[k - width] -
+                      sums[k - width - 1];
+        }
+}
 
 /// Doubles per record of Tf2Raster::bandPrefix: α's 3 moments, then 6 per colour channel.
 inline constexpr int kTf2BandMoments = 21;
