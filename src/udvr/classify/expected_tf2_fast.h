@@ -19,16 +19,12 @@
 // ladder has no blur that small (σ·√((1 − |ρ|)/2) < kMinBlur cells in x or y) or the table would
 // be over kMaxTablePoints, the exact expectedTf2Gaussian.
 //
-// Box spline c + Σ t_i d_i (the fast 2D `uniform`): the box with the largest share of the
-// variance along itself (dᵀΣ⁻¹d/3, Σ the covariance of the boxes not kept yet) is kept while
-// that share is over kKeepShare (kKeepShareNext for the second and third), up to kMaxKept boxes;
-// the rest is replaced by the normal of the same covariance times its Edgeworth κ4 term (Series),
-// in the same table sum; E = mean over 3-point Gauss–Legendre nodes per kept box (⌈kPieceScale ·
-// √(dᵀΣr⁻¹d)⌉ pieces over t ∈ [−1, 1]: 1/√(dᵀΣr⁻¹d) is the scale of the rest-smoothed TF2 along
-// the box; the first kept box at most kMaxNodes nodes) of that sum. Where no table applies (the
-// rest under kMinBlur in an axis, e.g. every remaining box G-only at a voxel face, or a singular
-// covariance), expectedTf2UniformExact at the kUniform2DFast settings. Errors and cost:
-// docs/models.md.
+// Box spline c + Σ t_i d_i (the fast 2D `uniform`): by columns (boxSpline; docs/models.md): the
+// TF2 is Σ_P ψ_P(x)·Z_P(g) over the x basis, each term's law of G from the corners' moments
+// E[ψ_P(X)·G^j] (a Fourier series in x) as an Edgeworth normal with the widest G-only box exact,
+// and E[Z_P] the trapezoid sum over the y pass of a blur ≤ √½ of its std (or the rows in closed
+// form below the ladder). Samples with fewer than 8 corners take expectedTf2UniformExact at the
+// kUniform2DFast settings. Errors and cost: docs/models.md.
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -78,19 +74,18 @@ class Tf2BlurTables {
     /// expectedTf2Gaussian in double. Dead lanes of `out` are left as they are.
     void gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], lanes::Mask live,
                   lanes::Vf out[4]) const;
-    /// E over the box spline (cx, cy) + Σ t_i·d_i (the fast 2D `uniform`, header comment).
-    /// Returns false where it took the exact evaluation (`tinyWidth` goes to it): no table
-    /// applies (the spread under kMinBlur cells along an axis once the kept box is out), a
-    /// singular covariance, non-finite data.
-    static constexpr double kKeepShare = 0.25;  // keep the box whose share dᵀΣ⁻¹d/3 is over
-    static constexpr double kKeepShareNext = 0.4;  // … and a second, third past this share
-    static constexpr int kMaxKept = 3;
-    static constexpr double kPieceScale = 1.0;  // ⌈this · √(dᵀΣr⁻¹d)⌉ GL pieces a box
-    static constexpr int kMaxBoxPieces = 16;    // per kept box
-    static constexpr int kMaxNodes = 27;        // table sums a box spline may take
-    static constexpr double kMustKeepShare = 0.4;  // past it a box that leaves no table: exact
-    bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d, int n,
-                   double tinyWidth, double out[4]) const;
+    /// E over the box spline (cx, cy) + Σ t_i·d_i by columns (issue 33, docs/models.md "an
+    /// evaluation by columns"): the TF2 is quadratic in x between raster points, Σ_P ψ_P(x)·Z_P(g)
+    /// over the x basis ψ_P (expected_tf2_fast.cpp, Axis), so E = Σ_P E[ψ_P(X)·Z_P(G)] exactly;
+    /// each term is taken as m_P·E[Z_P(μ_P + Y_P)] with m_P = E[ψ_P(X)] and Y_P the law of G
+    /// weighted by ψ_P(X): its mean, variance, κ3 and κ4 from the corners' moments E[ψ_P(X)·G^j]
+    /// (j ≤ 4, exact by a Fourier series in x), the widest G-only box exact and the other G-only
+    /// boxes in the variance and κ4 (Edgeworth). E[Z_P(μ + Y)] is the trapezoid sum over the
+    /// y pass of the TF2 blurred by N(0, b²), b² ≤ ½·var Y, or, below the ladder, the raster's rows
+    /// in closed form. Returns false where it took the exact evaluation instead (the X support
+    /// over both ends of the raster, a Fourier series or window past its cap, non-finite data).
+    bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d,
+                   int n, double tinyWidth, double out[4]) const;
 
   private:
     struct Axis;
@@ -112,32 +107,10 @@ class Tf2BlurTables {
     const Pass& pass(int j) const;
     /// The table of levels (i, j), built on first use; null where it would be too large.
     const Table* table(int i, int j) const;
-    /// The Edgeworth correction of a sum of boxes t·d, t ~ U[−1, 1], whose Gaussian part has
-    /// the residual covariance Σr (the tables' blur taken out; the correction's derivatives
-    /// commute with the blur): the polynomial P (degree 4 in the offset e from the mean, raster
-    /// cells) with density φ_Σr·(1 + P) in the table sum, P·φ_Σr = Σ_b κ4/4!·(d_b·∇)⁴φ_Σr,
-    /// κ4(U[−1, 1]) = −2/15. (The series' second order, κ6/6!·(d·∇)⁶ and ½K4², was measured:
-    /// RMS 3.2e−4 against 4.5e−4 with every box in the series, but no better once the dominant
-    /// boxes are kept: max 5.2e−4 (to κ6) and 8.1e−4 (κ4²) against κ4's 3.9e−4 on 160 rough
-    /// cases; docs/models.md.)
-    struct Series {
-        bool ready = false;
-        double c[5][5] = {};  // c[i][j]: the coefficient of ex^i ey^j (i + j ≤ 4)
-    };
-    static void edgeworthSeries(double rxx, double rxy, double ryy, const double (*boxes)[2], int n,
-                                Series& s);
     /// The table sum for N(m, Σ) in raster cells (the double body of `gaussian`); false where no
-    /// table applies. (The box spline's sums with its Edgeworth series: boxSeriesCellsLanes.)
+    /// table applies.
     bool gaussianCells(double s0, double t0, double sxx, double sxy, double syy,
                        double out[4]) const;
-
-    /// boxSpline's table sum at one Gauss–Legendre node (s0, t0): gaussianCells with the
-    /// Edgeworth correction `series` over the window `win` (windowOf, the residual's table and
-    /// inverse covariance, the same at every node of a sample; its rows are set here from t0),
-    /// a row's points in float lanes (weights by expNonPositive about the row's vertex, the
-    /// quartic correction by Horner in float); false where no weight falls in the window.
-    bool boxSeriesCellsLanes(const Window& win, double s0, double t0, const Series& series,
-                             double out[4]) const;
 
     std::size_t baseBytes_ = 0;  // q_, qRange_ and the axes, reserved under the cap (0: none)
     int width_ = 2, height_ = 2;

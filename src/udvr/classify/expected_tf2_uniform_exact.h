@@ -65,7 +65,7 @@ struct Tf2UniformExactOptions {
 
 /// Coarser settings (32 node cells, the series to 1e−5, 2 quiet terms): measured max 1.8e−4
 /// from the converged value over random rough rasters, ~11× cheaper (docs/models.md). The fast
-/// `uniform`'s fallback where its tables do not apply (Tf2BlurTables::boxSpline) and its
+/// `uniform`'s fallback where its columns do not apply (Tf2BlurTables::boxSpline) and its
 /// evaluation without tables.
 inline constexpr Tf2UniformExactOptions kUniform2DFast{32, 1e-5, 2};
 

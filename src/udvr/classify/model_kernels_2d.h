@@ -394,9 +394,10 @@ inline constexpr std::array<FormVoxel, 32> kInteriorFormVoxels = interiorFormVox
 /// is the paper's bivariate box spline (JointBoxSpline, distributions_2d.h), reconstructed once
 /// per sample over the lane type (`reconstruct`; its values in double on every T). E[TF2] per
 /// lane in double: `uniform-exact` by expectedTf2UniformExact converged (≤ 1e−6); `uniform`
-/// (and its alias `uniform-fast`) from the prefiltered tables (Tf2BlurTables::boxSpline,
-/// expected_tf2_fast.h: the dominant boxes kept, the rest a normal with its Edgeworth κ4 term;
-/// max 9.1e−4 measured at interior points, 1.6e−3 at voxel faces, docs/models.md), or
+/// (and its alias `uniform-fast`) by columns (Tf2BlurTables::boxSpline, expected_tf2_fast.h: per
+/// x basis function the law of G given X as an Edgeworth normal with the widest G-only box exact,
+/// over the y-blurred tables; max 9.5e−4 off uniform-exact at 150 random points of the 64³
+/// tangle, 5.2e−4 golden model, 4.6e−5 tooth, docs/models.md), or with fewer than 8 corners or
 /// without tables by expectedTf2UniformExact at the coarser kUniform2DFast settings.
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     bool exact;        // `uniform-exact` (expectedTf2UniformExact), else the fast form

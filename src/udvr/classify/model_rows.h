@@ -26,8 +26,8 @@
       .arrays = kArrayMean, .nsPerStep = {8.9, 15.0, 11.9})                                        \
     X(Uniform, UniformKernel, Uniform2DKernel, Bivariate2DKernel,                                  \
       .name = "uniform",                                                                           \
-      .help = "box spline of the corners' uniforms, in its fast form (1D within 1e-3 of "          \
-              "uniform-exact; 2D up to 4e-3 off on real data, docs/models.md)",                    \
+      .help = "box spline of the corners' uniforms, in its fast form (within 1e-3 of "            \
+              "uniform-exact; 2D by columns, docs/models.md)",                                     \
       .arrays = kMeanAndStddev, .minMaxArrays = kMinAndMax, .nsPerStep = kUniformCost)             \
     X(Gaussian, GaussianKernel, Gaussian2DKernel, Bivariate2DKernel,                               \
       .name = "gaussian",                                                                          \
