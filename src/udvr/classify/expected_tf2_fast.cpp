@@ -690,9 +690,9 @@ void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], l
 namespace {
 /// Settings of boxSpline.
 constexpr double kColumnsTailTol = 1e-8;  // the x series stops where (2/L)·envelope·m is below
-constexpr int kColumnsMaxTerms = 4096;     // … or past this many terms: the exact evaluation
-constexpr int kColumnsMaxWindow = 4096;    // the y sum's points at most (else exact)
-constexpr int kColumnsMaxBoxNodes = 192;   // Gauss–Legendre nodes of the G-only box, direct rows
+constexpr int kColumnsMaxTerms = 4096;    // … or past this many terms: the exact evaluation
+constexpr int kColumnsMaxWindow = 4096;   // the y sum's points at most (else exact)
+constexpr int kColumnsMaxBoxNodes = 192;  // Gauss–Legendre nodes of the G-only box, direct rows
 /// Fewer corners (at voxel faces, edges, grid points) leave the law of G given X far from an
 /// Edgeworth normal (random 1–8 corner cases: 5.6e−3 off uniform-exact): the exact evaluation.
 constexpr int kColumnsMinCorners = 8;
@@ -703,7 +703,8 @@ constexpr int kColumnsMinCorners = 8;
 /// tangle (16², one thread; 0.25: 2×, no better on real data).
 constexpr double kColumnsKeepShare = 0.35;
 constexpr double kColumnsMaxKeptPieces = 16;
-constexpr double kColumnsMaxSupport = 4096.0;  // X's half support, raster cells  // pieces of 3 nodes (else the exact evaluation)
+constexpr double kColumnsMaxSupport =
+    4096.0;  // X's half support, raster cells  // pieces of 3 nodes (else the exact evaluation)
 
 /// g^(p)(θ), p = 0 … 4, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ):
 /// below |θ| = 1 the Taylor series, else the recurrence θ·g^(p) = sin^(p)(θ) − p·g^(p−1)(θ).
@@ -802,7 +803,8 @@ void edgeworthRowWeights(double mu, double s, double c3, double c4, int H, doubl
                           c4 * (I[6] + 9.0 * I[4] + 12.0 * I[2]);
         // v = v0 + s·z on the cell, v0 = μ − c.
         const double v0 = mu - c;
-        const double M0 = Z0, M1 = v0 * Z0 + s * Z1, M2 = v0 * v0 * Z0 + 2.0 * v0 * s * Z1 + s * s * Z2;
+        const double M0 = Z0, M1 = v0 * Z0 + s * Z1,
+                     M2 = v0 * v0 * Z0 + 2.0 * v0 * s * Z1 + s * s * Z2;
         w[2 * c] += weight * (M0 - 2.0 * M1 + M2);
         w[2 * c + 1] += weight * 2.0 * (M1 - M2);
         w[2 * c + 2] += weight * M2;
@@ -815,7 +817,8 @@ void edgeworthRowWeights(double mu, double s, double c3, double c4, int H, doubl
 }  // namespace
 
 bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
-                              const BoxDirection2* d, int n, double tinyWidth, double out[4]) const {
+                              const BoxDirection2* d, int n, double tinyWidth,
+                              double out[4]) const {
     const auto exact = [&] {
         Tf2UniformExactOptions opt = kUniform2DFast;
         expectedTf2UniformExact(r, cx, cy, d, n, tinyWidth, opt, out);
@@ -887,7 +890,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     // (real); m_P^j = (1/L)·Σ_m ρ̂_j(ω_m)·∫ψ_P e^{iω_m x}.
     const double L = 2.0 * A + 3.0, dw = 2.0 * std::numbers::pi / L;
     double total[5] = {1.0, 0.0, 0.0, 0.0, 0.0};  // E[G_c^j]
-    std::vector<double> Wn, Wb;  // per term m ≥ 1 and j: 2·Ψ(ω_m)·R_j(ω_m)
+    std::vector<double> Wn, Wb;                   // per term m ≥ 1 and j: 2·Ψ(ω_m)·R_j(ω_m)
     double R0[5] = {};
     for (int m = 0;; ++m) {
         if (m > kColumnsMaxTerms) return exact();
@@ -925,10 +928,10 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     std::vector<double> mom, rowW;
     const auto atNode = [&](double s0, double t0, double weight, double acc[4]) {
         // The basis indices whose support meets X's, [s0 − A, s0 + A]: node k (P = 2k) on
-        // [k − 1, k + 1], bubble k (P = 2k + 1) on [k, k + 1]. Beyond the raster (P < 0, P > 2W − 2)
-        // virtual ones: the TF2 is constant in x there (the raster clamps), so their Z is the end
-        // node's, and each keeps its own narrow law of G (one weight over all of x < 0 would mix
-        // the G of a wide range of X).
+        // [k − 1, k + 1], bubble k (P = 2k + 1) on [k, k + 1]. Beyond the raster (P < 0, P > 2W −
+        // 2) virtual ones: the TF2 is constant in x there (the raster clamps), so their Z is the
+        // end node's, and each keeps its own narrow law of G (one weight over all of x < 0 would
+        // mix the G of a wide range of X).
         const int kLo = static_cast<int>(std::floor(s0 - A)) - 1;
         const int kHi = static_cast<int>(std::ceil(s0 + A)) + 1;
         const int P0 = 2 * kLo, P1 = 2 * kHi + 1;
@@ -992,13 +995,15 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             double e[4] = {};
             if (var >= 2.0 * kMinBlur * kMinBlur) {
                 // The y pass of the largest blur b with b² ≤ ½·var: E = Σ_q p(y_q − g)·Z_P^(b)(y_q)
-                // over its rows (trapezoid; p the law less the blur: N(0, var − b²) with κ3, κ4, ⊛ the
-                // box), weights normalised.
-                int j = std::clamp(static_cast<int>(std::floor(
-                                       2.0 * kGaussianYSteps * std::log2(std::sqrt(0.5 * var) / kMinBlur))),
-                                   0, levelsY_ - 1);
+                // over its rows (trapezoid; p the law less the blur: N(0, var − b²) with κ3, κ4, ⊛
+                // the box), weights normalised.
+                int j = std::clamp(
+                    static_cast<int>(std::floor(2.0 * kGaussianYSteps *
+                                                std::log2(std::sqrt(0.5 * var) / kMinBlur))),
+                    0, levelsY_ - 1);
                 while (j > 0 && ay_->levels[j].blur * ay_->levels[j].blur > 0.5 * var) --j;
-                while (j + 1 < levelsY_ && ay_->levels[j + 1].blur * ay_->levels[j + 1].blur <= 0.5 * var)
+                while (j + 1 < levelsY_ &&
+                       ay_->levels[j + 1].blur * ay_->levels[j + 1].blur <= 0.5 * var)
                     ++j;
                 const Axis::Level& ly = ay_->levels[j];
                 const Pass& z = pass(j);
@@ -1011,11 +1016,13 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 // The weights p(y_q − g) eight rows at a time in double lanes.
                 using lanes::V8d;
                 const bool boxed = half > 1e-6 * sr;
-                const auto F = [&](V8d u) {  // the antiderivative of the Edgeworth density, z = u/sr
-                    const V8d zz = u / sr;
-                    const NormalAt<V8d> nn = normalAt(zz, detail::ExpNonPositiveOf{});
-                    return nn.cdf - (q3 * (zz * zz - 1.0) + q4 * (zz * zz * zz - 3.0 * zz)) * nn.pdf;
-                };
+                const auto F =
+                    [&](V8d u) {  // the antiderivative of the Edgeworth density, z = u/sr
+                        const V8d zz = u / sr;
+                        const NormalAt<V8d> nn = normalAt(zz, detail::ExpNonPositiveOf{});
+                        return nn.cdf -
+                               (q3 * (zz * zz - 1.0) + q4 * (zz * zz * zz - 3.0 * zz)) * nn.pdf;
+                    };
                 double wsum = 0.0;
                 for (int qc0 = qa; qc0 <= qb; qc0 += 8) {
                     V8d u;
@@ -1049,8 +1056,8 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 const double q3 = k3 / (6.0 * s * s * s), q4 = k4 / (24.0 * s * s * s * s);
                 int boxPieces = 1;
                 if (half > 0.0)
-                    boxPieces =
-                        std::clamp(static_cast<int>(std::ceil(half / s)), 1, kColumnsMaxBoxNodes / 3);
+                    boxPieces = std::clamp(static_cast<int>(std::ceil(half / s)), 1,
+                                           kColumnsMaxBoxNodes / 3);
                 rowW.assign(static_cast<std::size_t>(2 * H - 1), 0.0);
                 int rLo = 2 * H, rHi = 0;
                 if (half > 0.0) {

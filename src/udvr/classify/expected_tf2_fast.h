@@ -84,8 +84,8 @@ class Tf2BlurTables {
     /// y pass of the TF2 blurred by N(0, b²), b² ≤ ½·var Y, or, below the ladder, the raster's rows
     /// in closed form. Returns false where it took the exact evaluation instead (the X support
     /// over both ends of the raster, a Fourier series or window past its cap, non-finite data).
-    bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d,
-                   int n, double tinyWidth, double out[4]) const;
+    bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d, int n,
+                   double tinyWidth, double out[4]) const;
 
   private:
     struct Axis;

@@ -319,9 +319,10 @@ TEST(Tf2BlurTables, BoxSplineByColumnsAgainstTheExactEvaluation) {
         },
         tangleFallbacks, count);
     EXPECT_EQ(tangleFallbacks, 0);  // interior points of a real TF2 take the columns
-    std::printf("uniform 2D fast: max |dE| rough rasters %.3g, tangle.json %.3g over %d cases, %d at "
-                "the coarse exact settings\n",
-                rough, tangle, count, fallbacks);
+    std::printf(
+        "uniform 2D fast: max |dE| rough rasters %.3g, tangle.json %.3g over %d cases, %d at "
+        "the coarse exact settings\n",
+        rough, tangle, count, fallbacks);
     EXPECT_LE(tangle, 1e-3);
     EXPECT_LE(rough, 2e-3);
     EXPECT_GT(tangle, 1e-6);  // an approximation (else this checks nothing)
