@@ -258,12 +258,21 @@ Tf2BlurTables::~Tf2BlurTables() {
     gTableBytes -= bytes + baseBytes_;
 }
 
-const Tf2BlurTables::Pass& Tf2BlurTables::pass(int j) const {
+const Tf2BlurTables::Pass* Tf2BlurTables::pass(int j) const {
     std::call_once(passOnce_[j], [&] {
         const Axis::Level& ly = ay_->levels[j];
-        auto z = std::make_unique<Pass>();
         const int BW = 2 * width_ - 1;
-        gTableBytes += static_cast<std::size_t>(ly.count) * 4 * BW * sizeof(float);  // (table())
+        // Reserved under the process's cap (else none: its callers take the exact evaluation).
+        const std::size_t bytes = static_cast<std::size_t>(ly.count) * 4 * BW * sizeof(float);
+        if (!reserveTableBytes(bytes)) return;
+        struct Release {  // the reservation, where building throws (bad_alloc)
+            std::size_t bytes;
+            bool done = false;
+            ~Release() {
+                if (!done) gTableBytes -= bytes;
+            }
+        } release{bytes};
+        auto z = std::make_unique<Pass>();
         z->basis = BW;
         z->z.assign(static_cast<std::size_t>(ly.count) * 4 * BW, 0.0f);
         z->lo.assign(static_cast<std::size_t>(ly.count), BW);
@@ -301,8 +310,9 @@ const Tf2BlurTables::Pass& Tf2BlurTables::pass(int j) const {
                         static_cast<float>(row[static_cast<std::size_t>(ch) * BW + P]);
         }
         passes_[j] = std::move(z);
+        release.done = true;
     });
-    return *passes_[j];
+    return passes_[j].get();
 }
 
 const Tf2BlurTables::Table* Tf2BlurTables::table(int i, int j) const {
@@ -317,7 +327,9 @@ const Tf2BlurTables::Table* Tf2BlurTables::table(int i, int j) const {
                                   4 * sizeof(float);
         if (!reserveTableBytes(bytes)) return;
         gTableBytes -= bytes;  // counted again as each is built
-        const Pass& z = pass(j);
+        const Pass* zp = pass(j);
+        if (!zp) return;
+        const Pass& z = *zp;
         auto t = std::make_unique<Table>();
         t->nx = lx.count;
         t->ny = ly.count;
@@ -691,7 +703,7 @@ namespace {
 /// Settings of boxSpline.
 constexpr double kColumnsTailTol = 1e-8;  // the x series stops where (2/L)·envelope·m is below
 constexpr int kColumnsMaxTerms = 4096;    // … or past this many terms: the exact evaluation
-constexpr int kColumnsMaxWindow = 4096;   // the y sum's points at most (else exact)
+constexpr int kColumnsMaxWindow = 1024;   // a y sum's points at most (else exact)
 constexpr int kColumnsMaxBoxNodes = 192;  // Gauss–Legendre nodes of the G-only box, direct rows
 /// Fewer corners (at voxel faces, edges, grid points) leave the law of G given X far from an
 /// Edgeworth normal (random 1–8 corner cases: 5.6e−3 off uniform-exact): the exact evaluation.
@@ -702,9 +714,18 @@ constexpr int kColumnsMinCorners = 8;
 /// 7.3e−3 off; past 0.5, 1.0e−3; past 0.35, 6.8e−4 at 1.5× the time of none kept on the 64³
 /// tangle (16², one thread; 0.25: 2×, no better on real data).
 constexpr double kColumnsKeepShare = 0.35;
-constexpr double kColumnsMaxKeptPieces = 16;
-constexpr double kColumnsMaxSupport =
-    4096.0;  // X's half support, raster cells  // pieces of 3 nodes (else the exact evaluation)
+constexpr double kColumnsMaxKeptPieces = 16;  // pieces of 3 nodes (else the exact evaluation)
+/// Bounds on one sample's work (else the exact evaluation at the coarse settings): X's half
+/// support (raster cells; the basis indices to sum, ≤ 4·512 + 4 a node), G's reach |t0| + Σ|b|
+/// (raster cells; the int row indices), the product nodes × basis indices × Fourier terms, and
+/// the y sums' points over the whole sample.
+constexpr double kColumnsMaxSupport = 512.0;
+constexpr double kColumnsMaxReachG = 1e6;
+constexpr double kColumnsMaxWork = 1 << 24;
+constexpr long kColumnsMaxPoints = 1 << 22;
+/// Basis indices whose weight E[ψ_P(X)] is under this are left out: the x series is truncated at
+/// ~1e−8, so their moments are mostly its noise.
+constexpr double kColumnsMinWeight = 1e-9;
 
 /// g^(p)(θ), p = 0 … 4, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ):
 /// below |θ| = 1 the Taylor series, else the recurrence θ·g^(p) = sin^(p)(θ) − p·g^(p−1)(θ).
@@ -828,7 +849,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     const int W = width_, H = height_, BW = 2 * W - 1;
     // In raster cells.
     const double sc = (cx - r.x0) * r.invDx, tc = (cy - r.y0) * r.invDy;
-    if (!(std::abs(sc) < 1e9 && std::abs(tc) < 1e9)) return exact();
+    if (!(std::abs(sc) < 1e9 && std::abs(tc) < 1e9) || n > 32) return exact();
     double ca[32], cb[32];  // the corners (a ≠ 0)
     int ncAll = 0;
     double restVar = 0.0, restK4 = 0.0, half = 0.0;
@@ -846,6 +867,11 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         }
     }
     if (ncAll < kColumnsMinCorners) return exact();
+    {
+        double reach = std::abs(tc) + half;  // G's support bounds every row index below
+        for (int k = 0; k < n; ++k) reach += std::abs(d[k].b * r.invDy);
+        if (!(reach < kColumnsMaxReachG)) return exact();
+    }
     // The corner of the largest G extent, where its share of var G is over kColumnsKeepShare (and
     // it is wider than the widest G-only box): kept out of the law's moments and integrated by
     // Gauss–Legendre over its t (a box-dominated law of G is far from an Edgeworth normal), in
@@ -921,20 +947,22 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     static constexpr double kFact[5] = {1.0, 1.0, 2.0, 6.0, 24.0};
     for (int j = 0; j < 5; j += 2) total[j] = kFact[j] * kSign[j] * R0[j];
     // The sum over the basis at one node of the kept box's t (or once): (s0, t0) the centre in
-    // raster cells; false where it does not apply (X's support over both ends of the raster, a
-    // window past its cap).
+    // raster cells; false where it does not apply (a y window or the sample's y budget past its
+    // cap, no y pass under the process's cap, the weights' sum not positive).
     static constexpr double kX[3] = {-0.7745966692414834, 0.0, 0.7745966692414834};
     static constexpr double kW[3] = {0.5555555555555556, 0.8888888888888888, 0.5555555555555556};
-    std::vector<double> mom, rowW;
+    if (static_cast<double>(kept >= 0 ? 3 * pieces : 1) * (4.0 * A + 6.0) * M > kColumnsMaxWork)
+        return exact();
+    long points = kColumnsMaxPoints;  // the y sums' budget
+    std::vector<double> mom, rowW(static_cast<std::size_t>(2 * H - 1), 0.0);
     const auto atNode = [&](double s0, double t0, double weight, double acc[4]) {
         // The basis indices whose support meets X's, [s0 − A, s0 + A]: node k (P = 2k) on
         // [k − 1, k + 1], bubble k (P = 2k + 1) on [k, k + 1]. Beyond the raster (P < 0, P > 2W −
         // 2) virtual ones: the TF2 is constant in x there (the raster clamps), so their Z is the
         // end node's, and each keeps its own narrow law of G (one weight over all of x < 0 would
         // mix the G of a wide range of X).
-        const int kLo = static_cast<int>(std::floor(s0 - A)) - 1;
-        const int kHi = static_cast<int>(std::ceil(s0 + A)) + 1;
-        const int P0 = 2 * kLo, P1 = 2 * kHi + 1;
+        const int P0 = 2 * static_cast<int>(std::floor(s0 - A));  // node ⌊s0 − A⌋ …
+        const int P1 = 2 * static_cast<int>(std::ceil(s0 + A));   // … node ⌈s0 + A⌉
         const int count = P1 - P0 + 1;
         mom.assign(static_cast<std::size_t>(count) * 5, 0.0);  // m_P^j
         // Per basis index: (j!/L)·i^j·Σ_m 2Ψ(ω_m)R_j(ω_m)·e^{iω_m(centre − s0)}, real: cos for
@@ -984,13 +1012,19 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             const double* o = mom.data() + static_cast<std::size_t>(Pv - P0) * 5;
             const int P = std::clamp(Pv, 0, BW - 1);  // the raster's basis index (virtual: its end)
             const double m0 = o[0];
-            if (!(std::abs(m0) > 1e-12 * mass)) continue;
+            if (!(m0 > kColumnsMinWeight * mass)) continue;
             const double mu = o[1] / m0, e2 = o[2] / m0, e3 = o[3] / m0, e4 = o[4] / m0;
             const double c2 = std::max(0.0, e2 - mu * mu);
             const double c3 = e3 - 3.0 * mu * e2 + 2.0 * mu * mu * mu;
             const double c4 = e4 - 4.0 * mu * e3 + 6.0 * mu * mu * e2 - 3.0 * mu * mu * mu * mu;
             const double var = c2 + restVar;
-            const double k3 = c3, k4 = (c4 - 3.0 * c2 * c2) + restK4;
+            // The standardised cumulants held to a box spline's range (|γ1| ≤ 2, γ2 ∈ [−2, 6]; a
+            // box: 0, −1.2), so that a weight's few noisy moments cannot blow the Edgeworth
+            // factor up.
+            const double sv = std::sqrt(var);
+            const double k3 = std::clamp(c3, -2.0 * var * sv, 2.0 * var * sv);
+            const double k4 =
+                std::clamp((c4 - 3.0 * c2 * c2) + restK4, -2.0 * var * var, 6.0 * var * var);
             const double g = t0 + mu;
             double e[4] = {};
             if (var >= 2.0 * kMinBlur * kMinBlur) {
@@ -1006,13 +1040,17 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                        ay_->levels[j + 1].blur * ay_->levels[j + 1].blur <= 0.5 * var)
                     ++j;
                 const Axis::Level& ly = ay_->levels[j];
-                const Pass& z = pass(j);
+                const Pass* zp = pass(j);
+                if (!zp) return false;  // past the process's cap
+                const Pass& z = *zp;
                 const double sr = std::sqrt(var - ly.blur * ly.blur);
                 const double q3 = k3 / (6.0 * sr * sr * sr), q4 = k4 / (24.0 * sr * sr * sr * sr);
                 const double reach = kRadius * sr + half;
                 const int qa = static_cast<int>(std::ceil((g - reach - ly.start) / ly.spacing));
                 const int qb = static_cast<int>(std::floor((g + reach - ly.start) / ly.spacing));
                 if (qb - qa > kColumnsMaxWindow) return false;
+                points -= qb - qa + 1;
+                if (points < 0) return false;
                 // The weights p(y_q − g) eight rows at a time in double lanes.
                 using lanes::V8d;
                 const bool boxed = half > 1e-6 * sr;
@@ -1051,14 +1089,13 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 // Below the ladder: the rows' Bernstein basis in closed form (edgeworthRowWeights),
                 // the G-only box by Gauss–Legendre pieces no longer than the normal's std.
                 // A normal narrower than the box's pieces (a box with little else in G) is widened
-                // to them: the variance added, (h/64)², is under 2.5e−4 of the box's own h²/3.
+                // to them: the variance added, (h/64)², is 7.3e−4 of the box's own h²/3.
                 const double s = std::max({std::sqrt(var), 3.0 * half / kColumnsMaxBoxNodes, 1e-9});
                 const double q3 = k3 / (6.0 * s * s * s), q4 = k4 / (24.0 * s * s * s * s);
                 int boxPieces = 1;
                 if (half > 0.0)
                     boxPieces = std::clamp(static_cast<int>(std::ceil(half / s)), 1,
                                            kColumnsMaxBoxNodes / 3);
-                rowW.assign(static_cast<std::size_t>(2 * H - 1), 0.0);
                 int rLo = 2 * H, rHi = 0;
                 if (half > 0.0) {
                     const double hp = 1.0 / boxPieces;
@@ -1071,8 +1108,11 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 } else {
                     edgeworthRowWeights(g, s, q3, q4, H, 1.0, rowW, rLo, rHi);
                 }
+                points -= rHi - rLo;
+                if (points < 0) return false;
                 for (int R = rLo; R < rHi; ++R) {
                     const double wr = rowW[static_cast<std::size_t>(R)];
+                    rowW[static_cast<std::size_t>(R)] = 0.0;  // zero again for the next index
                     if (wr == 0.0) continue;
                     for (int ch = 0; ch < 4; ++ch)
                         e[ch] += wr * q_[ch][static_cast<std::size_t>(R) * BW + P];

@@ -82,8 +82,10 @@ class Tf2BlurTables {
     /// (j ≤ 4, exact by a Fourier series in x), the widest G-only box exact and the other G-only
     /// boxes in the variance and κ4 (Edgeworth). E[Z_P(μ + Y)] is the trapezoid sum over the
     /// y pass of the TF2 blurred by N(0, b²), b² ≤ ½·var Y, or, below the ladder, the raster's rows
-    /// in closed form. Returns false where it took the exact evaluation instead (the X support
-    /// over both ends of the raster, a Fourier series or window past its cap, non-finite data).
+    /// in closed form; a corner holding over 0.35 of var G by Gauss–Legendre over its t. Returns
+    /// false where it took the exact evaluation (kUniform2DFast) instead: no tables, fewer than 8
+    /// corners or more than 32 directions, non-finite data, a sample's work past its bounds
+    /// (expected_tf2_fast.cpp, kColumnsMax…).
     bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d, int n,
                    double tinyWidth, double out[4]) const;
 
@@ -103,8 +105,9 @@ class Tf2BlurTables {
     /// gaussianCells's points over float lanes (gaussian over lanes) in the window `win`
     /// (gaussianWindows) about (s0, t0).
     bool gaussianCellsLanes(const Window& win, double s0, double t0, float out[4]) const;
-    /// The y pass of level j (the table rows' sums over the y basis), built on first use.
-    const Pass& pass(int j) const;
+    /// The y pass of level j (the table rows' sums over the y basis), built on first use under
+    /// the process's cap; null where it does not fit.
+    const Pass* pass(int j) const;
     /// The table of levels (i, j), built on first use; null where it would be too large.
     const Table* table(int i, int j) const;
     /// The table sum for N(m, Σ) in raster cells (the double body of `gaussian`); false where no

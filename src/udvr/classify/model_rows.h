@@ -27,7 +27,7 @@
     X(Uniform, UniformKernel, Uniform2DKernel, Bivariate2DKernel,                                  \
       .name = "uniform",                                                                           \
       .help = "box spline of the corners' uniforms, in its fast form (within 1e-3 of "            \
-              "uniform-exact; 2D by columns, docs/models.md)",                                     \
+              "uniform-exact on real data; 2D by columns, docs/models.md)",                        \
       .arrays = kMeanAndStddev, .minMaxArrays = kMinAndMax, .nsPerStep = kUniformCost)             \
     X(Gaussian, GaussianKernel, Gaussian2DKernel, Bivariate2DKernel,                               \
       .name = "gaussian",                                                                          \
