@@ -83,7 +83,9 @@ def test_probes_stop_at_the_deadline(inputs):
         # Generous for a loaded machine (the watcher's cancel, the gate's turn); without the
         # deadline the exact gaussian's and uniform's 512² frames alone take minutes.
         assert seconds < len(available) * (DEADLINE_S + 0.5) + 5.0, seconds
-        assert {"gaussian-exact", "uniform-exact", "uniform"} <= {m["name"] for m in bounded}
+        # The exact kernels' probes always run out; the fast `uniform` 2D (by columns, ~0.5–1 s a
+        # 16² probe) may finish within the deadline or not, so it is not asserted either way.
+        assert {"gaussian-exact", "uniform-exact"} <= {m["name"] for m in bounded}
         for m in bounded:
             assert m["slow"] and m["estimate_ms"] >= DEADLINE_S * 1000 * 0.9, m
         # The server is free again at once: a small frame renders.
