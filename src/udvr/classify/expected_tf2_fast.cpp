@@ -787,15 +787,15 @@ void edgeworthRowWeights(double mu, double s, double c3, double c4, int H, doubl
     // Cells cLo … cHi within 9 s of μ (clamped to the raster: beyond, the end rows' masses).
     const int cLo = std::clamp(static_cast<int>(std::floor(mu - 9.0 * s)), 0, H - 1);
     const int cHi = std::clamp(static_cast<int>(std::floor(mu + 9.0 * s)), -1, H - 2);
-    // He_0 … He_5 and φ at z; the tail ∫_{−∞}^{z} of the density.
+    // He_0 … He_5, φ, Φ and 1 − Φ at z; the tails ∫_{−∞}^{z} and ∫_{z}^{∞} of the density.
     struct At {
-        double he[6], phi, lower, upper;
+        double he[6], phi, cdf, upperCdf, lower, upper;
     };
     const auto at = [&](double g) {
         At a;
         const double z = (g - mu) / s;
         const NormalAt<double> n = normalAt(z);
-        a.phi = n.pdf;
+        a.phi = n.pdf, a.cdf = n.cdf, a.upperCdf = n.upper;
         a.he[0] = 1.0, a.he[1] = z;
         for (int k = 2; k < 6; ++k) a.he[k] = z * a.he[k - 1] - (k - 1) * a.he[k - 2];
         // ∫_{−∞}^{z} He_n φ = −He_(n−1)(z)·φ(z) (n ≥ 1).
@@ -811,12 +811,10 @@ void edgeworthRowWeights(double mu, double s, double c3, double c4, int H, doubl
     }
     for (int c = cLo; c <= cHi; ++c) {
         const At hi = at(c + 1.0);
-        // I_n = ∫_{zl}^{zh} He_n φ: I_0 by the tails, I_n = He_(n−1)φ|zl − He_(n−1)φ|zh.
-        const double z0 = (c - mu) / s;
-        const double I0 = z0 >= 0.0 ? normalAt(z0).upper - normalAt((c + 1.0 - mu) / s).upper
-                                    : normalAt((c + 1.0 - mu) / s).cdf - normalAt(z0).cdf;
+        // I_n = ∫_{zl}^{zh} He_n φ: I_0 by the tails (upper ones above the mean, no digits lost
+        // to 1 − Φ), I_n = He_(n−1)φ|zl − He_(n−1)φ|zh.
         double I[7];
-        I[0] = I0;
+        I[0] = c >= mu ? lo.upperCdf - hi.upperCdf : hi.cdf - lo.cdf;
         for (int k = 1; k < 7; ++k) I[k] = lo.he[k - 1] * lo.phi - hi.he[k - 1] * hi.phi;
         const double Z0 = I[0] + c3 * I[3] + c4 * I[4];
         const double Z1 = I[1] + c3 * (I[4] + 3.0 * I[2]) + c4 * (I[5] + 4.0 * I[3]);
