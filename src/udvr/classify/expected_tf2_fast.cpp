@@ -6,6 +6,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numbers>
 
 #include "udvr/classify/expected_tf2_gaussian.h"
@@ -704,7 +705,6 @@ namespace {
 constexpr double kColumnsTailTol = 1e-8;  // the x series stops where (2/L)·envelope·m is below
 constexpr int kColumnsMaxTerms = 4096;    // … or past this many terms: the exact evaluation
 constexpr int kColumnsMaxWindow = 1024;   // a y sum's points at most (else exact)
-constexpr int kColumnsMaxBoxNodes = 192;  // Gauss–Legendre nodes of the G-only box, direct rows
 /// Fewer corners (at voxel faces, edges, grid points) leave the law of G given X far from an
 /// Edgeworth normal (random 1–8 corner cases: 5.6e−3 off uniform-exact): the exact evaluation.
 constexpr int kColumnsMinCorners = 8;
@@ -727,9 +727,11 @@ constexpr long kColumnsMaxPoints = 1 << 22;
 /// ~1e−8, so their moments are mostly its noise.
 constexpr double kColumnsMinWeight = 1e-9;
 
-/// g^(p)(θ), p = 0 … 4, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ):
-/// below |θ| = 1 the Taylor series, else the recurrence θ·g^(p) = sin^(p)(θ) − p·g^(p−1)(θ).
-void sincDerivatives(double th, double g[5]) {
+/// g^(p)(θ), p = 0 … 4, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ), in
+/// eight lanes, from sn = sin θ and cs = cos θ: below |θ| = 1 the Taylor series, else the
+/// recurrence θ·g^(p) = sin^(p)(θ) − p·g^(p−1)(θ).
+void sincDerivatives(lanes::V8d th, lanes::V8d sn, lanes::V8d cs, lanes::V8d g[5]) {
+    using lanes::V8d;
     // c[p][k]: the coefficient of θ^(2k − p) in g^(p), (−1)^k (2k)! / ((2k − p)! (2k + 1)!).
     static const auto coefficients = [] {
         std::array<std::array<double, 14>, 5> c{};
@@ -743,39 +745,65 @@ void sincDerivatives(double th, double g[5]) {
             }
         return c;
     }();
-    if (std::abs(th) < 1.0) {
-        const double t2 = th * th;
-        for (int p = 0; p < 5; ++p) {
-            const int k0 = (p + 1) / 2;
-            double acc = 0.0;
-            for (int k = 13; k >= k0; --k) acc = acc * t2 + coefficients[p][k];
-            g[p] = (2 * k0 - p == 1 ? th : 1.0) * acc;
-        }
-        return;
+    const V8d one = V8d{} + 1.0;
+    const auto small = lanes::less(lanes::max(th, -th), one);
+    const V8d inv = one / lanes::selectBits(small, one, th);
+    g[0] = sn * inv;
+    g[1] = (cs - g[0]) * inv;
+    g[2] = (-sn - 2.0 * g[1]) * inv;
+    g[3] = (-cs - 3.0 * g[2]) * inv;
+    g[4] = (sn - 4.0 * g[3]) * inv;
+    bool any = false;
+    for (int l = 0; l < 8; ++l) any = any || small[l];
+    if (!any) return;
+    const V8d t2 = th * th;
+    for (int p = 0; p < 5; ++p) {
+        const int k0 = (p + 1) / 2;
+        V8d acc{};
+        for (int k = 13; k >= k0; --k) acc = acc * t2 + coefficients[p][k];
+        g[p] = lanes::selectBits(small, (2 * k0 - p == 1 ? th : one) * acc, g[p]);
     }
-    const double sn = std::sin(th), cs = std::cos(th);
-    const double dsin[5] = {sn, cs, -sn, -cs, sn};
-    g[0] = sn / th;
-    for (int p = 1; p < 5; ++p) g[p] = (dsin[p] - p * g[p - 1]) / th;
 }
 
 /// ∫ψ(x)·e^{iωx} dx of the x basis' interior node (1 − |x|)² on [−1, 1] and of the bubble
-/// 2v(1 − v) on [0, 1] about its centre ½ (both real: even functions).
-double nodeSpectrum(double w) {
-    if (std::abs(w) < 0.5) {
-        const double w2 = w * w;
-        return 4.0 * (1.0 / 6.0 - w2 * (1.0 / 120.0 - w2 * (1.0 / 5040.0 - w2 / 362880.0)));
-    }
-    return 4.0 * (w - std::sin(w)) / (w * w * w);
+/// 2v(1 − v) on [0, 1] about its centre ½ (both real: even functions), ω ≥ 0 in eight lanes,
+/// from sh = sin(ω/2) and ch = cos(ω/2).
+lanes::V8d nodeSpectrum(lanes::V8d w, lanes::V8d sh, lanes::V8d ch) {
+    using lanes::V8d;
+    const V8d w2 = w * w;
+    const V8d series = 4.0 * (1.0 / 6.0 - w2 * (1.0 / 120.0 - w2 * (1.0 / 5040.0 - w2 / 362880.0)));
+    const auto small = lanes::less(w, V8d{} + 0.5);
+    const V8d ws = lanes::selectBits(small, V8d{} + 1.0, w);
+    return lanes::selectBits(small, series, 4.0 * (ws - 2.0 * sh * ch) / (ws * ws * ws));
 }
-double bubbleSpectrum(double w) {
-    const double y = 0.5 * w;
-    if (std::abs(y) < 0.5) {
-        const double y2 = y * y;
-        return 1.0 / 3.0 - y2 * (1.0 / 30.0 - y2 * (1.0 / 840.0 - y2 / 45360.0));
-    }
-    return (std::sin(y) - y * std::cos(y)) / (y * y * y);
+lanes::V8d bubbleSpectrum(lanes::V8d w, lanes::V8d sh, lanes::V8d ch) {
+    using lanes::V8d;
+    const V8d y = 0.5 * w, y2 = y * y;
+    const V8d series = 1.0 / 3.0 - y2 * (1.0 / 30.0 - y2 * (1.0 / 840.0 - y2 / 45360.0));
+    const auto small = lanes::less(y, V8d{} + 0.5);
+    const V8d ys = lanes::selectBits(small, V8d{} + 1.0, y);
+    return lanes::selectBits(small, series, (sh - ys * ch) / (ys * ys * ys));
 }
+
+/// Eight lanes of (cos, sin)(l·δ), l = 0 … 7, and (cos, sin)(8δ): the start and the step of a
+/// rotation that walks the angles m·δ eight terms a batch.
+struct Rotation8 {
+    lanes::V8d c{}, s{};
+    double c8 = 1.0, s8 = 0.0;
+    Rotation8() = default;
+    explicit Rotation8(double delta) {
+        const double c1 = std::cos(delta), s1 = std::sin(delta);
+        c[0] = 1.0, s[0] = 0.0;
+        for (int l = 1; l < 8; ++l)
+            c[l] = c[l - 1] * c1 - s[l - 1] * s1, s[l] = s[l - 1] * c1 + c[l - 1] * s1;
+        c8 = c[7] * c1 - s[7] * s1, s8 = s[7] * c1 + c[7] * s1;
+    }
+    void step() {
+        const lanes::V8d nc = c * c8 - s * s8;
+        s = s * c8 + c * s8;
+        c = nc;
+    }
+};
 
 /// Per row cell of the y basis (Bernstein: (1 − v)², 2v(1 − v), v² on cell c, v = g − c), the
 /// expectation under the law μ + s·Z, Z with density φ·(1 + c3·He3 + c4·He4) (an Edgeworth
@@ -830,6 +858,75 @@ void edgeworthRowWeights(double mu, double s, double c3, double c4, int H, doubl
         lo = hi;
     }
     if (cHi == H - 2) w[2 * H - 2] += weight * lo.upper;
+    rLo = std::min(rLo, 2 * cLo);
+    rHi = std::max(rHi, cHi == H - 2 ? 2 * H - 1 : 2 * cHi + 3);
+}
+
+/// edgeworthRowWeights for the law μ + s·Z + U, Z the Edgeworth normal and U uniform on [−h, h]
+/// (the widest G-only box), h > 0: its density is (F(g − μ + h) − F(g − μ − h))/(2h), F the
+/// Edgeworth normal's CDF, so a cell's ∫v^k·density are, by parts, differences of F's repeated
+/// antiderivatives, which are closed forms (∫Φ = uΦ + φ, ∫∫Φ = ((u² + 1)Φ + uφ)/2, ∫∫∫Φ =
+/// ((u³ + 3u)Φ + (u² + 2)φ)/6 in u = x/s, and ∫He_n·φ = −He_(n−1)·φ). Where a cell lies beyond
+/// 9s of an edge, that edge's term is F = 1 or 0 over it (integrals 1/(k + 1) or 0).
+void edgeworthBoxRowWeights(double mu, double s, double c3, double c4, double h, int H,
+                            double weight, std::vector<double>& w, int& rLo, int& rHi) {
+    const double reach = 9.0 * s;
+    const int cLo = std::clamp(static_cast<int>(std::floor(mu - h - reach)), 0, H - 1);
+    const int cHi = std::clamp(static_cast<int>(std::floor(mu + h + reach)), -1, H - 2);
+    // F's first three antiderivatives at x (in g's units): H1, H2, H3.
+    struct Anti {
+        double x, h1, h2, h3;
+    };
+    const auto anti = [&](double x) {
+        const double u = x / s, u2 = u * u;
+        const NormalAt<double> n = normalAt(u);
+        const double P = n.cdf, p = n.pdf;
+        return Anti{x, s * (u * P + p + (c3 * u + c4 * (u2 - 1.0)) * p),
+                    s * s * (0.5 * ((u2 + 1.0) * P + u * p) - (c3 + c4 * u) * p),
+                    s * s * s * (((u2 + 3.0) * u * P + (u2 + 2.0) * p) / 6.0 - (c3 * P - c4 * p))};
+    };
+    // ∫_0^1 v^k F(x0 + v) dv, k = 0, 1, 2; the antiderivatives at the cell's end are kept for
+    // the next cell's start.
+    const auto cellIntegrals = [&](double x0, Anti& last, double I[3]) {
+        if (x0 >= reach) {
+            I[0] = 1.0, I[1] = 0.5, I[2] = 1.0 / 3.0;
+            return;
+        }
+        if (x0 + 1.0 <= -reach) {
+            I[0] = I[1] = I[2] = 0.0;
+            return;
+        }
+        const Anti a0 = last.x == x0 ? last : anti(x0);
+        const Anti a1 = anti(x0 + 1.0);
+        last = a1;
+        I[0] = a1.h1 - a0.h1;
+        I[1] = a1.h1 - a1.h2 + a0.h2;
+        I[2] = a1.h1 - 2.0 * a1.h2 + 2.0 * (a1.h3 - a0.h3);
+    };
+    // H1 at x, closed beyond 9s (H1(x) = x above: the law's mean is 0; 0 below).
+    const auto h1At = [&](double x) { return x >= reach ? x : x <= -reach ? 0.0 : anti(x).h1; };
+    const double inv2h = 1.0 / (2.0 * h);
+    if (cLo == 0) {  // the mass below row 0
+        w[0] += weight * (h1At(-mu + h) - h1At(-mu - h)) * inv2h;
+        rLo = std::min(rLo, 0);
+    }
+    // The terms of the box's lower edge (F(g − μ + h)) and its upper edge (F(g − μ − h)).
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    Anti lower{nan, 0.0, 0.0, 0.0}, upper{nan, 0.0, 0.0, 0.0};
+    for (int c = cLo; c <= cHi; ++c) {
+        double A[3], B[3];
+        cellIntegrals(c - mu + h, lower, A);
+        cellIntegrals(c - mu - h, upper, B);
+        const double M0 = (A[0] - B[0]) * inv2h, M1 = (A[1] - B[1]) * inv2h,
+                     M2 = (A[2] - B[2]) * inv2h;
+        w[2 * c] += weight * (M0 - 2.0 * M1 + M2);
+        w[2 * c + 1] += weight * 2.0 * (M1 - M2);
+        w[2 * c + 2] += weight * M2;
+    }
+    if (cHi == H - 2) {  // the mass above row H − 1
+        const double g = H - 1.0;
+        w[2 * H - 2] += weight * (1.0 - (h1At(g - mu + h) - h1At(g - mu - h)) * inv2h);
+    }
     rLo = std::min(rLo, 2 * cLo);
     rHi = std::max(rHi, cHi == H - 2 ? 2 * H - 1 : 2 * cHi + 3);
 }
@@ -916,29 +1013,48 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     double total[5] = {1.0, 0.0, 0.0, 0.0, 0.0};  // E[G_c^j]
     std::vector<double> Wn, Wb;                   // per term m ≥ 1 and j: 2·Ψ(ω_m)·R_j(ω_m)
     double R0[5] = {};
-    for (int m = 0;; ++m) {
-        if (m > kColumnsMaxTerms) return exact();
-        const double w = m * dw;
-        double R[5] = {1.0, 0.0, 0.0, 0.0, 0.0}, env = 1.0;
-        for (int i = 0; i < nc; ++i) {
-            double g[5];
-            sincDerivatives(w * a[i], g);
-            double e[5];
-            for (int p = 0; p < 5; ++p) e[p] = g[p] * bp[i][p];
-            for (int j = 4; j >= 0; --j) {
-                double acc = 0.0;
-                for (int p = 0; p <= j; ++p) acc += R[j - p] * e[p];
-                R[j] = acc;
+    {
+        // Eight terms a batch in double lanes; the corners' sin and cos of ω_m·a_i and the
+        // spectra's of ω_m/2 by rotation (a libm call a term and corner took 17 % of a tooth
+        // frame).
+        using lanes::V8d;
+        std::array<Rotation8, 32> corner;
+        for (int i = 0; i < nc; ++i) corner[i] = Rotation8(dw * a[i]);
+        Rotation8 halfw(0.5 * dw);
+        const V8d iota = {0, 1, 2, 3, 4, 5, 6, 7};
+        bool done = false;
+        for (int m0 = 0; !done; m0 += 8) {
+            if (m0 > kColumnsMaxTerms) return exact();
+            const V8d w = (iota + m0) * dw;
+            V8d R[5] = {V8d{} + 1.0, V8d{}, V8d{}, V8d{}, V8d{}}, env = V8d{} + 1.0;
+            for (int i = 0; i < nc; ++i) {
+                const V8d th = w * a[i];
+                V8d g[5];
+                sincDerivatives(th, corner[i].s, corner[i].c, g);
+                corner[i].step();
+                V8d e[5];
+                for (int p = 0; p < 5; ++p) e[p] = g[p] * bp[i][p];
+                for (int j = 4; j >= 0; --j) {
+                    V8d acc = R[j] * e[0];
+                    for (int p = 1; p <= j; ++p) acc += R[j - p] * e[p];
+                    R[j] = acc;
+                }
+                env *= lanes::min(V8d{} + 1.0, 1.0 / lanes::max(th, -th));
             }
-            env *= std::min(1.0, 1.0 / std::abs(w * a[i]));
+            const V8d pn = 2.0 * nodeSpectrum(w, halfw.s, halfw.c);
+            const V8d pb = 2.0 * bubbleSpectrum(w, halfw.s, halfw.c);
+            halfw.step();
+            for (int l = 0; l < 8 && !done; ++l) {
+                const int m = m0 + l;
+                if (m == 0) {
+                    for (int j = 0; j < 5; ++j) R0[j] = R[j][0];
+                    continue;
+                }
+                for (int j = 0; j < 5; ++j)
+                    Wn.push_back(pn[l] * R[j][l]), Wb.push_back(pb[l] * R[j][l]);
+                done = 2.0 / L * env[l] * 4.0 / (w[l] * w[l]) * m < kColumnsTailTol;
+            }
         }
-        if (m == 0) {
-            std::copy(R, R + 5, R0);
-            continue;
-        }
-        const double pn = 2.0 * nodeSpectrum(w), pb = 2.0 * bubbleSpectrum(w);
-        for (int j = 0; j < 5; ++j) Wn.push_back(pn * R[j]), Wb.push_back(pb * R[j]);
-        if (2.0 / L * env * 4.0 / (w * w) * m < kColumnsTailTol) break;
     }
     const int M = static_cast<int>(Wn.size() / 5);
     static constexpr double kSign[5] = {1.0, -1.0, -1.0, 1.0, 1.0};  // i^j, i^(j+1) real parts
@@ -952,6 +1068,8 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     if (static_cast<double>(kept >= 0 ? 3 * pieces : 1) * (4.0 * A + 6.0) * M > kColumnsMaxWork)
         return exact();
     long points = kColumnsMaxPoints;  // the y sums' budget
+    const Rotation8 unit(dw);         // the basis sums' lanes: (cos, sin)(l·dw), and of 8·dw
+    const double cHalf = std::cos(0.5 * dw), sHalf = std::sin(0.5 * dw);
     std::vector<double> mom, rowW(static_cast<std::size_t>(2 * H - 1), 0.0);
     const auto atNode = [&](double s0, double t0, double weight, double acc[4]) {
         // The basis indices whose support meets X's, [s0 − A, s0 + A]: node k (P = 2k) on
@@ -967,42 +1085,54 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         // even j, sin for odd. Eight indices of one kind (nodes, or bubbles: P of one parity,
         // the same Ψ) a batch in double lanes, cos and sin of m·Δ by rotation.
         using lanes::V8d;
-        const int Pa = P0, Pz = P1;
-        for (int parity = 0; parity < 2; ++parity) {
-            const double* Wt = parity ? Wb.data() : Wn.data();
-            const double psi0 = parity ? 1.0 / 3.0 : 2.0 / 3.0;  // Ψ(0)
-            const int first = Pa + (((Pa % 2) + 2) % 2 != parity);
-            // Lane l of a batch: Δ = dw·(centre − s0), centres P/2 one cell apart; by rotation
-            // from the first batch's first lane.
-            const double c1 = std::cos(dw), s1 = std::sin(dw);
-            V8d cd, sd;
-            cd[0] = std::cos(dw * (0.5 * first - s0)), sd[0] = std::sin(dw * (0.5 * first - s0));
-            for (int l = 1; l < 8; ++l)
-                cd[l] = cd[l - 1] * c1 - sd[l - 1] * s1, sd[l] = sd[l - 1] * c1 + cd[l - 1] * s1;
-            const double c8 = cd[7] * c1 - sd[7] * s1, s8 = sd[7] * c1 + cd[7] * s1;  // Δ + 8dw
-            const double c0 = cd[0], s0r = sd[0];
-            const double c8n = c8 * c0 + s8 * s0r, s8n = s8 * c0 - c8 * s0r;  // 8dw alone
-            for (int Pb = first; Pb <= Pz; Pb += 16) {
-                const int lanesUsed = std::min(8, (Pz - Pb) / 2 + 1);
-                V8d c = V8d{} + 1.0, sn = V8d{};
-                V8d sums[5] = {V8d{} + psi0 * R0[0], V8d{}, V8d{} + psi0 * R0[2], V8d{},
-                               V8d{} + psi0 * R0[4]};
-                for (int m = 0; m < M; ++m) {
-                    const V8d nc2 = c * cd - sn * sd;
-                    sn = sn * cd + c * sd;
-                    c = nc2;
-                    const double* wm = Wt + static_cast<std::size_t>(m) * 5;
-                    sums[0] += wm[0] * c, sums[1] += wm[1] * sn, sums[2] += wm[2] * c;
-                    sums[3] += wm[3] * sn, sums[4] += wm[4] * c;
-                }
-                for (int l = 0; l < lanesUsed; ++l) {
-                    double* o = mom.data() + static_cast<std::size_t>(Pb + 2 * l - P0) * 5;
-                    for (int j = 0; j < 5; ++j) o[j] = kFact[j] * kSign[j] * sums[j][l] / L;
-                }
-                const V8d nc8 = cd * c8n - sd * s8n;
-                sd = sd * c8n + cd * s8n;
-                cd = nc8;
+        // P0 is even: nodes from P0, bubbles from P0 + 1 (their centres half a cell on). Lane l
+        // of a batch: Δ = dw·(centre − s0), centres P/2 one cell apart: the first centre's angle
+        // rotated by l·dw, a batch on by 8·dw. A node batch and the bubble batch beside it share
+        // one loop over the terms: two independent rotation chains (one alone waited on its
+        // multiply-add latency).
+        const double cN = std::cos(dw * (0.5 * P0 - s0)), sN = std::sin(dw * (0.5 * P0 - s0));
+        const double cB = cN * cHalf - sN * sHalf, sB = sN * cHalf + cN * sHalf;
+        V8d cdN = cN * unit.c - sN * unit.s, sdN = sN * unit.c + cN * unit.s;
+        V8d cdB = cB * unit.c - sB * unit.s, sdB = sB * unit.c + cB * unit.s;
+        const auto start = [&](double psi0, V8d sums[5]) {  // the m = 0 term, Ψ(0)·R_j(0)
+            sums[0] = V8d{} + psi0 * R0[0], sums[1] = V8d{}, sums[2] = V8d{} + psi0 * R0[2];
+            sums[3] = V8d{}, sums[4] = V8d{} + psi0 * R0[4];
+        };
+        const auto store = [&](int Pb, const V8d sums[5]) {
+            const int lanesUsed = std::min(8, (P1 - Pb) / 2 + 1);
+            for (int l = 0; l < lanesUsed; ++l) {
+                double* o = mom.data() + static_cast<std::size_t>(Pb + 2 * l - P0) * 5;
+                for (int j = 0; j < 5; ++j) o[j] = kFact[j] * kSign[j] * sums[j][l] / L;
             }
+        };
+        for (int PbN = P0; PbN <= P1; PbN += 16) {
+            const int PbB = PbN + 1;
+            V8d c = V8d{} + 1.0, sn = V8d{}, cbub = V8d{} + 1.0, sbub = V8d{};
+            V8d sums[5], sumsB[5];
+            start(2.0 / 3.0, sums);
+            start(1.0 / 3.0, sumsB);
+            for (int m = 0; m < M; ++m) {
+                const V8d nc2 = c * cdN - sn * sdN;
+                sn = sn * cdN + c * sdN;
+                c = nc2;
+                const V8d nb2 = cbub * cdB - sbub * sdB;
+                sbub = sbub * cdB + cbub * sdB;
+                cbub = nb2;
+                const double* wn = Wn.data() + static_cast<std::size_t>(m) * 5;
+                const double* wb = Wb.data() + static_cast<std::size_t>(m) * 5;
+                sums[0] += wn[0] * c, sums[1] += wn[1] * sn, sums[2] += wn[2] * c;
+                sums[3] += wn[3] * sn, sums[4] += wn[4] * c;
+                sumsB[0] += wb[0] * cbub, sumsB[1] += wb[1] * sbub, sumsB[2] += wb[2] * cbub;
+                sumsB[3] += wb[3] * sbub, sumsB[4] += wb[4] * cbub;
+            }
+            store(PbN, sums);
+            if (PbB <= P1) store(PbB, sumsB);
+            const V8d nN = cdN * unit.c8 - sdN * unit.s8;
+            sdN = sdN * unit.c8 + cdN * unit.s8;
+            cdN = nN;
+            const V8d nB = cdB * unit.c8 - sdB * unit.s8;
+            sdB = sdB * unit.c8 + cdB * unit.s8;
+            cdB = nB;
         }
         // Each basis index's law of G and E[Z_P(μ_P + Y_P)].
         const double mass = std::max(1e-300, total[0]);
@@ -1085,27 +1215,18 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 for (double& v : e) v /= wsum;
             } else {
                 // Below the ladder: the rows' Bernstein basis in closed form (edgeworthRowWeights),
-                // the G-only box by Gauss–Legendre pieces no longer than the normal's std.
-                // A normal narrower than the box's pieces (a box with little else in G) is widened
-                // to them: the variance added, (h/64)², is 7.3e−4 of the box's own h²/3.
-                const double s = std::max({std::sqrt(var), 3.0 * half / kColumnsMaxBoxNodes, 1e-9});
+                // the G-only box convolved in closed form (edgeworthBoxRowWeights) unless it is
+                // under 1e−3 of the normal's std (then its variance h²/3 is added: the box's κ4
+                // is 1e−12 of the normal's scale).
+                double s = std::max(std::sqrt(var), 1e-9);
+                const bool boxed = half > 1e-3 * s;
+                if (!boxed) s = std::sqrt(s * s + half * half / 3.0);
                 const double q3 = k3 / (6.0 * s * s * s), q4 = k4 / (24.0 * s * s * s * s);
-                int boxPieces = 1;
-                if (half > 0.0)
-                    boxPieces = std::clamp(static_cast<int>(std::ceil(half / s)), 1,
-                                           kColumnsMaxBoxNodes / 3);
                 int rLo = 2 * H, rHi = 0;
-                if (half > 0.0) {
-                    const double hp = 1.0 / boxPieces;
-                    for (int k = 0; k < boxPieces; ++k)
-                        for (int i = 0; i < 3; ++i) {
-                            const double t = -1.0 + hp * (2 * k + 1 + kX[i]);
-                            edgeworthRowWeights(g + half * t, s, q3, q4, H, 0.5 * kW[i] * hp, rowW,
-                                                rLo, rHi);
-                        }
-                } else {
+                if (boxed)
+                    edgeworthBoxRowWeights(g, s, q3, q4, half, H, 1.0, rowW, rLo, rHi);
+                else
                     edgeworthRowWeights(g, s, q3, q4, H, 1.0, rowW, rLo, rHi);
-                }
                 points -= rHi - rLo;
                 if (points < 0) return false;
                 for (int R = rLo; R < rHi; ++R) {
