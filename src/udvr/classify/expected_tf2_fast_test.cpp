@@ -333,6 +333,44 @@ TEST(Tf2BlurTables, BoxSplineByColumnsAgainstTheExactEvaluation) {
     EXPECT_GT(tangle, 1e-6);           // an approximation (else this checks nothing)
 }
 
+// Below the y blur ladder (var G under 2·0.25² raster cells²) the columns take the raster's rows
+// in closed form, the widest G-only box convolved exactly (edgeworthBoxRowWeights: differences
+// of the Edgeworth CDF's antiderivatives). Laws of G that narrow with one wide G-only box (1–6
+// rows) and a few narrower ones, on rough random rasters (every point random) and centres that
+// put the box over the raster's ends (the masses beyond rows 0 and H − 1): no case at the
+// fallback; measured 2026-12-05 1.7e−5 of `uniform-exact` (the Gauss–Legendre pieces it replaced:
+// 1.69e−5), held to 2e−4 (the box's density 0.3 % off gives 1.7e−3).
+TEST(Tf2BlurTables, BoxSplineNarrowInGWithAWideGOnlyBoxAgainstTheExactEvaluation) {
+    std::mt19937_64 g(35);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    double worst = 0.0;
+    int fallbacks = 0, count = 0;
+    for (int raster = 0; raster < 6; ++raster) {
+        // 2/(H − 1) data units a row: corners' b ≤ 0.12 rows, so var G ≤ 8·0.12²/3 < 0.04 rows².
+        const int W = 17 + 8 * raster, H = 9 + 4 * raster;
+        const testing::Raster rough = roughRaster(g, W, H, -1.0, 1.0);
+        const double row = 2.0 / (H - 1);
+        worst = std::max(worst, boxSplineWorst(
+                                    rough.r, 12,
+                                    [&] {
+                                        testing::Case c =
+                                            testing::randomCase(g, 8, static_cast<int>(u(g) * 3),
+                                                                0.3, 0.12 * row, 0.5 * row);
+                                        c.d.push_back({0.0, (1.0 + 5.0 * u(g)) * row});
+                                        c.cy = 2.2 * u(g) - 1.1;  // over the ends as well
+                                        return c;
+                                    },
+                                    fallbacks, count));
+    }
+    std::printf(
+        "uniform 2D fast, narrow in G with a wide G-only box: max |dE| %.3g over %d cases, "
+        "%d at the coarse exact settings\n",
+        worst, count, fallbacks);
+    EXPECT_EQ(fallbacks, 0);
+    EXPECT_LE(worst, 2e-4);
+    EXPECT_GT(worst, 1e-7);  // an approximation (the Edgeworth law of G given X)
+}
+
 // Past the columns' bounds on one sample's work (expected_tf2_fast.cpp, kColumnsMax…) and on
 // hostile values the fast 2D `uniform` takes the exact evaluation at the coarse settings (false,
 // and the same values): G's reach over 1e6 raster cells, X's half support over 512 cells, over 32
