@@ -109,16 +109,17 @@ TOOTH = ROOT.parent / "shared" / "data" / "tooth" / "tooth.nhdr"
 
 @pytest.mark.skipif(not TOOTH.exists(), reason="needs ../shared/data/tooth")
 def test_tooth2d_plan_is_the_run(tmp_path):
-    """tooth2d (2D TF; its fast gaussian's frames are most of the run): the estimate counts the
-    frames the run renders (11: the truth and 5 models at 2 brick sizes; the plan had listed 2
-    uniform frames the run no longer renders, whose cost hid that the gaussian's was 28x short)
-    and is within 3x of the run's time (--quick at 96²: 77 s estimated, 80 s taken, load 9)."""
+    """tooth2d (2D TF; its fast uniform's and gaussian's frames are most of the run): the estimate
+    counts the frames the run renders (13: the truth and 6 models at 2 brick sizes; the plan had
+    once listed 2 uniform frames the run did not render, whose cost hid that the gaussian's was
+    28x short) and is within 3x of the run's time (--quick at 96²: 77 s estimated, 80 s taken,
+    load 9; with the fast uniform (2026-12-05) 17 s estimated, 20 s taken, load 1)."""
     r, seconds = run_experiment(["tooth2d", "--quick", "--size", "32"], tmp_path,
                                 UDVR_NO_PROGRESS="1", UDVR_ANNOUNCE_OVER_MS="0")
     m = ESTIMATE.search(r.stderr)
     assert m, r.stderr
     rendered = re.findall(r"^udvr experiment tooth2d: rendered ", r.stderr, re.M)
-    assert int(m.group(5)) == len(rendered) == 11, r.stderr
+    assert int(m.group(5)) == len(rendered) == 13, r.stderr
     estimate = max(int(m.group(2)), 1)
     assert_estimate_fits(estimate, seconds)
 

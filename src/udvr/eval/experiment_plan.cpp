@@ -44,6 +44,10 @@ constexpr std::array<double, 3> kDefaultNsPerStep{40.0, 100.0, 300.0};
 /// 28x short there; the uniform frames the plan still listed and the run no longer renders had
 /// hidden it).
 constexpr double kTooth2dGaussianNs = 5700.0;
+/// tooth2d's fast 2D uniform (by columns), likewise: `tooth2d --quick` on 2026-12-05 (AVX-512,
+/// load ~1, speed probe 6.2 ms): 9.25 and 5.35 s for its two 96² frames of 320 steps, ~40,000 ns
+/// at the reference speed (the uniform row's 2D factor, from the tangle, is 8x short here).
+constexpr double kTooth2dUniformNs = 40000.0;
 
 /// gmm-mc: ns per model voxel and realization (drawing the realization), see above.
 constexpr double kGmmMcNsPerVoxel = 94.0;
@@ -185,16 +189,19 @@ Work planExperiment(const std::string& name, const Sizes& s, const ExperimentOpt
         for (int k : {4, 2}) {
             w += buildWork(bricks(v, k), k * k * k, 0, DensityEstimate::Empirical, true);
             for (K m : kTooth2dModels) {
-                if (m != K::Gaussian) {
+                if (m != K::Gaussian && m != K::Uniform) {
                     frame(m, steps, 1, TfKind::TwoD);
                     continue;
                 }
                 // The fast 2D gaussian visits every raster cell under ±7σ: its cost goes with the
                 // TF2's raster and the σ of the bricks, not with quantile-mean's frame as the
                 // row's factor (from the tangle) has it; on the tooth (raster 64×32) it took
-                // 30–37 s a 96² frame at a probe speed of 2.0 (load 7): kTooth2dGaussianNs.
+                // 30–37 s a 96² frame at a probe speed of 2.0 (load 7): kTooth2dGaussianNs. The
+                // fast 2D uniform likewise (its basis functions per sample go with the raster
+                // and the bricks' spread): kTooth2dUniformNs.
                 Work g = frameWork(m, px, steps, 0.0, 1, 1, TfKind::TwoD);
-                g.frameMs *= kTooth2dGaussianNs / modelFamily(K::Gaussian).nsPerStep[1];
+                g.frameMs *= (m == K::Gaussian ? kTooth2dGaussianNs : kTooth2dUniformNs) /
+                             modelFamily(m).nsPerStep[1];
                 w += g;
             }
         }
