@@ -708,13 +708,15 @@ constexpr int kColumnsMaxWindow = 1024;   // a y sum's points at most (else exac
 /// Fewer corners (at voxel faces, edges, grid points) leave the law of G given X far from an
 /// Edgeworth normal (random 1–8 corner cases: 5.6e−3 off uniform-exact): the exact evaluation.
 constexpr int kColumnsMinCorners = 8;
-/// The corner of the largest G extent is kept by Gauss–Legendre past this share of var G (a
-/// box-dominated law of G, far from an Edgeworth normal). Measured against uniform-exact
-/// (docs/models.md): with no box kept the random coarse models of JointDistribution.Every2D… were
-/// 7.3e−3 off; past 0.5, 1.0e−3; past 0.35, 6.8e−4 at 1.5× the time of none kept on the 64³
-/// tangle (16², one thread; 0.25: 2×, no better on real data).
-constexpr double kColumnsKeepShare = 0.35;
-constexpr double kColumnsMaxKeptPieces = 16;  // pieces of 3 nodes (else the exact evaluation)
+/// A corner's box is cut into pieces (boxSpline) past this share of var G (a box-dominated law
+/// of G is far from an Edgeworth normal), a second one past this share of the rest; each piece
+/// at most kColumnsPieceShare of its law given X. Measured against uniform-exact (docs/models.md,
+/// 2026-12-05): with none cut the random coarse models of JointDistribution.Every2D… were 7.3e−3
+/// off; cut past 0.25 with pieces of 0.3, 1.8e−4 there and 6.4e−4 on the rough rasters (one
+/// corner kept by Gauss–Legendre past 0.35: 6.8e−4 and 1.4e−3, at 1.45× the time).
+constexpr double kColumnsKeepShare = 0.25;
+constexpr double kColumnsPieceShare = 0.3;
+constexpr int kColumnsMaxNodes = 16;  // nodes of the cut boxes' pieces (else the exact evaluation)
 /// Bounds on one sample's work (else the exact evaluation at the coarse settings): X's half
 /// support (raster cells; the basis indices to sum, ≤ 4·512 + 4 a node), G's reach |t0| + Σ|b|
 /// (raster cells; the int row indices), the product nodes × basis indices × Fourier terms, and
@@ -726,6 +728,11 @@ constexpr long kColumnsMaxPoints = 1 << 22;
 /// Basis indices whose weight E[ψ_P(X)] is under this are left out: the x series is truncated at
 /// ~1e−8, so their moments are mostly its noise.
 constexpr double kColumnsMinWeight = 1e-9;
+/// The basis indices at each end of X's support whose weights sum to under half this are left out
+/// too (at every node): E moves by at most their weight (the TF2's values are in [0, 1]), and X's
+/// tails near its support's ends (a box spline's density there goes as the distance to the end
+/// to the power corners − 1) hold many indices of little weight.
+constexpr double kColumnsTailMass = 1e-5;
 
 /// g^(p)(θ), p = 0 … 4, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ), in
 /// eight lanes, from sn = sin θ and cs = cos θ: below |θ| = 1 the Taylor series, else the
@@ -967,44 +974,59 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         for (int k = 0; k < n; ++k) reach += std::abs(d[k].b * r.invDy);
         if (!(reach < kColumnsMaxReachG)) return exact();
     }
-    // The corner of the largest G extent, where its share of var G is over kColumnsKeepShare (and
-    // it is wider than the widest G-only box): kept out of the law's moments and integrated by
-    // Gauss–Legendre over its t (a box-dominated law of G is far from an Edgeworth normal), in
-    // ⌈√(dᵀΣr⁻¹d)⌉ pieces of 3 nodes (Σr the rest's covariance: the scale in t of the
-    // rest-smoothed TF2 along the box), at most kColumnsMaxKeptPieces.
-    int kept = -1;
+    // The corners whose box dominates the law of G (far from an Edgeworth normal): the widest in
+    // G where its b²/3 is over kColumnsKeepShare of var G, then the next where it is over that
+    // share of what is left (each wider than the widest G-only box). Each is cut along its t into
+    // `pieces` boxes of 1/pieces its length: a sub-box stays a corner of the moments (exact in x,
+    // a small share of G), and the sample is the mixture over the pieces' centres (nodes, equal
+    // weights; with two cut, their product), so the law at every node is Edgeworth-like. Pieces:
+    // a sub-box's b²/3 at most kColumnsPieceShare of it and the rest's var G given X (the
+    // rest's normal regression: its var G − cov²/var X), at most kColumnsMaxNodes nodes.
+    int cut[2] = {-1, -1}, pieces[2] = {1, 1};
     {
-        double varG = restVar + half * half / 3.0, widest = 0.0;
-        for (int i = 0; i < ncAll; ++i) {
-            varG += cb[i] * cb[i] / 3.0;
-            if (cb[i] * cb[i] > widest) widest = cb[i] * cb[i], kept = i;
+        double varG = restVar + half * half / 3.0;
+        for (int i = 0; i < ncAll; ++i) varG += cb[i] * cb[i] / 3.0;
+        for (int k = 0; k < 2; ++k) {
+            double widest = 0.0;
+            int w = -1;
+            for (int i = 0; i < ncAll; ++i)
+                if (i != cut[0] && cb[i] * cb[i] > widest) widest = cb[i] * cb[i], w = i;
+            if (!(widest / 3.0 > kColumnsKeepShare * varG && widest > half * half)) break;
+            cut[k] = w;
+            varG -= widest / 3.0;
         }
-        if (!(widest / 3.0 > kColumnsKeepShare * varG && widest > half * half)) kept = -1;
     }
-    int pieces = 1;
-    const double ka = kept >= 0 ? ca[kept] : 0.0, kb = kept >= 0 ? cb[kept] : 0.0;
     double a[32], bp[32][5];  // the corners in the moments: x extent, b^p/p!
     int nc = 0;
     double A = 0.0, sxx = 0.0, sxg = 0.0, sgg = restVar + half * half / 3.0;
-    for (int i = 0; i < ncAll; ++i) {
-        if (i == kept) continue;
-        a[nc] = ca[i];
+    const auto addCorner = [&](double ai, double bi) {
+        a[nc] = ai;
         double f = 1.0;
-        for (int p = 0; p < 5; ++p) bp[nc][p] = f, f *= cb[i] / (p + 1);
-        A += std::abs(ca[i]);
-        sxx += ca[i] * ca[i] / 3.0, sxg += ca[i] * cb[i] / 3.0, sgg += cb[i] * cb[i] / 3.0;
+        for (int p = 0; p < 5; ++p) bp[nc][p] = f, f *= bi / (p + 1);
+        A += std::abs(ai);
         ++nc;
+    };
+    for (int i = 0; i < ncAll; ++i) {
+        if (i == cut[0] || i == cut[1]) continue;
+        addCorner(ca[i], cb[i]);
+        sxx += ca[i] * ca[i] / 3.0, sxg += ca[i] * cb[i] / 3.0, sgg += cb[i] * cb[i] / 3.0;
     }
-    // X's support past kColumnsMaxSupport cells: the exact evaluation (the basis indices to sum).
-    if (!(A + std::abs(ka) < kColumnsMaxSupport)) return exact();
-    if (kept >= 0) {
-        const double det = sxx * sgg - sxg * sxg;
-        if (!(det > 1e-12 * sxx * sgg)) return exact();
-        const double q = (sgg * ka * ka - 2.0 * sxg * ka * kb + sxx * kb * kb) / det;
-        const double want = std::ceil(std::sqrt(q));
-        if (!(want <= kColumnsMaxKeptPieces)) return exact();
-        pieces = std::max(1, static_cast<int>(want));
+    const double restGivenX = sgg - (sxx > 0.0 ? sxg * sxg / sxx : 0.0);
+    for (int k = 0; k < 2 && cut[k] >= 0; ++k) {
+        const double boxVar = cb[cut[k]] * cb[cut[k]] / 3.0;
+        const double want = std::ceil(
+            std::sqrt(boxVar * (1.0 - kColumnsPieceShare) / (kColumnsPieceShare * restGivenX)));
+        if (!(want <= kColumnsMaxNodes)) return exact();
+        pieces[k] = std::max(1, static_cast<int>(want));
+        addCorner(ca[cut[k]] / pieces[k], cb[cut[k]] / pieces[k]);
     }
+    if (pieces[0] * pieces[1] > kColumnsMaxNodes) return exact();
+    // X's support past kColumnsMaxSupport cells: the exact evaluation (the basis indices to sum;
+    // the nodes move X by up to the cut boxes' whole extents).
+    double reachX = A;
+    for (int k = 0; k < 2 && cut[k] >= 0; ++k)
+        reachX += std::abs(ca[cut[k]]) * (1.0 - 1.0 / pieces[k]);
+    if (!(reachX < kColumnsMaxSupport)) return exact();
     // The corners' E[ψ_P(X)·G_c^j] by the Fourier series of X's law made periodic with period
     // L ≥ 2A + 2 (no copy meets a ψ_P that meets X): ρ̂_j(ω) = E[e^{−iωX} G_c^j]
     // = e^{−iωs0}·j!·i^j·R_j(ω), R_j the coefficient of s^j in Π_i Σ_p g^(p)(ωa_i)(b_i s)^p/p!
@@ -1060,12 +1082,10 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     static constexpr double kSign[5] = {1.0, -1.0, -1.0, 1.0, 1.0};  // i^j, i^(j+1) real parts
     static constexpr double kFact[5] = {1.0, 1.0, 2.0, 6.0, 24.0};
     for (int j = 0; j < 5; j += 2) total[j] = kFact[j] * kSign[j] * R0[j];
-    // The sum over the basis at one node of the kept box's t (or once): (s0, t0) the centre in
-    // raster cells; false where it does not apply (a y window or the sample's y budget past its
+    // The sum over the basis at one node (a centre of the cut boxes' pieces): (s0, t0) the centre
+    // in raster cells; false where it does not apply (a y window or the sample's y budget past its
     // cap, no y pass under the process's cap, the weights' sum not positive).
-    static constexpr double kX[3] = {-0.7745966692414834, 0.0, 0.7745966692414834};
-    static constexpr double kW[3] = {0.5555555555555556, 0.8888888888888888, 0.5555555555555556};
-    if (static_cast<double>(kept >= 0 ? 3 * pieces : 1) * (4.0 * A + 6.0) * M > kColumnsMaxWork)
+    if (static_cast<double>(pieces[0] * pieces[1]) * (4.0 * A + 6.0) * M > kColumnsMaxWork)
         return exact();
     long points = kColumnsMaxPoints;  // the y sums' budget
     const Rotation8 unit(dw);         // the basis sums' lanes: (cos, sin)(l·dw), and of 8·dw
@@ -1136,7 +1156,16 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         }
         // Each basis index's law of G and E[Z_P(μ_P + Y_P)].
         const double mass = std::max(1e-300, total[0]);
-        for (int Pv = P0; Pv <= P1; ++Pv) {
+        int Plo = P0, Phi = P1;  // X's tails left out: weights summing to ≤ kColumnsTailMass / 2
+        for (double tail = 0.0; Plo < Phi; ++Plo) {
+            tail += std::abs(mom[static_cast<std::size_t>(Plo - P0) * 5]);
+            if (tail > 0.5 * kColumnsTailMass * mass) break;
+        }
+        for (double tail = 0.0; Phi > Plo; --Phi) {
+            tail += std::abs(mom[static_cast<std::size_t>(Phi - P0) * 5]);
+            if (tail > 0.5 * kColumnsTailMass * mass) break;
+        }
+        for (int Pv = Plo; Pv <= Phi; ++Pv) {
             const double* o = mom.data() + static_cast<std::size_t>(Pv - P0) * 5;
             const int P = std::clamp(Pv, 0, BW - 1);  // the raster's basis index (virtual: its end)
             const double m0 = o[0];
@@ -1242,16 +1271,17 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         return true;
     };
     double acc[4] = {};
-    if (kept < 0) {
-        if (!atNode(sc, tc, 1.0, acc)) return exact();
-    } else {
-        const double hp = 1.0 / pieces;  // a piece's half length in t
-        for (int k = 0; k < pieces; ++k)
-            for (int i = 0; i < 3; ++i) {
-                const double t = -1.0 + hp * (2 * k + 1 + kX[i]);
-                if (!atNode(sc + ka * t, tc + kb * t, 0.5 * kW[i] * hp, acc)) return exact();
+    const double nodeWeight = 1.0 / (pieces[0] * pieces[1]);
+    for (int k0 = 0; k0 < pieces[0]; ++k0)
+        for (int k1 = 0; k1 < pieces[1]; ++k1) {
+            double s0 = sc, t0 = tc;  // the pieces' centres t = −1 + (2k + 1)/pieces
+            const int ks[2] = {k0, k1};
+            for (int k = 0; k < 2 && cut[k] >= 0; ++k) {
+                const double t = -1.0 + (2 * ks[k] + 1.0) / pieces[k];
+                s0 += ca[cut[k]] * t, t0 += cb[cut[k]] * t;
             }
-    }
+            if (!atNode(s0, t0, nodeWeight, acc)) return exact();
+        }
     for (double v : acc)
         if (!std::isfinite(v)) return exact();
     out[3] = std::clamp(acc[3], 0.0, 1.0);

@@ -82,7 +82,9 @@ class Tf2BlurTables {
     /// (j ≤ 4, exact by a Fourier series in x), the widest G-only box exact and the other G-only
     /// boxes in the variance and κ4 (Edgeworth). E[Z_P(μ + Y)] is the trapezoid sum over the
     /// y pass of the TF2 blurred by N(0, b²), b² ≤ ½·var Y, or, below the ladder, the raster's rows
-    /// in closed form; a corner holding over 0.35 of var G by Gauss–Legendre over its t. Returns
+    /// in closed form. A corner holding over 0.25 of var G (and a second over 0.25 of the rest) is
+    /// cut along its t into pieces, each a corner of the moments, and E is the mean over the
+    /// pieces' centres (a box-dominated law of G is no Edgeworth normal). Returns
     /// false where it took the exact evaluation (kUniform2DFast) instead: no tables, fewer than 8
     /// corners or more than 32 directions, non-finite data, a sample's work past its bounds
     /// (expected_tf2_fast.cpp, kColumnsMax…).
