@@ -168,7 +168,7 @@ ExperimentResult runTooth2d(const fs::path& dir, const ExperimentOptions& option
         "Models: mean (TF2 of the mean value and |mean gradient|), gaussian (bivariate normal of "
         "value and gradient along the mean gradient; its fast form, within 3e−6 of "
         "`gaussian-exact`), uniform (the paper's box spline of value and gradient; its fast "
-        "form, by columns, within 1e−3 of `uniform-exact`: 3.2e−5 at 200 random points of the "
+        "form, by columns, within 1e−3 of `uniform-exact`: 6.2e−6 at 200 random points of the "
         "4³ model, docs/models.md), quantile-range, quantile-mean and iqr (every voxel at the "
         "same rank, SPEC §9). gmm-ordered and gmm-mc: not available with a 2D TF yet.");
     setup.push_back(
