@@ -716,6 +716,13 @@ constexpr int kColumnsMinCorners = 8;
 /// corner kept by Gauss–Legendre past 0.35: 6.8e−4 and 1.4e−3, at 1.45× the time).
 constexpr double kColumnsKeepShare = 0.25;
 constexpr double kColumnsPieceShare = 0.3;
+/// Above the y blur ladder the widest G-only box is folded into the Edgeworth law (variance,
+/// κ4) where it holds at most this share of var G (given X), so the weights need no normal CDF.
+/// Its sixth cumulant, left out, is then ≤ 16/63·(3·0.4)³ = 0.44 σ⁶ (a term κ6/720·He6).
+/// Measured 2026-12-05 (docs/models.md): the 7 real tangle calls 1.5e−4 → 2.4e−4 off
+/// uniform-exact, the other sets unchanged; −28 % of the tangle's frame time (0.25: no box
+/// folded there, 0.5: no faster, 150 tangle probes 3.0e−4 → 4.0e−4).
+constexpr double kColumnsFoldShare = 0.4;
 constexpr int kColumnsMaxNodes = 16;  // nodes of the cut boxes' pieces (else the exact evaluation)
 /// Bounds on one sample's work (else the exact evaluation at the coarse settings): X's half
 /// support (raster cells; the basis indices to sum, ≤ 4·512 + 4 a node), G's reach |t0| + Σ|b|
@@ -1184,25 +1191,35 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 std::clamp((c4 - 3.0 * c2 * c2) + restK4, -2.0 * var * var, 6.0 * var * var);
             const double g = t0 + mu;
             double e[4] = {};
-            if (var >= 2.0 * kMinBlur * kMinBlur) {
+            // Above the ladder the widest G-only box is folded into the law (its variance h²/3
+            // and κ4 −2h⁴/15 = −1.2·(h²/3)²) where it holds at most kColumnsFoldShare of it:
+            // the weights are then the Edgeworth density itself, with no normal CDF.
+            const double boxVar = half * half / 3.0;
+            const bool fold = boxVar <= kColumnsFoldShare * (var + boxVar);
+            const double varW = fold ? var + boxVar : var;
+            if (varW >= 2.0 * kMinBlur * kMinBlur) {
+                const double hW = fold ? 0.0 : half;
+                const double k4W = fold ? std::clamp(k4 - 1.2 * boxVar * boxVar, -2.0 * varW * varW,
+                                                     6.0 * varW * varW)
+                                        : k4;
                 // The y pass of the largest blur b with b² ≤ ½·var: E = Σ_q p(y_q − g)·Z_P^(b)(y_q)
                 // over its rows (trapezoid; p the law less the blur: N(0, var − b²) with κ3, κ4, ⊛
                 // the box), weights normalised.
                 int j = std::clamp(
                     static_cast<int>(std::floor(2.0 * kGaussianYSteps *
-                                                std::log2(std::sqrt(0.5 * var) / kMinBlur))),
+                                                std::log2(std::sqrt(0.5 * varW) / kMinBlur))),
                     0, levelsY_ - 1);
-                while (j > 0 && ay_->levels[j].blur * ay_->levels[j].blur > 0.5 * var) --j;
+                while (j > 0 && ay_->levels[j].blur * ay_->levels[j].blur > 0.5 * varW) --j;
                 while (j + 1 < levelsY_ &&
-                       ay_->levels[j + 1].blur * ay_->levels[j + 1].blur <= 0.5 * var)
+                       ay_->levels[j + 1].blur * ay_->levels[j + 1].blur <= 0.5 * varW)
                     ++j;
                 const Axis::Level& ly = ay_->levels[j];
                 const Pass* zp = pass(j);
                 if (!zp) return false;  // past the process's cap
                 const Pass& z = *zp;
-                const double sr = std::sqrt(var - ly.blur * ly.blur);
-                const double q3 = k3 / (6.0 * sr * sr * sr), q4 = k4 / (24.0 * sr * sr * sr * sr);
-                const double reach = kRadius * sr + half;
+                const double sr = std::sqrt(varW - ly.blur * ly.blur);
+                const double q3 = k3 / (6.0 * sr * sr * sr), q4 = k4W / (24.0 * sr * sr * sr * sr);
+                const double reach = kRadius * sr + hW;
                 const int qa = static_cast<int>(std::ceil((g - reach - ly.start) / ly.spacing));
                 const int qb = static_cast<int>(std::floor((g + reach - ly.start) / ly.spacing));
                 if (qb - qa > kColumnsMaxWindow) return false;
@@ -1210,7 +1227,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 if (points < 0) return false;
                 // The weights p(y_q − g) eight rows at a time in double lanes.
                 using lanes::V8d;
-                const bool boxed = half > 1e-6 * sr;
+                const bool boxed = hW > 1e-6 * sr;
                 const auto F =
                     [&](V8d u) {  // the antiderivative of the Edgeworth density, z = u/sr
                         const V8d zz = u / sr;
@@ -1224,11 +1241,11 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                     for (int l = 0; l < 8; ++l) u[l] = ly.start + (qc0 + l) * ly.spacing - g;
                     V8d p;
                     if (boxed) {
-                        p = (F(u + half) - F(u - half)) / (2.0 * half);
+                        p = (F(u + hW) - F(u - hW)) / (2.0 * hW);
                     } else {
                         const V8d zz = u / sr, z2 = zz * zz;
-                        const NormalAt<V8d> nn = normalAt(zz, detail::ExpNonPositiveOf{});
-                        p = nn.pdf / sr *
+                        p = detail::ExpNonPositiveOf{}(-0.5 * z2) *
+                            (std::numbers::inv_sqrtpi / std::numbers::sqrt2 / sr) *
                             (1.0 + q3 * (z2 * zz - 3.0 * zz) + q4 * (z2 * z2 - 6.0 * z2 + 3.0));
                     }
                     for (int l = 0; l < 8 && qc0 + l <= qb; ++l) {

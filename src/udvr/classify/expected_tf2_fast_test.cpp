@@ -414,7 +414,8 @@ TEST(Tf2BlurTables, BoxSplinePastItsBoundsTakesTheExactEvaluation) {
 // (2.65e−2 … 1.06e−2 off uniform-exact) and the two worst after its 2026-12-03 repair (1.39e−3,
 // 1.33e−3). By columns (2026-12-05): 8.8e−4, 1.3e−4, 1.5e−4, 1.3e−4, 6.8e−5, 5.0e−4, 6.2e−4;
 // with the dominant boxes cut into pieces (later that day): 7.8e−6, 1.3e−4, 1.5e−4, 2.4e−6,
-// 9.3e−5, 2.0e−5, 2.5e−6.
+// 9.3e−5, 2.0e−5, 2.5e−6; with the G-only box folded into the law above the ladder: 2.9e−5,
+// 2.1e−4, 2.4e−4, 1.5e−5, 9.3e−5, 5.2e−5, 5.7e−6.
 TEST(Tf2BlurTables, BoxSplineOnRealTangleSamplesWithin1e3OfTheExactEvaluation) {
     struct Sample {
         double cx, cy, tinyWidth;
