@@ -902,15 +902,14 @@ void edgeworthBoxRowWeights(double mu, double s, double c3, double c4, double h,
     // ∫_0^1 v^k F(x0 + v) dv, k = 0, 1, 2; the antiderivatives at the cell's end are kept for
     // the next cell's start.
     const auto cellIntegrals = [&](double x0, Anti& last, double I[3]) {
-        if (x0 >= reach) {
-            I[0] = 1.0, I[1] = 0.5, I[2] = 1.0 / 3.0;
+        if (x0 >= reach || x0 + 1.0 <= -reach) {
+            const bool one = x0 >= reach;
+            I[0] = one ? 1.0 : 0.0, I[1] = one ? 0.5 : 0.0, I[2] = one ? 1.0 / 3.0 : 0.0;
+            last.x = std::numeric_limits<double>::quiet_NaN();  // the next cell computes its start
             return;
         }
-        if (x0 + 1.0 <= -reach) {
-            I[0] = I[1] = I[2] = 0.0;
-            return;
-        }
-        const Anti a0 = last.x == x0 ? last : anti(x0);
+        // The previous cell's end (its x0 + 1 equals this x0 up to rounding) where it was computed.
+        const Anti a0 = std::isnan(last.x) ? anti(x0) : last;
         const Anti a1 = anti(x0 + 1.0);
         last = a1;
         I[0] = a1.h1 - a0.h1;
@@ -1265,7 +1264,9 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 // under 1e−3 of the normal's std (then its variance h²/3 is added: the box's κ4
                 // is 1e−12 of the normal's scale).
                 double s = std::max(std::sqrt(var), 1e-9);
-                const bool boxed = half > 1e-3 * s;
+                // (Under 1e−6 cells, also where s is at its floor, the box's (F(+h) − F(−h))/2h
+                // would lose digits; its variance moves the mass by ≲ 1e−6 there.)
+                const bool boxed = half > std::max(1e-3 * s, 1e-6);
                 if (!boxed) s = std::sqrt(s * s + half * half / 3.0);
                 const double q3 = k3 / (6.0 * s * s * s), q4 = k4 / (24.0 * s * s * s * s);
                 int rLo = 2 * H, rHi = 0;
