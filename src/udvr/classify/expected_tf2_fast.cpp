@@ -6,7 +6,6 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <numbers>
 
 #include "udvr/classify/expected_tf2_gaussian.h"
@@ -799,6 +798,14 @@ lanes::V8d bubbleSpectrum(lanes::V8d w, lanes::V8d sh, lanes::V8d ch) {
     return lanes::selectBits(small, series, (sh - ys * ch) / (ys * ys * ys));
 }
 
+/// (c, s) = (cos, sin)(θ) turned on by the angle of (cr, sr): θ + that angle, lane by lane.
+template <class V, class R>
+inline void rotate(V& c, V& s, R cr, R sr) {
+    const V nc = c * cr - s * sr;
+    s = s * cr + c * sr;
+    c = nc;
+}
+
 /// Eight lanes of (cos, sin)(l·δ), l = 0 … 7, and (cos, sin)(8δ): the start and the step of a
 /// rotation that walks the angles m·δ eight terms a batch.
 struct Rotation8 {
@@ -812,12 +819,17 @@ struct Rotation8 {
             c[l] = c[l - 1] * c1 - s[l - 1] * s1, s[l] = s[l - 1] * c1 + c[l - 1] * s1;
         c8 = c[7] * c1 - s[7] * s1, s8 = s[7] * c1 + c[7] * s1;
     }
-    void step() {
-        const lanes::V8d nc = c * c8 - s * s8;
-        s = s * c8 + c * s8;
-        c = nc;
-    }
+    void step() { rotate(c, s, c8, s8); }
 };
+
+/// A row cell c's moments M_k = ∫v^k·density (v = g − c) onto its Bernstein basis functions
+/// (1 − v)², 2v(1 − v), v² (w[2c], w[2c + 1], w[2c + 2]), times `weight`.
+inline void addCellMoments(std::vector<double>& w, int c, double weight, double M0, double M1,
+                           double M2) {
+    w[2 * c] += weight * (M0 - 2.0 * M1 + M2);
+    w[2 * c + 1] += weight * 2.0 * (M1 - M2);
+    w[2 * c + 2] += weight * M2;
+}
 
 /// Per row cell of the y basis (Bernstein: (1 − v)², 2v(1 − v), v² on cell c, v = g − c), the
 /// expectation under the law μ + s·Z, Z with density φ·(1 + c3·He3 + c4·He4) (an Edgeworth
@@ -864,11 +876,8 @@ void edgeworthRowWeights(double mu, double s, double c3, double c4, int H, doubl
                           c4 * (I[6] + 9.0 * I[4] + 12.0 * I[2]);
         // v = v0 + s·z on the cell, v0 = μ − c.
         const double v0 = mu - c;
-        const double M0 = Z0, M1 = v0 * Z0 + s * Z1,
-                     M2 = v0 * v0 * Z0 + 2.0 * v0 * s * Z1 + s * s * Z2;
-        w[2 * c] += weight * (M0 - 2.0 * M1 + M2);
-        w[2 * c + 1] += weight * 2.0 * (M1 - M2);
-        w[2 * c + 2] += weight * M2;
+        addCellMoments(w, c, weight, Z0, v0 * Z0 + s * Z1,
+                       v0 * v0 * Z0 + 2.0 * v0 * s * Z1 + s * s * Z2);
         lo = hi;
     }
     if (cHi == H - 2) w[2 * H - 2] += weight * lo.upper;
@@ -889,29 +898,33 @@ void edgeworthBoxRowWeights(double mu, double s, double c3, double c4, double h,
     const int cHi = std::clamp(static_cast<int>(std::floor(mu + h + reach)), -1, H - 2);
     // F's first three antiderivatives at x (in g's units): H1, H2, H3.
     struct Anti {
-        double x, h1, h2, h3;
+        double h1, h2, h3;
     };
     const auto anti = [&](double x) {
         const double u = x / s, u2 = u * u;
         const NormalAt<double> n = normalAt(u);
         const double P = n.cdf, p = n.pdf;
-        return Anti{x, s * (u * P + p + (c3 * u + c4 * (u2 - 1.0)) * p),
+        return Anti{s * (u * P + p + (c3 * u + c4 * (u2 - 1.0)) * p),
                     s * s * (0.5 * ((u2 + 1.0) * P + u * p) - (c3 + c4 * u) * p),
                     s * s * s * (((u2 + 3.0) * u * P + (u2 + 2.0) * p) / 6.0 - (c3 * P - c4 * p))};
     };
-    // ∫_0^1 v^k F(x0 + v) dv, k = 0, 1, 2; the antiderivatives at the cell's end are kept for
-    // the next cell's start.
-    const auto cellIntegrals = [&](double x0, Anti& last, double I[3]) {
+    // ∫_0^1 v^k F(x0 + v) dv, k = 0, 1, 2. An edge's term keeps the antiderivatives at the
+    // cell's end for the next cell's start (its x0 + 1 is that x0 up to rounding) where the cell
+    // computed them.
+    struct Edge {
+        Anti end{};
+        bool has = false;
+    };
+    const auto cellIntegrals = [&](double x0, Edge& edge, double I[3]) {
         if (x0 >= reach || x0 + 1.0 <= -reach) {
             const bool one = x0 >= reach;
             I[0] = one ? 1.0 : 0.0, I[1] = one ? 0.5 : 0.0, I[2] = one ? 1.0 / 3.0 : 0.0;
-            last.x = std::numeric_limits<double>::quiet_NaN();  // the next cell computes its start
+            edge.has = false;
             return;
         }
-        // The previous cell's end (its x0 + 1 equals this x0 up to rounding) where it was computed.
-        const Anti a0 = std::isnan(last.x) ? anti(x0) : last;
+        const Anti a0 = edge.has ? edge.end : anti(x0);
         const Anti a1 = anti(x0 + 1.0);
-        last = a1;
+        edge.end = a1, edge.has = true;
         I[0] = a1.h1 - a0.h1;
         I[1] = a1.h1 - a1.h2 + a0.h2;
         I[2] = a1.h1 - 2.0 * a1.h2 + 2.0 * (a1.h3 - a0.h3);
@@ -924,17 +937,13 @@ void edgeworthBoxRowWeights(double mu, double s, double c3, double c4, double h,
         rLo = std::min(rLo, 0);
     }
     // The terms of the box's lower edge (F(g − μ + h)) and its upper edge (F(g − μ − h)).
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    Anti lower{nan, 0.0, 0.0, 0.0}, upper{nan, 0.0, 0.0, 0.0};
+    Edge lower, upper;
     for (int c = cLo; c <= cHi; ++c) {
         double A[3], B[3];
         cellIntegrals(c - mu + h, lower, A);
         cellIntegrals(c - mu - h, upper, B);
-        const double M0 = (A[0] - B[0]) * inv2h, M1 = (A[1] - B[1]) * inv2h,
-                     M2 = (A[2] - B[2]) * inv2h;
-        w[2 * c] += weight * (M0 - 2.0 * M1 + M2);
-        w[2 * c + 1] += weight * 2.0 * (M1 - M2);
-        w[2 * c + 2] += weight * M2;
+        addCellMoments(w, c, weight, (A[0] - B[0]) * inv2h, (A[1] - B[1]) * inv2h,
+                       (A[2] - B[2]) * inv2h);
     }
     if (cHi == H - 2) {  // the mass above row H − 1
         const double g = H - 1.0;
@@ -1138,12 +1147,8 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             start(2.0 / 3.0, sums);
             start(1.0 / 3.0, sumsB);
             for (int m = 0; m < M; ++m) {
-                const V8d nc2 = c * cdN - sn * sdN;
-                sn = sn * cdN + c * sdN;
-                c = nc2;
-                const V8d nb2 = cbub * cdB - sbub * sdB;
-                sbub = sbub * cdB + cbub * sdB;
-                cbub = nb2;
+                rotate(c, sn, cdN, sdN);
+                rotate(cbub, sbub, cdB, sdB);
                 const double* wn = Wn.data() + static_cast<std::size_t>(m) * 5;
                 const double* wb = Wb.data() + static_cast<std::size_t>(m) * 5;
                 sums[0] += wn[0] * c, sums[1] += wn[1] * sn, sums[2] += wn[2] * c;
@@ -1153,12 +1158,8 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             }
             store(PbN, sums);
             if (PbB <= P1) store(PbB, sumsB);
-            const V8d nN = cdN * unit.c8 - sdN * unit.s8;
-            sdN = sdN * unit.c8 + cdN * unit.s8;
-            cdN = nN;
-            const V8d nB = cdB * unit.c8 - sdB * unit.s8;
-            sdB = sdB * unit.c8 + cdB * unit.s8;
-            cdB = nB;
+            rotate(cdN, sdN, unit.c8, unit.s8);
+            rotate(cdB, sdB, unit.c8, unit.s8);
         }
         // Each basis index's law of G and E[Z_P(μ_P + Y_P)].
         const double mass = std::max(1e-300, total[0]);
@@ -1201,9 +1202,9 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 const double k4W = fold ? std::clamp(k4 - 1.2 * boxVar * boxVar, -2.0 * varW * varW,
                                                      6.0 * varW * varW)
                                         : k4;
-                // The y pass of the largest blur b with b² ≤ ½·var: E = Σ_q p(y_q − g)·Z_P^(b)(y_q)
-                // over its rows (trapezoid; p the law less the blur: N(0, var − b²) with κ3, κ4, ⊛
-                // the box), weights normalised.
+                // The y pass of the largest blur b with b² ≤ ½·varW: E = Σ_q p(y_q −
+                // g)·Z_P^(b)(y_q) over its rows (trapezoid; p the law less the blur: N(0, varW −
+                // b²) with κ3, κ4, ⊛ the box where it is not folded), weights normalised.
                 int j = std::clamp(
                     static_cast<int>(std::floor(2.0 * kGaussianYSteps *
                                                 std::log2(std::sqrt(0.5 * varW) / kMinBlur))),
