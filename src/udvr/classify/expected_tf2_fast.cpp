@@ -701,9 +701,10 @@ void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], l
 
 namespace {
 /// Settings of boxSpline.
-constexpr double kColumnsTailTol = 1e-8;  // the x series stops where (2/L)·envelope·m is below
-constexpr int kColumnsMaxTerms = 4096;    // … or past this many terms: the exact evaluation
-constexpr int kColumnsMaxWindow = 1024;   // a y sum's points at most (else exact)
+constexpr double kColumnsTailTol = 1e-8;   // the x series stops where (2/L)·envelope·m is below
+constexpr int kColumnsMaxTerms = 4096;     // … or past this many terms: the exact evaluation
+static_assert(kColumnsMaxTerms % 8 == 0);  // the terms go 8 a batch
+constexpr int kColumnsMaxWindow = 1024;    // a y sum's points at most (else exact)
 /// Fewer corners (at voxel faces, edges, grid points) leave the law of G given X far from an
 /// Edgeworth normal (random 1–8 corner cases: 5.6e−3 off uniform-exact): the exact evaluation.
 constexpr int kColumnsMinCorners = 8;
@@ -1061,7 +1062,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         const V8d iota = {0, 1, 2, 3, 4, 5, 6, 7};
         bool done = false;
         for (int m0 = 0; !done; m0 += 8) {
-            if (m0 > kColumnsMaxTerms) return exact();
+            if (m0 + 8 > kColumnsMaxTerms) return exact();  // terms m < kColumnsMaxTerms only
             const V8d w = (iota + m0) * dw;
             V8d R[5] = {V8d{} + 1.0, V8d{}, V8d{}, V8d{}, V8d{}}, env = V8d{} + 1.0;
             for (int i = 0; i < nc; ++i) {

@@ -408,6 +408,26 @@ TEST(Tf2BlurTables, BoxSplinePastItsBoundsTakesTheExactEvaluation) {
     EXPECT_FALSE(tables.boxSpline(rough.r, 0.1, 0.0, nan.data(), 8, 0.0, v));
 }
 
+// The x series' cap, kColumnsMaxTerms = 4096 terms (docs/models.md): eight equal corners of
+// a0 cells need the first m with (2/L)·min(1, 1/(ω_m a0))⁸·(4/ω_m²)·m < 1e−8 (ω_m = 2πm/L,
+// L = 16a0 + 3; computed in Python): 4100 terms at a0 = 3.878e−4 cells, past the cap by less
+// than one batch of 8 (taken before 2026-12-05, up to 4103), and 4061 at 3.92e−4, within it.
+TEST(Tf2BlurTables, BoxSplinePastItsTermCapTakesTheExactEvaluation) {
+    std::mt19937_64 g(38);
+    const testing::Raster rough = roughRaster(g, 33, 21, -1.0, 1.0);  // 16 cells a data unit in x
+    const Tf2BlurTables tables(rough.r);
+    ASSERT_TRUE(tables.available());
+    const auto corners = [](double a0Cells) {
+        std::vector<BoxDirection2> d;
+        for (int i = 0; i < 8; ++i) d.push_back({a0Cells / 16.0, 0.02 * (i % 3) - 0.02});
+        return d;
+    };
+    double got[4];
+    const std::vector<BoxDirection2> within = corners(3.92e-4), past = corners(3.878e-4);
+    EXPECT_TRUE(tables.boxSpline(rough.r, 0.1, 0.0, within.data(), 8, 0.0, got));
+    EXPECT_FALSE(tables.boxSpline(rough.r, 0.1, 0.0, past.data(), 8, 0.0, got));
+}
+
 // Real render samples: 7 calls of the fast 2D `uniform` in a 16² frame of the 64³ tangle (20
 // members, q = 8, data/tf2/tangle.json; centre (x, G), tinyWidth and the 32 directions (a, b) in
 // data units, to 7 digits): the five worst of 121 such calls for the tables' form of 2026-12-02
