@@ -5,6 +5,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <numbers>
 
@@ -701,6 +702,8 @@ void Tf2BlurTables::gaussian(const Tf2Raster<double>& r, const lanes::Vf m[5], l
 
 namespace {
 /// Settings of boxSpline.
+/// The moments E[ψ_P(X)·G_c^j] taken, j < kMomentsG: the law of G per basis index to κ6.
+constexpr int kMomentsG = 7;
 constexpr double kColumnsTailTol = 1e-8;   // the x series stops where (2/L)·envelope·m is below
 constexpr int kColumnsMaxTerms = 4096;     // … or past this many terms: the exact evaluation
 static_assert(kColumnsMaxTerms % 8 == 0);  // the terms go 8 a batch
@@ -713,12 +716,13 @@ constexpr int kColumnsMinCorners = 8;
 /// at most kColumnsPieceShare of its law given X. Measured against uniform-exact (docs/models.md,
 /// 2026-12-05): with none cut the random coarse models of JointDistribution.Every2D… were 7.3e−3
 /// off; cut past 0.25 with pieces of 0.3, 1.8e−4 there and 6.4e−4 on the rough rasters (one
-/// corner kept by Gauss–Legendre past 0.35: 6.8e−4 and 1.4e−3, at 1.45× the time).
-constexpr double kColumnsKeepShare = 0.25;
+/// corner kept by Gauss–Legendre past 0.35: 6.8e−4 and 1.4e−3, at 1.45× the time). Past 0.15
+/// since the law is taken to κ6: 4000 rough cases 1.74e−3 → 9.8e−4 (0.25 → 0.15), the tangle's
+/// frame within noise.
+constexpr double kColumnsKeepShare = 0.15;
 constexpr double kColumnsPieceShare = 0.3;
-/// Above the y blur ladder the widest G-only box is folded into the Edgeworth law (variance,
-/// κ4) where it holds at most this share of var G (given X), so the weights need no normal CDF.
-/// Its sixth cumulant, left out, is then ≤ 16/63·(3·0.4)³ = 0.44 σ⁶ (a term κ6/720·He6).
+/// Above the y blur ladder the widest G-only box is folded into the law (variance, κ4, κ6) where
+/// it holds at most this share of var G (given X), so the weights need no normal CDF.
 /// Measured 2026-12-05 (docs/models.md): the 7 real tangle calls 1.5e−4 → 2.4e−4 off
 /// uniform-exact, the other sets unchanged; −28 % of the tangle's frame time (0.25: no box
 /// folded there, 0.5: no faster, 150 tangle probes 3.0e−4 → 4.0e−4).
@@ -744,12 +748,12 @@ constexpr double kColumnsTailMass = 1e-5;
 /// g^(p)(θ), p = 0 … 4, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ), in
 /// eight lanes, from sn = sin θ and cs = cos θ: below |θ| = 1 the Taylor series, else the
 /// recurrence θ·g^(p) = sin^(p)(θ) − p·g^(p−1)(θ).
-void sincDerivatives(lanes::V8d th, lanes::V8d sn, lanes::V8d cs, lanes::V8d g[5]) {
+void sincDerivatives(lanes::V8d th, lanes::V8d sn, lanes::V8d cs, lanes::V8d g[kMomentsG]) {
     using lanes::V8d;
     // c[p][k]: the coefficient of θ^(2k − p) in g^(p), (−1)^k (2k)! / ((2k − p)! (2k + 1)!).
     static const auto coefficients = [] {
-        std::array<std::array<double, 14>, 5> c{};
-        for (int p = 0; p < 5; ++p)
+        std::array<std::array<double, 14>, kMomentsG> c{};
+        for (int p = 0; p < kMomentsG; ++p)
             for (int k = 0; k < 14; ++k) {
                 if (2 * k < p) continue;
                 double v = (k % 2 ? -1.0 : 1.0);
@@ -767,11 +771,13 @@ void sincDerivatives(lanes::V8d th, lanes::V8d sn, lanes::V8d cs, lanes::V8d g[5
     g[2] = (-sn - 2.0 * g[1]) * inv;
     g[3] = (-cs - 3.0 * g[2]) * inv;
     g[4] = (sn - 4.0 * g[3]) * inv;
+    g[5] = (cs - 5.0 * g[4]) * inv;
+    g[6] = (-sn - 6.0 * g[5]) * inv;
     bool any = false;
     for (int l = 0; l < 8; ++l) any = any || small[l];
     if (!any) return;
     const V8d t2 = th * th;
-    for (int p = 0; p < 5; ++p) {
+    for (int p = 0; p < kMomentsG; ++p) {
         const int k0 = (p + 1) / 2;
         V8d acc{};
         for (int k = 13; k >= k0; --k) acc = acc * t2 + coefficients[p][k];
@@ -970,7 +976,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     if (!(std::abs(sc) < 1e9 && std::abs(tc) < 1e9) || n > 32) return exact();
     double ca[32], cb[32];  // the corners (a ≠ 0)
     int ncAll = 0;
-    double restVar = 0.0, restK4 = 0.0, half = 0.0;
+    double restVar = 0.0, restK4 = 0.0, restK6 = 0.0, half = 0.0;
     for (int k = 0; k < n && k < 32; ++k) {
         const double ak = d[k].a * r.invDx, bk = d[k].b * r.invDy;
         if (!(std::abs(ak) < 1e9 && std::abs(bk) < 1e9)) return exact();
@@ -982,6 +988,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             if (g > half) std::swap(g, half);
             restVar += g * g / 3.0;
             restK4 -= 2.0 / 15.0 * g * g * g * g;
+            restK6 += 16.0 / 63.0 * g * g * g * g * g * g;
         }
     }
     if (ncAll < kColumnsMinCorners) return exact();
@@ -1012,13 +1019,13 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             varG -= widest / 3.0;
         }
     }
-    double a[32], bp[32][5];  // the corners in the moments: x extent, b^p/p!
+    double a[32], bp[32][kMomentsG];  // the corners in the moments: x extent, b^p/p!
     int nc = 0;
     double A = 0.0, sxx = 0.0, sxg = 0.0, sgg = restVar + half * half / 3.0;
     const auto addCorner = [&](double ai, double bi) {
         a[nc] = ai;
         double f = 1.0;
-        for (int p = 0; p < 5; ++p) bp[nc][p] = f, f *= bi / (p + 1);
+        for (int p = 0; p < kMomentsG; ++p) bp[nc][p] = f, f *= bi / (p + 1);
         A += std::abs(ai);
         ++nc;
     };
@@ -1048,9 +1055,9 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     // = e^{−iωs0}·j!·i^j·R_j(ω), R_j the coefficient of s^j in Π_i Σ_p g^(p)(ωa_i)(b_i s)^p/p!
     // (real); m_P^j = (1/L)·Σ_m ρ̂_j(ω_m)·∫ψ_P e^{iω_m x}.
     const double L = 2.0 * A + 3.0, dw = 2.0 * std::numbers::pi / L;
-    double total[5] = {1.0, 0.0, 0.0, 0.0, 0.0};  // E[G_c^j]
-    std::vector<double> Wn, Wb;                   // per term m ≥ 1 and j: 2·Ψ(ω_m)·R_j(ω_m)
-    double R0[5] = {};
+    double total[kMomentsG] = {1.0};  // E[G_c^j]
+    std::vector<double> Wn, Wb;       // per term m ≥ 1 and j: 2·Ψ(ω_m)·R_j(ω_m)
+    double R0[kMomentsG] = {};
     {
         // Eight terms a batch in double lanes; the corners' sin and cos of ω_m·a_i and the
         // spectra's of ω_m/2 by rotation (a libm call a term and corner took 17 % of a tooth
@@ -1064,15 +1071,15 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         for (int m0 = 0; !done; m0 += 8) {
             if (m0 + 8 > kColumnsMaxTerms) return exact();  // terms m < kColumnsMaxTerms only
             const V8d w = (iota + m0) * dw;
-            V8d R[5] = {V8d{} + 1.0, V8d{}, V8d{}, V8d{}, V8d{}}, env = V8d{} + 1.0;
+            V8d R[kMomentsG] = {V8d{} + 1.0}, env = V8d{} + 1.0;
             for (int i = 0; i < nc; ++i) {
                 const V8d th = w * a[i];
-                V8d g[5];
+                V8d g[kMomentsG];
                 sincDerivatives(th, corner[i].s, corner[i].c, g);
                 corner[i].step();
-                V8d e[5];
-                for (int p = 0; p < 5; ++p) e[p] = g[p] * bp[i][p];
-                for (int j = 4; j >= 0; --j) {
+                V8d e[kMomentsG];
+                for (int p = 0; p < kMomentsG; ++p) e[p] = g[p] * bp[i][p];
+                for (int j = kMomentsG - 1; j >= 0; --j) {
                     V8d acc = R[j] * e[0];
                     for (int p = 1; p <= j; ++p) acc += R[j - p] * e[p];
                     R[j] = acc;
@@ -1085,19 +1092,20 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             for (int l = 0; l < 8 && !done; ++l) {
                 const int m = m0 + l;
                 if (m == 0) {
-                    for (int j = 0; j < 5; ++j) R0[j] = R[j][0];
+                    for (int j = 0; j < kMomentsG; ++j) R0[j] = R[j][0];
                     continue;
                 }
-                for (int j = 0; j < 5; ++j)
+                for (int j = 0; j < kMomentsG; ++j)
                     Wn.push_back(pn[l] * R[j][l]), Wb.push_back(pb[l] * R[j][l]);
                 done = 2.0 / L * env[l] * 4.0 / (w[l] * w[l]) * m < kColumnsTailTol;
             }
         }
     }
-    const int M = static_cast<int>(Wn.size() / 5);
-    static constexpr double kSign[5] = {1.0, -1.0, -1.0, 1.0, 1.0};  // i^j, i^(j+1) real parts
-    static constexpr double kFact[5] = {1.0, 1.0, 2.0, 6.0, 24.0};
-    for (int j = 0; j < 5; j += 2) total[j] = kFact[j] * kSign[j] * R0[j];
+    const int M = static_cast<int>(Wn.size() / kMomentsG);
+    // i^j, i^(j+1) real parts; j!
+    static constexpr double kSign[kMomentsG] = {1.0, -1.0, -1.0, 1.0, 1.0, -1.0, -1.0};
+    static constexpr double kFact[kMomentsG] = {1.0, 1.0, 2.0, 6.0, 24.0, 120.0, 720.0};
+    for (int j = 0; j < kMomentsG; j += 2) total[j] = kFact[j] * kSign[j] * R0[j];
     // The sum over the basis at one node (a centre of the cut boxes' pieces): (s0, t0) the centre
     // in raster cells; false where it does not apply (a y window or the sample's y budget past its
     // cap, no y pass under the process's cap, the weights' sum not positive).
@@ -1116,7 +1124,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         const int P0 = 2 * static_cast<int>(std::floor(s0 - A));  // node ⌊s0 − A⌋ …
         const int P1 = 2 * static_cast<int>(std::ceil(s0 + A));   // … node ⌈s0 + A⌉
         const int count = P1 - P0 + 1;
-        mom.assign(static_cast<std::size_t>(count) * 5, 0.0);  // m_P^j
+        mom.assign(static_cast<std::size_t>(count) * kMomentsG, 0.0);  // m_P^j
         // Per basis index: (j!/L)·i^j·Σ_m 2Ψ(ω_m)R_j(ω_m)·e^{iω_m(centre − s0)}, real: cos for
         // even j, sin for odd. Eight indices of one kind (nodes, or bubbles: P of one parity,
         // the same Ψ) a batch in double lanes, cos and sin of m·Δ by rotation.
@@ -1130,32 +1138,31 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         const double cB = cN * cHalf - sN * sHalf, sB = sN * cHalf + cN * sHalf;
         V8d cdN = cN * unit.c - sN * unit.s, sdN = sN * unit.c + cN * unit.s;
         V8d cdB = cB * unit.c - sB * unit.s, sdB = sB * unit.c + cB * unit.s;
-        const auto start = [&](double psi0, V8d sums[5]) {  // the m = 0 term, Ψ(0)·R_j(0)
-            sums[0] = V8d{} + psi0 * R0[0], sums[1] = V8d{}, sums[2] = V8d{} + psi0 * R0[2];
-            sums[3] = V8d{}, sums[4] = V8d{} + psi0 * R0[4];
+        const auto start = [&](double psi0, V8d sums[kMomentsG]) {  // m = 0: Ψ(0)·R_j(0)
+            for (int j = 0; j < kMomentsG; ++j) sums[j] = V8d{} + (j % 2 ? 0.0 : psi0 * R0[j]);
         };
-        const auto store = [&](int Pb, const V8d sums[5]) {
+        const auto store = [&](int Pb, const V8d sums[kMomentsG]) {
             const int lanesUsed = std::min(8, (P1 - Pb) / 2 + 1);
             for (int l = 0; l < lanesUsed; ++l) {
-                double* o = mom.data() + static_cast<std::size_t>(Pb + 2 * l - P0) * 5;
-                for (int j = 0; j < 5; ++j) o[j] = kFact[j] * kSign[j] * sums[j][l] / L;
+                double* o = mom.data() + static_cast<std::size_t>(Pb + 2 * l - P0) * kMomentsG;
+                for (int j = 0; j < kMomentsG; ++j) o[j] = kFact[j] * kSign[j] * sums[j][l] / L;
             }
         };
         for (int PbN = P0; PbN <= P1; PbN += 16) {
             const int PbB = PbN + 1;
             V8d c = V8d{} + 1.0, sn = V8d{}, cbub = V8d{} + 1.0, sbub = V8d{};
-            V8d sums[5], sumsB[5];
+            V8d sums[kMomentsG], sumsB[kMomentsG];
             start(2.0 / 3.0, sums);
             start(1.0 / 3.0, sumsB);
             for (int m = 0; m < M; ++m) {
                 rotate(c, sn, cdN, sdN);
                 rotate(cbub, sbub, cdB, sdB);
-                const double* wn = Wn.data() + static_cast<std::size_t>(m) * 5;
-                const double* wb = Wb.data() + static_cast<std::size_t>(m) * 5;
-                sums[0] += wn[0] * c, sums[1] += wn[1] * sn, sums[2] += wn[2] * c;
-                sums[3] += wn[3] * sn, sums[4] += wn[4] * c;
-                sumsB[0] += wb[0] * cbub, sumsB[1] += wb[1] * sbub, sumsB[2] += wb[2] * cbub;
-                sumsB[3] += wb[3] * sbub, sumsB[4] += wb[4] * cbub;
+                const double* wn = Wn.data() + static_cast<std::size_t>(m) * kMomentsG;
+                const double* wb = Wb.data() + static_cast<std::size_t>(m) * kMomentsG;
+                for (int j = 0; j < kMomentsG; j += 2) sums[j] += wn[j] * c;
+                for (int j = 1; j < kMomentsG; j += 2) sums[j] += wn[j] * sn;
+                for (int j = 0; j < kMomentsG; j += 2) sumsB[j] += wb[j] * cbub;
+                for (int j = 1; j < kMomentsG; j += 2) sumsB[j] += wb[j] * sbub;
             }
             store(PbN, sums);
             if (PbB <= P1) store(PbB, sumsB);
@@ -1166,23 +1173,28 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         const double mass = std::max(1e-300, total[0]);
         int Plo = P0, Phi = P1;  // X's tails left out: weights summing to ≤ kColumnsTailMass / 2
         for (double tail = 0.0; Plo < Phi; ++Plo) {
-            tail += std::abs(mom[static_cast<std::size_t>(Plo - P0) * 5]);
+            tail += std::abs(mom[static_cast<std::size_t>(Plo - P0) * kMomentsG]);
             if (tail > 0.5 * kColumnsTailMass * mass) break;
         }
         for (double tail = 0.0; Phi > Plo; --Phi) {
-            tail += std::abs(mom[static_cast<std::size_t>(Phi - P0) * 5]);
+            tail += std::abs(mom[static_cast<std::size_t>(Phi - P0) * kMomentsG]);
             if (tail > 0.5 * kColumnsTailMass * mass) break;
         }
         int levelY = 0;  // the y ladder's level of the last basis index above it
         for (int Pv = Plo; Pv <= Phi; ++Pv) {
-            const double* o = mom.data() + static_cast<std::size_t>(Pv - P0) * 5;
+            const double* o = mom.data() + static_cast<std::size_t>(Pv - P0) * kMomentsG;
             const int P = std::clamp(Pv, 0, BW - 1);  // the raster's basis index (virtual: its end)
             const double m0 = o[0];
             if (!(m0 > kColumnsMinWeight * mass)) continue;
             const double mu = o[1] / m0, e2 = o[2] / m0, e3 = o[3] / m0, e4 = o[4] / m0;
+            const double e5 = o[5] / m0, e6 = o[6] / m0, mu2 = mu * mu, mu3 = mu2 * mu;
             const double c2 = std::max(0.0, e2 - mu * mu);
             const double c3 = e3 - 3.0 * mu * e2 + 2.0 * mu * mu * mu;
             const double c4 = e4 - 4.0 * mu * e3 + 6.0 * mu * mu * e2 - 3.0 * mu * mu * mu * mu;
+            const double c5 =
+                e5 - 5.0 * mu * e4 + 10.0 * mu2 * e3 - 10.0 * mu3 * e2 + 4.0 * mu3 * mu2;
+            const double c6 = e6 - 6.0 * mu * e5 + 15.0 * mu2 * e4 - 20.0 * mu3 * e3 +
+                              15.0 * mu3 * mu * e2 - 5.0 * mu3 * mu3;
             const double var = c2 + restVar;
             // The standardised cumulants held to a box spline's range (|γ1| ≤ 2, γ2 ∈ [−2, 6]; a
             // box: 0, −1.2), so that a weight's few noisy moments cannot blow the Edgeworth
@@ -1191,11 +1203,17 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             const double k3 = std::clamp(c3, -2.0 * var * sv, 2.0 * var * sv);
             const double k4 =
                 std::clamp((c4 - 3.0 * c2 * c2) + restK4, -2.0 * var * var, 6.0 * var * var);
+            // κ5 and κ6 likewise held, |κ5|/σ⁵ ≤ 10 and |κ6|/σ⁶ ≤ 20 (a box: 0 and 6.86); the
+            // G-only boxes add their κ6, 16b⁶/63 each.
+            const double k5 =
+                std::clamp(c5 - 10.0 * c3 * c2, -10.0 * var * var * sv, 10.0 * var * var * sv);
+            const double k6raw =
+                c6 - 15.0 * c4 * c2 - 10.0 * c3 * c3 + 30.0 * c2 * c2 * c2 + restK6;
             const double g = t0 + mu;
             double e[4] = {};
-            // Above the ladder the widest G-only box is folded into the law (its variance h²/3
-            // and κ4 −2h⁴/15 = −1.2·(h²/3)²) where it holds at most kColumnsFoldShare of it:
-            // the weights are then the Edgeworth density itself, with no normal CDF.
+            // Above the ladder the widest G-only box is folded into the law (its variance h²/3,
+            // κ4 −2h⁴/15 = −1.2·(h²/3)² and κ6 16h⁶/63) where it holds at most kColumnsFoldShare
+            // of it: the weights are then the law's density itself, with no normal CDF.
             const double boxVar = half * half / 3.0;
             const bool fold = boxVar <= kColumnsFoldShare * (var + boxVar);
             const double varW = fold ? var + boxVar : var;
@@ -1206,7 +1224,8 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                                         : k4;
                 // The y pass of the largest blur b with b² ≤ ½·varW: E = Σ_q p(y_q −
                 // g)·Z_P^(b)(y_q) over its rows (trapezoid; p the law less the blur: N(0, varW −
-                // b²) with κ3, κ4, ⊛ the box where it is not folded), weights normalised.
+                // b²) with κ3 … κ6 (Gram–Charlier: its first six moments exact), ⊛ the box where it
+                // is not folded), weights normalised.
                 // (Walked from the previous basis index's level: neighbours' laws are alike, so
                 // it moves 0–1 levels; a log2 a basis index took 4 % of the tangle's frame.)
                 int& j = levelY;
@@ -1220,6 +1239,15 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 const Pass& z = *zp;
                 const double sr = std::sqrt(varW - ly.blur * ly.blur);
                 const double q3 = k3 / (6.0 * sr * sr * sr), q4 = k4W / (24.0 * sr * sr * sr * sr);
+                // p(u) = φ(z)/sr·(1 + q3·He3 + q4·He4 + q5·He5 + q6·He6)(z), z = u/sr: q_n =
+                // E[He_n(Z)]/n!, so q6 takes κ6 + 10κ3² (the folded box adds its κ6, 16h⁶/63).
+                const double v3 = varW * varW * varW;
+                const double k6W =
+                    std::clamp(k6raw + (fold ? 16.0 / 63.0 * 27.0 * boxVar * boxVar * boxVar : 0.0),
+                               -20.0 * v3, 20.0 * v3);
+                const double sr2 = sr * sr;
+                const double q5 = k5 / (120.0 * sr2 * sr2 * sr);
+                const double q6 = (k6W + 10.0 * k3 * k3) / (720.0 * sr2 * sr2 * sr2);
                 const double reach = kRadius * sr + hW;
                 const int qa = static_cast<int>(std::ceil((g - reach - ly.start) / ly.spacing));
                 const int qb = static_cast<int>(std::floor((g + reach - ly.start) / ly.spacing));
@@ -1229,13 +1257,14 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                 // The weights p(y_q − g) eight rows at a time in double lanes.
                 using lanes::V8d;
                 const bool boxed = hW > 1e-6 * sr;
-                const auto F =
-                    [&](V8d u) {  // the antiderivative of the Edgeworth density, z = u/sr
-                        const V8d zz = u / sr;
-                        const NormalAt<V8d> nn = normalAt(zz, detail::ExpNonPositiveOf{});
-                        return nn.cdf -
-                               (q3 * (zz * zz - 1.0) + q4 * (zz * zz * zz - 3.0 * zz)) * nn.pdf;
-                    };
+                const auto F = [&](V8d u) {  // the antiderivative of the density, z = u/sr
+                    const V8d zz = u / sr;
+                    const NormalAt<V8d> nn = normalAt(zz, detail::ExpNonPositiveOf{});
+                    return nn.cdf - (q3 * (zz * zz - 1.0) + q4 * (zz * zz * zz - 3.0 * zz) +
+                                     q5 * ((zz * zz - 6.0) * zz * zz + 3.0) +
+                                     q6 * (((zz * zz - 10.0) * zz * zz + 15.0) * zz)) *
+                                        nn.pdf;
+                };
                 // The rows' table values (0 outside a row's [lo, hi)) gathered 8 rows a batch;
                 // rows past the ends clamp (the raster does); lanes past qb weigh 0.
                 const V8d iota = {0, 1, 2, 3, 4, 5, 6, 7};
@@ -1252,7 +1281,9 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                         const V8d zz = u * invSr, z2 = zz * zz;
                         p = detail::ExpNonPositiveOf{}(-0.5 * z2) *
                             (std::numbers::inv_sqrtpi / std::numbers::sqrt2 * invSr) *
-                            (1.0 + q3 * (z2 * zz - 3.0 * zz) + q4 * (z2 * z2 - 6.0 * z2 + 3.0));
+                            (1.0 + q3 * (z2 * zz - 3.0 * zz) + q4 * (z2 * z2 - 6.0 * z2 + 3.0) +
+                             q5 * (((z2 - 10.0) * z2 + 15.0) * zz) +
+                             q6 * (((z2 - 15.0) * z2 + 45.0) * z2 - 15.0));
                     }
                     if (qb - qc0 < 7) p = iota <= qb - qc0 ? p : V8d{};
                     wv += p;

@@ -21,7 +21,8 @@
 //
 // Box spline c + Σ t_i d_i (the fast 2D `uniform`): by columns (boxSpline; docs/models.md): the
 // TF2 is Σ_P ψ_P(x)·Z_P(g) over the x basis, each term's law of G from the corners' moments
-// E[ψ_P(X)·G^j] (a Fourier series in x) as an Edgeworth normal with the widest G-only box exact,
+// E[ψ_P(X)·G^j] (a Fourier series in x) as a Gram–Charlier normal to κ6 (κ4 below the ladder)
+// with the widest G-only box exact,
 // and E[Z_P] the trapezoid sum over the y pass of a blur ≤ √½ of its std (or the rows in closed
 // form below the ladder). Samples with fewer than 8 corners take expectedTf2UniformExact at the
 // kUniform2DFast settings. Errors and cost: docs/models.md.
@@ -78,11 +79,12 @@ class Tf2BlurTables {
     /// evaluation by columns"): the TF2 is quadratic in x between raster points, Σ_P ψ_P(x)·Z_P(g)
     /// over the x basis ψ_P (expected_tf2_fast.cpp, Axis), so E = Σ_P E[ψ_P(X)·Z_P(G)] exactly;
     /// each term is taken as m_P·E[Z_P(μ_P + Y_P)] with m_P = E[ψ_P(X)] and Y_P the law of G
-    /// weighted by ψ_P(X): its mean, variance, κ3 and κ4 from the corners' moments E[ψ_P(X)·G^j]
-    /// (j ≤ 4, exact by a Fourier series in x), the widest G-only box exact and the other G-only
-    /// boxes in the variance and κ4 (Edgeworth). E[Z_P(μ + Y)] is the trapezoid sum over the
-    /// y pass of the TF2 blurred by N(0, b²), b² ≤ ½·var Y, or, below the ladder, the raster's rows
-    /// in closed form. A corner holding over 0.25 of var G (and a second over 0.25 of the rest) is
+    /// weighted by ψ_P(X): its mean, variance and κ3 … κ6 from the corners' moments
+    /// E[ψ_P(X)·G^j] (j ≤ 6, exact by a Fourier series in x), the widest G-only box exact and the
+    /// other G-only boxes in the variance, κ4 and κ6 (a Gram–Charlier density, its first six
+    /// moments exact). E[Z_P(μ + Y)] is the trapezoid sum over the y pass of the TF2 blurred by
+    /// N(0, b²), b² ≤ ½·var Y, or, below the ladder, the raster's rows in closed form (to κ4,
+    /// Edgeworth). A corner holding over 0.15 of var G (and a second over 0.15 of the rest) is
     /// cut along its t into pieces, each a corner of the moments, and E is the mean over the
     /// pieces' centres (a box-dominated law of G is no Edgeworth normal). Returns
     /// false where it took the exact evaluation (kUniform2DFast) instead: no tables, fewer than 8
