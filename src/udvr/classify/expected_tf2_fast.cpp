@@ -999,7 +999,9 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     }
     // The corners whose box dominates the law of G (far from an Edgeworth normal): the widest in
     // G where its b²/3 is over kColumnsKeepShare of var G, then the next where it is over that
-    // share of what is left (each wider than the widest G-only box). Each is cut along its t into
+    // share of what is left (also when narrower than the widest G-only box: that box is exact, and
+    // a corner beside it can still dominate the rest; sweep of 2026-12-05, 3.4e−3 off where such a
+    // corner was left in the law). Each is cut along its t into
     // `pieces` boxes of 1/pieces its length: a sub-box stays a corner of the moments (exact in x,
     // a small share of G), and the sample is the mixture over the pieces' centres (nodes, equal
     // weights; with two cut, their product), so the law at every node is Edgeworth-like. Pieces:
@@ -1014,7 +1016,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             int w = -1;
             for (int i = 0; i < ncAll; ++i)
                 if (i != cut[0] && cb[i] * cb[i] > widest) widest = cb[i] * cb[i], w = i;
-            if (!(widest / 3.0 > kColumnsKeepShare * varG && widest > half * half)) break;
+            if (!(widest / 3.0 > kColumnsKeepShare * varG)) break;
             cut[k] = w;
             varG -= widest / 3.0;
         }

@@ -396,7 +396,7 @@ inline constexpr std::array<FormVoxel, 32> kInteriorFormVoxels = interiorFormVox
 /// lane in double: `uniform-exact` by expectedTf2UniformExact converged (≤ 1e−6); `uniform`
 /// (and its alias `uniform-fast`) by columns (Tf2BlurTables::boxSpline, expected_tf2_fast.h: per
 /// x basis function the law of G given X to κ6 (Gram–Charlier), dominant corners cut into pieces,
-/// over the y-blurred tables; max 3.6e−4 off uniform-exact at 150 random points of the 64³
+/// over the y-blurred tables; max 2.0e−4 off uniform-exact at 150 random points of the 64³
 /// tangle, 9.8e−4 on 2000 rough random TF2s, 3.9e−6 tooth, docs/models.md), or with fewer than 8
 /// corners or without tables by expectedTf2UniformExact at the coarser kUniform2DFast settings.
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
