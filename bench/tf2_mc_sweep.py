@@ -390,7 +390,7 @@ def json_tf2(udvr, path):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="/tmp/tf2_mc_sweep")
-    ap.add_argument("--fail-dir", default="/work/sweep_fail")
+    ap.add_argument("--fail-dir", default=None, help="failing cases (default OUT/failures)")
     ap.add_argument("--udvr", default=str(ROOT / "build" / "udvr"))
     ap.add_argument("--seed", type=int, default=7100)
     ap.add_argument("--cases", type=int, default=40, help="small random models")
@@ -550,7 +550,7 @@ def main():
     # Save failures.
     fails = [rw for rw in rows if rw["fail"]]
     if fails:
-        fdir = pathlib.Path(args.fail_dir)
+        fdir = pathlib.Path(args.fail_dir or pathlib.Path(args.out) / "failures")
         fdir.mkdir(parents=True, exist_ok=True)
         for n, rw in enumerate(fails):
             c = next(c for c in cases if c["name"] == rw["case"])
