@@ -708,9 +708,14 @@ constexpr double kColumnsTailTol = 1e-8;   // the x series stops where (2/L)·en
 constexpr int kColumnsMaxTerms = 4096;     // … or past this many terms: the exact evaluation
 static_assert(kColumnsMaxTerms % 8 == 0);  // the terms go 8 a batch
 constexpr int kColumnsMaxWindow = 1024;    // a y sum's points at most (else exact)
-/// Fewer corners (at voxel faces, edges, grid points) leave the law of G given X far from an
-/// Edgeworth normal (random 1–8 corner cases: 5.6e−3 off uniform-exact): the exact evaluation.
-constexpr int kColumnsMinCorners = 8;
+/// Fewer corners (directions with a ≠ 0: voxels of zero spread drop out, e.g. the tooth's constant
+/// bricks) take the exact evaluation. With the law of G to κ4 and cutting only corners wider than
+/// the widest G-only box, 2–7 corners were up to 5.6e−3 off uniform-exact (so 8 were required);
+/// to κ6 with the cut rule of 2026-12-05, 5760 random cases of 2–7 corners on rough rasters
+/// 8.1e−4 (one corner: X a single box, cut into pieces past the node cap: the exact evaluation).
+/// Samples at voxel faces, edges and grid points still take the exact evaluation before this
+/// (Uniform2DKernel: JointBoxSpline::allCorners).
+constexpr int kColumnsMinCorners = 2;
 /// A corner's box is cut into pieces (boxSpline) past this share of var G (a box-dominated law
 /// of G is far from an Edgeworth normal), a second one past this share of the rest; each piece
 /// at most kColumnsPieceShare of its law given X. Measured against uniform-exact (docs/models.md,
@@ -727,7 +732,11 @@ constexpr double kColumnsPieceShare = 0.3;
 /// uniform-exact, the other sets unchanged; −28 % of the tangle's frame time (0.25: no box
 /// folded there, 0.5: no faster, 150 tangle probes 3.0e−4 → 4.0e−4).
 constexpr double kColumnsFoldShare = 0.4;
-constexpr int kColumnsMaxNodes = 16;  // nodes of the cut boxes' pieces (else the exact evaluation)
+/// Nodes of the cut boxes' pieces at most (else the exact evaluation). 16 before 2026-12-05: 437
+/// of the 2002 classified samples of a 16² tooth frame took the exact evaluation through it (the
+/// frame 641 → 469 ms at 64; tangle 369 → 351 ms). The work stays bounded by kColumnsMaxWork and
+/// kColumnsMaxPoints.
+constexpr int kColumnsMaxNodes = 64;
 /// Bounds on one sample's work (else the exact evaluation at the coarse settings): X's half
 /// support (raster cells; the basis indices to sum, ≤ 4·512 + 4 a node), G's reach |t0| + Σ|b|
 /// (raster cells; the int row indices), the product nodes × basis indices × Fourier terms, and

@@ -22,10 +22,10 @@
 // Box spline c + Σ t_i d_i (the fast 2D `uniform`): by columns (boxSpline; docs/models.md): the
 // TF2 is Σ_P ψ_P(x)·Z_P(g) over the x basis, each term's law of G from the corners' moments
 // E[ψ_P(X)·G^j] (a Fourier series in x) as a Gram–Charlier normal to κ6 (κ4 below the ladder)
-// with the widest G-only box exact,
-// and E[Z_P] the trapezoid sum over the y pass of a blur ≤ √½ of its std (or the rows in closed
-// form below the ladder). Samples with fewer than 8 corners take expectedTf2UniformExact at the
-// kUniform2DFast settings. Errors and cost: docs/models.md.
+// with the widest G-only box exact, and E[Z_P] the trapezoid sum over the y pass of a blur ≤ √½
+// of its std (or the rows in closed form below the ladder). Samples with fewer than 8 corners of
+// trilinear weight (Uniform2DKernel) or fewer than 2 with a ≠ 0 take expectedTf2UniformExact at
+// the kUniform2DFast settings. Errors and cost: docs/models.md.
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -87,9 +87,9 @@ class Tf2BlurTables {
     /// Edgeworth). A corner holding over 0.15 of var G (and a second over 0.15 of the rest) is
     /// cut along its t into pieces, each a corner of the moments, and E is the mean over the
     /// pieces' centres (a box-dominated law of G is no Edgeworth normal). Returns
-    /// false where it took the exact evaluation (kUniform2DFast) instead: no tables, fewer than 8
-    /// corners or more than 32 directions, non-finite data, a sample's work past its bounds
-    /// (expected_tf2_fast.cpp, kColumnsMax…).
+    /// false where it took the exact evaluation (kUniform2DFast) instead: no tables, fewer than 2
+    /// corners (directions with a ≠ 0) or more than 32 directions, non-finite data, a sample's work
+    /// past its bounds (expected_tf2_fast.cpp, kColumnsMax…).
     bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d, int n,
                    double tinyWidth, double out[4]) const;
 
