@@ -179,7 +179,8 @@ UDVR_INLINE void expectedTf2(const Tf2Raster<Real>&, const JointNormal<T>& d, la
 /// to |μ_Y|, by float roundings of the values (docs/models.md). E[TF2] per lane in double:
 /// `tables` (the fast `uniform`, Tf2BlurTables::boxSpline) where the sample's 8 corners have
 /// weight (allCorners), else expectedTf2UniformExact, converged (`converged`: uniform-exact) or at
-/// the coarse kUniform2DFast settings. Directions with |a| ≤ tinyWidth count for G only.
+/// the coarse kUniform2DFast settings refined where they miss (expectedTf2UniformRefined).
+/// Directions with |a| ≤ tinyWidth count for G only.
 template <class T>
 struct JointBoxSpline {
     using Real = T;
@@ -200,9 +201,11 @@ void boxSplineExpectation(const JointBoxSpline<T>& s, double cx, double cg, cons
                           int n, bool allCorners, double out[4]) {
     if (s.tables && !s.converged && allCorners) {
         s.tables->boxSpline(*s.raster, cx, cg, d, n, s.tinyWidth, out);
-    } else {
-        Tf2UniformExactOptions opt = s.converged ? Tf2UniformExactOptions{} : kUniform2DFast;
+    } else if (s.converged) {
+        Tf2UniformExactOptions opt;
         expectedTf2UniformExact(*s.raster, cx, cg, d, n, s.tinyWidth, opt, out);
+    } else {
+        expectedTf2UniformRefined(*s.raster, cx, cg, d, n, s.tinyWidth, out);
     }
 }
 }  // namespace detail

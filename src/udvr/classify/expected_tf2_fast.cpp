@@ -717,7 +717,7 @@ constexpr int kColumnsMaxWindow = 1024;    // a y sum's points at most (else exa
 /// (Uniform2DKernel: JointBoxSpline::allCorners).
 constexpr int kColumnsMinCorners = 2;
 /// A corner's box is cut into pieces (boxSpline) past this share of var G (a box-dominated law
-/// of G is far from an Edgeworth normal), a second one past this share of the rest; each piece
+/// of G is far from a Gram–Charlier normal), a second one past this share of the rest; each piece
 /// at most kColumnsPieceShare of its law given X. Measured against uniform-exact (docs/models.md,
 /// 2026-12-05): with none cut the random coarse models of JointDistribution.Every2D… were 7.3e−3
 /// off; cut past 0.25 with pieces of 0.3, 1.8e−4 there and 6.4e−4 on the rough rasters (one
@@ -754,7 +754,7 @@ constexpr double kColumnsMinWeight = 1e-9;
 /// to the power corners − 1) hold many indices of little weight.
 constexpr double kColumnsTailMass = 1e-5;
 
-/// g^(p)(θ), p = 0 … 4, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ), in
+/// g^(p)(θ), p = 0 … 6, of g(θ) = sin θ / θ (the characteristic function of U[−1, 1] at θ), in
 /// eight lanes, from sn = sin θ and cs = cos θ: below |θ| = 1 the Taylor series, else the
 /// recurrence θ·g^(p) = sin^(p)(θ) − p·g^(p−1)(θ).
 void sincDerivatives(lanes::V8d th, lanes::V8d sn, lanes::V8d cs, lanes::V8d g[kMomentsG]) {
@@ -974,8 +974,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                               const BoxDirection2* d, int n, double tinyWidth,
                               double out[4]) const {
     const auto exact = [&] {
-        Tf2UniformExactOptions opt = kUniform2DFast;
-        expectedTf2UniformExact(r, cx, cy, d, n, tinyWidth, opt, out);
+        expectedTf2UniformRefined(r, cx, cy, d, n, tinyWidth, out);
         return false;
     };
     if (!available()) return exact();
@@ -1006,14 +1005,14 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
         for (int k = 0; k < n; ++k) reach += std::abs(d[k].b * r.invDy);
         if (!(reach < kColumnsMaxReachG)) return exact();
     }
-    // The corners whose box dominates the law of G (far from an Edgeworth normal): the widest in
+    // The corners whose box dominates the law of G (far from a Gram–Charlier normal): the widest in
     // G where its b²/3 is over kColumnsKeepShare of var G, then the next where it is over that
     // share of what is left (also when narrower than the widest G-only box: that box is exact, and
     // a corner beside it can still dominate the rest; sweep of 2026-12-05, 3.4e−3 off where such a
     // corner was left in the law). Each is cut along its t into
     // `pieces` boxes of 1/pieces its length: a sub-box stays a corner of the moments (exact in x,
     // a small share of G), and the sample is the mixture over the pieces' centres (nodes, equal
-    // weights; with two cut, their product), so the law at every node is Edgeworth-like. Pieces:
+    // weights; with two cut, their product), so the law at every node is near a normal. Pieces:
     // a sub-box's b²/3 at most kColumnsPieceShare of it and the rest's var G given X (the
     // rest's normal regression: its var G − cov²/var X), at most kColumnsMaxNodes nodes.
     int cut[2] = {-1, -1}, pieces[2] = {1, 1};
@@ -1208,8 +1207,8 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
                               15.0 * mu3 * mu * e2 - 5.0 * mu3 * mu3;
             const double var = c2 + restVar;
             // The standardised cumulants held to a box spline's range (|γ1| ≤ 2, γ2 ∈ [−2, 6]; a
-            // box: 0, −1.2), so that a weight's few noisy moments cannot blow the Edgeworth
-            // factor up.
+            // box: 0, −1.2), so that a weight's few noisy moments cannot blow the density's
+            // polynomial factor up.
             const double sv = std::sqrt(var);
             const double k3 = std::clamp(c3, -2.0 * var * sv, 2.0 * var * sv);
             const double k4 =

@@ -406,4 +406,14 @@ void expectedTf2UniformExact(const Tf2Raster<double>& r, double cx, double cy,
     }
 }
 
+void expectedTf2UniformRefined(const Tf2Raster<double>& r, double cx, double cy,
+                               const BoxDirection2* d, int n, double tinyWidth, double out[4]) {
+    Tf2UniformExactOptions opt = kUniform2DFast;
+    for (;;) {
+        expectedTf2UniformExact(r, cx, cy, d, n, tinyWidth, opt, out);
+        if (!(opt.refinement > kUniform2DRefineOver) || opt.xCells >= kUniform2DMaxCells) return;
+        opt.xCells *= 2;
+    }
+}
+
 }  // namespace udvr

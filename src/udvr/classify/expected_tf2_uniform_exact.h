@@ -69,6 +69,18 @@ struct Tf2UniformExactOptions {
 /// evaluation without tables.
 inline constexpr Tf2UniformExactOptions kUniform2DFast{32, 1e-5, 2};
 
+/// expectedTf2UniformExact at the kUniform2DFast settings, its node cells doubled while its own
+/// check says the grid is too coarse (opt.refinement over kUniform2DRefineOver), up to
+/// kUniform2DMaxCells. Corners nearly proportional in (a, b) (G almost a function of X) leave a
+/// thin sliver that 32 cells miss: random such box splines were up to 2.6e−2 off at 32 cells and
+/// within 1.8e−4 after refining (2026-12-05), at ~10–30× the coarse cost there; real data rarely
+/// asks (tangle, golden model: no sample; tooth: 6 of 193 fallbacks of a 32² frame). The fast
+/// `uniform`'s evaluation where its columns do not apply.
+inline constexpr double kUniform2DRefineOver = 2e-4;
+inline constexpr int kUniform2DMaxCells = 512;
+void expectedTf2UniformRefined(const Tf2Raster<double>& r, double cx, double cy,
+                               const BoxDirection2* d, int n, double tinyWidth, double out[4]);
+
 /// E[(α·c, α)(X, G)] for (X, G) = (cx, cy) + Σ_i t_i·d_i (header comment). Directions with
 /// |a| ≤ tinyWidth count for G only. out = (E[α·c_r], E[α·c_g], E[α·c_b], E[α]). The binning's
 /// O(Δx²) error is extrapolated away (Richardson: (4·E(Δx/2) − E(Δx))/3, its remainder

@@ -397,13 +397,14 @@ inline constexpr std::array<FormVoxel, 32> kInteriorFormVoxels = interiorFormVox
 /// (and its alias `uniform-fast`) by columns (Tf2BlurTables::boxSpline, expected_tf2_fast.h: per
 /// x basis function the law of G given X to κ6 (Gram–Charlier), dominant corners cut into pieces,
 /// over the y-blurred tables; max 2.0e−4 off uniform-exact at 150 random points of the 64³
-/// tangle, 9.8e−4 on 2000 rough random TF2s, 3.9e−6 tooth, docs/models.md), or with fewer than 8
-/// corners or without tables by expectedTf2UniformExact at the coarser kUniform2DFast settings.
+/// tangle, 9.8e−4 on 2000 rough random TF2s, 1.6e−6 tooth, docs/models.md), or with fewer than 8
+/// corners or without tables by expectedTf2UniformRefined (the coarser kUniform2DFast settings,
+/// refined where they miss).
 struct Uniform2DKernel : Kernel2DBase, UniformVoxels, detail::ClassifyInLoad {
     bool exact;        // `uniform-exact` (expectedTf2UniformExact), else the fast form
     double tinyWidth;  // data units: directions this narrow in X count for G only (exact)
     GradientGeometry gradientGeometry;
-    const Tf2BlurTables* tables;  // the fast form's tables (null: kUniform2DFast)
+    const Tf2BlurTables* tables;  // the fast form's tables (null: expectedTf2UniformRefined)
 
     /// The kernel over `m` for a row of the model table (model_rows.h) with a TF2: `s` (a
     /// Tf2Setup, model_families.h) holds the TF2's views and the gradients, and outlives it.
