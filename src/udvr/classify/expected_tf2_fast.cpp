@@ -5,7 +5,6 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <numbers>
 
@@ -1065,8 +1064,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     // = e^{−iωs0}·j!·i^j·R_j(ω), R_j the coefficient of s^j in Π_i Σ_p g^(p)(ωa_i)(b_i s)^p/p!
     // (real); m_P^j = (1/L)·Σ_m ρ̂_j(ω_m)·∫ψ_P e^{iω_m x}.
     const double L = 2.0 * A + 3.0, dw = 2.0 * std::numbers::pi / L;
-    double total[kMomentsG] = {1.0};  // E[G_c^j]
-    std::vector<double> Wn, Wb;       // per term m ≥ 1 and j: 2·Ψ(ω_m)·R_j(ω_m)
+    std::vector<double> Wn, Wb;  // per term m ≥ 1 and j: 2·Ψ(ω_m)·R_j(ω_m)
     double R0[kMomentsG] = {};
     {
         // Eight terms a batch in double lanes; the corners' sin and cos of ω_m·a_i and the
@@ -1115,7 +1113,6 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
     // i^j, i^(j+1) real parts; j!
     static constexpr double kSign[kMomentsG] = {1.0, -1.0, -1.0, 1.0, 1.0, -1.0, -1.0};
     static constexpr double kFact[kMomentsG] = {1.0, 1.0, 2.0, 6.0, 24.0, 120.0, 720.0};
-    for (int j = 0; j < kMomentsG; j += 2) total[j] = kFact[j] * kSign[j] * R0[j];
     // The sum over the basis at one node (a centre of the cut boxes' pieces): (s0, t0) the centre
     // in raster cells; false where it does not apply (a y window or the sample's y budget past its
     // cap, no y pass under the process's cap, the weights' sum not positive).
@@ -1180,7 +1177,7 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             rotate(cdB, sdB, unit.c8, unit.s8);
         }
         // Each basis index's law of G and E[Z_P(μ_P + Y_P)].
-        const double mass = std::max(1e-300, total[0]);
+        const double mass = std::max(1e-300, R0[0]);  // E[1] = 0!·i⁰·R_0(0)
         int Plo = P0, Phi = P1;  // X's tails left out: weights summing to ≤ kColumnsTailMass / 2
         for (double tail = 0.0; Plo < Phi; ++Plo) {
             tail += std::abs(mom[static_cast<std::size_t>(Plo - P0) * kMomentsG]);
@@ -1198,9 +1195,9 @@ bool Tf2BlurTables::boxSpline(const Tf2Raster<double>& r, double cx, double cy,
             if (!(m0 > kColumnsMinWeight * mass)) continue;
             const double mu = o[1] / m0, e2 = o[2] / m0, e3 = o[3] / m0, e4 = o[4] / m0;
             const double e5 = o[5] / m0, e6 = o[6] / m0, mu2 = mu * mu, mu3 = mu2 * mu;
-            const double c2 = std::max(0.0, e2 - mu * mu);
-            const double c3 = e3 - 3.0 * mu * e2 + 2.0 * mu * mu * mu;
-            const double c4 = e4 - 4.0 * mu * e3 + 6.0 * mu * mu * e2 - 3.0 * mu * mu * mu * mu;
+            const double c2 = std::max(0.0, e2 - mu2);
+            const double c3 = e3 - 3.0 * mu * e2 + 2.0 * mu3;
+            const double c4 = e4 - 4.0 * mu * e3 + 6.0 * mu2 * e2 - 3.0 * mu3 * mu;
             const double c5 =
                 e5 - 5.0 * mu * e4 + 10.0 * mu2 * e3 - 10.0 * mu3 * e2 + 4.0 * mu3 * mu2;
             const double c6 = e6 - 6.0 * mu * e5 + 15.0 * mu2 * e4 - 20.0 * mu3 * e3 +

@@ -408,11 +408,26 @@ void expectedTf2UniformExact(const Tf2Raster<double>& r, double cx, double cy,
 
 void expectedTf2UniformRefined(const Tf2Raster<double>& r, double cx, double cy,
                                const BoxDirection2* d, int n, double tinyWidth, double out[4]) {
+    // expectedTf2UniformExact's pair of grids (cells, 2·cells) and extrapolation, the pair moved
+    // one doubling on while its refinement is over the threshold: each step evaluates only the
+    // new finer grid (and the column pieces are shared by all).
     Tf2UniformExactOptions opt = kUniform2DFast;
-    for (;;) {
-        expectedTf2UniformExact(r, cx, cy, d, n, tinyWidth, opt, out);
-        if (!(opt.refinement > kUniform2DRefineOver) || opt.xCells >= kUniform2DMaxCells) return;
-        opt.xCells *= 2;
+    std::optional<detail::Tf2ColumnPieces> cols;
+    double coarse[4];
+    if (!detail::expectedTf2UniformOnGrid(r, cx, cy, d, n, tinyWidth, opt.xCells, opt, cols,
+                                          coarse)) {
+        for (int ch = 0; ch < 4; ++ch) out[ch] = coarse[ch];  // no binned corners: no grid
+        return;
+    }
+    for (int cells = opt.xCells;; cells *= 2) {
+        double fine[4], refinement = 0.0;
+        detail::expectedTf2UniformOnGrid(r, cx, cy, d, n, tinyWidth, 2 * cells, opt, cols, fine);
+        for (int ch = 0; ch < 4; ++ch) {
+            refinement = std::max(refinement, std::abs(fine[ch] - coarse[ch]));
+            out[ch] = fine[ch] + (fine[ch] - coarse[ch]) / 3.0;
+            coarse[ch] = fine[ch];
+        }
+        if (!(refinement > kUniform2DRefineOver) || cells >= kUniform2DMaxCells) return;
     }
 }
 
