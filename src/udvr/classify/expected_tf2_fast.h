@@ -24,8 +24,8 @@
 // E[ψ_P(X)·G^j] (a Fourier series in x) as a Gram–Charlier normal to κ6 (κ4 below the ladder)
 // with the widest G-only box exact, and E[Z_P] the trapezoid sum over the y pass of a blur ≤ √½
 // of its std (or the rows in closed form below the ladder). Samples with fewer than 8 corners of
-// trilinear weight (Uniform2DKernel) or fewer than 2 with a ≠ 0 take expectedTf2UniformExact at
-// the kUniform2DFast settings. Errors and cost: docs/models.md.
+// trilinear weight (Uniform2DKernel) or fewer than 2 with a ≠ 0 take expectedTf2UniformRefined
+// (the kUniform2DFast settings, refined where they miss). Errors and cost: docs/models.md.
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -86,10 +86,10 @@ class Tf2BlurTables {
     /// N(0, b²), b² ≤ ½·var Y, or, below the ladder, the raster's rows in closed form (to κ4,
     /// Edgeworth). A corner holding over 0.15 of var G (and a second over 0.15 of the rest) is
     /// cut along its t into pieces, each a corner of the moments, and E is the mean over the
-    /// pieces' centres (a box-dominated law of G is no Edgeworth normal). Returns
-    /// false where it took the exact evaluation (kUniform2DFast) instead: no tables, fewer than 2
-    /// corners (directions with a ≠ 0) or more than 32 directions, non-finite data, a sample's work
-    /// past its bounds (expected_tf2_fast.cpp, kColumnsMax…).
+    /// pieces' centres (a box-dominated law of G is far from any normal series). Returns
+    /// false where it took the exact evaluation (expectedTf2UniformRefined) instead: no tables,
+    /// fewer than 2 corners (directions with a ≠ 0) or more than 32 directions, non-finite data, a
+    /// sample's work past its bounds (expected_tf2_fast.cpp, kColumnsMax…).
     bool boxSpline(const Tf2Raster<double>& r, double cx, double cy, const BoxDirection2* d, int n,
                    double tinyWidth, double out[4]) const;
 
